@@ -1,0 +1,274 @@
+//! Cross-cutting rules that need more than one key, one `check_*` each, and the assembly of the [`Spec`].
+
+use crate::diag::{Diagnostic, Diagnostics};
+use crate::model::*;
+use crate::parse::{Located, MatrixInput, Raw};
+
+/// Checks `raw` as a whole and builds the spec; `None` when anything was reported (here or while parsing).
+pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
+    let model = check_model(&raw, diags);
+    let dims = model.as_ref().map(|m| (m.kind.nx(), m.kind.nu(), m.kind.ny()));
+    let mpc = dims.and_then(|(nx, nu, _)| check_mpc(&raw, nx, nu, diags));
+    let kalman = model.as_ref().and_then(|m| check_kalman(&raw, m, diags));
+    let scalar = match raw.scalar.as_ref().map(|s| s.value.as_str()) {
+        Some("f64") => Scalar::F64,
+        _ => Scalar::F32,
+    };
+    if !diags.is_empty() {
+        return None;
+    }
+    Some(Spec {
+        model: model?,
+        mpc: mpc?,
+        kalman: kalman?,
+        codegen: Codegen { scalar },
+        spans: Spans(raw.spans),
+    })
+}
+
+/// `double_integrator` takes `axes` and no matrices; `linear` takes `a` (nx × nx), `b` (nx × nu) and
+/// `c` (ny × nx) and no `axes`.
+fn check_model(raw: &Raw, diags: &mut Diagnostics) -> Option<Model> {
+    let ty = raw.model_type.as_ref()?;
+    let dt = raw.dt.as_ref()?.value;
+    let kind = if ty.value == "double_integrator" {
+        for m in [&raw.a, &raw.b, &raw.c].into_iter().flatten() {
+            diags.push(
+                Diagnostic::new("a `double_integrator` model takes no `a`, `b` or `c`", m.span.clone())
+                    .label("not used by this model type")
+                    .note("hint: write `type = \"linear\"` to give the matrices yourself"),
+            );
+        }
+        let Some(axes) = &raw.axes else {
+            diags.push(
+                Diagnostic::new("missing key `axes` in `[model]`", ty.span.clone())
+                    .label("a `double_integrator` needs `axes`")
+                    .note("hint: `axes = 3` for a drone in space"),
+            );
+            return None;
+        };
+        ModelKind::DoubleIntegrator { axes: axes.value }
+    } else {
+        if let Some(axes) = &raw.axes {
+            diags.push(
+                Diagnostic::new("a `linear` model takes no `axes`", axes.span.clone())
+                    .label("the dimensions come from `a`, `b` and `c`"),
+            );
+        }
+        let mut missing = false;
+        for (key, m) in [("a", &raw.a), ("b", &raw.b), ("c", &raw.c)] {
+            if m.is_none() {
+                missing = true;
+                diags.push(
+                    Diagnostic::new(format!("missing key `{key}` in `[model]`"), ty.span.clone())
+                        .label(format!("a `linear` model needs `{key}`")),
+                );
+            }
+        }
+        if missing {
+            return None;
+        }
+        let (a, b, c) = (raw.a.as_ref()?, raw.b.as_ref()?, raw.c.as_ref()?);
+        let nx = a.value.rows;
+        let mut ok = true;
+        ok &= expect_shape(diags, "model.a", a, nx, nx, "nx × nx, nx the number of rows of `a`");
+        ok &= expect_shape(diags, "model.b", b, nx, b.value.cols, "nx × nu, nx the size of `a`");
+        ok &= expect_shape(diags, "model.c", c, c.value.rows, nx, "ny × nx, nx the size of `a`");
+        if !ok {
+            return None;
+        }
+        ModelKind::Linear { a: a.value.clone(), b: b.value.clone(), c: c.value.clone() }
+    };
+    Some(Model { kind, dt })
+}
+
+/// Q and Qf are nx × nx and symmetric, R is nu × nu and symmetric; `qf` and `qf_scale` exclude each other;
+/// the bounds have nu entries with u_min ≤ u_max.
+fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option<Mpc> {
+    let q = square(diags, "mpc.q", raw.q.as_ref(), nx, "nx");
+    let r = square(diags, "mpc.r", raw.r.as_ref(), nu, "nu");
+    if let Some(r) = &r {
+        if (0..nu).any(|i| r.get(i, i) <= 0.0) {
+            diags.push(
+                Diagnostic::new("`mpc.r` must be positive definite", raw.r.as_ref().map(|x| x.span.clone()))
+                    .label("a zero diagonal entry")
+                    .note("hint: with a zero input weight the QP is not strongly convex and the gradient method has no rate"),
+            );
+        }
+    }
+    let qf = match (&raw.qf, &raw.qf_scale) {
+        (Some(_), Some(scale)) => {
+            diags.push(
+                Diagnostic::new("`qf` and `qf_scale` cannot both be given", scale.span.clone())
+                    .label("remove this or `qf`")
+                    .note("hint: `qf_scale = k` means Qf = k·Q"),
+            );
+            None
+        }
+        (Some(_), None) => square(diags, "mpc.qf", raw.qf.as_ref(), nx, "nx"),
+        (None, Some(scale)) => q.as_ref().map(|q| q.scaled(scale.value)),
+        (None, None) => q.clone(),
+    };
+    let u_min = bound(diags, "mpc.u_min", raw.u_min.as_ref(), nu);
+    let u_max = bound(diags, "mpc.u_max", raw.u_max.as_ref(), nu);
+    if let (Some(lo), Some(hi)) = (&u_min, &u_max) {
+        for (j, (l, h)) in lo.iter().zip(hi).enumerate() {
+            if l > h {
+                diags.push(
+                    Diagnostic::new(
+                        format!("input {j} has `u_min` {l} above `u_max` {h}"),
+                        raw.u_max.as_ref().map(|x| x.span.clone()),
+                    )
+                    .label(format!("entry {j} is below `u_min`"))
+                    .note("hint: each entry of `u_min` must be at most the same entry of `u_max`"),
+                );
+            }
+        }
+    }
+    let method = match raw.method.as_ref().map(|m| m.value.as_str()) {
+        Some("gradient") => Method::Gradient,
+        _ => Method::Fgm,
+    };
+    let step = match raw.step.as_ref().and_then(|s| s.value) {
+        Some(alpha) => Step::Fixed(alpha),
+        None => Step::Auto,
+    };
+    Some(Mpc {
+        horizon: raw.horizon.as_ref()?.value,
+        iterations: raw.iterations.as_ref()?.value,
+        method,
+        step,
+        q: q?,
+        r: r?,
+        qf: qf?,
+        u_min: u_min?,
+        u_max: u_max?,
+    })
+}
+
+/// Either `sigma_a` with `sigma_meas` (double integrator only) or `q` with `r`; the covariances are
+/// symmetric of sizes nx and ny; `p0` is nx × nx.
+fn check_kalman(raw: &Raw, model: &Model, diags: &mut Diagnostics) -> Option<Kalman> {
+    let (nx, ny) = (model.kind.nx(), model.kind.ny());
+    let sigma = raw.sigma_a.as_ref().map(|x| x.span.clone()).or(raw.sigma_meas.as_ref().map(|x| x.span.clone()));
+    let full = raw.kalman_q.as_ref().map(|x| x.span.clone()).or(raw.kalman_r.as_ref().map(|x| x.span.clone()));
+    let noise = match (sigma, full) {
+        (Some(_), Some(full)) => {
+            diags.push(
+                Diagnostic::new("give either `sigma_a` and `sigma_meas`, or `q` and `r`, not both", full)
+                    .label("conflicts with `sigma_a`/`sigma_meas`"),
+            );
+            None
+        }
+        (None, None) => {
+            diags.push(
+                Diagnostic::new("missing noise model in `[kalman]`", raw.kalman_span.clone())
+                    .label("needs `sigma_a` and `sigma_meas`, or `q` and `r`"),
+            );
+            None
+        }
+        (Some(span), None) => {
+            if !matches!(model.kind, ModelKind::DoubleIntegrator { .. }) {
+                diags.push(
+                    Diagnostic::new("`sigma_a` and `sigma_meas` describe a double integrator only", span)
+                        .note("hint: give the covariances `q` (nx × nx) and `r` (ny × ny) for a `linear` model"),
+                );
+                None
+            } else {
+                let sigma_a = required(diags, raw.sigma_a.as_ref(), "sigma_a", &raw.kalman_span);
+                let sigma_meas = match raw.sigma_meas.as_ref() {
+                    None => required::<Vec<f64>>(diags, None, "sigma_meas", &raw.kalman_span),
+                    Some(m) => match &m.value {
+                        MatrixInput::Scalar(s) => Some(vec![*s; ny]),
+                        MatrixInput::Diagonal(d) if d.len() == ny => Some(d.clone()),
+                        _ => {
+                            diags.push(
+                                Diagnostic::new(format!("`kalman.sigma_meas` must be a number or a list of {ny} (ny) numbers"), m.span.clone())
+                                    .label("wrong size"),
+                            );
+                            None
+                        }
+                    },
+                };
+                Some(KalmanNoise::WhiteAcceleration { sigma_a: sigma_a?, sigma_meas: sigma_meas? })
+            }
+        }
+        (None, Some(_)) => {
+            let q = square(diags, "kalman.q", raw.kalman_q.as_ref(), nx, "nx");
+            let r = square(diags, "kalman.r", raw.kalman_r.as_ref(), ny, "ny");
+            if raw.kalman_q.is_none() {
+                required::<f64>(diags, None, "q", &raw.kalman_span);
+            }
+            if raw.kalman_r.is_none() {
+                required::<f64>(diags, None, "r", &raw.kalman_span);
+            }
+            if let Some(r) = &r {
+                if (0..ny).any(|i| r.get(i, i) <= 0.0) {
+                    diags.push(
+                        Diagnostic::new("`kalman.r` must be positive definite", raw.kalman_r.as_ref().map(|x| x.span.clone()))
+                            .label("a zero diagonal entry"),
+                    );
+                }
+            }
+            Some(KalmanNoise::Covariances { q: q?, r: r? })
+        }
+    };
+    let p0 = match raw.p0.as_ref() {
+        Some(_) => square(diags, "kalman.p0", raw.p0.as_ref(), nx, "nx"),
+        None => Some(Matrix::diagonal(&vec![1.0; nx])),
+    };
+    let filter = match raw.filter.as_ref().map(|f| f.value.as_str()) {
+        Some("steady_state") => FilterKind::SteadyState,
+        _ => FilterKind::TimeVarying,
+    };
+    Some(Kalman { noise: noise?, p0: p0?, filter })
+}
+
+fn required<T: Clone>(diags: &mut Diagnostics, v: Option<&Located<T>>, key: &str, table: &Span) -> Option<T> {
+    if v.is_none() {
+        diags.push(Diagnostic::new(format!("missing key `{key}` in `[kalman]`"), table.clone()).label(format!("`{key}` is required here")));
+    }
+    v.map(|x| x.value.clone())
+}
+
+/// A square symmetric matrix of size n from a number, a diagonal or a full matrix.
+fn square(diags: &mut Diagnostics, path: &str, m: Option<&Located<MatrixInput>>, n: usize, dim: &str) -> Option<Matrix> {
+    let m = m?;
+    match m.value.to_square(n) {
+        Ok(mat) if mat.is_symmetric() => Some(mat),
+        Ok(_) => {
+            diags.push(Diagnostic::new(format!("`{path}` must be symmetric"), m.span.clone()).label("not equal to its transpose"));
+            None
+        }
+        Err(found) => {
+            diags.push(
+                Diagnostic::new(format!("`{path}` must be {n}×{n} ({dim} = {n}), found {found}"), m.span.clone())
+                    .label(format!("expected {n} diagonal entries or a {n}×{n} matrix")),
+            );
+            None
+        }
+    }
+}
+
+fn bound(diags: &mut Diagnostics, path: &str, v: Option<&Located<Vec<f64>>>, nu: usize) -> Option<Vec<f64>> {
+    let v = v?;
+    if v.value.len() != nu {
+        diags.push(
+            Diagnostic::new(format!("`{path}` must have {nu} entries (nu = {nu}), found {}", v.value.len()), v.span.clone())
+                .label(format!("expected {nu} entries")),
+        );
+        return None;
+    }
+    Some(v.value.clone())
+}
+
+fn expect_shape(diags: &mut Diagnostics, path: &str, m: &Located<Matrix>, rows: usize, cols: usize, what: &str) -> bool {
+    if m.value.rows == rows && m.value.cols == cols {
+        return true;
+    }
+    diags.push(
+        Diagnostic::new(format!("`{path}` must be {rows}×{cols} ({what}), found {}×{}", m.value.rows, m.value.cols), m.span.clone())
+            .label("wrong shape"),
+    );
+    false
+}

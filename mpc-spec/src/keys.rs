@@ -1,0 +1,33 @@
+//! The spec's key names, in one place (serde's `symbol.rs`).
+
+/// `[model]`.
+pub const MODEL: &str = "model";
+/// `[mpc]`.
+pub const MPC: &str = "mpc";
+/// `[kalman]`.
+pub const KALMAN: &str = "kalman";
+/// `[codegen]`.
+pub const CODEGEN: &str = "codegen";
+
+/// The tables a spec may have.
+pub const TABLES: &[&str] = &[MODEL, MPC, KALMAN, CODEGEN];
+
+/// Keys of `[model]`.
+pub const MODEL_KEYS: &[&str] = &["type", "axes", "dt", "a", "b", "c"];
+/// Keys of `[mpc]`.
+pub const MPC_KEYS: &[&str] = &[
+    "horizon", "iterations", "method", "step", "q", "r", "qf", "qf_scale", "u_min", "u_max",
+];
+/// Keys of `[kalman]`.
+pub const KALMAN_KEYS: &[&str] = &["sigma_a", "sigma_meas", "q", "r", "p0", "filter"];
+/// Keys of `[codegen]`.
+pub const CODEGEN_KEYS: &[&str] = &["scalar"];
+
+/// Values of `[model] type`.
+pub const MODEL_TYPES: &[&str] = &["double_integrator", "linear"];
+/// Values of `[mpc] method`.
+pub const METHODS: &[&str] = &["fgm", "gradient"];
+/// Values of `[kalman] filter`.
+pub const FILTERS: &[&str] = &["time_varying", "steady_state"];
+/// Values of `[codegen] scalar`.
+pub const SCALARS: &[&str] = &["f32", "f64"];

@@ -1,0 +1,26 @@
+//! The controller spec of `mpc!`: a small TOML file read into typed, validated values.
+//!
+//! [`load`] reads and checks a spec and reports every mistake at once, each with the byte span of the
+//! offending key or value, so that the macro and the `mpcc` command can point at the line.
+//! This crate has no I/O, no rendering and no linear algebra: those live in `codegen`.
+#![warn(missing_docs)]
+
+mod check;
+mod diag;
+pub mod keys;
+mod model;
+mod parse;
+
+pub use diag::{Diagnostic, Diagnostics};
+pub use model::*;
+
+/// Parses and validates a spec, reporting every problem at once, sorted by position.
+pub fn load(source: &str) -> Result<Spec, Diagnostics> {
+    let mut diags = Diagnostics::default();
+    let raw = parse::parse(source, &mut diags);
+    match check::check(raw, &mut diags) {
+        Some(spec) if diags.is_empty() => Ok(spec),
+        _ if diags.is_empty() => Err(Diagnostic::new("invalid spec", None).into()),
+        _ => Err(diags.sorted()),
+    }
+}

@@ -1,0 +1,246 @@
+//! The validated controller spec: plain values, every one checked by [`crate::load`].
+
+use std::collections::BTreeMap;
+use std::ops::Range;
+
+/// A byte range into the spec's source text.
+pub type Span = Range<usize>;
+
+/// A dense real matrix, row-major.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Matrix {
+    /// Number of rows.
+    pub rows: usize,
+    /// Number of columns.
+    pub cols: usize,
+    /// `rows * cols` entries, row after row.
+    pub data: Vec<f64>,
+}
+
+impl Matrix {
+    /// A matrix from its rows; every row must have the same length.
+    pub fn from_rows(rows: &[Vec<f64>]) -> Self {
+        let cols = rows.first().map_or(0, Vec::len);
+        assert!(rows.iter().all(|r| r.len() == cols), "ragged rows");
+        Matrix { rows: rows.len(), cols, data: rows.concat() }
+    }
+
+    /// A square diagonal matrix.
+    pub fn diagonal(diag: &[f64]) -> Self {
+        let n = diag.len();
+        let mut data = vec![0.0; n * n];
+        for (i, d) in diag.iter().enumerate() {
+            data[i * n + i] = *d;
+        }
+        Matrix { rows: n, cols: n, data }
+    }
+
+    /// Entry (i, j).
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        self.data[i * self.cols + j]
+    }
+
+    /// Every entry multiplied by `k`.
+    pub fn scaled(&self, k: f64) -> Self {
+        Matrix { data: self.data.iter().map(|v| v * k).collect(), ..self.clone() }
+    }
+
+    /// Whether the matrix is square and equal to its transpose up to a relative tolerance.
+    pub fn is_symmetric(&self) -> bool {
+        let scale = self.data.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        self.rows == self.cols
+            && (0..self.rows).all(|i| {
+                (0..i).all(|j| (self.get(i, j) - self.get(j, i)).abs() <= 1e-12 * scale)
+            })
+    }
+}
+
+/// The plant model, `[model]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Model {
+    /// The dynamics.
+    pub kind: ModelKind,
+    /// The sampling time in seconds.
+    pub dt: f64,
+}
+
+/// Which plant `[model] type` names.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ModelKind {
+    /// The paper's eq. 2: per axis a position and a velocity driven by an acceleration.
+    /// The state is the positions of every axis, then their velocities; the measurement is the positions.
+    DoubleIntegrator {
+        /// Number of independent axes.
+        axes: usize,
+    },
+    /// A discrete-time linear plant x⁺ = A x + B u, y = C x.
+    Linear {
+        /// nx × nx.
+        a: Matrix,
+        /// nx × nu.
+        b: Matrix,
+        /// ny × nx.
+        c: Matrix,
+    },
+}
+
+/// How the QP is solved, `[mpc] method`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Nesterov's fast gradient method with constant momentum.
+    Fgm,
+    /// Projected gradient, the paper's Algorithm 1.
+    Gradient,
+}
+
+/// The solver's step size, `[mpc] step`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Step {
+    /// 1/L, L the largest eigenvalue of the Hessian.
+    Auto,
+    /// A given step size.
+    Fixed(f64),
+}
+
+/// The MPC problem and solver, `[mpc]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mpc {
+    /// Prediction horizon N.
+    pub horizon: usize,
+    /// Solver iterations per control step.
+    pub iterations: usize,
+    /// The solver.
+    pub method: Method,
+    /// The step size.
+    pub step: Step,
+    /// Stage state weight Q, nx × nx.
+    pub q: Matrix,
+    /// Stage input weight R, nu × nu.
+    pub r: Matrix,
+    /// Terminal state weight Qf, nx × nx (`qf`, `qf_scale`·Q, or Q).
+    pub qf: Matrix,
+    /// Lower input bound per input.
+    pub u_min: Vec<f64>,
+    /// Upper input bound per input.
+    pub u_max: Vec<f64>,
+}
+
+/// The filter's noise model, from `[kalman]`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum KalmanNoise {
+    /// White acceleration noise (paper eq. 3) and independent position noise; double integrator only.
+    WhiteAcceleration {
+        /// Acceleration noise standard deviation, m/s².
+        sigma_a: f64,
+        /// Measurement noise standard deviation per measured output.
+        sigma_meas: Vec<f64>,
+    },
+    /// Explicit covariances.
+    Covariances {
+        /// Process noise covariance, nx × nx.
+        q: Matrix,
+        /// Measurement noise covariance, ny × ny.
+        r: Matrix,
+    },
+}
+
+/// Which Kalman filter is emitted, `[kalman] filter`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FilterKind {
+    /// The covariance is propagated at run time.
+    TimeVarying,
+    /// The gain is the limit of the time-varying one, solved at compile time.
+    SteadyState,
+}
+
+/// The state estimator, `[kalman]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Kalman {
+    /// Process and measurement noise.
+    pub noise: KalmanNoise,
+    /// Initial covariance, nx × nx.
+    pub p0: Matrix,
+    /// Filter kind.
+    pub filter: FilterKind,
+}
+
+/// The floating-point type of the emitted code, `[codegen] scalar`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scalar {
+    /// `f32`.
+    F32,
+    /// `f64`.
+    F64,
+}
+
+/// Code generation options, `[codegen]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Codegen {
+    /// The emitted scalar type.
+    pub scalar: Scalar,
+}
+
+/// The source spans of the spec's keys, by dotted path (`"mpc.step"`), for diagnostics raised after parsing.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Spans(pub(crate) BTreeMap<String, Span>);
+
+impl Spans {
+    /// The span of the value at `path` (`"mpc.q"`), or of the table (`"mpc"`).
+    pub fn get(&self, path: &str) -> Option<Span> {
+        self.0.get(path).cloned()
+    }
+}
+
+/// A complete, validated controller spec.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spec {
+    /// `[model]`.
+    pub model: Model,
+    /// `[mpc]`.
+    pub mpc: Mpc,
+    /// `[kalman]`.
+    pub kalman: Kalman,
+    /// `[codegen]`.
+    pub codegen: Codegen,
+    /// Where each key was written.
+    pub spans: Spans,
+}
+
+impl Spec {
+    /// State dimension nx.
+    pub fn nx(&self) -> usize {
+        self.model.kind.nx()
+    }
+    /// Input dimension nu.
+    pub fn nu(&self) -> usize {
+        self.model.kind.nu()
+    }
+    /// Measurement dimension ny.
+    pub fn ny(&self) -> usize {
+        self.model.kind.ny()
+    }
+}
+
+impl ModelKind {
+    /// State dimension nx.
+    pub fn nx(&self) -> usize {
+        match self {
+            ModelKind::DoubleIntegrator { axes } => 2 * axes,
+            ModelKind::Linear { a, .. } => a.rows,
+        }
+    }
+    /// Input dimension nu.
+    pub fn nu(&self) -> usize {
+        match self {
+            ModelKind::DoubleIntegrator { axes } => *axes,
+            ModelKind::Linear { b, .. } => b.cols,
+        }
+    }
+    /// Measurement dimension ny.
+    pub fn ny(&self) -> usize {
+        match self {
+            ModelKind::DoubleIntegrator { axes } => *axes,
+            ModelKind::Linear { c, .. } => c.rows,
+        }
+    }
+}

@@ -1,0 +1,420 @@
+//! TOML to typed values, with checks on single values. Every value keeps its span; every mistake becomes
+//! a [`Diagnostic`] and parsing goes on, so that all of them are reported at once.
+
+use crate::diag::{Diagnostic, Diagnostics};
+use crate::keys;
+use crate::model::{Matrix, Span};
+use std::collections::BTreeMap;
+use toml::de::{DeTable, DeValue};
+use toml::Spanned;
+
+/// A value and where it was written.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Located<T> {
+    /// The value.
+    pub value: T,
+    /// Its byte range in the source.
+    pub span: Span,
+}
+
+/// A weight or covariance as written: a number (times the identity), a list (the diagonal) or a list of
+/// lists (the full matrix). Its size is checked once the model's dimensions are known.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MatrixInput {
+    /// `k`: k·I.
+    Scalar(f64),
+    /// `[d1, d2, ...]`: diag(d).
+    Diagonal(Vec<f64>),
+    /// `[[..], [..]]`: the rows.
+    Full(Matrix),
+}
+
+impl MatrixInput {
+    /// The n × n matrix, or what was found instead when the size is wrong.
+    pub fn to_square(&self, n: usize) -> Result<Matrix, String> {
+        match self {
+            MatrixInput::Scalar(k) => Ok(Matrix::diagonal(&vec![*k; n])),
+            MatrixInput::Diagonal(d) if d.len() == n => Ok(Matrix::diagonal(d)),
+            MatrixInput::Diagonal(d) => Err(format!("a diagonal of {} entries", d.len())),
+            MatrixInput::Full(m) if m.rows == n && m.cols == n => Ok(m.clone()),
+            MatrixInput::Full(m) => Err(format!("a {}×{} matrix", m.rows, m.cols)),
+        }
+    }
+
+    /// Every entry that was written (the diagonal for the short forms).
+    pub fn written_diagonal(&self) -> Vec<f64> {
+        match self {
+            MatrixInput::Scalar(k) => vec![*k],
+            MatrixInput::Diagonal(d) => d.clone(),
+            MatrixInput::Full(m) => (0..m.rows.min(m.cols)).map(|i| m.get(i, i)).collect(),
+        }
+    }
+}
+
+/// The spec as written, each key typed and located; `None` where it is absent or unreadable.
+#[derive(Debug, Default)]
+pub struct Raw {
+    pub model_span: Span,
+    pub model_type: Option<Located<String>>,
+    pub axes: Option<Located<usize>>,
+    pub dt: Option<Located<f64>>,
+    pub a: Option<Located<Matrix>>,
+    pub b: Option<Located<Matrix>>,
+    pub c: Option<Located<Matrix>>,
+
+    pub mpc_span: Span,
+    pub horizon: Option<Located<usize>>,
+    pub iterations: Option<Located<usize>>,
+    pub method: Option<Located<String>>,
+    pub step: Option<Located<Option<f64>>>,
+    pub q: Option<Located<MatrixInput>>,
+    pub r: Option<Located<MatrixInput>>,
+    pub qf: Option<Located<MatrixInput>>,
+    pub qf_scale: Option<Located<f64>>,
+    pub u_min: Option<Located<Vec<f64>>>,
+    pub u_max: Option<Located<Vec<f64>>>,
+
+    pub kalman_span: Span,
+    pub sigma_a: Option<Located<f64>>,
+    pub sigma_meas: Option<Located<MatrixInput>>,
+    pub kalman_q: Option<Located<MatrixInput>>,
+    pub kalman_r: Option<Located<MatrixInput>>,
+    pub p0: Option<Located<MatrixInput>>,
+    pub filter: Option<Located<String>>,
+
+    pub scalar: Option<Located<String>>,
+
+    pub spans: BTreeMap<String, Span>,
+}
+
+type Value<'i> = Spanned<DeValue<'i>>;
+
+/// Reads `source` into [`Raw`], reporting syntax errors, unknown or missing tables and keys, and values of
+/// the wrong type or range.
+pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
+    let mut raw = Raw::default();
+    let root = match DeTable::parse(source) {
+        Ok(root) => root,
+        Err(e) => {
+            diags.push(Diagnostic::new(format!("invalid TOML: {}", e.message().trim()), e.span()));
+            return raw;
+        }
+    };
+    let mut p = Parser { diags, spans: BTreeMap::new() };
+    let root_span = root.span();
+    let root = root.get_ref();
+    p.unknown_keys(root, keys::TABLES, "the spec", "table");
+
+    if let Some((span, t)) = p.table(root, keys::MODEL, &root_span, true) {
+        raw.model_span = span.clone();
+        p.unknown_keys(t, keys::MODEL_KEYS, "[model]", "key");
+        raw.model_type = p.required(t, "model", "type", &span).and_then(|v| p.choice(v, "model.type", keys::MODEL_TYPES));
+        raw.axes = t.get("axes").and_then(|v| p.count(v, "model.axes", 1));
+        raw.dt = p.required(t, "model", "dt", &span).and_then(|v| p.positive(v, "model.dt"));
+        raw.a = t.get("a").and_then(|v| p.matrix(v, "model.a"));
+        raw.b = t.get("b").and_then(|v| p.matrix(v, "model.b"));
+        raw.c = t.get("c").and_then(|v| p.matrix(v, "model.c"));
+    }
+    if let Some((span, t)) = p.table(root, keys::MPC, &root_span, true) {
+        raw.mpc_span = span.clone();
+        p.unknown_keys(t, keys::MPC_KEYS, "[mpc]", "key");
+        raw.horizon = p.required(t, "mpc", "horizon", &span).and_then(|v| p.count(v, "mpc.horizon", 1));
+        raw.iterations =
+            p.required(t, "mpc", "iterations", &span).and_then(|v| p.count(v, "mpc.iterations", 1));
+        raw.method = t.get("method").and_then(|v| p.choice(v, "mpc.method", keys::METHODS));
+        raw.step = t.get("step").and_then(|v| p.step(v));
+        raw.q = p.required(t, "mpc", "q", &span).and_then(|v| p.matrix_input(v, "mpc.q", false));
+        raw.r = p.required(t, "mpc", "r", &span).and_then(|v| p.matrix_input(v, "mpc.r", false));
+        raw.qf = t.get("qf").and_then(|v| p.matrix_input(v, "mpc.qf", false));
+        raw.qf_scale = t.get("qf_scale").and_then(|v| p.non_negative(v, "mpc.qf_scale"));
+        raw.u_min = p.required(t, "mpc", "u_min", &span).and_then(|v| p.vector(v, "mpc.u_min"));
+        raw.u_max = p.required(t, "mpc", "u_max", &span).and_then(|v| p.vector(v, "mpc.u_max"));
+    }
+    if let Some((span, t)) = p.table(root, keys::KALMAN, &root_span, true) {
+        raw.kalman_span = span;
+        p.unknown_keys(t, keys::KALMAN_KEYS, "[kalman]", "key");
+        raw.sigma_a = t.get("sigma_a").and_then(|v| p.positive(v, "kalman.sigma_a"));
+        raw.sigma_meas = t.get("sigma_meas").and_then(|v| p.matrix_input(v, "kalman.sigma_meas", true));
+        raw.kalman_q = t.get("q").and_then(|v| p.matrix_input(v, "kalman.q", false));
+        raw.kalman_r = t.get("r").and_then(|v| p.matrix_input(v, "kalman.r", false));
+        raw.p0 = t.get("p0").and_then(|v| p.matrix_input(v, "kalman.p0", false));
+        raw.filter = t.get("filter").and_then(|v| p.choice(v, "kalman.filter", keys::FILTERS));
+    }
+    if let Some((_, t)) = p.table(root, keys::CODEGEN, &root_span, false) {
+        p.unknown_keys(t, keys::CODEGEN_KEYS, "[codegen]", "key");
+        raw.scalar = t.get("scalar").and_then(|v| p.choice(v, "codegen.scalar", keys::SCALARS));
+    }
+    raw.spans = p.spans;
+    raw
+}
+
+struct Parser<'d> {
+    diags: &'d mut Diagnostics,
+    spans: BTreeMap<String, Span>,
+}
+
+impl Parser<'_> {
+    fn err(&mut self, d: Diagnostic) {
+        self.diags.push(d);
+    }
+
+    /// The table `name`, its span, and whether it is a table; reports it when required and absent.
+    fn table<'a, 'i>(
+        &mut self,
+        root: &'a DeTable<'i>,
+        name: &str,
+        root_span: &Span,
+        required: bool,
+    ) -> Option<(Span, &'a DeTable<'i>)> {
+        let Some(v) = root.get(name) else {
+            if required {
+                self.err(
+                    Diagnostic::new(format!("missing table `[{name}]`"), root_span.start..root_span.start)
+                        .note(format!("hint: every spec has `[model]`, `[mpc]` and `[kalman]`; add `[{name}]`")),
+                );
+            }
+            return None;
+        };
+        // The header's span: the key of the table in its parent.
+        let key_span = root.get_key_value(name).map_or(v.span(), |(k, _)| k.span());
+        self.spans.insert(name.to_string(), key_span.clone());
+        match v.get_ref() {
+            DeValue::Table(t) => Some((key_span, t)),
+            other => {
+                self.err(
+                    Diagnostic::new(format!("`{name}` must be a table, found {}", other.type_str()), v.span())
+                        .note(format!("hint: write `[{name}]` on a line of its own, followed by its keys")),
+                );
+                None
+            }
+        }
+    }
+
+    /// Reports every key of `t` not in `allowed`, with the closest allowed one as a hint.
+    fn unknown_keys(&mut self, t: &DeTable<'_>, allowed: &[&str], place: &str, what: &str) {
+        for (k, _) in t.iter() {
+            let key: &str = k.get_ref();
+            if allowed.contains(&key) {
+                continue;
+            }
+            let mut d = Diagnostic::new(format!("unknown {what} `{key}` in {place}"), k.span())
+                .label(format!("unknown {what}"));
+            let closest = allowed
+                .iter()
+                .map(|a| (strsim::jaro_winkler(a, key), *a))
+                .fold((0.0, ""), |best, c| if c.0 > best.0 { c } else { best });
+            d = if closest.0 > 0.8 {
+                d.note(format!("hint: did you mean `{}`?", closest.1))
+            } else {
+                d.note(format!("hint: the {what}s allowed here are {}", quoted(allowed)))
+            };
+            self.err(d);
+        }
+    }
+
+    fn required<'a, 'i>(
+        &mut self,
+        t: &'a DeTable<'i>,
+        table: &str,
+        key: &str,
+        table_span: &Span,
+    ) -> Option<&'a Value<'i>> {
+        let v = t.get(key);
+        if v.is_none() {
+            self.err(
+                Diagnostic::new(format!("missing key `{key}` in `[{table}]`"), table_span.clone())
+                    .label(format!("`{key}` is required in this table")),
+            );
+        }
+        v
+    }
+
+    fn located<T>(&mut self, path: &str, v: &Value<'_>, value: T) -> Located<T> {
+        self.spans.insert(path.to_string(), v.span());
+        Located { value, span: v.span() }
+    }
+
+    /// A finite number, written as an integer or a float.
+    fn number_of(&mut self, v: &Value<'_>, path: &str) -> Option<f64> {
+        let parsed = match v.get_ref() {
+            DeValue::Integer(i) => i64::from_str_radix(&i.as_str().replace('_', ""), i.radix()).ok().map(|i| i as f64),
+            DeValue::Float(f) => f.as_str().replace('_', "").parse::<f64>().ok(),
+            other => {
+                self.err(
+                    Diagnostic::new(format!("`{path}` must be a number, found {}", other.type_str()), v.span())
+                        .label("expected a number"),
+                );
+                return None;
+            }
+        };
+        match parsed {
+            Some(x) if x.is_finite() => Some(x),
+            _ => {
+                self.err(Diagnostic::new(format!("`{path}` must be a finite number"), v.span()).label("not finite"));
+                None
+            }
+        }
+    }
+
+    fn number(&mut self, v: &Value<'_>, path: &str) -> Option<Located<f64>> {
+        let x = self.number_of(v, path)?;
+        Some(self.located(path, v, x))
+    }
+
+    fn positive(&mut self, v: &Value<'_>, path: &str) -> Option<Located<f64>> {
+        let x = self.number(v, path)?;
+        if x.value > 0.0 {
+            return Some(x);
+        }
+        self.err(Diagnostic::new(format!("`{path}` must be positive, found {}", x.value), v.span()).label("must be > 0"));
+        None
+    }
+
+    fn non_negative(&mut self, v: &Value<'_>, path: &str) -> Option<Located<f64>> {
+        let x = self.number(v, path)?;
+        if x.value >= 0.0 {
+            return Some(x);
+        }
+        self.err(Diagnostic::new(format!("`{path}` must not be negative, found {}", x.value), v.span()).label("must be ≥ 0"));
+        None
+    }
+
+    /// A whole number of at least `min`.
+    fn count(&mut self, v: &Value<'_>, path: &str, min: i64) -> Option<Located<usize>> {
+        let n = match v.get_ref() {
+            DeValue::Integer(i) => i64::from_str_radix(&i.as_str().replace('_', ""), i.radix()).ok(),
+            other => {
+                self.err(
+                    Diagnostic::new(format!("`{path}` must be a whole number, found {}", other.type_str()), v.span())
+                        .label("expected an integer"),
+                );
+                return None;
+            }
+        };
+        match n {
+            Some(n) if n >= min && n <= 100_000 => Some(self.located(path, v, n as usize)),
+            _ => {
+                self.err(
+                    Diagnostic::new(format!("`{path}` must be between {min} and 100000"), v.span())
+                        .label("out of range"),
+                );
+                None
+            }
+        }
+    }
+
+    /// One of `options`.
+    fn choice(&mut self, v: &Value<'_>, path: &str, options: &[&str]) -> Option<Located<String>> {
+        match v.get_ref() {
+            DeValue::String(s) if options.contains(&s.as_ref()) => {
+                let s = s.to_string();
+                Some(self.located(path, v, s))
+            }
+            DeValue::String(s) => {
+                self.err(
+                    Diagnostic::new(format!("unknown value \"{s}\" for `{path}`"), v.span())
+                        .label("unknown value")
+                        .note(format!("hint: expected one of {}", quoted(options))),
+                );
+                None
+            }
+            other => {
+                self.err(
+                    Diagnostic::new(format!("`{path}` must be a string, found {}", other.type_str()), v.span())
+                        .note(format!("hint: expected one of {}", quoted(options))),
+                );
+                None
+            }
+        }
+    }
+
+    /// `"auto"` (None) or a positive number.
+    fn step(&mut self, v: &Value<'_>) -> Option<Located<Option<f64>>> {
+        match v.get_ref() {
+            DeValue::String(s) if s == "auto" => Some(self.located("mpc.step", v, None)),
+            DeValue::String(s) => {
+                self.err(
+                    Diagnostic::new(format!("unknown value \"{s}\" for `mpc.step`"), v.span())
+                        .note("hint: write \"auto\" for 1/L, or a positive number"),
+                );
+                None
+            }
+            _ => self.positive(v, "mpc.step").map(|x| Located { value: Some(x.value), span: x.span }),
+        }
+    }
+
+    fn array<'a, 'i>(&mut self, v: &'a Value<'i>, path: &str, what: &str) -> Option<&'a [Value<'i>]> {
+        match v.get_ref() {
+            DeValue::Array(a) if !a.is_empty() => Some(a),
+            DeValue::Array(_) => {
+                self.err(Diagnostic::new(format!("`{path}` must not be empty"), v.span()).label("empty"));
+                None
+            }
+            other => {
+                self.err(
+                    Diagnostic::new(format!("`{path}` must be {what}, found {}", other.type_str()), v.span())
+                        .label(format!("expected {what}")),
+                );
+                None
+            }
+        }
+    }
+
+    /// A list of numbers.
+    fn vector(&mut self, v: &Value<'_>, path: &str) -> Option<Located<Vec<f64>>> {
+        let items = self.array(v, path, "a list of numbers")?;
+        let values: Vec<Option<f64>> = items.iter().map(|x| self.number_of(x, path)).collect();
+        let values: Option<Vec<f64>> = values.into_iter().collect();
+        Some(self.located(path, v, values?))
+    }
+
+    /// A list of equally long lists of numbers.
+    fn matrix(&mut self, v: &Value<'_>, path: &str) -> Option<Located<Matrix>> {
+        let rows = self.array(v, path, "a list of rows")?;
+        let mut out = Vec::with_capacity(rows.len());
+        for row in rows {
+            out.push(self.vector(row, path)?.value);
+        }
+        if out.iter().any(|r| r.len() != out[0].len()) {
+            self.err(
+                Diagnostic::new(format!("the rows of `{path}` differ in length"), v.span())
+                    .label(format!("row lengths {:?}", out.iter().map(Vec::len).collect::<Vec<_>>())),
+            );
+            return None;
+        }
+        Some(self.located(path, v, Matrix::from_rows(&out)))
+    }
+
+    /// A number, a list (a diagonal) or a list of lists (a full matrix).
+    fn matrix_input(&mut self, v: &Value<'_>, path: &str, positive: bool) -> Option<Located<MatrixInput>> {
+        let input = match v.get_ref() {
+            DeValue::Integer(_) | DeValue::Float(_) => MatrixInput::Scalar(self.number_of(v, path)?),
+            DeValue::Array(a) if a.first().is_some_and(|x| x.get_ref().is_array()) => {
+                MatrixInput::Full(self.matrix(v, path)?.value)
+            }
+            DeValue::Array(_) => MatrixInput::Diagonal(self.vector(v, path)?.value),
+            other => {
+                self.err(
+                    Diagnostic::new(format!("`{path}` must be a number, a list or a list of lists, found {}", other.type_str()), v.span())
+                        .note("hint: a list is a diagonal; a list of lists is a full matrix"),
+                );
+                return None;
+            }
+        };
+        let diag = input.written_diagonal();
+        let bad = if positive { diag.iter().any(|d| *d <= 0.0) } else { diag.iter().any(|d| *d < 0.0) };
+        if bad {
+            let rule = if positive { "positive" } else { "non-negative" };
+            self.err(
+                Diagnostic::new(format!("the diagonal of `{path}` must be {rule}"), v.span())
+                    .label(format!("a {} diagonal entry", if positive { "non-positive" } else { "negative" })),
+            );
+            return None;
+        }
+        Some(self.located(path, v, input))
+    }
+}
+
+fn quoted(options: &[&str]) -> String {
+    options.iter().map(|o| format!("`{o}`")).collect::<Vec<_>>().join(", ")
+}
