@@ -1,0 +1,147 @@
+//! Startup of the Cortex-A9: vector table, stacks, VFP/NEON, .bss, then `main`.
+//!
+//! Developer notes
+//! - All of it is assembly, run before any Rust code: Rust must not run before its stack exists
+//!   and its statics are zeroed. Rust sees only `main` (called from here) and `fault_exit`.
+//! - The core starts in Secure SVC mode with the MMU and caches off, as QEMU and the Zynq boot
+//!   ROM leave it. The firmware stays in SVC mode.
+//! - Every exception is a failure for this firmware (it polls, it takes no interrupts): each
+//!   default handler exits through semihosting with its own status, so a test sees which one fired.
+
+use crate::semihosting;
+
+/// Exit statuses of the default exception handlers (see `__default_*` below).
+pub mod status {
+    /// Undefined instruction (e.g. VFP/NEON used while disabled).
+    pub const UNDEFINED: u32 = 10;
+    /// An `svc` that is not a semihosting call.
+    pub const SVC: u32 = 11;
+    /// Prefetch abort.
+    pub const PREFETCH_ABORT: u32 = 12;
+    /// Data abort.
+    pub const DATA_ABORT: u32 = 13;
+    /// IRQ (none is enabled).
+    pub const IRQ: u32 = 14;
+    /// FIQ (none is enabled).
+    pub const FIQ: u32 = 15;
+}
+
+core::arch::global_asm!(
+    r#"
+    .section .vector_table, "ax", %progbits
+    .arm
+    .p2align 5
+    .global __vector_table
+__vector_table:
+    b _start                  @ reset: the boot flow jumps to the ELF entry, which is _start
+    b UndefinedInstruction
+    b SupervisorCall
+    b PrefetchAbort
+    b DataAbort
+    nop                       @ reserved
+    b Irq
+    b Fiq
+
+    .section .text.start, "ax", %progbits
+    .arm
+    .fpu neon
+    .global _start
+    .type _start, %function
+_start:
+    @ Only CPU0 runs the firmware; the other core (if started) sleeps for good.
+    mrc   p15, 0, r0, c0, c0, 5       @ MPIDR
+    ands  r0, r0, #3
+    bne   2f
+
+    @ Exceptions go to our table: VBAR is used while SCTLR.V = 0 (its reset value).
+    ldr   r0, =__vector_table
+    mcr   p15, 0, r0, c12, c0, 0
+    mrc   p15, 0, r0, c1, c0, 0
+    bic   r0, r0, #(1 << 13)          @ SCTLR.V = 0
+    mcr   p15, 0, r0, c1, c0, 0
+    isb
+
+    @ Stacks, each mode its own: UND, ABT, IRQ, FIQ at the bottom, SVC above them.
+    @ IRQ and FIQ stay masked (CPSR I and F are set at reset).
+    ldr   r0, =__stack_bottom
+    ldr   r1, =__exception_stack_size
+    add   r0, r0, r1
+    cps   #0x1b                       @ UND
+    mov   sp, r0
+    add   r0, r0, r1
+    cps   #0x17                       @ ABT
+    mov   sp, r0
+    add   r0, r0, r1
+    cps   #0x12                       @ IRQ
+    mov   sp, r0
+    add   r0, r0, r1
+    cps   #0x11                       @ FIQ
+    mov   sp, r0
+    cps   #0x13                       @ SVC, where the firmware runs
+    ldr   sp, =__stack_top
+
+    @ VFP and NEON: full access to coprocessors 10 and 11 in CPACR, then FPEXC.EN.
+    @ Until then any floating-point instruction is undefined.
+    mrc   p15, 0, r0, c1, c0, 2
+    orr   r0, r0, #(0xf << 20)
+    mcr   p15, 0, r0, c1, c0, 2
+    isb
+    mov   r0, #(1 << 30)
+    vmsr  fpexc, r0
+    @ FPSCR: round to nearest, no flush-to-zero, no default NaN: IEEE 754 like the host.
+    mov   r0, #0
+    vmsr  fpscr, r0
+
+    @ Zero .bss (word-aligned at both ends, link.x asserts it).
+    ldr   r0, =__sbss
+    ldr   r1, =__ebss
+    mov   r2, #0
+1:  cmp   r0, r1
+    strlo r2, [r0], #4
+    blo   1b
+
+    bl    main
+2:  wfe
+    b     2b
+
+    @ Default exception handlers: exit with the status of the exception (rt::status).
+    .section .text.default_handlers, "ax", %progbits
+    .arm
+    .global __default_undefined
+__default_undefined:
+    mov   r0, #{undefined}
+    b     fault_exit
+    .global __default_svc
+__default_svc:
+    mov   r0, #{svc}
+    b     fault_exit
+    .global __default_prefetch_abort
+__default_prefetch_abort:
+    mov   r0, #{prefetch_abort}
+    b     fault_exit
+    .global __default_data_abort
+__default_data_abort:
+    mov   r0, #{data_abort}
+    b     fault_exit
+    .global __default_irq
+__default_irq:
+    mov   r0, #{irq}
+    b     fault_exit
+    .global __default_fiq
+__default_fiq:
+    mov   r0, #{fiq}
+    b     fault_exit
+"#,
+    undefined = const status::UNDEFINED,
+    svc = const status::SVC,
+    prefetch_abort = const status::PREFETCH_ABORT,
+    data_abort = const status::DATA_ABORT,
+    irq = const status::IRQ,
+    fiq = const status::FIQ,
+);
+
+/// Target of the default exception handlers, running on the exception mode's own stack.
+#[no_mangle]
+extern "C" fn fault_exit(status: u32) -> ! {
+    semihosting::exit(status)
+}
