@@ -1,23 +1,93 @@
-//! Bare-metal Zynq-7000 firmware (placeholder computation during bring-up).
+//! Bare-metal Zynq-7000 firmware: the paper's closed loop with an `mpc!` controller baked in.
+//!
+//! The drone (plant, reference trajectory and seeded noise from `flight-sim`) is simulated on the
+//! target itself, so the firmware flies exactly the loop the host simulation flies. Each control
+//! cycle (Kalman update, MPC solve, Kalman predict: the generated `Controller::step`) is timed
+//! with the Cortex-A9 global timer. At the end the firmware prints a summary and one
+//! `RESULT {json}` line over UART0, and exits through semihosting: 0 if the flight passed its
+//! checks, 1 if not, 10-15 on a CPU exception (`rt::status`), 20 on a panic.
 #![no_std]
 #![no_main]
 
 mod decimal;
+mod report;
 mod rt;
 mod semihosting;
+mod stats;
 mod timer;
 mod uart;
 
+use core::hint::black_box;
+
+use flight_sim::{cast, fly, Controller, Reference, Scenario, Trajectory, NU, NX, NY};
+
+use stats::{Errors, Ticks};
 use timer::GlobalTimer;
 use uart::Uart0;
 
-/// Iterations of the calibration loop: 2 instructions each.
+// The spec baked in. `mpc!` takes a literal path (relative to this folder); scripts/firmware.sh
+// writes any other spec to spec-override/spec.toml and turns on the `spec-override` feature.
+#[cfg(not(feature = "spec-override"))]
+macro_rules! spec_path {
+    () => {
+        "../specs/paper.toml"
+    };
+}
+#[cfg(feature = "spec-override")]
+macro_rules! spec_path {
+    () => {
+        "spec-override/spec.toml"
+    };
+}
+#[cfg(not(feature = "spec-override"))]
+mpc_macros::mpc!(pub mod ctrl = "../specs/paper.toml");
+#[cfg(feature = "spec-override")]
+mpc_macros::mpc!(pub mod ctrl = "spec-override/spec.toml");
+
+/// Where the spec was read from, and its text (hashed into RESULT, so a test can tell which
+/// spec a binary holds).
+const SPEC_PATH: &str = spec_path!();
+const SPEC_TEXT: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/", spec_path!()));
+
+/// Seed of the noise streams; the host test flies the same one.
+const SEED: u64 = 1;
+/// Control cycles flown: the whole ~111 s reference flight at 12.8 ms per cycle.
+const CYCLES: usize = 8671;
+/// A tracking error above this, m, on any axis means the controller lost the drone.
+const LOST_M: f64 = 2.0;
+/// Iterations of the timer calibration loop (2 instructions each).
 const CALIB_ITERS: u32 = 1_000_000;
 
-/// Runs a loop of exactly `2 * iters` instructions and returns the global timer ticks it took.
+/// The generated controller, with each call timed.
+struct Timed<'t> {
+    controller: ctrl::Controller,
+    timer: &'t GlobalTimer,
+    ticks: Ticks,
+}
+
+impl Controller for Timed<'_> {
+    fn step<R: Reference>(&mut self, k: usize, z: &[f64; NY], reference: &R) -> [f64; NU] {
+        // Evaluating the reference and converting to the controller's scalar is the
+        // simulation's work, not the controller's: it stays outside the timed span.
+        let xref = reference.window::<ctrl::Real, { ctrl::N }>(k);
+        let z: [ctrl::Real; NY] = cast(z);
+        let t0 = self.timer.now();
+        // black_box: the call must happen between the two reads of the timer.
+        let u = black_box(self.controller.step(black_box(&z), black_box(&xref)));
+        let t1 = self.timer.now();
+        self.ticks.add(t1.wrapping_sub(t0));
+        cast(&u)
+    }
+
+    fn estimate(&self) -> [f64; NX] {
+        cast(self.controller.kalman().state())
+    }
+}
+
+/// Global timer ticks taken by a loop of exactly `2 * iters` instructions.
 fn timed_loop(timer: &GlobalTimer, iters: u32) -> u64 {
     let t0 = timer.now();
-    // SAFETY: a register-only countdown loop.
+    // SAFETY: a countdown loop on one register.
     unsafe {
         core::arch::asm!(
             "1:",
@@ -34,19 +104,31 @@ fn timed_loop(timer: &GlobalTimer, iters: u32) -> u64 {
 extern "C" fn main() -> ! {
     let mut uart = Uart0::new();
     let timer = GlobalTimer::start();
-    uart.str("firmware-template: booted\n");
-    let t1 = timed_loop(&timer, CALIB_ITERS);
-    let t2 = timed_loop(&timer, 2 * CALIB_ITERS);
-    uart.str("calibration: ")
-        .u64(u64::from(2 * CALIB_ITERS))
-        .str(" instructions in ")
-        .u64(t1)
-        .str(" ticks, ")
-        .u64(u64::from(4 * CALIB_ITERS))
-        .str(" in ")
-        .u64(t2)
-        .str(" ticks\n");
-    semihosting::exit(0)
+    let calib_ticks = timed_loop(&timer, CALIB_ITERS);
+
+    let reference = Trajectory::paper();
+    let x0 = reference.start();
+    let mut timed = Timed {
+        controller: ctrl::Controller::new(cast(&x0)),
+        timer: &timer,
+        ticks: Ticks::new(),
+    };
+    let mut errors = Errors::new();
+    let scenario = Scenario::new(SEED, CYCLES);
+    report::header(&mut uart, &scenario);
+    fly(&mut timed, &reference, &scenario, |sample, _| errors.add(&sample.error()));
+
+    let ok = report::result(
+        &mut uart,
+        &report::Run {
+            scenario: &scenario,
+            ticks: &timed.ticks,
+            errors: &errors,
+            calib_instructions: 2 * u64::from(CALIB_ITERS),
+            calib_ticks,
+        },
+    );
+    semihosting::exit(if ok { 0 } else { 1 })
 }
 
 #[panic_handler]

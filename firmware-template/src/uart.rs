@@ -67,14 +67,6 @@ impl Uart0 {
         let mut digits = [0u8; 20];
         self.str(crate::decimal::u64(v, &mut digits))
     }
-
-    /// Sends `v` in decimal, with a leading `-` if negative.
-    pub fn i64(&mut self, v: i64) -> &mut Self {
-        if v < 0 {
-            self.byte(b'-');
-        }
-        self.u64(v.unsigned_abs())
-    }
 }
 
 /// # Safety

@@ -1,0 +1,145 @@
+//! What the firmware prints: a header, a human-readable summary and the `RESULT {json}` line
+//! that tests and scripts parse. Numbers are integers (micrometres, ticks): see `decimal`.
+
+use flight_sim::Scenario;
+
+use crate::stats::{micrometres, Errors, Ticks};
+use crate::uart::Uart0;
+use crate::{ctrl, LOST_M, SPEC_PATH, SPEC_TEXT};
+
+/// The board name in RESULT.
+const BOARD: &str = "zynq-7000";
+
+/// FNV-1a (64-bit) of the baked spec's text, so a test can check which spec a binary holds.
+const SPEC_FNV1A64: u64 = fnv1a64(SPEC_TEXT.as_bytes());
+
+const fn fnv1a64(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut i = 0;
+    while i < bytes.len() {
+        h ^= bytes[i] as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        i += 1;
+    }
+    h
+}
+
+/// The controller's scalar type, by size.
+const SCALAR: &str = if core::mem::size_of::<ctrl::Real>() == 4 { "f32" } else { "f64" };
+
+/// Everything a finished run reports.
+pub struct Run<'a> {
+    /// Seed and cycle count.
+    pub scenario: &'a Scenario,
+    /// Ticks per control cycle.
+    pub ticks: &'a Ticks,
+    /// Tracking errors.
+    pub errors: &'a Errors,
+    /// Instructions in the calibration loop.
+    pub calib_instructions: u64,
+    /// Global timer ticks the calibration loop took.
+    pub calib_ticks: u64,
+}
+
+/// Prints what is about to fly.
+pub fn header(uart: &mut Uart0, scenario: &Scenario) {
+    uart.str("firmware-template on ")
+        .str(BOARD)
+        .str(" (Cortex-A9, VFPv3 + NEON)\nspec ")
+        .str(SPEC_PATH)
+        .str(": ")
+        .str(SCALAR)
+        .str(", horizon ")
+        .u64(ctrl::N as u64)
+        .str(", ")
+        .u64(ctrl::ITERATIONS as u64)
+        .str(" iterations\nflying ")
+        .u64(scenario.cycles as u64)
+        .str(" cycles of 12.8 ms, seed ")
+        .u64(scenario.seed)
+        .str("\n");
+}
+
+/// Prints the summary and the RESULT line; returns whether the run passed its checks: every
+/// cycle flown, errors finite and below `LOST_M`.
+pub fn result(uart: &mut Uart0, run: &Run) -> bool {
+    let rmse = run.errors.rmse().map(micrometres);
+    let max_abs = run.errors.max_abs().map(micrometres);
+    let lost_um = micrometres(LOST_M).unwrap_or(0);
+    let flown = run.ticks.count == run.scenario.cycles as u64;
+    let ok = flown
+        && rmse.iter().all(Option::is_some)
+        && max_abs.iter().all(|m| matches!(m, Some(m) if *m < lost_um));
+
+    uart.str("control cycle (Kalman update + MPC + Kalman predict), global timer ticks: min ")
+        .u64(run.ticks.min)
+        .str(", mean ")
+        .u64(run.ticks.mean())
+        .str(", max ")
+        .u64(run.ticks.max)
+        .str("\ntracking error x/y/z, um: rmse ");
+    axes(uart, &rmse, "/");
+    uart.str(", max ");
+    axes(uart, &max_abs, "/");
+    uart.str(if ok { "\nflight OK\n" } else { "\nflight FAILED\n" });
+
+    uart.str("RESULT {\"spec\":\"")
+        .str(SPEC_PATH)
+        .str("\",\"spec_fnv1a64\":\"");
+    hex(uart, SPEC_FNV1A64);
+    uart.str("\",\"board\":\"")
+        .str(BOARD)
+        .str("\",\"scalar\":\"")
+        .str(SCALAR)
+        .str("\",\"nx\":")
+        .u64(ctrl::NX as u64)
+        .str(",\"nu\":")
+        .u64(ctrl::NU as u64)
+        .str(",\"horizon\":")
+        .u64(ctrl::N as u64)
+        .str(",\"iterations\":")
+        .u64(ctrl::ITERATIONS as u64)
+        .str(",\"seed\":")
+        .u64(run.scenario.seed)
+        .str(",\"cycles\":")
+        .u64(run.ticks.count)
+        .str(",\"ticks_min\":")
+        .u64(run.ticks.min)
+        .str(",\"ticks_mean\":")
+        .u64(run.ticks.mean())
+        .str(",\"ticks_max\":")
+        .u64(run.ticks.max)
+        .str(",\"ticks_total\":")
+        .u64(run.ticks.sum)
+        .str(",\"calib_instructions\":")
+        .u64(run.calib_instructions)
+        .str(",\"calib_ticks\":")
+        .u64(run.calib_ticks)
+        .str(",\"rmse_um\":[");
+    axes(uart, &rmse, ",");
+    uart.str("],\"max_abs_error_um\":[");
+    axes(uart, &max_abs, ",");
+    uart.str("],\"ok\":").str(if ok { "true" } else { "false" }).str("}\n");
+    ok
+}
+
+/// Three values joined by `sep`, `null` for a missing one.
+fn axes(uart: &mut Uart0, v: &[Option<u64>; 3], sep: &str) {
+    for (i, v) in v.iter().enumerate() {
+        if i > 0 {
+            uart.str(sep);
+        }
+        match v {
+            Some(v) => uart.u64(*v),
+            None => uart.str("null"),
+        };
+    }
+}
+
+/// `v` as 16 lowercase hex digits.
+fn hex(uart: &mut Uart0, v: u64) {
+    for shift in (0..16).rev() {
+        let d = ((v >> (4 * shift)) & 0xf) as u8;
+        uart.byte(if d < 10 { b'0' + d } else { b'a' + d - 10 });
+    }
+}

@@ -1,0 +1,74 @@
+#!/usr/bin/env bash
+# Builds firmware-template with a controller spec baked in, runs it on the emulated board and exits
+# with the firmware's own status (0: the closed loop flew and passed its checks).
+#
+#   scripts/firmware.sh [--board zynq] [--build-only] [SPEC]
+#
+# SPEC defaults to specs/paper.toml, which the template's `mpc!` reads directly. Any other spec is
+# copied to firmware-template/spec-override/spec.toml and built with the `spec-override` feature:
+# `mpc!` takes a literal path, and its `include_str!` makes cargo rebuild when that file changes.
+# Missing tools (qemu-system-arm, nightly's rust-src) are installed when possible.
+#
+# Environment: FIRMWARE_TIMEOUT (seconds for the emulated run, default 600).
+set -euo pipefail
+
+usage() { sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; }
+
+root=$(cd "$(dirname "$0")/.." && pwd)
+template="$root/firmware-template"
+board=zynq
+build_only=0
+spec=""
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --board) [ $# -ge 2 ] || { usage >&2; exit 2; }; board=$2; shift 2 ;;
+        --board=*) board=${1#*=}; shift ;;
+        --build-only) build_only=1; shift ;;
+        -h|--help) usage; exit 0 ;;
+        -*) echo "firmware.sh: unknown option $1" >&2; usage >&2; exit 2 ;;
+        *) [ -z "$spec" ] || { echo "firmware.sh: one SPEC only" >&2; exit 2; }; spec=$1; shift ;;
+    esac
+done
+
+# One board so far. Another one needs its own memory.x, UART and timer, and its runner.
+case "$board" in
+    zynq) qemu=qemu-system-arm ;;
+    *) echo "firmware.sh: unknown board '$board' (supported: zynq)" >&2; exit 2 ;;
+esac
+
+install_missing() {
+    if ! command -v "$qemu" >/dev/null 2>&1; then
+        if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+            echo "firmware.sh: installing $qemu" >&2
+            apt-get update -qq >&2 && apt-get install -y -qq qemu-system-arm >&2
+        else
+            echo "firmware.sh: $qemu is missing: apt-get install qemu-system-arm" >&2
+            exit 2
+        fi
+    fi
+    if ! rustup component list --toolchain nightly --installed 2>/dev/null | grep -q '^rust-src'; then
+        echo "firmware.sh: adding rust-src to the nightly toolchain (core is rebuilt for the A9)" >&2
+        rustup component add rust-src --toolchain nightly >&2
+    fi
+}
+install_missing
+
+features=()
+if [ -n "$spec" ]; then
+    [ -f "$spec" ] || { echo "firmware.sh: no such spec: $spec" >&2; exit 2; }
+    mkdir -p "$template/spec-override"
+    # Copy only on change: a new mtime alone would rebuild the firmware.
+    cmp -s "$spec" "$template/spec-override/spec.toml" || cp "$spec" "$template/spec-override/spec.toml"
+    features=(--features spec-override)
+fi
+
+cd "$template"
+# The outer toolchain (RUSTUP_TOOLCHAIN, exported by rustup to children) would override the
+# template's rust-toolchain.toml, and outer RUSTFLAGS would replace its target flags.
+cargo_=(env -u RUSTUP_TOOLCHAIN -u RUSTFLAGS -u CARGO_TARGET_DIR -u CARGO_BUILD_TARGET cargo +nightly)
+"${cargo_[@]}" build --release "${features[@]}"
+[ "$build_only" = 1 ] && exit 0
+status=0
+timeout "${FIRMWARE_TIMEOUT:-600}" "${cargo_[@]}" run --release -q "${features[@]}" || status=$?
+[ "$status" = 124 ] && echo "firmware.sh: the firmware did not finish within ${FIRMWARE_TIMEOUT:-600} s" >&2
+exit "$status"
