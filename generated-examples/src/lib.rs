@@ -1,0 +1,7 @@
+//! User crates of `mpc!`: the shipped specs, each compiled into a controller module at `cargo build` time.
+//! The library is `#![no_std]`, as a firmware crate would be.
+#![no_std]
+
+mpc_macros::mpc!(pub mod paper = "../specs/paper.toml");
+mpc_macros::mpc!(pub mod paper_faithful = "../specs/paper-faithful.toml");
+mpc_macros::mpc!(pub mod paper_initial = "../specs/paper-initial.toml");

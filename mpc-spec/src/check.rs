@@ -7,7 +7,9 @@ use crate::parse::{Located, MatrixInput, Raw};
 /// Checks `raw` as a whole and builds the spec; `None` when anything was reported (here or while parsing).
 pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
     let model = check_model(&raw, diags);
-    let dims = model.as_ref().map(|m| (m.kind.nx(), m.kind.nu(), m.kind.ny()));
+    let dims = model
+        .as_ref()
+        .map(|m| (m.kind.nx(), m.kind.nu(), m.kind.ny()));
     let mpc = dims.and_then(|(nx, nu, _)| check_mpc(&raw, nx, nu, diags));
     let kalman = model.as_ref().and_then(|m| check_kalman(&raw, m, diags));
     let scalar = match raw.scalar.as_ref().map(|s| s.value.as_str()) {
@@ -34,9 +36,12 @@ fn check_model(raw: &Raw, diags: &mut Diagnostics) -> Option<Model> {
     let kind = if ty.value == "double_integrator" {
         for m in [&raw.a, &raw.b, &raw.c].into_iter().flatten() {
             diags.push(
-                Diagnostic::new("a `double_integrator` model takes no `a`, `b` or `c`", m.span.clone())
-                    .label("not used by this model type")
-                    .note("hint: write `type = \"linear\"` to give the matrices yourself"),
+                Diagnostic::new(
+                    "a `double_integrator` model takes no `a`, `b` or `c`",
+                    m.span.clone(),
+                )
+                .label("not used by this model type")
+                .note("hint: write `type = \"linear\"` to give the matrices yourself"),
             );
         }
         let Some(axes) = &raw.axes else {
@@ -71,13 +76,38 @@ fn check_model(raw: &Raw, diags: &mut Diagnostics) -> Option<Model> {
         let (a, b, c) = (raw.a.as_ref()?, raw.b.as_ref()?, raw.c.as_ref()?);
         let nx = a.value.rows;
         let mut ok = true;
-        ok &= expect_shape(diags, "model.a", a, nx, nx, "nx × nx, nx the number of rows of `a`");
-        ok &= expect_shape(diags, "model.b", b, nx, b.value.cols, "nx × nu, nx the size of `a`");
-        ok &= expect_shape(diags, "model.c", c, c.value.rows, nx, "ny × nx, nx the size of `a`");
+        ok &= expect_shape(
+            diags,
+            "model.a",
+            a,
+            nx,
+            nx,
+            "nx × nx, nx the number of rows of `a`",
+        );
+        ok &= expect_shape(
+            diags,
+            "model.b",
+            b,
+            nx,
+            b.value.cols,
+            "nx × nu, nx the size of `a`",
+        );
+        ok &= expect_shape(
+            diags,
+            "model.c",
+            c,
+            c.value.rows,
+            nx,
+            "ny × nx, nx the size of `a`",
+        );
         if !ok {
             return None;
         }
-        ModelKind::Linear { a: a.value.clone(), b: b.value.clone(), c: c.value.clone() }
+        ModelKind::Linear {
+            a: a.value.clone(),
+            b: b.value.clone(),
+            c: c.value.clone(),
+        }
     };
     Some(Model { kind, dt })
 }
@@ -99,9 +129,12 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
     let qf = match (&raw.qf, &raw.qf_scale) {
         (Some(_), Some(scale)) => {
             diags.push(
-                Diagnostic::new("`qf` and `qf_scale` cannot both be given", scale.span.clone())
-                    .label("remove this or `qf`")
-                    .note("hint: `qf_scale = k` means Qf = k·Q"),
+                Diagnostic::new(
+                    "`qf` and `qf_scale` cannot both be given",
+                    scale.span.clone(),
+                )
+                .label("remove this or `qf`")
+                .note("hint: `qf_scale = k` means Qf = k·Q"),
             );
             None
         }
@@ -150,13 +183,24 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
 /// symmetric of sizes nx and ny; `p0` is nx × nx.
 fn check_kalman(raw: &Raw, model: &Model, diags: &mut Diagnostics) -> Option<Kalman> {
     let (nx, ny) = (model.kind.nx(), model.kind.ny());
-    let sigma = raw.sigma_a.as_ref().map(|x| x.span.clone()).or(raw.sigma_meas.as_ref().map(|x| x.span.clone()));
-    let full = raw.kalman_q.as_ref().map(|x| x.span.clone()).or(raw.kalman_r.as_ref().map(|x| x.span.clone()));
+    let sigma = raw
+        .sigma_a
+        .as_ref()
+        .map(|x| x.span.clone())
+        .or(raw.sigma_meas.as_ref().map(|x| x.span.clone()));
+    let full = raw
+        .kalman_q
+        .as_ref()
+        .map(|x| x.span.clone())
+        .or(raw.kalman_r.as_ref().map(|x| x.span.clone()));
     let noise = match (sigma, full) {
         (Some(_), Some(full)) => {
             diags.push(
-                Diagnostic::new("give either `sigma_a` and `sigma_meas`, or `q` and `r`, not both", full)
-                    .label("conflicts with `sigma_a`/`sigma_meas`"),
+                Diagnostic::new(
+                    "give either `sigma_a` and `sigma_meas`, or `q` and `r`, not both",
+                    full,
+                )
+                .label("conflicts with `sigma_a`/`sigma_meas`"),
             );
             None
         }
@@ -190,7 +234,10 @@ fn check_kalman(raw: &Raw, model: &Model, diags: &mut Diagnostics) -> Option<Kal
                         }
                     },
                 };
-                Some(KalmanNoise::WhiteAcceleration { sigma_a: sigma_a?, sigma_meas: sigma_meas? })
+                Some(KalmanNoise::WhiteAcceleration {
+                    sigma_a: sigma_a?,
+                    sigma_meas: sigma_meas?,
+                })
             }
         }
         (None, Some(_)) => {
@@ -205,8 +252,11 @@ fn check_kalman(raw: &Raw, model: &Model, diags: &mut Diagnostics) -> Option<Kal
             if let Some(r) = &r {
                 if (0..ny).any(|i| r.get(i, i) <= 0.0) {
                     diags.push(
-                        Diagnostic::new("`kalman.r` must be positive definite", raw.kalman_r.as_ref().map(|x| x.span.clone()))
-                            .label("a zero diagonal entry"),
+                        Diagnostic::new(
+                            "`kalman.r` must be positive definite",
+                            raw.kalman_r.as_ref().map(|x| x.span.clone()),
+                        )
+                        .label("a zero diagonal entry"),
                     );
                 }
             }
@@ -221,54 +271,102 @@ fn check_kalman(raw: &Raw, model: &Model, diags: &mut Diagnostics) -> Option<Kal
         Some("steady_state") => FilterKind::SteadyState,
         _ => FilterKind::TimeVarying,
     };
-    Some(Kalman { noise: noise?, p0: p0?, filter })
+    Some(Kalman {
+        noise: noise?,
+        p0: p0?,
+        filter,
+    })
 }
 
-fn required<T: Clone>(diags: &mut Diagnostics, v: Option<&Located<T>>, key: &str, table: &Span) -> Option<T> {
+fn required<T: Clone>(
+    diags: &mut Diagnostics,
+    v: Option<&Located<T>>,
+    key: &str,
+    table: &Span,
+) -> Option<T> {
     if v.is_none() {
-        diags.push(Diagnostic::new(format!("missing key `{key}` in `[kalman]`"), table.clone()).label(format!("`{key}` is required here")));
+        diags.push(
+            Diagnostic::new(format!("missing key `{key}` in `[kalman]`"), table.clone())
+                .label(format!("`{key}` is required here")),
+        );
     }
     v.map(|x| x.value.clone())
 }
 
 /// A square symmetric matrix of size n from a number, a diagonal or a full matrix.
-fn square(diags: &mut Diagnostics, path: &str, m: Option<&Located<MatrixInput>>, n: usize, dim: &str) -> Option<Matrix> {
+fn square(
+    diags: &mut Diagnostics,
+    path: &str,
+    m: Option<&Located<MatrixInput>>,
+    n: usize,
+    dim: &str,
+) -> Option<Matrix> {
     let m = m?;
     match m.value.to_square(n) {
         Ok(mat) if mat.is_symmetric() => Some(mat),
         Ok(_) => {
-            diags.push(Diagnostic::new(format!("`{path}` must be symmetric"), m.span.clone()).label("not equal to its transpose"));
+            diags.push(
+                Diagnostic::new(format!("`{path}` must be symmetric"), m.span.clone())
+                    .label("not equal to its transpose"),
+            );
             None
         }
         Err(found) => {
             diags.push(
-                Diagnostic::new(format!("`{path}` must be {n}×{n} ({dim} = {n}), found {found}"), m.span.clone())
-                    .label(format!("expected {n} diagonal entries or a {n}×{n} matrix")),
+                Diagnostic::new(
+                    format!("`{path}` must be {n}×{n} ({dim} = {n}), found {found}"),
+                    m.span.clone(),
+                )
+                .label(format!("expected {n} diagonal entries or a {n}×{n} matrix")),
             );
             None
         }
     }
 }
 
-fn bound(diags: &mut Diagnostics, path: &str, v: Option<&Located<Vec<f64>>>, nu: usize) -> Option<Vec<f64>> {
+fn bound(
+    diags: &mut Diagnostics,
+    path: &str,
+    v: Option<&Located<Vec<f64>>>,
+    nu: usize,
+) -> Option<Vec<f64>> {
     let v = v?;
     if v.value.len() != nu {
         diags.push(
-            Diagnostic::new(format!("`{path}` must have {nu} entries (nu = {nu}), found {}", v.value.len()), v.span.clone())
-                .label(format!("expected {nu} entries")),
+            Diagnostic::new(
+                format!(
+                    "`{path}` must have {nu} entries (nu = {nu}), found {}",
+                    v.value.len()
+                ),
+                v.span.clone(),
+            )
+            .label(format!("expected {nu} entries")),
         );
         return None;
     }
     Some(v.value.clone())
 }
 
-fn expect_shape(diags: &mut Diagnostics, path: &str, m: &Located<Matrix>, rows: usize, cols: usize, what: &str) -> bool {
+fn expect_shape(
+    diags: &mut Diagnostics,
+    path: &str,
+    m: &Located<Matrix>,
+    rows: usize,
+    cols: usize,
+    what: &str,
+) -> bool {
     if m.value.rows == rows && m.value.cols == cols {
         return true;
     }
     diags.push(
-        Diagnostic::new(format!("`{path}` must be {rows}×{cols} ({what}), found {}×{}", m.value.rows, m.value.cols), m.span.clone())
-            .label("wrong shape"),
+        Diagnostic::new(
+            format!(
+                "`{path}` must be {rows}×{cols} ({what}), found {}×{}",
+                m.value.rows, m.value.cols
+            ),
+            m.span.clone(),
+        )
+        .label("wrong shape"),
     );
     false
 }

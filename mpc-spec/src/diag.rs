@@ -19,7 +19,12 @@ pub struct Diagnostic {
 impl Diagnostic {
     /// A diagnostic at `span`.
     pub fn new(message: impl Into<String>, span: impl Into<Option<Span>>) -> Self {
-        Diagnostic { message: message.into(), span: span.into(), label: None, note: None }
+        Diagnostic {
+            message: message.into(),
+            span: span.into(),
+            label: None,
+            note: None,
+        }
     }
 
     /// With a label under the span.
@@ -71,7 +76,8 @@ impl Diagnostics {
 
     /// The diagnostics sorted by position, unlocated ones last.
     pub fn sorted(mut self) -> Self {
-        self.0.sort_by_key(|d| d.span.as_ref().map_or(usize::MAX, |s| s.start));
+        self.0
+            .sort_by_key(|d| d.span.as_ref().map_or(usize::MAX, |s| s.start));
         self
     }
 

@@ -16,7 +16,16 @@ pub const TABLES: &[&str] = &[MODEL, MPC, KALMAN, CODEGEN];
 pub const MODEL_KEYS: &[&str] = &["type", "axes", "dt", "a", "b", "c"];
 /// Keys of `[mpc]`.
 pub const MPC_KEYS: &[&str] = &[
-    "horizon", "iterations", "method", "step", "q", "r", "qf", "qf_scale", "u_min", "u_max",
+    "horizon",
+    "iterations",
+    "method",
+    "step",
+    "q",
+    "r",
+    "qf",
+    "qf_scale",
+    "u_min",
+    "u_max",
 ];
 /// Keys of `[kalman]`.
 pub const KALMAN_KEYS: &[&str] = &["sigma_a", "sigma_meas", "q", "r", "p0", "filter"];

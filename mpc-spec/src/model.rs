@@ -22,7 +22,11 @@ impl Matrix {
     pub fn from_rows(rows: &[Vec<f64>]) -> Self {
         let cols = rows.first().map_or(0, Vec::len);
         assert!(rows.iter().all(|r| r.len() == cols), "ragged rows");
-        Matrix { rows: rows.len(), cols, data: rows.concat() }
+        Matrix {
+            rows: rows.len(),
+            cols,
+            data: rows.concat(),
+        }
     }
 
     /// A square diagonal matrix.
@@ -32,7 +36,11 @@ impl Matrix {
         for (i, d) in diag.iter().enumerate() {
             data[i * n + i] = *d;
         }
-        Matrix { rows: n, cols: n, data }
+        Matrix {
+            rows: n,
+            cols: n,
+            data,
+        }
     }
 
     /// Entry (i, j).
@@ -42,16 +50,18 @@ impl Matrix {
 
     /// Every entry multiplied by `k`.
     pub fn scaled(&self, k: f64) -> Self {
-        Matrix { data: self.data.iter().map(|v| v * k).collect(), ..self.clone() }
+        Matrix {
+            data: self.data.iter().map(|v| v * k).collect(),
+            ..self.clone()
+        }
     }
 
     /// Whether the matrix is square and equal to its transpose up to a relative tolerance.
     pub fn is_symmetric(&self) -> bool {
         let scale = self.data.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
         self.rows == self.cols
-            && (0..self.rows).all(|i| {
-                (0..i).all(|j| (self.get(i, j) - self.get(j, i)).abs() <= 1e-12 * scale)
-            })
+            && (0..self.rows)
+                .all(|i| (0..i).all(|j| (self.get(i, j) - self.get(j, i)).abs() <= 1e-12 * scale))
     }
 }
 

@@ -96,11 +96,17 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
     let root = match DeTable::parse(source) {
         Ok(root) => root,
         Err(e) => {
-            diags.push(Diagnostic::new(format!("invalid TOML: {}", e.message().trim()), e.span()));
+            diags.push(Diagnostic::new(
+                format!("invalid TOML: {}", e.message().trim()),
+                e.span(),
+            ));
             return raw;
         }
     };
-    let mut p = Parser { diags, spans: BTreeMap::new() };
+    let mut p = Parser {
+        diags,
+        spans: BTreeMap::new(),
+    };
     let root_span = root.span();
     let root = root.get_ref();
     p.unknown_keys(root, keys::TABLES, "the spec", "table");
@@ -108,9 +114,13 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
     if let Some((span, t)) = p.table(root, keys::MODEL, &root_span, true) {
         raw.model_span = span.clone();
         p.unknown_keys(t, keys::MODEL_KEYS, "[model]", "key");
-        raw.model_type = p.required(t, "model", "type", &span).and_then(|v| p.choice(v, "model.type", keys::MODEL_TYPES));
+        raw.model_type = p
+            .required(t, "model", "type", &span)
+            .and_then(|v| p.choice(v, "model.type", keys::MODEL_TYPES));
         raw.axes = t.get("axes").and_then(|v| p.count(v, "model.axes", 1));
-        raw.dt = p.required(t, "model", "dt", &span).and_then(|v| p.positive(v, "model.dt"));
+        raw.dt = p
+            .required(t, "model", "dt", &span)
+            .and_then(|v| p.positive(v, "model.dt"));
         raw.a = t.get("a").and_then(|v| p.matrix(v, "model.a"));
         raw.b = t.get("b").and_then(|v| p.matrix(v, "model.b"));
         raw.c = t.get("c").and_then(|v| p.matrix(v, "model.c"));
@@ -118,31 +128,60 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
     if let Some((span, t)) = p.table(root, keys::MPC, &root_span, true) {
         raw.mpc_span = span.clone();
         p.unknown_keys(t, keys::MPC_KEYS, "[mpc]", "key");
-        raw.horizon = p.required(t, "mpc", "horizon", &span).and_then(|v| p.count(v, "mpc.horizon", 1));
-        raw.iterations =
-            p.required(t, "mpc", "iterations", &span).and_then(|v| p.count(v, "mpc.iterations", 1));
-        raw.method = t.get("method").and_then(|v| p.choice(v, "mpc.method", keys::METHODS));
+        raw.horizon = p
+            .required(t, "mpc", "horizon", &span)
+            .and_then(|v| p.count(v, "mpc.horizon", 1));
+        raw.iterations = p
+            .required(t, "mpc", "iterations", &span)
+            .and_then(|v| p.count(v, "mpc.iterations", 1));
+        raw.method = t
+            .get("method")
+            .and_then(|v| p.choice(v, "mpc.method", keys::METHODS));
         raw.step = t.get("step").and_then(|v| p.step(v));
-        raw.q = p.required(t, "mpc", "q", &span).and_then(|v| p.matrix_input(v, "mpc.q", false));
-        raw.r = p.required(t, "mpc", "r", &span).and_then(|v| p.matrix_input(v, "mpc.r", false));
+        raw.q = p
+            .required(t, "mpc", "q", &span)
+            .and_then(|v| p.matrix_input(v, "mpc.q", false));
+        raw.r = p
+            .required(t, "mpc", "r", &span)
+            .and_then(|v| p.matrix_input(v, "mpc.r", false));
         raw.qf = t.get("qf").and_then(|v| p.matrix_input(v, "mpc.qf", false));
-        raw.qf_scale = t.get("qf_scale").and_then(|v| p.non_negative(v, "mpc.qf_scale"));
-        raw.u_min = p.required(t, "mpc", "u_min", &span).and_then(|v| p.vector(v, "mpc.u_min"));
-        raw.u_max = p.required(t, "mpc", "u_max", &span).and_then(|v| p.vector(v, "mpc.u_max"));
+        raw.qf_scale = t
+            .get("qf_scale")
+            .and_then(|v| p.non_negative(v, "mpc.qf_scale"));
+        raw.u_min = p
+            .required(t, "mpc", "u_min", &span)
+            .and_then(|v| p.vector(v, "mpc.u_min"));
+        raw.u_max = p
+            .required(t, "mpc", "u_max", &span)
+            .and_then(|v| p.vector(v, "mpc.u_max"));
     }
     if let Some((span, t)) = p.table(root, keys::KALMAN, &root_span, true) {
         raw.kalman_span = span;
         p.unknown_keys(t, keys::KALMAN_KEYS, "[kalman]", "key");
-        raw.sigma_a = t.get("sigma_a").and_then(|v| p.positive(v, "kalman.sigma_a"));
-        raw.sigma_meas = t.get("sigma_meas").and_then(|v| p.matrix_input(v, "kalman.sigma_meas", true));
-        raw.kalman_q = t.get("q").and_then(|v| p.matrix_input(v, "kalman.q", false));
-        raw.kalman_r = t.get("r").and_then(|v| p.matrix_input(v, "kalman.r", false));
-        raw.p0 = t.get("p0").and_then(|v| p.matrix_input(v, "kalman.p0", false));
-        raw.filter = t.get("filter").and_then(|v| p.choice(v, "kalman.filter", keys::FILTERS));
+        raw.sigma_a = t
+            .get("sigma_a")
+            .and_then(|v| p.positive(v, "kalman.sigma_a"));
+        raw.sigma_meas = t
+            .get("sigma_meas")
+            .and_then(|v| p.matrix_input(v, "kalman.sigma_meas", true));
+        raw.kalman_q = t
+            .get("q")
+            .and_then(|v| p.matrix_input(v, "kalman.q", false));
+        raw.kalman_r = t
+            .get("r")
+            .and_then(|v| p.matrix_input(v, "kalman.r", false));
+        raw.p0 = t
+            .get("p0")
+            .and_then(|v| p.matrix_input(v, "kalman.p0", false));
+        raw.filter = t
+            .get("filter")
+            .and_then(|v| p.choice(v, "kalman.filter", keys::FILTERS));
     }
     if let Some((_, t)) = p.table(root, keys::CODEGEN, &root_span, false) {
         p.unknown_keys(t, keys::CODEGEN_KEYS, "[codegen]", "key");
-        raw.scalar = t.get("scalar").and_then(|v| p.choice(v, "codegen.scalar", keys::SCALARS));
+        raw.scalar = t
+            .get("scalar")
+            .and_then(|v| p.choice(v, "codegen.scalar", keys::SCALARS));
     }
     raw.spans = p.spans;
     raw
@@ -169,8 +208,13 @@ impl Parser<'_> {
         let Some(v) = root.get(name) else {
             if required {
                 self.err(
-                    Diagnostic::new(format!("missing table `[{name}]`"), root_span.start..root_span.start)
-                        .note(format!("hint: every spec has `[model]`, `[mpc]` and `[kalman]`; add `[{name}]`")),
+                    Diagnostic::new(
+                        format!("missing table `[{name}]`"),
+                        root_span.start..root_span.start,
+                    )
+                    .note(format!(
+                        "hint: every spec has `[model]`, `[mpc]` and `[kalman]`; add `[{name}]`"
+                    )),
                 );
             }
             return None;
@@ -182,8 +226,13 @@ impl Parser<'_> {
             DeValue::Table(t) => Some((key_span, t)),
             other => {
                 self.err(
-                    Diagnostic::new(format!("`{name}` must be a table, found {}", other.type_str()), v.span())
-                        .note(format!("hint: write `[{name}]` on a line of its own, followed by its keys")),
+                    Diagnostic::new(
+                        format!("`{name}` must be a table, found {}", other.type_str()),
+                        v.span(),
+                    )
+                    .note(format!(
+                        "hint: write `[{name}]` on a line of its own, followed by its keys"
+                    )),
                 );
                 None
             }
@@ -206,7 +255,10 @@ impl Parser<'_> {
             d = if closest.0 > 0.8 {
                 d.note(format!("hint: did you mean `{}`?", closest.1))
             } else {
-                d.note(format!("hint: the {what}s allowed here are {}", quoted(allowed)))
+                d.note(format!(
+                    "hint: the {what}s allowed here are {}",
+                    quoted(allowed)
+                ))
             };
             self.err(d);
         }
@@ -222,8 +274,11 @@ impl Parser<'_> {
         let v = t.get(key);
         if v.is_none() {
             self.err(
-                Diagnostic::new(format!("missing key `{key}` in `[{table}]`"), table_span.clone())
-                    .label(format!("`{key}` is required in this table")),
+                Diagnostic::new(
+                    format!("missing key `{key}` in `[{table}]`"),
+                    table_span.clone(),
+                )
+                .label(format!("`{key}` is required in this table")),
             );
         }
         v
@@ -231,18 +286,26 @@ impl Parser<'_> {
 
     fn located<T>(&mut self, path: &str, v: &Value<'_>, value: T) -> Located<T> {
         self.spans.insert(path.to_string(), v.span());
-        Located { value, span: v.span() }
+        Located {
+            value,
+            span: v.span(),
+        }
     }
 
     /// A finite number, written as an integer or a float.
     fn number_of(&mut self, v: &Value<'_>, path: &str) -> Option<f64> {
         let parsed = match v.get_ref() {
-            DeValue::Integer(i) => i64::from_str_radix(&i.as_str().replace('_', ""), i.radix()).ok().map(|i| i as f64),
+            DeValue::Integer(i) => i64::from_str_radix(&i.as_str().replace('_', ""), i.radix())
+                .ok()
+                .map(|i| i as f64),
             DeValue::Float(f) => f.as_str().replace('_', "").parse::<f64>().ok(),
             other => {
                 self.err(
-                    Diagnostic::new(format!("`{path}` must be a number, found {}", other.type_str()), v.span())
-                        .label("expected a number"),
+                    Diagnostic::new(
+                        format!("`{path}` must be a number, found {}", other.type_str()),
+                        v.span(),
+                    )
+                    .label("expected a number"),
                 );
                 return None;
             }
@@ -250,7 +313,10 @@ impl Parser<'_> {
         match parsed {
             Some(x) if x.is_finite() => Some(x),
             _ => {
-                self.err(Diagnostic::new(format!("`{path}` must be a finite number"), v.span()).label("not finite"));
+                self.err(
+                    Diagnostic::new(format!("`{path}` must be a finite number"), v.span())
+                        .label("not finite"),
+                );
                 None
             }
         }
@@ -266,7 +332,13 @@ impl Parser<'_> {
         if x.value > 0.0 {
             return Some(x);
         }
-        self.err(Diagnostic::new(format!("`{path}` must be positive, found {}", x.value), v.span()).label("must be > 0"));
+        self.err(
+            Diagnostic::new(
+                format!("`{path}` must be positive, found {}", x.value),
+                v.span(),
+            )
+            .label("must be > 0"),
+        );
         None
     }
 
@@ -275,18 +347,32 @@ impl Parser<'_> {
         if x.value >= 0.0 {
             return Some(x);
         }
-        self.err(Diagnostic::new(format!("`{path}` must not be negative, found {}", x.value), v.span()).label("must be ≥ 0"));
+        self.err(
+            Diagnostic::new(
+                format!("`{path}` must not be negative, found {}", x.value),
+                v.span(),
+            )
+            .label("must be ≥ 0"),
+        );
         None
     }
 
     /// A whole number of at least `min`.
     fn count(&mut self, v: &Value<'_>, path: &str, min: i64) -> Option<Located<usize>> {
         let n = match v.get_ref() {
-            DeValue::Integer(i) => i64::from_str_radix(&i.as_str().replace('_', ""), i.radix()).ok(),
+            DeValue::Integer(i) => {
+                i64::from_str_radix(&i.as_str().replace('_', ""), i.radix()).ok()
+            }
             other => {
                 self.err(
-                    Diagnostic::new(format!("`{path}` must be a whole number, found {}", other.type_str()), v.span())
-                        .label("expected an integer"),
+                    Diagnostic::new(
+                        format!(
+                            "`{path}` must be a whole number, found {}",
+                            other.type_str()
+                        ),
+                        v.span(),
+                    )
+                    .label("expected an integer"),
                 );
                 return None;
             }
@@ -295,8 +381,11 @@ impl Parser<'_> {
             Some(n) if n >= min && n <= 100_000 => Some(self.located(path, v, n as usize)),
             _ => {
                 self.err(
-                    Diagnostic::new(format!("`{path}` must be between {min} and 100000"), v.span())
-                        .label("out of range"),
+                    Diagnostic::new(
+                        format!("`{path}` must be between {min} and 100000"),
+                        v.span(),
+                    )
+                    .label("out of range"),
                 );
                 None
             }
@@ -320,8 +409,11 @@ impl Parser<'_> {
             }
             other => {
                 self.err(
-                    Diagnostic::new(format!("`{path}` must be a string, found {}", other.type_str()), v.span())
-                        .note(format!("hint: expected one of {}", quoted(options))),
+                    Diagnostic::new(
+                        format!("`{path}` must be a string, found {}", other.type_str()),
+                        v.span(),
+                    )
+                    .note(format!("hint: expected one of {}", quoted(options))),
                 );
                 None
             }
@@ -339,21 +431,34 @@ impl Parser<'_> {
                 );
                 None
             }
-            _ => self.positive(v, "mpc.step").map(|x| Located { value: Some(x.value), span: x.span }),
+            _ => self.positive(v, "mpc.step").map(|x| Located {
+                value: Some(x.value),
+                span: x.span,
+            }),
         }
     }
 
-    fn array<'a, 'i>(&mut self, v: &'a Value<'i>, path: &str, what: &str) -> Option<&'a [Value<'i>]> {
+    fn array<'a, 'i>(
+        &mut self,
+        v: &'a Value<'i>,
+        path: &str,
+        what: &str,
+    ) -> Option<&'a [Value<'i>]> {
         match v.get_ref() {
             DeValue::Array(a) if !a.is_empty() => Some(a),
             DeValue::Array(_) => {
-                self.err(Diagnostic::new(format!("`{path}` must not be empty"), v.span()).label("empty"));
+                self.err(
+                    Diagnostic::new(format!("`{path}` must not be empty"), v.span()).label("empty"),
+                );
                 None
             }
             other => {
                 self.err(
-                    Diagnostic::new(format!("`{path}` must be {what}, found {}", other.type_str()), v.span())
-                        .label(format!("expected {what}")),
+                    Diagnostic::new(
+                        format!("`{path}` must be {what}, found {}", other.type_str()),
+                        v.span(),
+                    )
+                    .label(format!("expected {what}")),
                 );
                 None
             }
@@ -377,8 +482,12 @@ impl Parser<'_> {
         }
         if out.iter().any(|r| r.len() != out[0].len()) {
             self.err(
-                Diagnostic::new(format!("the rows of `{path}` differ in length"), v.span())
-                    .label(format!("row lengths {:?}", out.iter().map(Vec::len).collect::<Vec<_>>())),
+                Diagnostic::new(format!("the rows of `{path}` differ in length"), v.span()).label(
+                    format!(
+                        "row lengths {:?}",
+                        out.iter().map(Vec::len).collect::<Vec<_>>()
+                    ),
+                ),
             );
             return None;
         }
@@ -386,28 +495,48 @@ impl Parser<'_> {
     }
 
     /// A number, a list (a diagonal) or a list of lists (a full matrix).
-    fn matrix_input(&mut self, v: &Value<'_>, path: &str, positive: bool) -> Option<Located<MatrixInput>> {
+    fn matrix_input(
+        &mut self,
+        v: &Value<'_>,
+        path: &str,
+        positive: bool,
+    ) -> Option<Located<MatrixInput>> {
         let input = match v.get_ref() {
-            DeValue::Integer(_) | DeValue::Float(_) => MatrixInput::Scalar(self.number_of(v, path)?),
+            DeValue::Integer(_) | DeValue::Float(_) => {
+                MatrixInput::Scalar(self.number_of(v, path)?)
+            }
             DeValue::Array(a) if a.first().is_some_and(|x| x.get_ref().is_array()) => {
                 MatrixInput::Full(self.matrix(v, path)?.value)
             }
             DeValue::Array(_) => MatrixInput::Diagonal(self.vector(v, path)?.value),
             other => {
                 self.err(
-                    Diagnostic::new(format!("`{path}` must be a number, a list or a list of lists, found {}", other.type_str()), v.span())
-                        .note("hint: a list is a diagonal; a list of lists is a full matrix"),
+                    Diagnostic::new(
+                        format!(
+                            "`{path}` must be a number, a list or a list of lists, found {}",
+                            other.type_str()
+                        ),
+                        v.span(),
+                    )
+                    .note("hint: a list is a diagonal; a list of lists is a full matrix"),
                 );
                 return None;
             }
         };
         let diag = input.written_diagonal();
-        let bad = if positive { diag.iter().any(|d| *d <= 0.0) } else { diag.iter().any(|d| *d < 0.0) };
+        let bad = if positive {
+            diag.iter().any(|d| *d <= 0.0)
+        } else {
+            diag.iter().any(|d| *d < 0.0)
+        };
         if bad {
             let rule = if positive { "positive" } else { "non-negative" };
             self.err(
                 Diagnostic::new(format!("the diagonal of `{path}` must be {rule}"), v.span())
-                    .label(format!("a {} diagonal entry", if positive { "non-positive" } else { "negative" })),
+                    .label(format!(
+                        "a {} diagonal entry",
+                        if positive { "non-positive" } else { "negative" }
+                    )),
             );
             return None;
         }
@@ -416,5 +545,9 @@ impl Parser<'_> {
 }
 
 fn quoted(options: &[&str]) -> String {
-    options.iter().map(|o| format!("`{o}`")).collect::<Vec<_>>().join(", ")
+    options
+        .iter()
+        .map(|o| format!("`{o}`"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }

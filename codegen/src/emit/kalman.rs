@@ -1,0 +1,348 @@
+//! The linear Kalman filter (paper Section 2.3): time-varying with a Joseph-form update, or with the
+//! steady-state gain solved at compile time.
+#![allow(non_snake_case)]
+
+use super::tokens::{at1, Num};
+use crate::lower::Problem;
+use mpc_spec::FilterKind;
+use proc_macro2::{Literal, TokenStream};
+use quote::{format_ident, quote};
+
+/// The `Kalman` type and its unrolled kernels.
+pub fn emit(p: &Problem, num: Num) -> TokenStream {
+    let (nx, nu, ny) = (p.nx, p.nu, p.ny);
+    let (x, u) = (quote!(x), quote!(u));
+    // x⁺ = F x + G u (eq. 1 without noise).
+    let predict_rows = (0..nx).map(|i| {
+        let fx = (0..nx).map(|k| (p.F[(i, k)], at1(&x, k)));
+        let gu = (0..nu).map(|k| (p.G[(i, k)], at1(&u, k)));
+        num.sum(None, fx.chain(gu))
+    });
+    // C x, the predicted measurement.
+    let measure_rows = (0..ny).map(|i| num.sum(None, (0..nx).map(|k| (p.C[(i, k)], at1(&x, k)))));
+    let kernels = quote! {
+        /// F·x + G·u (eq. 1), unrolled.
+        #[inline(always)]
+        fn predict_state(x: &[Real; NX], u: &[Real; NU]) -> [Real; NX] {
+            [#(#predict_rows),*]
+        }
+
+        /// C·x, the predicted measurement, unrolled.
+        #[inline(always)]
+        fn measure(x: &[Real; NX]) -> [Real; NY] {
+            [#(#measure_rows),*]
+        }
+    };
+    match p.filter.kind {
+        FilterKind::SteadyState => steady_state(p, num, kernels),
+        FilterKind::TimeVarying => time_varying(p, num, kernels),
+    }
+}
+
+fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
+    let (nx, ny) = (p.nx, p.ny);
+    let innovation = quote!(innovation);
+    let x = quote!(x);
+    let correct_rows = (0..nx).map(|i| {
+        num.sum(
+            Some(at1(&x, i)),
+            (0..ny).map(|j| (p.filter.K_inf[(i, j)], at1(&innovation, j))),
+        )
+    });
+    quote! {
+        #kernels
+
+        /// x + K∞·innovation, unrolled over the steady-state gain.
+        #[inline(always)]
+        fn correct(x: &[Real; NX], innovation: &[Real; NY]) -> [Real; NX] {
+            [#(#correct_rows),*]
+        }
+
+        /// The steady-state Kalman filter: the gain K∞ of the discrete Riccati equation, fixed at compile time.
+        #[derive(Clone, Debug, PartialEq)]
+        pub struct Kalman {
+            x: [Real; NX],
+        }
+
+        impl Kalman {
+            /// A filter whose estimate starts at `x0`.
+            pub const fn new(x0: [Real; NX]) -> Self {
+                Kalman { x: x0 }
+            }
+
+            /// The time update x ← F x + G u. A non-finite `u` changes nothing.
+            pub fn predict(&mut self, u: &[Real; NU]) {
+                if all_finite(u) {
+                    let x = predict_state(&self.x, u);
+                    if all_finite(&x) {
+                        self.x = x;
+                    }
+                }
+            }
+
+            /// The measurement update with z. Returns false, changing nothing, for a non-finite `z`
+            /// or a non-finite result.
+            pub fn update(&mut self, z: &[Real; NY]) -> bool {
+                if !all_finite(z) {
+                    return false;
+                }
+                let predicted = measure(&self.x);
+                let mut innovation = *z;
+                for (e, zp) in innovation.iter_mut().zip(predicted.iter()) {
+                    *e -= *zp;
+                }
+                let x = correct(&self.x, &innovation);
+                if !all_finite(&x) {
+                    return false;
+                }
+                self.x = x;
+                true
+            }
+
+            /// The estimate.
+            pub fn state(&self) -> &[Real; NX] {
+                &self.x
+            }
+
+            /// The covariance the gain was computed from: the steady-state prior P∞.
+            pub fn covariance(&self) -> &[[Real; NX]; NX] {
+                &P_INF
+            }
+        }
+    }
+}
+
+fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
+    let (nx, ny) = (p.nx, p.ny);
+    let (P, FP, PCt, K) = (quote!(P), quote!(FP), quote!(PCt), quote!(K));
+    let ix = |i: usize| Literal::usize_unsuffixed(i);
+    let m = |name: &TokenStream, i: usize, j: usize| {
+        let (i, j) = (ix(i), ix(j));
+        quote!(#name[#i][#j])
+    };
+    // F·P, then (F·P)·Fᵀ + Q, upper triangle computed and mirrored so P stays symmetric.
+    let fp_rows = (0..nx).map(|i| {
+        let row = (0..nx).map(|j| num.sum(None, (0..nx).map(|k| (p.F[(i, k)], m(&P, k, j)))));
+        quote!([#(#row),*])
+    });
+    let mut propagate = Vec::new();
+    for i in 0..nx {
+        for j in i..nx {
+            let e = num.sum(None, (0..nx).map(|k| (p.F[(j, k)], m(&FP, i, k))));
+            let q = num.lit(p.filter.Qn[(i, j)]);
+            let (ii, jj) = (ix(i), ix(j));
+            let value = if num.round(p.filter.Qn[(i, j)]) == 0.0 {
+                e
+            } else {
+                quote!(#e + #q)
+            };
+            propagate.push(quote!(out[#ii][#jj] = #value;));
+            if i != j {
+                propagate.push(quote!(out[#jj][#ii] = out[#ii][#jj];));
+            }
+        }
+    }
+    // P·Cᵀ (nx × ny) and C·(P·Cᵀ) + R (ny × ny).
+    let pct_rows = (0..nx).map(|i| {
+        let row = (0..ny).map(|j| num.sum(None, (0..nx).map(|k| (p.C[(j, k)], m(&P, i, k)))));
+        quote!([#(#row),*])
+    });
+    let s_rows = (0..ny).map(|i| {
+        let row = (0..ny).map(|j| {
+            let e = num.sum(None, (0..nx).map(|k| (p.C[(i, k)], m(&PCt, k, j))));
+            let r = num.lit(p.filter.Rn[(i, j)]);
+            if num.round(p.filter.Rn[(i, j)]) == 0.0 {
+                e
+            } else {
+                quote!(#e + #r)
+            }
+        });
+        quote!([#(#row),*])
+    });
+    // I − K·C.
+    let ikc_rows = (0..nx).map(|i| {
+        let row = (0..nx).map(|j| {
+            let one = if i == j { Some(num.lit(1.0)) } else { None };
+            num.sum(one, (0..ny).map(|l| (-p.C[(l, j)], m(&K, i, l))))
+        });
+        quote!([#(#row),*])
+    });
+    let inverse = spd_inverse(ny);
+    quote! {
+        #kernels
+
+        /// F·P, unrolled over the nonzeros of F.
+        #[inline(always)]
+        fn f_times(P: &[[Real; NX]; NX]) -> [[Real; NX]; NX] {
+            [#(#fp_rows),*]
+        }
+
+        /// F·P·Fᵀ + Q, symmetric by construction.
+        #[inline(always)]
+        fn propagate(P: &[[Real; NX]; NX]) -> [[Real; NX]; NX] {
+            let FP = f_times(P);
+            let mut out = [[0.0; NX]; NX];
+            #(#propagate)*
+            out
+        }
+
+        /// P·Cᵀ, unrolled over the nonzeros of C.
+        #[inline(always)]
+        fn times_c_transpose(P: &[[Real; NX]; NX]) -> [[Real; NY]; NX] {
+            [#(#pct_rows),*]
+        }
+
+        /// The innovation covariance C·P·Cᵀ + R from P·Cᵀ.
+        #[inline(always)]
+        fn innovation_covariance(PCt: &[[Real; NY]; NX]) -> [[Real; NY]; NY] {
+            [#(#s_rows),*]
+        }
+
+        /// I − K·C.
+        #[inline(always)]
+        fn i_minus_kc(K: &[[Real; NY]; NX]) -> [[Real; NX]; NX] {
+            [#(#ikc_rows),*]
+        }
+
+        #inverse
+
+        /// The time-varying Kalman filter (paper eqs. 1-3), with a Joseph-form covariance update that keeps
+        /// P symmetric positive definite in finite precision.
+        #[derive(Clone, Debug, PartialEq)]
+        pub struct Kalman {
+            x: [Real; NX],
+            P: [[Real; NX]; NX],
+        }
+
+        impl Kalman {
+            /// A filter whose estimate starts at `x0`, with covariance P0.
+            pub const fn new(x0: [Real; NX]) -> Self {
+                Kalman { x: x0, P: P0 }
+            }
+
+            /// The time update x ← F x + G u, P ← F P Fᵀ + Q. A non-finite `u` changes nothing.
+            pub fn predict(&mut self, u: &[Real; NU]) {
+                if !all_finite(u) {
+                    return;
+                }
+                let x = predict_state(&self.x, u);
+                let P = propagate(&self.P);
+                if all_finite(&x) && P.iter().all(|row| all_finite(row)) {
+                    self.x = x;
+                    self.P = P;
+                }
+            }
+
+            /// The measurement update with z: K = P Cᵀ (C P Cᵀ + R)⁻¹, x ← x + K (z − C x),
+            /// P ← (I − K C) P (I − K C)ᵀ + K R Kᵀ. Returns false, changing nothing, for a non-finite `z`,
+            /// an innovation covariance that is not positive definite, or a non-finite result.
+            pub fn update(&mut self, z: &[Real; NY]) -> bool {
+                if !all_finite(z) {
+                    return false;
+                }
+                let PCt = times_c_transpose(&self.P);
+                let Some(S_inv) = spd_inverse(&innovation_covariance(&PCt)) else {
+                    return false;
+                };
+                let K = mat_mul(&PCt, &S_inv);
+                let predicted = measure(&self.x);
+                let mut x = self.x;
+                for (x_i, K_i) in x.iter_mut().zip(K.iter()) {
+                    for ((k, z), zp) in K_i.iter().zip(z.iter()).zip(predicted.iter()) {
+                        *x_i += *k * (*z - *zp);
+                    }
+                }
+                let A = i_minus_kc(&K);
+                let KR = mat_mul(&K, &R_NOISE);
+                let mut P = mat_mul_transposed(&mat_mul(&A, &self.P), &A);
+                let KRKt = mat_mul_transposed(&KR, &K);
+                for (P_i, KRK_i) in P.iter_mut().zip(KRKt.iter()) {
+                    for (p, k) in P_i.iter_mut().zip(KRK_i.iter()) {
+                        *p += *k;
+                    }
+                }
+                let P = symmetrized(&P);
+                if !(all_finite(&x) && P.iter().all(|row| all_finite(row))) {
+                    return false;
+                }
+                self.x = x;
+                self.P = P;
+                true
+            }
+
+            /// The estimate.
+            pub fn state(&self) -> &[Real; NX] {
+                &self.x
+            }
+
+            /// The covariance: the prior after `predict`, the posterior after `update`.
+            pub fn covariance(&self) -> &[[Real; NX]; NX] {
+                &self.P
+            }
+        }
+    }
+}
+
+/// The inverse of a symmetric positive definite ny × ny matrix by an unrolled LDLᵀ factorization
+/// (no square roots, which `core` lacks); `None` when a pivot is not positive.
+fn spd_inverse(ny: usize) -> TokenStream {
+    let l = |i: usize, j: usize| format_ident!("l{}_{}", i, j);
+    let d = |i: usize| format_ident!("d{}", i);
+    let ix = |i: usize| Literal::usize_unsuffixed(i);
+    let mut body = Vec::new();
+    for j in 0..ny {
+        let (dj, jj) = (d(j), ix(j));
+        let sub = (0..j).map(|k| {
+            let (ljk, dk) = (l(j, k), d(k));
+            quote!(- #ljk * #ljk * #dk)
+        });
+        body.push(quote! {
+            let #dj = S[#jj][#jj] #(#sub)*;
+            if !(#dj > 0.0) { return None; }
+        });
+        for i in j + 1..ny {
+            let (lij, ii) = (l(i, j), ix(i));
+            let sub = (0..j).map(|k| {
+                let (lik, ljk, dk) = (l(i, k), l(j, k), d(k));
+                quote!(- #lik * #ljk * #dk)
+            });
+            body.push(quote!(let #lij = (S[#ii][#jj] #(#sub)*) / #dj;));
+        }
+    }
+    // Column c of the inverse: solve L w = e_c, then Lᵀ v = w / d.
+    let mut columns = Vec::new();
+    for c in 0..ny {
+        let w = |i: usize| format_ident!("w{}_{}", c, i);
+        let v = |i: usize| format_ident!("v{}_{}", c, i);
+        for i in 0..ny {
+            let wi = w(i);
+            let e = if i == c { quote!(1.0) } else { quote!(0.0) };
+            let sub = (0..i).map(|k| {
+                let (lik, wk) = (l(i, k), w(k));
+                quote!(- #lik * #wk)
+            });
+            columns.push(quote!(let #wi: Real = #e #(#sub)*;));
+        }
+        for i in (0..ny).rev() {
+            let (vi, wi, di) = (v(i), w(i), d(i));
+            let sub = (i + 1..ny).map(|k| {
+                let (lki, vk) = (l(k, i), v(k));
+                quote!(- #lki * #vk)
+            });
+            columns.push(quote!(let #vi = #wi / #di #(#sub)*;));
+        }
+    }
+    let rows = (0..ny).map(|i| {
+        let row = (0..ny).map(|c| format_ident!("v{}_{}", c, i));
+        quote!([#(#row),*])
+    });
+    quote! {
+        /// S⁻¹ for a symmetric positive definite S, by an unrolled LDLᵀ factorization.
+        #[inline(always)]
+        fn spd_inverse(S: &[[Real; NY]; NY]) -> Option<[[Real; NY]; NY]> {
+            #(#body)*
+            #(#columns)*
+            Some([#(#rows),*])
+        }
+    }
+}

@@ -1,0 +1,103 @@
+//! Small token builders shared by the emitters: literals of the emitted scalar type, matrix constants,
+//! and unrolled sums with exact zeros skipped.
+
+use mpc_spec::Scalar;
+use nalgebra::DMatrix;
+use proc_macro2::{Literal, TokenStream};
+use quote::quote;
+
+/// Emits numbers of one scalar type.
+#[derive(Clone, Copy, Debug)]
+pub struct Num(pub Scalar);
+
+impl Num {
+    /// `f32` or `f64`.
+    pub fn ty(self) -> TokenStream {
+        match self.0 {
+            Scalar::F32 => quote!(f32),
+            Scalar::F64 => quote!(f64),
+        }
+    }
+
+    /// `v` rounded to the emitted type.
+    pub fn round(self, v: f64) -> f64 {
+        match self.0 {
+            Scalar::F32 => v as f32 as f64,
+            Scalar::F64 => v,
+        }
+    }
+
+    /// A suffixed literal of `v`, with its sign as a separate token.
+    pub fn lit(self, v: f64) -> TokenStream {
+        let magnitude = self.unsigned(v.abs());
+        if v.is_sign_negative() && v != 0.0 {
+            quote!(-#magnitude)
+        } else {
+            magnitude
+        }
+    }
+
+    fn unsigned(self, v: f64) -> TokenStream {
+        let lit = match self.0 {
+            Scalar::F32 => Literal::f32_suffixed(v as f32),
+            Scalar::F64 => Literal::f64_suffixed(v),
+        };
+        quote!(#lit)
+    }
+
+    /// `[a, b, ...]`.
+    pub fn vector(self, v: impl IntoIterator<Item = f64>) -> TokenStream {
+        let items = v.into_iter().map(|x| self.lit(x));
+        quote!([#(#items),*])
+    }
+
+    /// `[[..], [..]]`, row by row.
+    pub fn matrix(self, m: &DMatrix<f64>) -> TokenStream {
+        let rows = m.row_iter().map(|r| self.vector(r.iter().copied()));
+        quote!([#(#rows),*])
+    }
+
+    /// `base + c₁·v₁ − c₂·v₂ …` evaluated left to right, skipping coefficients that are zero in the
+    /// emitted type and writing ±1 coefficients as a plain ± (both exact).
+    pub fn sum(
+        self,
+        base: Option<TokenStream>,
+        terms: impl IntoIterator<Item = (f64, TokenStream)>,
+    ) -> TokenStream {
+        let mut out = base;
+        for (c, v) in terms {
+            let c = self.round(c);
+            if c == 0.0 {
+                continue;
+            }
+            let term = if c.abs() == 1.0 {
+                v
+            } else {
+                let m = self.unsigned(c.abs());
+                quote!(#m * #v)
+            };
+            out = Some(match (out, c < 0.0) {
+                (None, false) => term,
+                (None, true) => quote!(-#term),
+                (Some(acc), false) => quote!(#acc + #term),
+                (Some(acc), true) => quote!(#acc - #term),
+            });
+        }
+        out.unwrap_or_else(|| self.unsigned(0.0))
+    }
+}
+
+/// `name[i]` for a flat index into an `[[Real; cols]; rows]` array.
+pub fn at2(name: &TokenStream, i: usize, cols: usize) -> TokenStream {
+    let (r, c) = (
+        Literal::usize_unsuffixed(i / cols),
+        Literal::usize_unsuffixed(i % cols),
+    );
+    quote!(#name[#r][#c])
+}
+
+/// `name[i]`.
+pub fn at1(name: &TokenStream, i: usize) -> TokenStream {
+    let i = Literal::usize_unsuffixed(i);
+    quote!(#name[#i])
+}

@@ -1,0 +1,433 @@
+//! Lowering a spec to the condensed QP and the filter (paper eqs. 2, 3, 9-16), all in f64.
+//!
+//! Everything here depends only on the spec, never on measurements: it is what `mpc!` computes at
+//! `cargo build` time and bakes into the emitted module, and what the generic solver runs with.
+#![allow(non_snake_case)]
+
+use mpc_spec::{
+    Diagnostic, Diagnostics, FilterKind, KalmanNoise, Matrix, Method, ModelKind, Scalar, Spec, Step,
+};
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
+
+/// The condensed MPC problem and its solver parameters.
+#[derive(Clone, Debug)]
+pub struct Qp {
+    /// Prediction horizon N.
+    pub N: usize,
+    /// Solver iterations per control step.
+    pub iterations: usize,
+    /// The solver.
+    pub method: Method,
+    /// Stage state weight Q (nx × nx).
+    pub Q: DMatrix<f64>,
+    /// Stage input weight R (nu × nu).
+    pub R: DMatrix<f64>,
+    /// Terminal weight Qf (nx × nx).
+    pub Qf: DMatrix<f64>,
+    /// Sx = [F; F²; …; Fᴺ], (N·nx) × nx, eq. 12.
+    pub Sx: DMatrix<f64>,
+    /// Su, (N·nx) × (N·nu), eq. 13.
+    pub Su: DMatrix<f64>,
+    /// H = 2(Suᵀ Q_blk Su + R_blk), (N·nu) × (N·nu), eq. 9.
+    pub H: DMatrix<f64>,
+    /// Fx = 2 Suᵀ Q_blk Sx, (N·nu) × nx: the gradient's dependence on x0 (eq. 10).
+    pub Fx: DMatrix<f64>,
+    /// Fr = 2 Suᵀ Q_blk, (N·nu) × (N·nx): the gradient's dependence on Xref (eq. 10).
+    pub Fr: DMatrix<f64>,
+    /// Largest eigenvalue of H.
+    pub L: f64,
+    /// Smallest eigenvalue of H.
+    pub mu: f64,
+    /// The step size α: 1/L for `step = "auto"`.
+    pub step: f64,
+    /// Momentum β of the fast gradient method, (1 − √(αμ)) / (1 + √(αμ)); zero for `gradient`.
+    pub momentum: f64,
+    /// Lower input bounds (nu).
+    pub u_min: DVector<f64>,
+    /// Upper input bounds (nu).
+    pub u_max: DVector<f64>,
+}
+
+impl Qp {
+    /// The input block that warm starts append and cold starts use: zero, projected onto the box
+    /// (the paper's zero block whenever the box contains zero).
+    pub fn rest_input(&self) -> DVector<f64> {
+        DVector::from_iterator(
+            self.u_min.len(),
+            self.u_min
+                .iter()
+                .zip(self.u_max.iter())
+                .map(|(lo, hi)| project(0.0, *lo, *hi)),
+        )
+    }
+}
+
+/// The linear Kalman filter of Section 2.3.
+#[derive(Clone, Debug)]
+pub struct Filter {
+    /// Process noise covariance (nx × nx), eq. 3 with symmetric Δt³/2 off-diagonal blocks.
+    pub Qn: DMatrix<f64>,
+    /// Measurement noise covariance (ny × ny).
+    pub Rn: DMatrix<f64>,
+    /// Initial (prior) covariance (nx × nx).
+    pub P0: DMatrix<f64>,
+    /// Time-varying or steady-state.
+    pub kind: FilterKind,
+    /// The steady-state prior covariance P∞ of the discrete Riccati recursion.
+    pub P_inf: DMatrix<f64>,
+    /// The steady-state gain K∞ = P∞ Cᵀ (C P∞ Cᵀ + R)⁻¹ (nx × ny).
+    pub K_inf: DMatrix<f64>,
+}
+
+/// Everything `mpc!` computes from a spec.
+#[derive(Clone, Debug)]
+pub struct Problem {
+    /// State dimension.
+    pub nx: usize,
+    /// Input dimension.
+    pub nu: usize,
+    /// Measurement dimension.
+    pub ny: usize,
+    /// Sampling time, s.
+    pub dt: f64,
+    /// State transition F (nx × nx), eq. 2.
+    pub F: DMatrix<f64>,
+    /// Input matrix G (nx × nu), eq. 2.
+    pub G: DMatrix<f64>,
+    /// Measurement matrix C (ny × nx), eq. 2's H (renamed: H is the Hessian here).
+    pub C: DMatrix<f64>,
+    /// The condensed QP.
+    pub qp: Qp,
+    /// The filter.
+    pub filter: Filter,
+    /// The scalar type to emit.
+    pub scalar: Scalar,
+}
+
+/// Computes the QP and the filter of `spec`. Fails, with located diagnostics, when a weight or
+/// covariance is not (semi)definite, the step makes the iteration diverge, or the filter has no steady state.
+pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
+    let mut diags = Diagnostics::default();
+    let span = |key: &str| spec.spans.get(key);
+    let dt = spec.model.dt;
+    let (F, G, C) = plant(&spec.model.kind, dt);
+    let (nx, nu, ny) = (F.nrows(), G.ncols(), C.nrows());
+    let m = &spec.mpc;
+    let Q = dense(&m.q);
+    let R = dense(&m.r);
+    let Qf = dense(&m.qf);
+    let qf_key = if span("mpc.qf").is_some() {
+        "mpc.qf"
+    } else {
+        "mpc.q"
+    };
+    check_definite(&mut diags, &Q, false, "Q", span("mpc.q"));
+    check_definite(&mut diags, &Qf, false, "Qf", span(qf_key));
+    check_definite(&mut diags, &R, true, "R", span("mpc.r"));
+
+    let N = m.horizon;
+    let (Sx, Su) = prediction_matrices(&F, &G, N);
+    let mut Q_blk = DMatrix::zeros(N * nx, N * nx);
+    for k in 0..N {
+        let w = if k + 1 == N { &Qf } else { &Q };
+        Q_blk.view_mut((k * nx, k * nx), (nx, nx)).copy_from(w);
+    }
+    let mut R_blk = DMatrix::zeros(N * nu, N * nu);
+    for k in 0..N {
+        R_blk.view_mut((k * nu, k * nu), (nu, nu)).copy_from(&R);
+    }
+    let SuT_Q = Su.transpose() * &Q_blk;
+    let H = symmetrize(&((&SuT_Q * &Su + &R_blk) * 2.0));
+    let Fx = &SuT_Q * &Sx * 2.0;
+    let Fr = SuT_Q * 2.0;
+    let (mu, L) = extreme_eigenvalues(&H);
+
+    let step = match m.step {
+        Step::Auto => 1.0 / L,
+        Step::Fixed(alpha) => alpha,
+    };
+    check_step(&mut diags, m.method, step, L, span("mpc.step"));
+    let momentum = match m.method {
+        Method::Gradient => 0.0,
+        Method::Fgm => {
+            let r = (step * mu).min(1.0).sqrt();
+            (1.0 - r) / (1.0 + r)
+        }
+    };
+
+    let (Qn, Rn) = match &spec.kalman.noise {
+        KalmanNoise::WhiteAcceleration {
+            sigma_a,
+            sigma_meas,
+        } => (
+            white_acceleration_noise(nx / 2, dt, *sigma_a),
+            DMatrix::from_diagonal(&DVector::from_iterator(
+                ny,
+                sigma_meas.iter().map(|s| s * s),
+            )),
+        ),
+        KalmanNoise::Covariances { q, r } => (dense(q), dense(r)),
+    };
+    let P0 = dense(&spec.kalman.p0);
+    check_definite(
+        &mut diags,
+        &Qn,
+        false,
+        "the process noise covariance",
+        span("kalman.q").or(span("kalman.sigma_a")),
+    );
+    check_definite(
+        &mut diags,
+        &Rn,
+        true,
+        "the measurement noise covariance",
+        span("kalman.r").or(span("kalman.sigma_meas")),
+    );
+    check_definite(
+        &mut diags,
+        &P0,
+        true,
+        "P0",
+        span("kalman.p0").or(span("kalman")),
+    );
+    if !diags.is_empty() {
+        return Err(diags.sorted());
+    }
+    let (P_inf, K_inf) = match steady_state_filter(&F, &C, &Qn, &Rn, &P0) {
+        Some(pk) => pk,
+        None => {
+            return Err(Diagnostic::new("the Kalman filter has no steady state: the Riccati recursion does not converge", span("kalman"))
+                .note("hint: the measured outputs must make the model detectable, and the process noise must reach every unstable mode")
+                .into())
+        }
+    };
+
+    Ok(Problem {
+        nx,
+        nu,
+        ny,
+        dt,
+        qp: Qp {
+            N,
+            iterations: m.iterations,
+            method: m.method,
+            Q,
+            R,
+            Qf,
+            Sx,
+            Su,
+            H,
+            Fx,
+            Fr,
+            L,
+            mu,
+            step,
+            momentum,
+            u_min: DVector::from_column_slice(&m.u_min),
+            u_max: DVector::from_column_slice(&m.u_max),
+        },
+        filter: Filter {
+            Qn,
+            Rn,
+            P0,
+            kind: spec.kalman.filter,
+            P_inf,
+            K_inf,
+        },
+        F,
+        G,
+        C,
+        scalar: spec.codegen.scalar,
+    })
+}
+
+/// F, G and the measurement matrix C of the model.
+pub fn plant(kind: &ModelKind, dt: f64) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    match kind {
+        ModelKind::DoubleIntegrator { axes } => {
+            let n = *axes;
+            // Eq. 2: x = [positions; velocities], F = [I dt·I; 0 I], G = [dt²/2·I; dt·I], C = [I 0].
+            let mut F = DMatrix::identity(2 * n, 2 * n);
+            let mut G = DMatrix::zeros(2 * n, n);
+            let mut C = DMatrix::zeros(n, 2 * n);
+            for i in 0..n {
+                F[(i, n + i)] = dt;
+                G[(i, i)] = 0.5 * dt * dt;
+                G[(n + i, i)] = dt;
+                C[(i, i)] = 1.0;
+            }
+            (F, G, C)
+        }
+        ModelKind::Linear { a, b, c } => (dense(a), dense(b), dense(c)),
+    }
+}
+
+/// Eq. 3 for `axes` independent axes, with the symmetric Δt³/2 off-diagonal blocks of the
+/// white-noise-acceleration model (the paper prints Δt⁴/4 in the upper right block, a typo: Q must be symmetric).
+pub fn white_acceleration_noise(axes: usize, dt: f64, sigma_a: f64) -> DMatrix<f64> {
+    let s2 = sigma_a * sigma_a;
+    let mut Q = DMatrix::zeros(2 * axes, 2 * axes);
+    for i in 0..axes {
+        let (p, v) = (i, axes + i);
+        Q[(p, p)] = s2 * dt.powi(4) / 4.0;
+        Q[(p, v)] = s2 * dt.powi(3) / 2.0;
+        Q[(v, p)] = s2 * dt.powi(3) / 2.0;
+        Q[(v, v)] = s2 * dt * dt;
+    }
+    Q
+}
+
+/// Sx (eq. 12) and Su (eq. 13) for horizon N.
+pub fn prediction_matrices(
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+    N: usize,
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (nx, nu) = (F.nrows(), G.ncols());
+    let mut Sx = DMatrix::zeros(N * nx, nx);
+    // F^k G for k = 0..N-1
+    let mut FkG = Vec::with_capacity(N);
+    let mut Fk = DMatrix::identity(nx, nx);
+    for k in 0..N {
+        FkG.push(&Fk * G);
+        Fk = F * Fk;
+        Sx.view_mut((k * nx, 0), (nx, nx)).copy_from(&Fk);
+    }
+    let mut Su = DMatrix::zeros(N * nx, N * nu);
+    for row in 0..N {
+        for col in 0..=row {
+            Su.view_mut((row * nx, col * nu), (nx, nu))
+                .copy_from(&FkG[row - col]);
+        }
+    }
+    (Sx, Su)
+}
+
+/// (λmin, λmax) of a symmetric matrix.
+pub fn extreme_eigenvalues(M: &DMatrix<f64>) -> (f64, f64) {
+    let eig = SymmetricEigen::new(M.clone()).eigenvalues;
+    (eig.min(), eig.max())
+}
+
+/// The steady-state prior covariance and gain, by iterating the Riccati recursion from P0.
+pub fn steady_state_filter(
+    F: &DMatrix<f64>,
+    C: &DMatrix<f64>,
+    Qn: &DMatrix<f64>,
+    Rn: &DMatrix<f64>,
+    P0: &DMatrix<f64>,
+) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+    let mut P = P0.clone();
+    for _ in 0..1_000_000 {
+        let (K, P_post) = kalman_gain_and_posterior(&P, C, Rn)?;
+        let next = symmetrize(&(F * P_post * F.transpose() + Qn));
+        let change = (&next - &P).amax();
+        P = next;
+        if !P.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        if change <= 1e-15 * P.amax() {
+            let _ = K;
+            let (K, _) = kalman_gain_and_posterior(&P, C, Rn)?;
+            return Some((P, K));
+        }
+    }
+    None
+}
+
+/// The gain K = P Cᵀ (C P Cᵀ + R)⁻¹ and the Joseph-form posterior (I − KC) P (I − KC)ᵀ + K R Kᵀ.
+pub fn kalman_gain_and_posterior(
+    P: &DMatrix<f64>,
+    C: &DMatrix<f64>,
+    Rn: &DMatrix<f64>,
+) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+    let PCt = P * C.transpose();
+    let S = C * &PCt + Rn;
+    let S_inv = S.cholesky()?.inverse();
+    let K = PCt * S_inv;
+    let I_KC = DMatrix::identity(P.nrows(), P.nrows()) - &K * C;
+    let post = &I_KC * P * I_KC.transpose() + &K * Rn * K.transpose();
+    Some((K, symmetrize(&post)))
+}
+
+/// (M + Mᵀ)/2: removes the rounding asymmetry of products that are symmetric in exact arithmetic.
+pub fn symmetrize(M: &DMatrix<f64>) -> DMatrix<f64> {
+    (M + M.transpose()) * 0.5
+}
+
+/// The projection onto [lo, hi] used everywhere, generated code and oracle alike: NaN maps to `lo`,
+/// so the result is always finite and inside the box.
+pub fn project(v: f64, lo: f64, hi: f64) -> f64 {
+    let v = if v > lo { v } else { lo };
+    if v < hi {
+        v
+    } else {
+        hi
+    }
+}
+
+/// A spec matrix as nalgebra's.
+pub fn dense(m: &Matrix) -> DMatrix<f64> {
+    DMatrix::from_row_slice(m.rows, m.cols, &m.data)
+}
+
+/// Q, Qf and the noise covariances must be positive semidefinite, R and P0 positive definite.
+fn check_definite(
+    diags: &mut Diagnostics,
+    M: &DMatrix<f64>,
+    strict: bool,
+    name: &str,
+    span: Option<mpc_spec::Span>,
+) {
+    let (lo, hi) = extreme_eigenvalues(M);
+    let tol = 1e-12 * hi.abs().max(1.0);
+    let bad = if strict { lo <= tol } else { lo < -tol };
+    if bad {
+        let what = if strict {
+            "positive definite"
+        } else {
+            "positive semidefinite"
+        };
+        diags.push(
+            Diagnostic::new(
+                format!("{name} must be {what}; its smallest eigenvalue is {lo:.6e}"),
+                span,
+            )
+            .label(format!("not {what}")),
+        );
+    }
+}
+
+/// Projected gradient diverges for α ≥ 2/L; the fast gradient method's rate assumes α ≤ 1/L.
+fn check_step(
+    diags: &mut Diagnostics,
+    method: Method,
+    step: f64,
+    L: f64,
+    span: Option<mpc_spec::Span>,
+) {
+    let (limit, ok, why) = match method {
+        Method::Gradient => (
+            2.0 / L,
+            step < 2.0 / L,
+            "below 2/L, or the gradient iteration diverges",
+        ),
+        Method::Fgm => (
+            1.0 / L,
+            step <= 1.0 / L * (1.0 + 1e-12),
+            "at most 1/L for the fast gradient method",
+        ),
+    };
+    if !ok {
+        diags.push(
+            Diagnostic::new(
+                format!(
+                    "`mpc.step` = {step} is too large: it must be {why} ({limit:.6}, L = {L:.6})"
+                ),
+                span,
+            )
+            .label("step too large")
+            .note("hint: write `step = \"auto\"` for 1/L"),
+        );
+    }
+}

@@ -1,0 +1,36 @@
+//! Rendering located diagnostics as rustc and cargo do (annotate-snippets): the one renderer behind the
+//! macro's errors and the command line's.
+
+use annotate_snippets::{Level, Renderer, Snippet};
+use mpc_spec::{Diagnostic, Diagnostics};
+
+/// Every diagnostic of `diags` drawn against `source`, which was read from `origin`.
+pub fn render(diags: &Diagnostics, source: &str, origin: &str) -> String {
+    diags
+        .iter()
+        .map(|d| render_one(d, source, origin))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// One diagnostic drawn against `source`.
+pub fn render_one(d: &Diagnostic, source: &str, origin: &str) -> String {
+    let label = d.label.as_deref().unwrap_or_default();
+    let mut message = Level::Error.title(&d.message);
+    if let Some(span) = d.span.clone() {
+        // An empty span (a missing table) is widened to one character so that the caret shows.
+        let end = span.end.max(span.start + 1).min(source.len());
+        let start = span.start.min(end);
+        let annotation = Level::Error.span(start..end).label(label);
+        message = message.snippet(
+            Snippet::source(source)
+                .origin(origin)
+                .fold(true)
+                .annotation(annotation),
+        );
+    }
+    if let Some(note) = &d.note {
+        message = message.footer(Level::Help.title(note.trim_start_matches("hint: ")));
+    }
+    Renderer::plain().render(message).to_string()
+}
