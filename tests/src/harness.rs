@@ -53,7 +53,9 @@ pub fn rng(seed: u64) -> ChaCha8Rng {
 
 /// The infinity norm (largest absolute row sum) of a matrix.
 pub fn norm_inf(M: &DMatrix<f64>) -> f64 {
-    M.row_iter().map(|r| r.iter().map(|v| v.abs()).sum::<f64>()).fold(0.0, f64::max)
+    M.row_iter()
+        .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
+        .fold(0.0, f64::max)
 }
 
 /// A random vector with entries uniform in ±`scale`.
@@ -63,5 +65,8 @@ pub fn random_vector(rng: &mut impl Rng, n: usize, scale: f64) -> DVector<f64> {
 
 /// The spectral radius of a square matrix.
 pub fn spectral_radius(M: &DMatrix<f64>) -> f64 {
-    M.complex_eigenvalues().iter().map(|c| c.norm()).fold(0.0, f64::max)
+    M.complex_eigenvalues()
+        .iter()
+        .map(|c| c.norm())
+        .fold(0.0, f64::max)
 }

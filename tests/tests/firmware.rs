@@ -52,9 +52,15 @@ fn build_and_fly(spec: Option<&str>, name: &str) -> Flight {
     let _guard = FIRMWARE.lock().unwrap_or_else(|e| e.into_inner());
     let root = root();
     let mut build = Command::new("timeout");
-    build.arg(BUILD_TIMEOUT_S.to_string()).arg("bash").arg(root.join("scripts/firmware.sh")).arg("--build-only");
+    build
+        .arg(BUILD_TIMEOUT_S.to_string())
+        .arg("bash")
+        .arg(root.join("scripts/firmware.sh"))
+        .arg("--build-only");
     build.args(spec.map(|s| root.join(s)));
-    let out = clean_env(&mut build).output().expect("running scripts/firmware.sh");
+    let out = clean_env(&mut build)
+        .output()
+        .expect("running scripts/firmware.sh");
     assert!(
         out.status.success(),
         "building the firmware for {name} failed ({}):\n{}",
@@ -65,27 +71,59 @@ fn build_and_fly(spec: Option<&str>, name: &str) -> Flight {
     let elf = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("firmware-{name}.elf"));
     std::fs::copy(&built, &elf).expect("copying the firmware ELF");
     let (status, uart) = emulate(&elf);
-    let result = result_line(&uart).unwrap_or_else(|| panic!("no RESULT line from {name}:\n{uart}"));
-    Flight { status, uart, result, elf }
+    let result =
+        result_line(&uart).unwrap_or_else(|| panic!("no RESULT line from {name}:\n{uart}"));
+    Flight {
+        status,
+        uart,
+        result,
+        elf,
+    }
 }
 
 /// Runs an ELF on QEMU's xilinx-zynq-a9 exactly as the template's cargo runner does.
 fn emulate(elf: &Path) -> (Option<i32>, String) {
     let out = Command::new("timeout")
         .arg(RUN_TIMEOUT_S.to_string())
-        .args(["qemu-system-arm", "-M", "xilinx-zynq-a9", "-nographic", "-monitor", "none"])
-        .args(["-semihosting-config", "enable=on,target=native", "-icount", "shift=0", "-kernel"])
+        .args([
+            "qemu-system-arm",
+            "-M",
+            "xilinx-zynq-a9",
+            "-nographic",
+            "-monitor",
+            "none",
+        ])
+        .args([
+            "-semihosting-config",
+            "enable=on,target=native",
+            "-icount",
+            "shift=0",
+            "-kernel",
+        ])
         .arg(elf)
         .output()
         .expect("running qemu-system-arm");
-    assert_ne!(out.status.code(), Some(124), "the firmware did not finish within {RUN_TIMEOUT_S} s");
-    (out.status.code(), String::from_utf8_lossy(&out.stdout).replace('\r', ""))
+    assert_ne!(
+        out.status.code(),
+        Some(124),
+        "the firmware did not finish within {RUN_TIMEOUT_S} s"
+    );
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).replace('\r', ""),
+    )
 }
 
 /// rustup exports the outer toolchain to children, which would override the template's
 /// rust-toolchain.toml; outer RUSTFLAGS would replace its target flags.
 fn clean_env(cmd: &mut Command) -> &mut Command {
-    for var in ["RUSTUP_TOOLCHAIN", "RUSTFLAGS", "CARGO_ENCODED_RUSTFLAGS", "CARGO_TARGET_DIR", "CARGO_BUILD_TARGET"] {
+    for var in [
+        "RUSTUP_TOOLCHAIN",
+        "RUSTFLAGS",
+        "CARGO_ENCODED_RUSTFLAGS",
+        "CARGO_TARGET_DIR",
+        "CARGO_BUILD_TARGET",
+    ] {
         cmd.env_remove(var);
     }
     cmd
@@ -103,21 +141,36 @@ fn paper_flight() -> &'static Flight {
 
 fn f64_flight() -> &'static Flight {
     static F: OnceLock<Flight> = OnceLock::new();
-    F.get_or_init(|| build_and_fly(Some("firmware-template/specs/paper-f64-n10.toml"), "f64-n10"))
+    F.get_or_init(|| {
+        build_and_fly(
+            Some("firmware-template/specs/paper-f64-n10.toml"),
+            "f64-n10",
+        )
+    })
 }
 
 fn uint(r: &Value, key: &str) -> u64 {
-    r[key].as_u64().unwrap_or_else(|| panic!("RESULT has no integer `{key}`: {r}"))
+    r[key]
+        .as_u64()
+        .unwrap_or_else(|| panic!("RESULT has no integer `{key}`: {r}"))
 }
 
 fn axes(r: &Value, key: &str) -> [u64; 3] {
-    let v: Vec<u64> = r[key].as_array().into_iter().flatten().filter_map(Value::as_u64).collect();
-    v.try_into().unwrap_or_else(|_| panic!("RESULT has no three integers `{key}`: {r}"))
+    let v: Vec<u64> = r[key]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(Value::as_u64)
+        .collect();
+    v.try_into()
+        .unwrap_or_else(|_| panic!("RESULT has no three integers `{key}`: {r}"))
 }
 
 /// FNV-1a 64, as the firmware hashes its baked spec.
 fn fnv1a64(bytes: &[u8]) -> String {
-    let h = bytes.iter().fold(0xcbf2_9ce4_8422_2325_u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3));
+    let h = bytes.iter().fold(0xcbf2_9ce4_8422_2325_u64, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    });
     format!("{h:016x}")
 }
 
@@ -145,7 +198,10 @@ impl Errors {
     fn micrometres(&self) -> ([u64; 3], [u64; 3]) {
         let um = |x: f64| (x * 1e6 + 0.5) as u64;
         let n = self.count as f64;
-        (self.sum_sq.map(|s| um((s / n).sqrt())), self.max_abs.map(um))
+        (
+            self.sum_sq.map(|s| um((s / n).sqrt())),
+            self.max_abs.map(um),
+        )
     }
 }
 
@@ -167,7 +223,12 @@ macro_rules! host_flight {
         let reference = Trajectory::paper();
         let mut controller = Baked($m::Controller::new(cast(&reference.start())));
         let mut errors = Errors::default();
-        fly(&mut controller, &reference, &Scenario::new($seed, $cycles), |s, _| errors.add(&s.error()));
+        fly(
+            &mut controller,
+            &reference,
+            &Scenario::new($seed, $cycles),
+            |s, _| errors.add(&s.error()),
+        );
         errors.micrometres()
     }};
 }
@@ -175,17 +236,32 @@ macro_rules! host_flight {
 /// The firmware booted, flew every cycle of the whole reference flight and passed its checks.
 fn assert_flew(f: &Flight, spec: &str, scalar: &str, horizon: u64, iterations: u64) {
     assert_eq!(f.status, Some(0), "firmware exit status\n{}", f.uart);
-    assert!(f.uart.starts_with("firmware-template on zynq-7000"), "no boot banner:\n{}", f.uart);
+    assert!(
+        f.uart.starts_with("firmware-template on zynq-7000"),
+        "no boot banner:\n{}",
+        f.uart
+    );
     let r = &f.result;
     assert_eq!(r["ok"], Value::Bool(true), "{r}");
     assert_eq!(r["board"], "zynq-7000");
     let text = std::fs::read(root().join(spec)).expect("reading the spec");
-    assert_eq!(r["spec_fnv1a64"], Value::String(fnv1a64(&text)), "the ELF holds another spec than {spec}");
+    assert_eq!(
+        r["spec_fnv1a64"],
+        Value::String(fnv1a64(&text)),
+        "the ELF holds another spec than {spec}"
+    );
     assert_eq!(r["scalar"], scalar);
     assert_eq!((uint(r, "nx"), uint(r, "nu")), (6, 3));
-    assert_eq!((uint(r, "horizon"), uint(r, "iterations")), (horizon, iterations));
+    assert_eq!(
+        (uint(r, "horizon"), uint(r, "iterations")),
+        (horizon, iterations)
+    );
     let full = (Trajectory::paper().duration() / flight_sim::DT) as u64;
-    assert_eq!(uint(r, "cycles"), full, "the firmware must fly the whole reference");
+    assert_eq!(
+        uint(r, "cycles"),
+        full,
+        "the firmware must fly the whole reference"
+    );
 }
 
 /// Same tracking errors as the host run of the same spec, seed and cycle count.
@@ -203,17 +279,31 @@ fn assert_agrees(r: &Value, host: ([u64; 3], [u64; 3])) {
         }
     }
     // Paper-like accuracy, so that agreeing on a broken flight cannot pass.
-    assert!(axes(r, "rmse_um").iter().all(|&e| e > 1_000 && e < 200_000), "{r}");
+    assert!(
+        axes(r, "rmse_um").iter().all(|&e| e > 1_000 && e < 200_000),
+        "{r}"
+    );
 }
 
 /// Every control cycle takes the same number of ticks, to within TICK_SPREAD.
 fn assert_deterministic(r: &Value) {
-    let (min, mean, max) = (uint(r, "ticks_min"), uint(r, "ticks_mean"), uint(r, "ticks_max"));
+    let (min, mean, max) = (
+        uint(r, "ticks_min"),
+        uint(r, "ticks_mean"),
+        uint(r, "ticks_max"),
+    );
     assert!(min > 0 && min <= mean && mean <= max, "{r}");
     let spread = (max - min) as f64 / mean as f64;
-    assert!(spread <= TICK_SPREAD, "ticks per control cycle vary by {:.3}% (min {min}, max {max})", spread * 100.0);
+    assert!(
+        spread <= TICK_SPREAD,
+        "ticks per control cycle vary by {:.3}% (min {min}, max {max})",
+        spread * 100.0
+    );
     let total = uint(r, "ticks_total");
-    assert!(total.abs_diff(mean * uint(r, "cycles")) <= uint(r, "cycles"), "{r}");
+    assert!(
+        total.abs_diff(mean * uint(r, "cycles")) <= uint(r, "cycles"),
+        "{r}"
+    );
 }
 
 /// Symbols of core's panicking machinery in an ELF. The firmware links none, not even its
@@ -221,10 +311,22 @@ fn assert_deterministic(r: &Value) {
 /// into their callers, leaving the handler as the only trace of a reachable panic.
 fn panicking_symbols(elf: &Path) -> Vec<String> {
     let nm = llvm_nm();
-    let out = Command::new(&nm).arg("--demangle").arg(elf).output().expect("running llvm-nm");
-    assert!(out.status.success(), "llvm-nm failed: {}", String::from_utf8_lossy(&out.stderr));
+    let out = Command::new(&nm)
+        .arg("--demangle")
+        .arg(elf)
+        .output()
+        .expect("running llvm-nm");
+    assert!(
+        out.status.success(),
+        "llvm-nm failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let symbols = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(symbols.lines().any(|l| l.ends_with(" T main")), "llvm-nm read no `main` from {}", elf.display());
+    assert!(
+        symbols.lines().any(|l| l.ends_with(" T main")),
+        "llvm-nm read no `main` from {}",
+        elf.display()
+    );
     symbols
         .lines()
         .filter_map(|l| l.splitn(3, ' ').nth(2))
@@ -242,25 +344,44 @@ fn panicking_symbols(elf: &Path) -> Vec<String> {
 
 /// `llvm-nm` from the PATH, a versioned Debian one, or installed with Debian's `llvm`.
 fn llvm_nm() -> String {
-    let works = |n: &str| Command::new(n).arg("--version").output().is_ok_and(|o| o.status.success());
-    let candidates = || std::iter::once("llvm-nm".to_owned()).chain((14..=21).rev().map(|v| format!("llvm-nm-{v}")));
+    let works = |n: &str| {
+        Command::new(n)
+            .arg("--version")
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    let candidates = || {
+        std::iter::once("llvm-nm".to_owned()).chain((14..=21).rev().map(|v| format!("llvm-nm-{v}")))
+    };
     if let Some(n) = candidates().find(|n| works(n)) {
         return n;
     }
-    let installed = Command::new("apt-get").args(["install", "-y", "-qq", "llvm"]).status().is_ok_and(|s| s.success());
-    assert!(installed && works("llvm-nm"), "llvm-nm is missing: apt-get install llvm");
+    let installed = Command::new("apt-get")
+        .args(["install", "-y", "-qq", "llvm"])
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(
+        installed && works("llvm-nm"),
+        "llvm-nm is missing: apt-get install llvm"
+    );
     "llvm-nm".to_owned()
 }
 
 /// Code and data sizes of an ELF, bytes: (.text, .rodata, .data, .bss).
 fn sizes(elf: &Path) -> [u64; 4] {
-    let out = Command::new(llvm_nm().replace("nm", "size")).args(["-A", "-d"]).arg(elf).output().expect("running llvm-size");
+    let out = Command::new(llvm_nm().replace("nm", "size"))
+        .args(["-A", "-d"])
+        .arg(elf)
+        .output()
+        .expect("running llvm-size");
     let text = String::from_utf8_lossy(&out.stdout);
     let size = |name: &str| {
         text.lines()
             .find_map(|l| {
                 let mut f = l.split_whitespace();
-                (f.next() == Some(name)).then(|| f.next().and_then(|s| s.parse().ok())).flatten()
+                (f.next() == Some(name))
+                    .then(|| f.next().and_then(|s| s.parse().ok()))
+                    .flatten()
             })
             .unwrap_or(0)
     };
@@ -309,12 +430,25 @@ fn paper_spec_firmware_agrees_with_the_host() {
 #[test]
 fn f64_spec_flies_and_agrees_with_the_host() {
     let f = f64_flight();
-    assert_flew(f, "firmware-template/specs/paper-f64-n10.toml", "f64", 10, 20);
+    assert_flew(
+        f,
+        "firmware-template/specs/paper-f64-n10.toml",
+        "f64",
+        10,
+        20,
+    );
     assert_deterministic(&f.result);
-    let host = host_flight!(f64_n10, uint(&f.result, "seed"), uint(&f.result, "cycles") as usize);
+    let host = host_flight!(
+        f64_n10,
+        uint(&f.result, "seed"),
+        uint(&f.result, "cycles") as usize
+    );
     assert_agrees(&f.result, host);
     // Another controller, another cost: the binary really changed.
-    assert_ne!(uint(&f.result, "ticks_mean"), uint(&paper_flight().result, "ticks_mean"));
+    assert_ne!(
+        uint(&f.result, "ticks_mean"),
+        uint(&paper_flight().result, "ticks_mean")
+    );
 }
 
 #[test]
@@ -324,7 +458,11 @@ fn emulated_timing_is_repeatable() {
     assert_eq!(status, Some(0));
     let again = result_line(&uart).expect("RESULT line");
     for key in ["ticks_min", "ticks_max", "ticks_total", "calib_ticks"] {
-        assert_eq!(uint(&again, key), uint(&f.result, key), "{key} differs between two runs of one ELF");
+        assert_eq!(
+            uint(&again, key),
+            uint(&f.result, key),
+            "{key} differs between two runs of one ELF"
+        );
     }
 }
 
@@ -332,6 +470,10 @@ fn emulated_timing_is_repeatable() {
 fn no_panicking_code_is_linked() {
     for f in [paper_flight(), f64_flight()] {
         let found = panicking_symbols(&f.elf);
-        assert!(found.is_empty(), "{} links panicking code: {found:?}", f.elf.display());
+        assert!(
+            found.is_empty(),
+            "{} links panicking code: {found:?}",
+            f.elf.display()
+        );
     }
 }

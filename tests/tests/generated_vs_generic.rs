@@ -41,16 +41,23 @@ fn compare_mpc<G: Generated>(seed: u64, runs: usize, steps: usize) -> f64 {
         let center = random_vector(&mut rng, nx, scale);
         for _ in 0..steps {
             let x0 = round(&x);
-            let xref: Vec<DVector<f64>> =
-                (0..N).map(|_| round(&(&center + random_vector(&mut rng, nx, 0.1 * scale)))).collect();
-            let xref_vec: Vec<Vec<f64>> = xref.iter().map(|r| r.iter().copied().collect()).collect();
+            let xref: Vec<DVector<f64>> = (0..N)
+                .map(|_| round(&(&center + random_vector(&mut rng, nx, 0.1 * scale))))
+                .collect();
+            let xref_vec: Vec<Vec<f64>> =
+                xref.iter().map(|r| r.iter().copied().collect()).collect();
             let u_oracle = oracle.solve(&x0, &xref);
             let u_generated = G::mpc_solve(&mut generated, x0.as_slice(), &xref_vec);
             for (j, u) in u_generated.iter().enumerate() {
-                assert!(u.is_finite() && *u >= qp.u_min[j] && *u <= qp.u_max[j], "{u} outside the box");
+                assert!(
+                    u.is_finite() && *u >= qp.u_min[j] && *u <= qp.u_max[j],
+                    "{u} outside the box"
+                );
             }
             let plan = G::mpc_plan(&generated);
-            let at_bound = |i: usize, u: f64| u == G::round(qp.u_min[i % nu]) || u == G::round(qp.u_max[i % nu]);
+            let at_bound = |i: usize, u: f64| {
+                u == G::round(qp.u_min[i % nu]) || u == G::round(qp.u_max[i % nu])
+            };
             if plan.iter().enumerate().any(|(i, u)| at_bound(i, *u)) {
                 saturated += 1;
             }
@@ -60,18 +67,36 @@ fn compare_mpc<G: Generated>(seed: u64, runs: usize, steps: usize) -> f64 {
             let x_abs = x0.amax();
             let r_abs = xref.iter().map(|r| r.amax()).fold(0.0, f64::max);
             let scale = eps * (norm_Fx * x_abs + norm_Fr * r_abs + norm_H * u_abs) / qp.mu;
-            let diff = plan.iter().zip(oracle.plan().iter()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            let diff = plan
+                .iter()
+                .zip(oracle.plan().iter())
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
             worst = worst.max(diff / scale);
             if eps < 1e-10 {
-                assert!(diff <= 1e-9 * u_abs.max(1.0), "f64 difference {diff:e} above 1e-9 relative");
+                assert!(
+                    diff <= 1e-9 * u_abs.max(1.0),
+                    "f64 difference {diff:e} above 1e-9 relative"
+                );
             }
             // The plant moves with the oracle's command plus a disturbance, and the references drift.
             x = &p.F * &x + &p.G * u_oracle + random_vector(&mut rng, nx, 0.01 * scale);
         }
     }
-    assert!(saturated > runs * steps / 10, "too few saturated solves ({saturated}) to exercise the box");
-    assert!(interior > runs * steps / 10, "too few solves with inactive bounds ({interior})");
-    println!("{}: worst error {:.3} × ε·scale/μ ({} solves, {saturated} with an active bound)", G::SPEC, worst, runs * steps);
+    assert!(
+        saturated > runs * steps / 10,
+        "too few saturated solves ({saturated}) to exercise the box"
+    );
+    assert!(
+        interior > runs * steps / 10,
+        "too few solves with inactive bounds ({interior})"
+    );
+    println!(
+        "{}: worst error {:.3} × ε·scale/μ ({} solves, {saturated} with an active bound)",
+        G::SPEC,
+        worst,
+        runs * steps
+    );
     worst
 }
 

@@ -1,0 +1,188 @@
+//! The generated Kalman filters against the generic one, and the steady-state gain against the limit of
+//! the time-varying filter.
+//!
+//! Tolerance. Each cycle rounds the estimate at about ε·(|x| + |z|); the filter's error dynamics
+//! x̃⁺ = F(I − KC)x̃ forget such errors at the rate ρ = ρ(F(I − K∞C)) < 1, so they add up to at most
+//!     k · ε · (|x|max + |z|max) / (1 − ρ)
+//! We assert k = 4 (observed maxima are printed by `--nocapture`); in f64 also 1e-9 relative.
+#![allow(non_snake_case)]
+
+use codegen::oracle;
+use mpc_tests::generated::*;
+use mpc_tests::harness::*;
+use nalgebra::{DMatrix, DVector};
+use rand::Rng;
+use rand_distr::StandardNormal;
+
+const K_FILTER: f64 = 4.0;
+
+/// A standard normal sample.
+fn normal(rng: &mut impl Rng) -> f64 {
+    rng.sample(StandardNormal)
+}
+
+fn compare_filter<G: Generated>(seed: u64, steps: usize) -> f64 {
+    let p = G::problem();
+    let (nx, nu, ny) = (p.nx, p.nu, p.ny);
+    let mut rng = rng(seed);
+    let eps = G::epsilon();
+    let closed = &p.F * (DMatrix::identity(nx, nx) - &p.filter.K_inf * &p.C);
+    let rho = spectral_radius(&closed);
+    assert!(
+        rho < 1.0,
+        "the filter's error dynamics are unstable: ρ = {rho}"
+    );
+    let mut x = random_vector(&mut rng, nx, 1.0);
+    let x0 = DVector::zeros(nx);
+    let mut oracle = oracle::Kalman::new(&p, x0.clone());
+    let mut generated = G::kalman_new(x0.as_slice());
+    let sigma_z: Vec<f64> = (0..ny).map(|i| p.filter.Rn[(i, i)].sqrt()).collect();
+    let sigma_w: Vec<f64> = (0..nx).map(|i| p.filter.Qn[(i, i)].sqrt()).collect();
+    let (mut x_abs, mut z_abs, mut worst, mut worst_abs) = (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64);
+    for _ in 0..steps {
+        let z = (&p.C * &x
+            + DVector::from_iterator(ny, sigma_z.iter().map(|s| s * normal(&mut rng))))
+        .map(G::round);
+        assert!(oracle.update(&z));
+        assert!(G::kalman_update(&mut generated, z.as_slice()));
+        let u = DVector::from_iterator(
+            nu,
+            (0..nu).map(|j| rng.gen_range(p.qp.u_min[j]..=p.qp.u_max[j])),
+        )
+        .map(G::round);
+        oracle.predict(&u);
+        G::kalman_predict(&mut generated, u.as_slice());
+        x = &p.F * &x
+            + &p.G * &u
+            + DVector::from_iterator(nx, sigma_w.iter().map(|s| s * normal(&mut rng)));
+        x_abs = x_abs.max(oracle.state().amax());
+        z_abs = z_abs.max(z.amax());
+        let diff = G::kalman_state(&generated)
+            .iter()
+            .zip(oracle.state().iter())
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        worst_abs = worst_abs.max(diff);
+        worst = worst.max(diff / (eps * (x_abs + z_abs) / (1.0 - rho)));
+    }
+    if eps < 1e-10 {
+        assert!(
+            worst_abs <= 1e-9 * (x_abs + z_abs),
+            "f64 filter differs by {worst_abs:e}"
+        );
+    }
+    println!(
+        "{}: worst filter error {worst:.3} × ε·scale/(1 − ρ), ρ = {rho:.5}",
+        G::SPEC
+    );
+    worst
+}
+
+macro_rules! filter_tests {
+    ($($test:ident: $g:ty,)*) => {
+        $(
+            #[test]
+            fn $test() {
+                let worst = compare_filter::<$g>(0xf117 + stringify!($test).len() as u64, 1000);
+                assert!(worst <= K_FILTER, "error {worst} × the scale exceeds k = {K_FILTER}");
+            }
+        )*
+    };
+}
+
+filter_tests! {
+    kalman_paper: paper,                       // f32, time-varying
+    kalman_paper_f64: paper_f64,               // f64, steady-state
+    kalman_horizon40: horizon40,               // f32, steady-state
+    kalman_asymmetric_gradient: asymmetric_gradient, // f64, time-varying, diagonal P0
+    kalman_full_q: full_q,                     // f32, time-varying, full P0
+    kalman_linear_f64: linear_f64,             // f64, time-varying, full covariances
+    kalman_linear_f32: linear_f32,             // f32, steady-state
+}
+
+/// The time-varying filter's gain converges to the steady-state gain solved at compile time.
+#[test]
+fn steady_state_gain_is_the_limit_of_the_time_varying_filter() {
+    for problem in [paper::problem(), linear_f64::problem(), full_q::problem()] {
+        let mut filter = oracle::Kalman::new(
+            &{
+                let mut p = problem.clone();
+                p.filter.kind = mpc_spec::FilterKind::TimeVarying;
+                p
+            },
+            DVector::zeros(problem.nx),
+        );
+        let z = DVector::zeros(problem.ny);
+        let u = DVector::zeros(problem.nu);
+        for _ in 0..20_000 {
+            filter.update(&z);
+            filter.predict(&u);
+        }
+        let gain = filter
+            .gain()
+            .expect("positive definite innovation covariance");
+        let diff = (&gain - &problem.filter.K_inf).amax();
+        assert!(
+            diff <= 1e-9 * problem.filter.K_inf.amax(),
+            "gain differs from K∞ by {diff:e}"
+        );
+        let p_diff = (filter.covariance() - &problem.filter.P_inf).amax();
+        assert!(
+            p_diff <= 1e-9 * problem.filter.P_inf.amax(),
+            "covariance differs from P∞ by {p_diff:e}"
+        );
+    }
+}
+
+/// The generated time-varying filter, run long enough, estimates like the steady-state filter.
+#[test]
+fn generated_time_varying_filter_approaches_the_steady_state_one() {
+    // paper (f32, time-varying) against the same model with K∞ in f64, on the same noisy data.
+    let p = paper::problem();
+    let mut rng = rng(7);
+    let mut time_varying = <paper as Generated>::kalman_new(&[0.0; 6]);
+    let mut steady = <paper_f64 as Generated>::kalman_new(&[0.0; 6]);
+    let mut x = DVector::<f64>::zeros(6);
+    let mut late_gap: f64 = 0.0;
+    for k in 0..4000 {
+        let z: Vec<f64> = (0..3).map(|i| x[i] + 0.3 * normal(&mut rng)).collect();
+        paper::kalman_update(&mut time_varying, &z);
+        paper_f64::kalman_update(&mut steady, &z);
+        let u: Vec<f64> = (0..3).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        paper::kalman_predict(&mut time_varying, &u);
+        paper_f64::kalman_predict(&mut steady, &u);
+        x = &p.F * &x + &p.G * DVector::from_column_slice(&u);
+        if k >= 3000 {
+            let a = paper::kalman_state(&time_varying);
+            let b = paper_f64::kalman_state(&steady);
+            late_gap = late_gap.max(
+                a.iter()
+                    .zip(&b)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max),
+            );
+        }
+    }
+    // 3000 cycles = 38 s: the gains agree to far better than the 0.3 m noise; what remains is f32 rounding.
+    assert!(
+        late_gap < 1e-3,
+        "the filters still differ by {late_gap} m after 38 s"
+    );
+}
+
+/// A non-finite measurement is rejected and changes nothing.
+#[test]
+fn non_finite_measurement_is_rejected() {
+    let mut k = mpc_tests::paper::Kalman::new([1.0, 2.0, 3.0, 0.0, 0.0, 0.0]);
+    k.predict(&[1.0, 0.0, -1.0]);
+    let before = k.clone();
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        assert!(!k.update(&[0.0, bad, 0.0]));
+        assert_eq!(k, before);
+    }
+    assert!(k.update(&[1.0, 2.0, 3.0]));
+    assert_ne!(k, before);
+    let mut s = mpc_tests::paper_f64::Kalman::new([0.0; 6]);
+    assert!(!s.update(&[f64::NAN, 0.0, 0.0]));
+    assert_eq!(s.state(), &[0.0; 6]);
+}
