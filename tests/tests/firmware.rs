@@ -256,6 +256,9 @@ fn assert_flew(f: &Flight, spec: &str, scalar: &str, horizon: u64, iterations: u
         (uint(r, "horizon"), uint(r, "iterations")),
         (horizon, iterations)
     );
+    // Painted-stack high-water mark: some stack was used, well inside the 64 KiB of memory.x.
+    let stack = uint(r, "stack_bytes");
+    assert!(stack > 256 && stack < 48 * 1024, "stack use {stack} B");
     let full = (Trajectory::paper().duration() / flight_sim::DT) as u64;
     assert_eq!(
         uint(r, "cycles"),
