@@ -116,7 +116,9 @@ extern "C" fn main() -> ! {
     let mut errors = Errors::new();
     let scenario = Scenario::new(SEED, CYCLES);
     report::header(&mut uart, &scenario);
-    fly(&mut timed, &reference, &scenario, |sample, _| errors.add(&sample.error()));
+    fly(&mut timed, &reference, &scenario, |sample, _| {
+        errors.add(&sample.error())
+    });
 
     let ok = report::result(
         &mut uart,
@@ -126,6 +128,7 @@ extern "C" fn main() -> ! {
             errors: &errors,
             calib_instructions: 2 * u64::from(CALIB_ITERS),
             calib_ticks,
+            stack_bytes: rt::stack_high_water(),
         },
     );
     semihosting::exit(if ok { 0 } else { 1 })

@@ -25,7 +25,11 @@ const fn fnv1a64(bytes: &[u8]) -> u64 {
 }
 
 /// The controller's scalar type, by size.
-const SCALAR: &str = if core::mem::size_of::<ctrl::Real>() == 4 { "f32" } else { "f64" };
+const SCALAR: &str = if core::mem::size_of::<ctrl::Real>() == 4 {
+    "f32"
+} else {
+    "f64"
+};
 
 /// Everything a finished run reports.
 pub struct Run<'a> {
@@ -39,6 +43,8 @@ pub struct Run<'a> {
     pub calib_instructions: u64,
     /// Global timer ticks the calibration loop took.
     pub calib_ticks: u64,
+    /// Deepest use of the main (SVC) stack, bytes.
+    pub stack_bytes: usize,
 }
 
 /// Prints what is about to fly.
@@ -81,7 +87,10 @@ pub fn result(uart: &mut Uart0, run: &Run) -> bool {
     axes(uart, &rmse, "/");
     uart.str(", max ");
     axes(uart, &max_abs, "/");
-    uart.str(if ok { "\nflight OK\n" } else { "\nflight FAILED\n" });
+    uart.str("\nstack used: ")
+        .u64(run.stack_bytes as u64)
+        .str(" bytes\n")
+        .str(if ok { "flight OK\n" } else { "flight FAILED\n" });
 
     uart.str("RESULT {\"spec\":\"")
         .str(SPEC_PATH)
@@ -115,11 +124,15 @@ pub fn result(uart: &mut Uart0, run: &Run) -> bool {
         .u64(run.calib_instructions)
         .str(",\"calib_ticks\":")
         .u64(run.calib_ticks)
+        .str(",\"stack_bytes\":")
+        .u64(run.stack_bytes as u64)
         .str(",\"rmse_um\":[");
     axes(uart, &rmse, ",");
     uart.str("],\"max_abs_error_um\":[");
     axes(uart, &max_abs, ",");
-    uart.str("],\"ok\":").str(if ok { "true" } else { "false" }).str("}\n");
+    uart.str("],\"ok\":")
+        .str(if ok { "true" } else { "false" })
+        .str("}\n");
     ok
 }
 

@@ -4,7 +4,8 @@
 //! - All of it is assembly, run before any Rust code: Rust must not run before its stack exists
 //!   and its statics are zeroed. Rust sees only `main` (called from here) and `fault_exit`.
 //! - The core starts in Secure SVC mode with the MMU and caches off, as QEMU and the Zynq boot
-//!   ROM leave it. The firmware stays in SVC mode.
+//!   ROM leave it. The firmware stays in SVC mode, and turns on the MMU (a flat map) and the L1
+//!   caches; the L2 cache controller (PL310) is left off.
 //! - Every exception is a failure for this firmware (it polls, it takes no interrupts): each
 //!   default handler exits through semihosting with its own status, so a test sees which one fired.
 
@@ -100,6 +101,63 @@ _start:
     strlo r2, [r0], #4
     blo   1b
 
+    @ Paint the SVC stack, so that `stack_high_water` can tell how deep it went.
+    ldr   r0, =__exception_stacks_top
+    ldr   r1, =__stack_top
+    ldr   r2, ={paint}
+1:  cmp   r0, r1
+    strlo r2, [r0], #4
+    blo   1b
+
+    @ MMU and L1 caches. With the MMU off every access is strongly ordered and uncached: a real
+    @ A9 would run the controller many times slower than the paper's board. Flat map of 4096
+    @ 1 MiB sections: DDR (the first GiB) normal write-back write-allocate memory, the rest device
+    @ memory that never executes. QEMU translates but models no cache: counts do not change.
+    ldr   r0, =__ttb
+    ldr   r3, ={ddr_section}
+    ldr   r4, ={device_section}
+    mov   r1, #0
+1:  cmp   r1, #0x400
+    movlo r2, r3
+    movhs r2, r4
+    orr   r2, r2, r1, lsl #20
+    str   r2, [r0, r1, lsl #2]
+    add   r1, r1, #1
+    cmp   r1, #0x1000
+    blo   1b
+    @ The table is written with the D-cache off, so it is in memory for the table walks.
+    mcr   p15, 0, r0, c2, c0, 0       @ TTBR0 = the table, walks non-cacheable
+    mov   r0, #0
+    mcr   p15, 0, r0, c2, c0, 2       @ TTBCR = 0: TTBR0 translates everything
+    ldr   r0, =0x55555555
+    mcr   p15, 0, r0, c3, c0, 0       @ DACR: every domain is a client, AP bits apply
+    @ Caches and TLBs hold garbage after reset: invalidate them before turning them on.
+    mov   r0, #0
+    mcr   p15, 0, r0, c8, c7, 0       @ TLBIALL
+    mcr   p15, 0, r0, c7, c5, 0       @ ICIALLU
+    mcr   p15, 0, r0, c7, c5, 6       @ BPIALL
+    @ L1 D-cache by set/way: 4 ways (bits 31:30) x 256 sets (bits 12:5) of 32-byte lines (32 KiB).
+    mov   r1, #0
+1:  mov   r2, #0
+2:  orr   r0, r2, r1, lsl #30
+    mcr   p15, 0, r0, c7, c6, 2       @ DCISW
+    add   r2, r2, #(1 << 5)
+    cmp   r2, #(256 << 5)
+    blo   2b
+    add   r1, r1, #1
+    cmp   r1, #4
+    blo   1b
+    dsb
+    isb
+    mrc   p15, 0, r0, c1, c0, 0
+    orr   r0, r0, #(1 << 0)           @ M: MMU
+    orr   r0, r0, #(1 << 2)           @ C: data cache
+    orr   r0, r0, #(1 << 11)          @ Z: branch prediction
+    orr   r0, r0, #(1 << 12)          @ I: instruction cache
+    mcr   p15, 0, r0, c1, c0, 0
+    dsb
+    isb
+
     bl    main
 2:  wfe
     b     2b
@@ -138,7 +196,37 @@ __default_fiq:
     data_abort = const status::DATA_ABORT,
     irq = const status::IRQ,
     fiq = const status::FIQ,
+    paint = const STACK_PAINT,
+    // Section descriptors (ARMv7-A short format): AP = 0b11 (full access), domain 0.
+    // DDR: TEX = 0b001, C = 1, B = 1: normal, outer and inner write-back write-allocate.
+    ddr_section = const 0b10 | (1 << 2) | (1 << 3) | (0b11 << 10) | (0b001 << 12),
+    // Everything else: B = 1 (shareable device), XN = 1.
+    device_section = const 0b10 | (1 << 2) | (1 << 4) | (0b11 << 10),
 );
+
+/// What the startup code writes over the SVC stack before `main` runs.
+const STACK_PAINT: u32 = 0xDEAD_BEEF;
+
+extern "C" {
+    static __exception_stacks_top: u32;
+    static __stack_top: u32;
+}
+
+/// Bytes of the SVC stack used so far at most: the painted words that were overwritten.
+/// (A word that happens to be written with the paint value itself is counted as unused.)
+pub fn stack_high_water() -> usize {
+    // SAFETY: the linker script places [__exception_stacks_top, __stack_top) in DDR as the SVC
+    // stack; reading its words, above or below the current stack pointer, has no side effect.
+    unsafe {
+        let bottom = core::ptr::addr_of!(__exception_stacks_top);
+        let top = core::ptr::addr_of!(__stack_top);
+        let mut p = bottom;
+        while p < top && core::ptr::read_volatile(p) == STACK_PAINT {
+            p = p.add(1);
+        }
+        (top as usize).wrapping_sub(p as usize)
+    }
+}
 
 /// Target of the default exception handlers, running on the exception mode's own stack.
 #[no_mangle]

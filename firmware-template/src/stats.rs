@@ -16,7 +16,12 @@ pub struct Ticks {
 impl Ticks {
     /// No cycle yet.
     pub const fn new() -> Self {
-        Self { min: u64::MAX, max: 0, sum: 0, count: 0 }
+        Self {
+            min: u64::MAX,
+            max: 0,
+            sum: 0,
+            count: 0,
+        }
     }
 
     /// Adds one cycle.
@@ -47,7 +52,11 @@ pub struct Errors {
 impl Errors {
     /// No sample yet.
     pub const fn new() -> Self {
-        Self { sum_sq: [0.0; 3], max_abs: [0.0; 3], count: 0 }
+        Self {
+            sum_sq: [0.0; 3],
+            max_abs: [0.0; 3],
+            count: 0,
+        }
     }
 
     /// Adds the error of one cycle.
@@ -79,6 +88,7 @@ impl Errors {
 /// keeps float formatting (and its panicking paths) out of the firmware.
 pub fn micrometres(x: f64) -> Option<u64> {
     let um = x * 1e6 + 0.5;
-    // `as` saturates; the range check keeps a huge error from passing as u64::MAX.
-    (um.is_finite() && um >= 0.0 && um < 1.8e19).then_some(um as u64)
+    // `as` saturates; the range check (false for NaN and infinities) keeps a huge error from
+    // passing as u64::MAX.
+    (0.0..1.8e19).contains(&um).then_some(um as u64)
 }

@@ -184,11 +184,11 @@ struct Errors {
 
 impl Errors {
     fn add(&mut self, e: &[f64; 3]) {
-        for i in 0..3 {
-            self.sum_sq[i] += e[i] * e[i];
-            let a = e[i].abs();
-            if a > self.max_abs[i] || a.is_nan() {
-                self.max_abs[i] = a;
+        for ((s, m), &e) in self.sum_sq.iter_mut().zip(&mut self.max_abs).zip(e) {
+            *s += e * e;
+            let a = e.abs();
+            if a > *m || a.is_nan() {
+                *m = a;
             }
         }
         self.count += 1;
