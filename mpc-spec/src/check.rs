@@ -11,7 +11,7 @@ pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
         .as_ref()
         .map(|m| (m.kind.nx(), m.kind.nu(), m.kind.ny()));
     let mpc = dims.and_then(|(nx, nu, _)| check_mpc(&raw, nx, nu, diags));
-    let kalman = model.as_ref().and_then(|m| check_kalman(&raw, m, diags));
+    let kalman = model.as_ref().filter(|_| raw.has("kalman")).and_then(|m| check_kalman(&raw, m, diags));
     let scalar = match raw.scalar.as_ref().map(|s| s.value.as_str()) {
         Some("f64") => Scalar::F64,
         _ => Scalar::F32,
@@ -219,9 +219,9 @@ fn check_kalman(raw: &Raw, model: &Model, diags: &mut Diagnostics) -> Option<Kal
                 );
                 None
             } else {
-                let sigma_a = required(diags, raw.sigma_a.as_ref(), "sigma_a", &raw.kalman_span);
+                let sigma_a = required(diags, raw, raw.sigma_a.as_ref(), "sigma_a");
                 let sigma_meas = match raw.sigma_meas.as_ref() {
-                    None => required::<Vec<f64>>(diags, None, "sigma_meas", &raw.kalman_span),
+                    None => required::<Vec<f64>>(diags, raw, None, "sigma_meas"),
                     Some(m) => match &m.value {
                         MatrixInput::Scalar(s) => Some(vec![*s; ny]),
                         MatrixInput::Diagonal(d) if d.len() == ny => Some(d.clone()),
@@ -244,10 +244,10 @@ fn check_kalman(raw: &Raw, model: &Model, diags: &mut Diagnostics) -> Option<Kal
             let q = square(diags, "kalman.q", raw.kalman_q.as_ref(), nx, "nx");
             let r = square(diags, "kalman.r", raw.kalman_r.as_ref(), ny, "ny");
             if raw.kalman_q.is_none() {
-                required::<f64>(diags, None, "q", &raw.kalman_span);
+                required::<f64>(diags, raw, None, "q");
             }
             if raw.kalman_r.is_none() {
-                required::<f64>(diags, None, "r", &raw.kalman_span);
+                required::<f64>(diags, raw, None, "r");
             }
             if let Some(r) = &r {
                 if (0..ny).any(|i| r.get(i, i) <= 0.0) {
@@ -278,15 +278,11 @@ fn check_kalman(raw: &Raw, model: &Model, diags: &mut Diagnostics) -> Option<Kal
     })
 }
 
-fn required<T: Clone>(
-    diags: &mut Diagnostics,
-    v: Option<&Located<T>>,
-    key: &str,
-    table: &Span,
-) -> Option<T> {
-    if v.is_none() {
+/// The value of `[kalman] key`, reporting it as missing unless it was written (and reported) already.
+fn required<T: Clone>(diags: &mut Diagnostics, raw: &Raw, v: Option<&Located<T>>, key: &str) -> Option<T> {
+    if v.is_none() && !raw.has(&format!("kalman.{key}")) {
         diags.push(
-            Diagnostic::new(format!("missing key `{key}` in `[kalman]`"), table.clone())
+            Diagnostic::new(format!("missing key `{key}` in `[kalman]`"), raw.kalman_span.clone())
                 .label(format!("`{key}` is required here")),
         );
     }

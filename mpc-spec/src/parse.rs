@@ -4,7 +4,7 @@
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::keys;
 use crate::model::{Matrix, Span};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use toml::de::{DeTable, DeValue};
 use toml::Spanned;
 
@@ -85,6 +85,16 @@ pub struct Raw {
     pub scalar: Option<Located<String>>,
 
     pub spans: BTreeMap<String, Span>,
+    /// Every table and key written, readable or not (`"kalman"`, `"kalman.sigma_a"`), so that a value
+    /// already reported as wrong is not reported again as missing.
+    pub present: BTreeSet<String>,
+}
+
+impl Raw {
+    /// Whether `path` was written at all.
+    pub fn has(&self, path: &str) -> bool {
+        self.present.contains(path)
+    }
 }
 
 type Value<'i> = Spanned<DeValue<'i>>;
@@ -103,17 +113,14 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
             return raw;
         }
     };
-    let mut p = Parser {
-        diags,
-        spans: BTreeMap::new(),
-    };
+    let mut p = Parser { diags, spans: BTreeMap::new(), present: BTreeSet::new() };
     let root_span = root.span();
     let root = root.get_ref();
-    p.unknown_keys(root, keys::TABLES, "the spec", "table");
+    p.unknown_keys(root, keys::TABLES, "", "table");
 
     if let Some((span, t)) = p.table(root, keys::MODEL, &root_span, true) {
         raw.model_span = span.clone();
-        p.unknown_keys(t, keys::MODEL_KEYS, "[model]", "key");
+        p.unknown_keys(t, keys::MODEL_KEYS, "model", "key");
         raw.model_type = p
             .required(t, "model", "type", &span)
             .and_then(|v| p.choice(v, "model.type", keys::MODEL_TYPES));
@@ -127,7 +134,7 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
     }
     if let Some((span, t)) = p.table(root, keys::MPC, &root_span, true) {
         raw.mpc_span = span.clone();
-        p.unknown_keys(t, keys::MPC_KEYS, "[mpc]", "key");
+        p.unknown_keys(t, keys::MPC_KEYS, "mpc", "key");
         raw.horizon = p
             .required(t, "mpc", "horizon", &span)
             .and_then(|v| p.count(v, "mpc.horizon", 1));
@@ -157,7 +164,7 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
     }
     if let Some((span, t)) = p.table(root, keys::KALMAN, &root_span, true) {
         raw.kalman_span = span;
-        p.unknown_keys(t, keys::KALMAN_KEYS, "[kalman]", "key");
+        p.unknown_keys(t, keys::KALMAN_KEYS, "kalman", "key");
         raw.sigma_a = t
             .get("sigma_a")
             .and_then(|v| p.positive(v, "kalman.sigma_a"));
@@ -178,18 +185,20 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
             .and_then(|v| p.choice(v, "kalman.filter", keys::FILTERS));
     }
     if let Some((_, t)) = p.table(root, keys::CODEGEN, &root_span, false) {
-        p.unknown_keys(t, keys::CODEGEN_KEYS, "[codegen]", "key");
+        p.unknown_keys(t, keys::CODEGEN_KEYS, "codegen", "key");
         raw.scalar = t
             .get("scalar")
             .and_then(|v| p.choice(v, "codegen.scalar", keys::SCALARS));
     }
     raw.spans = p.spans;
+    raw.present = p.present;
     raw
 }
 
 struct Parser<'d> {
     diags: &'d mut Diagnostics,
     spans: BTreeMap<String, Span>,
+    present: BTreeSet<String>,
 }
 
 impl Parser<'_> {
@@ -240,9 +249,12 @@ impl Parser<'_> {
     }
 
     /// Reports every key of `t` not in `allowed`, with the closest allowed one as a hint.
-    fn unknown_keys(&mut self, t: &DeTable<'_>, allowed: &[&str], place: &str, what: &str) {
+    /// Records every key of the table `table` ("" for the root) as present.
+    fn unknown_keys(&mut self, t: &DeTable<'_>, allowed: &[&str], table: &str, what: &str) {
+        let place = if table.is_empty() { "the spec".to_string() } else { format!("[{table}]") };
         for (k, _) in t.iter() {
             let key: &str = k.get_ref();
+            self.present.insert(if table.is_empty() { key.to_string() } else { format!("{table}.{key}") });
             if allowed.contains(&key) {
                 continue;
             }
