@@ -1,0 +1,151 @@
+//! The compile-time linear algebra on the paper's problem, against the paper's equations and figures.
+#![allow(non_snake_case)]
+
+use codegen::lower::{lower, prediction_matrices, white_acceleration_noise};
+use mpc_spec::load;
+use nalgebra::DMatrix;
+
+fn paper() -> codegen::Problem {
+    lower(&load(include_str!("../../specs/paper.toml")).unwrap()).unwrap()
+}
+
+#[test]
+fn paper_model_is_equation_2() {
+    let p = paper();
+    let dt = 0.0128;
+    #[rustfmt::skip]
+    let F = DMatrix::from_row_slice(6, 6, &[
+        1., 0., 0., dt, 0., 0.,
+        0., 1., 0., 0., dt, 0.,
+        0., 0., 1., 0., 0., dt,
+        0., 0., 0., 1., 0., 0.,
+        0., 0., 0., 0., 1., 0.,
+        0., 0., 0., 0., 0., 1.,
+    ]);
+    assert_eq!(p.F, F);
+    assert_eq!(p.G.rows(0, 3), DMatrix::identity(3, 3) * (0.5 * dt * dt));
+    assert_eq!(p.G.rows(3, 3), DMatrix::identity(3, 3) * dt);
+    assert_eq!(p.C.columns(0, 3), DMatrix::identity(3, 3));
+    assert_eq!(p.C.columns(3, 3), DMatrix::zeros(3, 3));
+}
+
+#[test]
+fn prediction_matrices_are_equations_12_and_13() {
+    let p = paper();
+    let N = 15;
+    let (Sx, Su) = prediction_matrices(&p.F, &p.G, N);
+    let mut Fk = DMatrix::identity(6, 6);
+    for k in 0..N {
+        Fk = &p.F * Fk;
+        assert_eq!(Sx.view((6 * k, 0), (6, 6)), Fk);
+        for j in 0..N {
+            let block = Su.view((6 * k, 3 * j), (6, 3));
+            if j > k {
+                assert_eq!(block, DMatrix::zeros(6, 3));
+            } else {
+                let expected = p.F.pow((k - j) as u32) * &p.G;
+                assert!((block - expected).amax() < 1e-15);
+            }
+        }
+    }
+}
+
+#[test]
+fn paper_hessian_has_the_papers_structure_and_conditioning() {
+    let p = paper();
+    let H = &p.qp.H;
+    assert_eq!(H.shape(), (45, 45));
+    assert_eq!(H, &H.transpose(), "H must be exactly symmetric");
+    // Three identical, decoupled axis blocks: 3 · 15² = 675 nonzeros of 2025.
+    let nonzeros = H.iter().filter(|v| **v != 0.0).count();
+    assert_eq!(nonzeros, 675);
+    for i in 0..45 {
+        for j in 0..45 {
+            if i % 3 != j % 3 {
+                assert_eq!(H[(i, j)], 0.0);
+            } else {
+                assert_eq!(H[(i, j)], H[(i - i % 3, j - j % 3)]);
+            }
+        }
+    }
+    let condition = p.qp.L / p.qp.mu;
+    assert!(
+        (6.5..7.1).contains(&condition),
+        "condition number {condition}"
+    );
+    assert!(
+        (0.48..0.50).contains(&(1.0 / p.qp.L)),
+        "1/L = {}",
+        1.0 / p.qp.L
+    );
+    assert_eq!(p.qp.step, 1.0 / p.qp.L);
+    let r = (p.qp.mu / p.qp.L).sqrt();
+    assert!((p.qp.momentum - (1.0 - r) / (1.0 + r)).abs() < 1e-15);
+}
+
+#[test]
+fn gradient_map_is_equation_10() {
+    let p = paper();
+    let (Sx, Su) = (&p.qp.Sx, &p.qp.Su);
+    let x0 = nalgebra::DVector::from_vec(vec![1.0, -2.0, 0.5, 0.1, 0.2, -0.3]);
+    let Xref = nalgebra::DVector::from_fn(90, |i, _| (i as f64 * 0.37).sin());
+    let mut Q_blk = DMatrix::zeros(90, 90);
+    for k in 0..15 {
+        let w = if k == 14 { &p.qp.Qf } else { &p.qp.Q };
+        Q_blk.view_mut((6 * k, 6 * k), (6, 6)).copy_from(w);
+    }
+    let f_paper = Su.transpose() * &Q_blk * (Sx * &x0 - &Xref) * 2.0;
+    let f = &p.qp.Fx * &x0 - &p.qp.Fr * &Xref;
+    assert!((f - f_paper).amax() < 1e-9);
+}
+
+#[test]
+fn process_noise_is_symmetric_with_dt3_over_2() {
+    let Q = white_acceleration_noise(3, 0.0128, 0.15);
+    assert_eq!(Q, Q.transpose());
+    let s2 = 0.15_f64 * 0.15;
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-15 * b.abs();
+    assert!(close(Q[(0, 3)], s2 * 0.0128_f64.powi(3) / 2.0));
+    assert!(close(Q[(0, 0)], s2 * 0.0128_f64.powi(4) / 4.0));
+    assert!(close(Q[(3, 3)], s2 * 0.0128_f64.powi(2)));
+    assert_eq!(Q[(0, 1)], 0.0);
+}
+
+#[test]
+fn steady_state_gain_solves_the_riccati_equation() {
+    let p = paper();
+    let f = &p.filter;
+    let (K, post) = codegen::lower::kalman_gain_and_posterior(&f.P_inf, &p.C, &f.Rn).unwrap();
+    assert!((&K - &f.K_inf).amax() < 1e-15);
+    let next = &p.F * post * p.F.transpose() + &f.Qn;
+    assert!((next - &f.P_inf).amax() <= 1e-12 * f.P_inf.amax());
+}
+
+#[test]
+fn divergent_steps_are_rejected_at_the_step_key() {
+    let src = include_str!("../../specs/paper-faithful.toml").replace("step = 0.04", "step = 1.5");
+    let diags = lower(&load(&src).unwrap()).unwrap_err();
+    let d = diags.iter().next().unwrap();
+    assert!(
+        d.message
+            .starts_with("`mpc.step` = 1.5 is too large: it must be below 2/L"),
+        "{}",
+        d.message
+    );
+    assert_eq!(&src[d.span.clone().unwrap()], "1.5");
+    let fgm = include_str!("../../specs/paper.toml").replace("step = \"auto\"", "step = 0.6");
+    let d = lower(&load(&fgm).unwrap()).unwrap_err();
+    assert!(d.iter().next().unwrap().message.contains("at most 1/L"));
+}
+
+#[test]
+fn indefinite_weights_are_rejected() {
+    let src = include_str!("../../specs/paper.toml").replace(
+        "q = [150, 150, 150, 5, 5, 5]",
+        "q = [[1, 2, 0, 0, 0, 0], [2, 1, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0], [0, 0, 0, 1, 0, 0], [0, 0, 0, 0, 1, 0], [0, 0, 0, 0, 0, 1]]",
+    );
+    let diags = lower(&load(&src).unwrap()).unwrap_err();
+    assert!(diags
+        .iter()
+        .any(|d| d.message.starts_with("Q must be positive semidefinite")));
+}
