@@ -1,0 +1,338 @@
+//! Markdown tables on stdout and CSV files, from the aggregated summary.
+
+use std::fmt::Write as _;
+
+use serde_json::Value;
+
+use crate::run::Kind;
+use crate::summary::number;
+
+/// The paper's own figures (Tables 2 and 3, Section 3.2.4), printed beside ours for comparison.
+/// They are the paper's measurements on its trajectory and hardware, not expectations.
+mod paper {
+    pub const TABLE2_MPC: [(&str, [f64; 3]); 8] = [
+        ("max_abs_error", [0.236, 0.236, 0.207]),
+        ("rmse", [0.082, 0.086, 0.088]),
+        ("iae", [6.986, 8.737, 7.764]),
+        ("ise", [0.673, 1.029, 0.849]),
+        ("itae", [398.531, 502.689, 431.181]),
+        ("itse", [39.581, 61.222, 46.987]),
+        ("smoothness", [16.189, 16.276, 16.578]),
+        ("variance", [1.658, 1.855, 1.171]),
+    ];
+    pub const TABLE2_PID: [(&str, [f64; 3]); 8] = [
+        ("max_abs_error", [0.486, 0.606, 0.499]),
+        ("rmse", [0.111, 0.108, 0.113]),
+        ("iae", [12.433, 10.215, 9.943]),
+        ("ise", [2.371, 1.679, 1.362]),
+        ("itae", [705.565, 588.987, 546.251]),
+        ("itse", [119.079, 88.491, 72.828]),
+        ("smoothness", [114.693, 114.122, 114.167]),
+        ("variance", [22.391, 22.964, 22.638]),
+    ];
+    /// Mean computation time on the Zynq-7000's Cortex-A9, µs.
+    pub const TIME_US: (f64, f64) = (180.0, 21.0);
+    pub const TABLE3_MPC: [(&str, [f64; 3]); 4] = [
+        ("rise_time_s", [0.793, 0.768, 0.755]),
+        ("peak_time_s", [1.241, 7.292, 1.433]),
+        ("overshoot_pct", [14.81, 4.02, 9.21]),
+        ("settling_time_s", [15.086, 7.961, 7.126]),
+    ];
+    pub const TABLE3_PID: [(&str, [f64; 3]); 4] = [
+        ("rise_time_s", [0.819, 0.806, 0.832]),
+        ("peak_time_s", [2.840, 2.557, 2.614]),
+        ("overshoot_pct", [16.04, 19.87, 18.17]),
+        ("settling_time_s", [15.632, 16.162, 14.623]),
+    ];
+    /// Held error, recovery time, error after recovery (MPC only).
+    pub const GUST_MPC: [f64; 3] = [0.77, 2.85, 0.133];
+}
+
+const TABLE2: [(&str, &str); 8] = [
+    ("max_abs_error", "Max abs error (m)"),
+    ("rmse", "RMSE (m)"),
+    ("iae", "IAE (m·s)"),
+    ("ise", "ISE (m²·s)"),
+    ("itae", "ITAE (m·s²)"),
+    ("itse", "ITSE (m²·s²)"),
+    ("smoothness", "Smoothness, mean abs rate of change (m/s³)"),
+    ("variance", "Control variance ((m/s²)²)"),
+];
+
+const TABLE3: [(&str, &str); 4] = [
+    ("rise_time_s", "Rise time 10-90 % (s)"),
+    ("peak_time_s", "Peak time (s)"),
+    ("overshoot_pct", "Overshoot (%)"),
+    ("settling_time_s", "Settling time ±2 % (s)"),
+];
+
+const GUST: [(&str, &str); 3] = [
+    (
+        "rmse_y_during_m",
+        "Y RMSE during the gust, from 3 s after onset (m)",
+    ),
+    ("recovery_time_s", "Recovery time after the gust (s)"),
+    ("rmse_y_after_m", "Y RMSE over 10 s after recovery (m)"),
+];
+
+const QP_GAP: [(&str, &str); 4] = [
+    ("u_dist_mean", "mean ‖u₀ − u₀*‖ (m/s²)"),
+    ("u_dist_max", "max ‖u₀ − u₀*‖ (m/s²)"),
+    ("u_dist_rel", "mean ‖u₀ − u₀*‖ / mean ‖u₀*‖"),
+    ("cost_gap_mean", "mean J(U) − J(U*)"),
+];
+
+/// A number with a precision that suits its size.
+pub fn fmt(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 {
+        "0".into()
+    } else if a >= 100.0 {
+        format!("{x:.1}")
+    } else if a >= 0.01 {
+        format!("{x:.3}")
+    } else {
+        format!("{x:.2e}")
+    }
+}
+
+/// A number or `{mean, std}` as text; "—" for an undefined figure.
+pub fn cell(v: &Value) -> String {
+    match v {
+        Value::Array(xs) => format!("[{}]", xs.iter().map(cell).collect::<Vec<_>>().join(", ")),
+        _ => match number(v) {
+            Some((m, Some(s))) => format!("{} ± {}", fmt(m), fmt(s)),
+            Some((m, None)) => fmt(m),
+            None => "—".into(),
+        },
+    }
+}
+
+fn paper_cell(xs: &[f64]) -> String {
+    format!(
+        "[{}]",
+        xs.iter().map(|x| fmt(*x)).collect::<Vec<_>>().join(", ")
+    )
+}
+
+fn header(out: &mut String, first: &str, extra: &[&str]) {
+    let mut cols = vec![first.to_string()];
+    cols.extend(Kind::ALL.iter().map(|k| format!("`{}`", k.key())));
+    cols.extend(extra.iter().map(|s| s.to_string()));
+    let _ = writeln!(out, "| {} |", cols.join(" | "));
+    let _ = writeln!(out, "|{}", "---|".repeat(cols.len()));
+}
+
+/// The Markdown report of the aggregated summary.
+pub fn markdown(summary: &Value) -> String {
+    let c = &summary["controllers"];
+    let cfg = &summary["config"];
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "Seed {} ({} seed{}), GPS σ = {} m, acceleration noise σ = {} m/s², flight {} s.\n",
+        cfg["seed"],
+        cfg["seeds"],
+        if cfg["seeds"].as_u64() == Some(1) {
+            ""
+        } else {
+            "s, mean ± standard deviation"
+        },
+        cfg["gps_sigma"],
+        cfg["accel_sigma"],
+        cfg["duration_s"],
+    );
+    let _ = writeln!(
+        out,
+        "Controllers: {}.\n",
+        Kind::ALL
+            .map(|k| format!("`{}` = {}", k.key(), k.label()))
+            .join("; ")
+    );
+
+    let _ = writeln!(
+        out,
+        "#### Table 2: tracking and control signal, per axis [x, y, z]\n"
+    );
+    header(&mut out, "metric", &["paper: MPC", "paper: PID"]);
+    for (i, (key, label)) in TABLE2.iter().enumerate() {
+        let cells: Vec<String> = Kind::ALL.iter().map(|k| cell(&c[k.key()][*key])).collect();
+        let _ = writeln!(
+            out,
+            "| {label} | {} | {} | {} |",
+            cells.join(" | "),
+            paper_cell(&paper::TABLE2_MPC[i].1),
+            paper_cell(&paper::TABLE2_PID[i].1)
+        );
+    }
+    for (key, label) in [
+        ("mean", "Computation time per step, mean (µs)"),
+        ("max", "Computation time per step, max (µs)"),
+    ] {
+        let cells: Vec<String> = Kind::ALL
+            .iter()
+            .map(|k| cell(&c[k.key()]["solve_time_us"][key]))
+            .collect();
+        let (pm, pp) = if key == "mean" {
+            (fmt(paper::TIME_US.0), fmt(paper::TIME_US.1))
+        } else {
+            ("—".into(), "—".into())
+        };
+        let _ = writeln!(
+            out,
+            "| {label} | {} | {pm} (Cortex-A9) | {pp} (Cortex-A9) |",
+            cells.join(" | ")
+        );
+    }
+
+    let _ = writeln!(
+        out,
+        "\n#### Table 3: 1 m step on each axis from hover, per axis [x, y, z]\n"
+    );
+    header(&mut out, "metric", &["paper: MPC", "paper: PID"]);
+    for (i, (key, label)) in TABLE3.iter().enumerate() {
+        let cells: Vec<String> = Kind::ALL
+            .iter()
+            .map(|k| cell(&c[k.key()]["step"][*key]))
+            .collect();
+        let _ = writeln!(
+            out,
+            "| {label} | {} | {} | {} |",
+            cells.join(" | "),
+            paper_cell(&paper::TABLE3_MPC[i].1),
+            paper_cell(&paper::TABLE3_PID[i].1)
+        );
+    }
+
+    let _ = writeln!(out, "\n#### Gust: +0.6 m/s² on Y from t = 20 s to 35 s\n");
+    header(&mut out, "figure", &["paper: MPC"]);
+    for (i, (key, label)) in GUST.iter().enumerate() {
+        let cells: Vec<String> = Kind::ALL
+            .iter()
+            .map(|k| cell(&c[k.key()]["gust"][*key]))
+            .collect();
+        let _ = writeln!(
+            out,
+            "| {label} | {} | {} |",
+            cells.join(" | "),
+            fmt(paper::GUST_MPC[i])
+        );
+    }
+
+    let mpcs: Vec<Kind> = Kind::ALL
+        .into_iter()
+        .filter(|k| !c[k.key()]["qp_gap"].is_null())
+        .collect();
+    if !mpcs.is_empty() {
+        let _ = writeln!(
+            out,
+            "\n#### Distance from the exact optimum of each MPC's own QP along the flight\n"
+        );
+        let cols: Vec<String> = mpcs.iter().map(|k| format!("`{}`", k.key())).collect();
+        let _ = writeln!(out, "| figure | {} |", cols.join(" | "));
+        let _ = writeln!(out, "|---|{}", "---|".repeat(cols.len()));
+        for (key, label) in QP_GAP {
+            let cells: Vec<String> = mpcs
+                .iter()
+                .map(|k| cell(&c[k.key()]["qp_gap"][key]))
+                .collect();
+            let _ = writeln!(out, "| {label} | {} |", cells.join(" | "));
+        }
+    }
+    out
+}
+
+/// CSV files `(name, contents)`: Table 2 (with the computation time), Table 3, gust and QP gap.
+/// Per-axis figures have columns x, y, z; with several seeds each is a mean and a std column.
+pub fn csv(summary: &Value) -> Vec<(&'static str, String)> {
+    let c = &summary["controllers"];
+    let seeds = summary["config"]["seeds"].as_u64().unwrap_or(1) > 1;
+    let head = |names: &[&str]| -> String {
+        let mut cols = vec!["controller".to_string(), "metric".to_string()];
+        for n in names {
+            if seeds {
+                cols.push(format!("{n}_mean"));
+                cols.push(format!("{n}_std"));
+            } else {
+                cols.push(n.to_string());
+            }
+        }
+        cols.join(",") + "\n"
+    };
+    let value = |v: &Value| -> String {
+        match number(v) {
+            Some((m, s)) if seeds => format!("{m},{}", s.unwrap_or(0.0)),
+            Some((m, _)) => m.to_string(),
+            None if seeds => ",".into(),
+            None => String::new(),
+        }
+    };
+    let row = |out: &mut String, kind: Kind, metric: &str, v: &Value| {
+        let cells: Vec<String> = match v {
+            Value::Array(xs) => xs.iter().map(value).collect(),
+            v => vec![value(v)],
+        };
+        let _ = writeln!(out, "{},{metric},{}", kind.key(), cells.join(","));
+    };
+    let mut table2 = head(&["x", "y", "z"]);
+    for k in Kind::ALL {
+        for (key, _) in TABLE2 {
+            row(&mut table2, k, key, &c[k.key()][key]);
+        }
+    }
+    let mut time = head(&["value"]);
+    for k in Kind::ALL {
+        for key in ["mean", "max"] {
+            row(
+                &mut time,
+                k,
+                &format!("solve_time_us_{key}"),
+                &c[k.key()]["solve_time_us"][key],
+            );
+        }
+    }
+    let mut table3 = head(&["x", "y", "z"]);
+    for k in Kind::ALL {
+        for (key, _) in TABLE3 {
+            row(&mut table3, k, key, &c[k.key()]["step"][key]);
+        }
+    }
+    let mut gust = head(&["value"]);
+    for k in Kind::ALL {
+        for (key, _) in GUST {
+            row(&mut gust, k, key, &c[k.key()]["gust"][key]);
+        }
+    }
+    let mut gap = head(&["value"]);
+    for k in Kind::ALL {
+        if !c[k.key()]["qp_gap"].is_null() {
+            for (key, _) in QP_GAP {
+                row(&mut gap, k, key, &c[k.key()]["qp_gap"][key]);
+            }
+        }
+    }
+    vec![
+        ("table2.csv", table2),
+        ("computation_time.csv", time),
+        ("table3.csv", table3),
+        ("gust.csv", gust),
+        ("qp_gap.csv", gap),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn numbers_format_by_size_and_seeds() {
+        assert_eq!(fmt(0.08234), "0.082");
+        assert_eq!(fmt(398.531), "398.5");
+        assert_eq!(fmt(0.000123), "1.23e-4");
+        assert_eq!(
+            cell(&json!([1.0, null, {"mean": 2.0, "std": 0.5}])),
+            "[1.000, —, 2.000 ± 0.500]"
+        );
+    }
+}

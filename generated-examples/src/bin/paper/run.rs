@@ -1,0 +1,347 @@
+//! The runs: each controller on the flight, on the flight with the gust, and on the step.
+
+use std::time::Instant;
+
+use codegen::lower::Qp;
+use flight_sim::metrics::{StepMetrics, StepResponse, Table2, Tracking};
+use flight_sim::{
+    fly, Controller, Disturbance, NoiseConfig, Pid, PidController, Reference, Scenario, Step,
+    Trajectory, DT,
+};
+use nalgebra::DVector;
+
+flight_sim::mpc_controller!(
+    /// `specs/paper.toml`: FGM with step 1/L, the project's tuned controller.
+    pub struct PaperMpc(generated_examples::paper)
+);
+flight_sim::mpc_controller!(
+    /// `specs/paper-faithful.toml`: the paper's Algorithm 1 (projected gradient, α = 0.04).
+    pub struct FaithfulMpc(generated_examples::paper_faithful)
+);
+flight_sim::generated_kalman!(
+    /// The generated filter of `specs/paper.toml`, feeding the PID.
+    pub struct PaperKalman(generated_examples::paper)
+);
+
+/// The controllers compared, in report order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Kind {
+    /// Generated from `specs/paper.toml`.
+    Mpc,
+    /// Generated from `specs/paper-faithful.toml`.
+    MpcFaithful,
+    /// The PID of Section 3.1.2 on the generated filter.
+    Pid,
+}
+
+impl Kind {
+    pub const ALL: [Kind; 3] = [Kind::Mpc, Kind::MpcFaithful, Kind::Pid];
+
+    /// Key in `summary.json` and file names.
+    pub fn key(self) -> &'static str {
+        match self {
+            Kind::Mpc => "mpc",
+            Kind::MpcFaithful => "mpc-faithful",
+            Kind::Pid => "pid",
+        }
+    }
+
+    /// What it is, for tables and legends.
+    pub fn label(self) -> &'static str {
+        match self {
+            Kind::Mpc => "MPC (paper.toml, FGM 1/L)",
+            Kind::MpcFaithful => "MPC (paper-faithful.toml, Alg. 1 α=0.04)",
+            Kind::Pid => "PID (kp 34.2, ki 8, kd 23.4)",
+        }
+    }
+
+    /// The spec the controller was generated from, for the oracle.
+    fn spec(self) -> Option<&'static str> {
+        match self {
+            Kind::Mpc => Some(include_str!("../../../../specs/paper.toml")),
+            Kind::MpcFaithful => Some(include_str!("../../../../specs/paper-faithful.toml")),
+            Kind::Pid => None,
+        }
+    }
+}
+
+/// The three scenarios of the paper.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Test {
+    /// The tracking flight (Table 2).
+    Flight,
+    /// The same flight with the gust of Section 3.2.4.
+    Gust,
+    /// 1 m steps from hover (Table 3).
+    Step,
+}
+
+/// What every run shares.
+#[derive(Clone, Copy, Debug)]
+pub struct Settings {
+    pub noise: NoiseConfig,
+    pub duration: f64,
+    pub step_duration: f64,
+    pub step_noise: bool,
+    pub oracle_stride: usize,
+}
+
+/// One cycle kept for plots and CSV.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Row {
+    pub t: f64,
+    pub reference: [f64; 6],
+    pub state: [f64; 6],
+    pub estimate: [f64; 6],
+    pub command: [f64; 3],
+    pub solve_us: f64,
+}
+
+/// Distance of the generated command from the exact optimum of the same QP, over the cycles
+/// compared.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct QpGap {
+    /// Number of cycles compared.
+    pub count: usize,
+    /// Sum and max of |u₀ − u₀*|₂, m/s².
+    pub u_dist_sum: f64,
+    pub u_dist_max: f64,
+    /// Sum of J(U) − J(U*), the cost the fixed iterations leave on the table.
+    pub cost_gap_sum: f64,
+    /// Sum of |u₀*|₂, to put the distance in proportion.
+    pub u_star_sum: f64,
+}
+
+/// The outcome of one run.
+#[derive(Debug)]
+pub struct Run {
+    pub kind: Kind,
+    pub test: Test,
+    pub seed: u64,
+    pub table2: Table2,
+    pub step: [StepMetrics; 3],
+    /// Y tracking error per cycle (flight and gust runs, for the gust figures).
+    pub y_error: Vec<f64>,
+    pub solve_us_mean: f64,
+    pub solve_us_max: f64,
+    pub gap: Option<QpGap>,
+    /// Per-cycle rows, kept for the first seed only.
+    pub rows: Vec<Row>,
+}
+
+/// The exact solution of an MPC's own QP, from the generic runtime solver of `codegen`.
+pub struct Oracle {
+    qp: Qp,
+    mpc: codegen::oracle::Mpc,
+}
+
+impl Oracle {
+    /// The oracle of the controller generated from `spec`.
+    pub fn new(spec: &str) -> Result<Self, String> {
+        let spec = mpc_spec::load(spec).map_err(|d| d.to_string())?;
+        let problem = codegen::lower::lower(&spec).map_err(|d| d.to_string())?;
+        let mpc = codegen::oracle::Mpc::new(&problem);
+        Ok(Self {
+            qp: problem.qp,
+            mpc,
+        })
+    }
+
+    /// Compares the plan `plan` (N·nu, stacked by step) solved from `x0` and `xref` with the
+    /// exact optimum: returns (|u₀ − u₀*|₂, J(U) − J(U*), |u₀*|₂).
+    pub fn compare(&self, x0: &[f64], xref: &[Vec<f64>], plan: &[f64]) -> (f64, f64, f64) {
+        let x0 = DVector::from_column_slice(x0);
+        let xref: Vec<DVector<f64>> = xref.iter().map(|r| DVector::from_column_slice(r)).collect();
+        let f = self.mpc.linear_term(&x0, &xref);
+        let exact = codegen::oracle::exact_solution(&self.qp, &f, 1e-9, 20_000);
+        let u = DVector::from_column_slice(plan);
+        let cost = |v: &DVector<f64>| 0.5 * v.dot(&(&self.qp.H * v)) + f.dot(v);
+        let nu = self.qp.u_min.len();
+        let du = (u.rows(0, nu) - exact.rows(0, nu)).norm();
+        (du, cost(&u) - cost(&exact), exact.rows(0, nu).norm())
+    }
+}
+
+/// A controller as the runs see it: it may expose its plan for the oracle.
+pub trait Flown: Controller {
+    /// For an MPC, what its last solve (at cycle `k`) saw and gave, in `f64`: the estimate it
+    /// started from, the reference window (rounded to the controller's scalar, as it saw it) and
+    /// the plan (N·nu, stacked by step).
+    fn last_solve<R: Reference>(&self, _k: usize, _reference: &R) -> Option<LastSolve> {
+        None
+    }
+}
+
+/// See [`Flown::last_solve`].
+pub type LastSolve = (Vec<f64>, Vec<Vec<f64>>, Vec<f64>);
+
+impl Flown for PidController<PaperKalman> {}
+
+macro_rules! flown_mpc {
+    ($name:ident, $($m:ident)::+) => {
+        impl Flown for $name {
+            fn last_solve<R: Reference>(&self, k: usize, reference: &R) -> Option<LastSolve> {
+                let x0 = self.last_x0().iter().map(|v| f64::from(*v)).collect();
+                let window = reference.window::<$($m)::+::Real, { $($m)::+::N }>(k);
+                let xref = window.iter().map(|r| r.iter().map(|v| f64::from(*v)).collect()).collect();
+                let plan = self.mpc().plan().iter().flatten().map(|v| f64::from(*v)).collect();
+                Some((x0, xref, plan))
+            }
+        }
+    };
+}
+flown_mpc!(PaperMpc, generated_examples::paper);
+flown_mpc!(FaithfulMpc, generated_examples::paper_faithful);
+
+/// Times each control step (filter update, control law, filter predict) with the wall clock.
+struct Timed<C> {
+    inner: C,
+    last_ns: u128,
+}
+
+impl<C: Controller> Controller for Timed<C> {
+    fn step<R: Reference>(&mut self, k: usize, z: &[f64; 3], reference: &R) -> [f64; 3] {
+        let start = Instant::now();
+        let u = self.inner.step(k, z, reference);
+        self.last_ns = start.elapsed().as_nanos();
+        u
+    }
+    fn estimate(&self) -> [f64; 6] {
+        self.inner.estimate()
+    }
+}
+
+/// Runs `kind` on `test` with `seed`, keeping per-cycle rows if `keep_rows`.
+pub fn run(kind: Kind, test: Test, seed: u64, settings: &Settings, keep_rows: bool) -> Run {
+    let oracle = match (test, settings.oracle_stride, kind.spec()) {
+        (Test::Flight, s, Some(spec)) if s > 0 => {
+            Some(Oracle::new(spec).expect("the shipped spec compiles, as the macro proved"))
+        }
+        _ => None,
+    };
+    let trajectory = Trajectory::paper();
+    let step = Step::paper();
+    let (cycles, noise, disturbance) = match test {
+        Test::Flight => (
+            Scenario::cycles_for(settings.duration),
+            settings.noise,
+            Disturbance::NONE,
+        ),
+        Test::Gust => (
+            Scenario::cycles_for(settings.duration),
+            settings.noise,
+            Disturbance::GUST,
+        ),
+        Test::Step => (
+            Scenario::cycles_for(step.at + settings.step_duration),
+            if settings.step_noise {
+                settings.noise
+            } else {
+                NoiseConfig::NONE
+            },
+            Disturbance::NONE,
+        ),
+    };
+    let scenario = Scenario {
+        seed,
+        cycles,
+        noise,
+        disturbance,
+    };
+    let x0 = match test {
+        Test::Step => step.state(0),
+        _ => trajectory.start(),
+    };
+    let ctx = Context {
+        kind,
+        test,
+        seed,
+        keep_rows,
+        oracle: oracle.as_ref(),
+        stride: settings.oracle_stride,
+    };
+    match (kind, test) {
+        (Kind::Mpc, Test::Step) => ctx.go(PaperMpc::new(&x0), &step, &scenario),
+        (Kind::Mpc, _) => ctx.go(PaperMpc::new(&x0), &trajectory, &scenario),
+        (Kind::MpcFaithful, Test::Step) => ctx.go(FaithfulMpc::new(&x0), &step, &scenario),
+        (Kind::MpcFaithful, _) => ctx.go(FaithfulMpc::new(&x0), &trajectory, &scenario),
+        (Kind::Pid, Test::Step) => ctx.go(pid(&x0), &step, &scenario),
+        (Kind::Pid, _) => ctx.go(pid(&x0), &trajectory, &scenario),
+    }
+}
+
+fn pid(x0: &[f64; 6]) -> PidController<PaperKalman> {
+    PidController::new(Pid::paper(), PaperKalman::new(x0))
+}
+
+struct Context<'a> {
+    kind: Kind,
+    test: Test,
+    seed: u64,
+    keep_rows: bool,
+    oracle: Option<&'a Oracle>,
+    stride: usize,
+}
+
+impl Context<'_> {
+    fn go<C: Flown, R: Reference>(&self, controller: C, reference: &R, scenario: &Scenario) -> Run {
+        let mut timed = Timed {
+            inner: controller,
+            last_ns: 0,
+        };
+        let mut tracking = Tracking::new(DT);
+        let origin = reference.state(0);
+        let at = Step::paper().at;
+        let mut steps: [StepResponse; 3] =
+            core::array::from_fn(|i| StepResponse::new(origin[i], Step::paper().size[i], at));
+        let mut y_error = Vec::with_capacity(scenario.cycles);
+        let mut rows = Vec::with_capacity(if self.keep_rows { scenario.cycles } else { 0 });
+        let (mut sum_ns, mut max_ns) = (0u128, 0u128);
+        let mut gap = self.oracle.map(|_| QpGap::default());
+        fly(&mut timed, reference, scenario, |s, c| {
+            let e = s.error();
+            tracking.push(s.t, &e, &s.command);
+            y_error.push(e[1]);
+            for (i, r) in steps.iter_mut().enumerate() {
+                r.push(s.t, s.state[i]);
+            }
+            sum_ns += c.last_ns;
+            max_ns = max_ns.max(c.last_ns);
+            if let (Some(oracle), Some(g)) = (self.oracle, gap.as_mut()) {
+                if s.k % self.stride == 0 {
+                    if let Some((x0, xref, plan)) = c.inner.last_solve(s.k, reference) {
+                        let (du, dj, us) = oracle.compare(&x0, &xref, &plan);
+                        g.count += 1;
+                        g.u_dist_sum += du;
+                        g.u_dist_max = g.u_dist_max.max(du);
+                        g.cost_gap_sum += dj;
+                        g.u_star_sum += us;
+                    }
+                }
+            }
+            if self.keep_rows {
+                rows.push(Row {
+                    t: s.t,
+                    reference: s.reference,
+                    state: s.state,
+                    estimate: c.estimate(),
+                    command: s.command,
+                    solve_us: c.last_ns as f64 / 1e3,
+                });
+            }
+        });
+        let n = scenario.cycles.max(1) as f64;
+        Run {
+            kind: self.kind,
+            test: self.test,
+            seed: self.seed,
+            table2: tracking.finish(),
+            step: core::array::from_fn(|i| steps[i].finish()),
+            y_error,
+            solve_us_mean: sum_ns as f64 / n / 1e3,
+            solve_us_max: max_ns as f64 / 1e3,
+            gap,
+            rows,
+        }
+    }
+}
