@@ -1,8 +1,10 @@
-//! Startup of the Cortex-A9: vector table, stacks, VFP/NEON, .bss, then `main`.
+//! Startup of the Cortex-A9: vector table, stacks, VFP/NEON, .bss, stack paint, MMU and L1
+//! caches, then `main`.
 //!
 //! Developer notes
 //! - All of it is assembly, run before any Rust code: Rust must not run before its stack exists
-//!   and its statics are zeroed. Rust sees only `main` (called from here) and `fault_exit`.
+//!   and its statics are zeroed. Rust sees only `main` (called from here), `fault_exit` and
+//!   the linker symbols of the stack.
 //! - The core starts in Secure SVC mode with the MMU and caches off, as QEMU and the Zynq boot
 //!   ROM leave it. The firmware stays in SVC mode, and turns on the MMU (a flat map) and the L1
 //!   caches; the L2 cache controller (PL310) is left off.
@@ -52,7 +54,7 @@ _start:
     @ Only CPU0 runs the firmware; the other core (if started) sleeps for good.
     mrc   p15, 0, r0, c0, c0, 5       @ MPIDR
     ands  r0, r0, #3
-    bne   2f
+    bne   9f
 
     @ Exceptions go to our table: VBAR is used while SCTLR.V = 0 (its reset value).
     ldr   r0, =__vector_table
@@ -159,8 +161,8 @@ _start:
     isb
 
     bl    main
-2:  wfe
-    b     2b
+9:  wfe
+    b     9b
 
     @ Default exception handlers: exit with the status of the exception (rt::status).
     .section .text.default_handlers, "ax", %progbits
