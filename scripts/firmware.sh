@@ -2,28 +2,32 @@
 # Builds firmware-template with a controller spec baked in, runs it on the emulated board and exits
 # with the firmware's own status (0: the closed loop flew and passed its checks).
 #
-#   scripts/firmware.sh [--board zynq] [--build-only] [SPEC]
+#   scripts/firmware.sh [--board zynq] [--build-only] [--elf-out PATH] [SPEC]
 #
 # SPEC defaults to specs/paper.toml, which the template's `mpc!` reads directly. Any other spec is
 # copied to firmware-template/spec-override/spec.toml and built with the `spec-override` feature:
 # `mpc!` takes a literal path, and its `include_str!` makes cargo rebuild when that file changes.
+# --elf-out copies the built ELF to PATH. One invocation at a time builds (a lock file in the
+# template's target/), since all share the template's build directory and spec-override file.
 # Missing tools (qemu-system-arm, nightly's rust-src) are installed when possible.
 #
 # Environment: FIRMWARE_TIMEOUT (seconds for the emulated run, default 600).
 set -euo pipefail
 
-usage() { sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; }
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 template="$root/firmware-template"
 board=zynq
 build_only=0
+elf_out=""
 spec=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --board) [ $# -ge 2 ] || { usage >&2; exit 2; }; board=$2; shift 2 ;;
         --board=*) board=${1#*=}; shift ;;
         --build-only) build_only=1; shift ;;
+        --elf-out) [ $# -ge 2 ] || { usage >&2; exit 2; }; elf_out=$(realpath -m "$2"); shift 2 ;;
         -h|--help) usage; exit 0 ;;
         -*) echo "firmware.sh: unknown option $1" >&2; usage >&2; exit 2 ;;
         *) [ -z "$spec" ] || { echo "firmware.sh: one SPEC only" >&2; exit 2; }; spec=$1; shift ;;
@@ -53,6 +57,10 @@ install_missing() {
 }
 install_missing
 
+mkdir -p "$template/target"
+exec 9>"$template/target/.firmware.lock"
+flock 9
+
 features=()
 if [ -n "$spec" ]; then
     [ -f "$spec" ] || { echo "firmware.sh: no such spec: $spec" >&2; exit 2; }
@@ -67,6 +75,7 @@ cd "$template"
 # template's rust-toolchain.toml, and outer RUSTFLAGS would replace its target flags.
 cargo_=(env -u RUSTUP_TOOLCHAIN -u RUSTFLAGS -u CARGO_TARGET_DIR -u CARGO_BUILD_TARGET cargo +nightly)
 "${cargo_[@]}" build --release "${features[@]}"
+[ -z "$elf_out" ] || cp target/armv7a-none-eabihf/release/firmware "$elf_out"
 [ "$build_only" = 1 ] && exit 0
 status=0
 timeout "${FIRMWARE_TIMEOUT:-600}" "${cargo_[@]}" run --release -q "${features[@]}" || status=$?

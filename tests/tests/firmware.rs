@@ -45,19 +45,22 @@ struct Flight {
     elf: PathBuf,
 }
 
-/// The firmware's build directory and spec-override file are shared: one build at a time.
+/// The firmware's build directory and spec-override file are shared: one build at a time
+/// (scripts/firmware.sh also takes a lock file, against other processes).
 static FIRMWARE: Mutex<()> = Mutex::new(());
 
 fn build_and_fly(spec: Option<&str>, name: &str) -> Flight {
     let _guard = FIRMWARE.lock().unwrap_or_else(|e| e.into_inner());
     let root = root();
+    let elf = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("firmware-{name}.elf"));
     let mut build = Command::new("timeout");
     build
         .arg(BUILD_TIMEOUT_S.to_string())
         .arg("bash")
         .arg(root.join("scripts/firmware.sh"))
-        .arg("--build-only");
-    build.args(spec.map(|s| root.join(s)));
+        .args(["--build-only", "--elf-out"])
+        .arg(&elf)
+        .args(spec.map(|s| root.join(s)));
     let out = clean_env(&mut build)
         .output()
         .expect("running scripts/firmware.sh");
@@ -67,9 +70,6 @@ fn build_and_fly(spec: Option<&str>, name: &str) -> Flight {
         out.status,
         String::from_utf8_lossy(&out.stderr)
     );
-    let built = root.join("firmware-template/target/armv7a-none-eabihf/release/firmware");
-    let elf = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("firmware-{name}.elf"));
-    std::fs::copy(&built, &elf).expect("copying the firmware ELF");
     let (status, uart) = emulate(&elf);
     let result =
         result_line(&uart).unwrap_or_else(|| panic!("no RESULT line from {name}:\n{uart}"));
