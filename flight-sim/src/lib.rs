@@ -52,6 +52,6 @@ pub use estimator::{Estimator, ModelEstimator};
 pub use fly::{fly, Controller, Disturbance, Sample, Scenario};
 pub use model::{Plant, DT, NU, NX, NY};
 pub use noise::{Noise, NoiseConfig};
-pub use pid::{Pid, PidController, PidGains};
+pub use pid::{Derivative, Pid, PidController, PidGains};
 pub use real::{cast, Real};
 pub use reference::{Hover, Reference, Step, Trajectory};
