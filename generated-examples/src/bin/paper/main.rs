@@ -52,6 +52,7 @@ fn try_main(args: Args) -> Result<(), String> {
         step_duration: args.step_duration,
         step_noise: args.step_noise,
         oracle_stride: args.oracle_stride,
+        pid_derivative: args.pid_derivative.to_sim(),
     };
     let seeds: Vec<u64> = (0..args.seeds).map(|i| args.seed.wrapping_add(i)).collect();
     // Without noise the step runs are the same for every seed: run them once.
@@ -118,12 +119,14 @@ fn try_main(args: Args) -> Result<(), String> {
             "gps_sigma": args.gps_sigma,
             "accel_sigma": args.accel_sigma,
             "duration_s": args.duration,
+            "step_noise": args.step_noise,
+            "pid_derivative": args.pid_derivative.name(),
         },
         "controllers": controllers,
     });
 
     let markdown = report::markdown(&summary);
-    println!("{markdown}");
+    say(&markdown)?;
 
     let out = &args.out;
     fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
@@ -163,12 +166,21 @@ fn try_main(args: Args) -> Result<(), String> {
             &traces(Test::Step),
         )?;
     }
-    println!(
+    say(&format!(
         "Wrote summary.json, summary.md, CSV tables, per-cycle traces (seed {first}){} to {}",
         if args.no_plots { "" } else { " and SVG plots" },
         out.display()
-    );
+    ))?;
     Ok(())
+}
+
+/// Prints a line on stdout; a closed pipe (`paper | head`) is not an error.
+fn say(text: &str) -> Result<(), String> {
+    let mut out = std::io::stdout().lock();
+    match writeln!(out, "{text}") {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(format!("stdout: {e}")),
+        _ => Ok(()),
+    }
 }
 
 fn check(args: &Args) -> Result<(), String> {

@@ -130,7 +130,8 @@ pub fn markdown(summary: &Value) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "Seed {} ({} seed{}), GPS σ = {} m, acceleration noise σ = {} m/s², flight {} s.\n",
+        "Seed {} ({} seed{}), GPS σ = {} m, acceleration noise σ = {} m/s², flight {} s; \
+         step responses {}; PID derivative: {}.\n",
         cfg["seed"],
         cfg["seeds"],
         if cfg["seeds"].as_u64() == Some(1) {
@@ -141,6 +142,12 @@ pub fn markdown(summary: &Value) -> String {
         cfg["gps_sigma"],
         cfg["accel_sigma"],
         cfg["duration_s"],
+        if cfg["step_noise"].as_bool() == Some(true) {
+            "with the flight's noise"
+        } else {
+            "without noise"
+        },
+        cfg["pid_derivative"].as_str().unwrap_or("difference"),
     );
     let _ = writeln!(
         out,
@@ -167,6 +174,7 @@ pub fn markdown(summary: &Value) -> String {
     }
     for (key, label) in [
         ("mean", "Computation time per step, mean (µs)"),
+        ("p99", "Computation time per step, 99th percentile (µs)"),
         ("max", "Computation time per step, max (µs)"),
     ] {
         let cells: Vec<String> = Kind::ALL
@@ -174,15 +182,14 @@ pub fn markdown(summary: &Value) -> String {
             .map(|k| cell(&c[k.key()]["solve_time_us"][key]))
             .collect();
         let (pm, pp) = if key == "mean" {
-            (fmt(paper::TIME_US.0), fmt(paper::TIME_US.1))
+            (
+                format!("{} (Cortex-A9)", fmt(paper::TIME_US.0)),
+                format!("{} (Cortex-A9)", fmt(paper::TIME_US.1)),
+            )
         } else {
             ("—".into(), "—".into())
         };
-        let _ = writeln!(
-            out,
-            "| {label} | {} | {pm} (Cortex-A9) | {pp} (Cortex-A9) |",
-            cells.join(" | ")
-        );
+        let _ = writeln!(out, "| {label} | {} | {pm} | {pp} |", cells.join(" | "));
     }
 
     let _ = writeln!(
@@ -282,7 +289,7 @@ pub fn csv(summary: &Value) -> Vec<(&'static str, String)> {
     }
     let mut time = head(&["value"]);
     for k in Kind::ALL {
-        for key in ["mean", "max"] {
+        for key in ["mean", "p99", "max"] {
             row(
                 &mut time,
                 k,

@@ -84,6 +84,7 @@ pub struct Settings {
     pub step_duration: f64,
     pub step_noise: bool,
     pub oracle_stride: usize,
+    pub pid_derivative: flight_sim::Derivative,
 }
 
 /// One cycle kept for plots and CSV.
@@ -123,6 +124,7 @@ pub struct Run {
     /// Y tracking error per cycle (flight and gust runs, for the gust figures).
     pub y_error: Vec<f64>,
     pub solve_us_mean: f64,
+    pub solve_us_p99: f64,
     pub solve_us_max: f64,
     pub gap: Option<QpGap>,
     /// Per-cycle rows, kept for the first seed only.
@@ -265,13 +267,13 @@ pub fn run(kind: Kind, test: Test, seed: u64, settings: &Settings, keep_rows: bo
         (Kind::Mpc, _) => ctx.go(PaperMpc::new(&x0), &trajectory, &scenario),
         (Kind::MpcFaithful, Test::Step) => ctx.go(FaithfulMpc::new(&x0), &step, &scenario),
         (Kind::MpcFaithful, _) => ctx.go(FaithfulMpc::new(&x0), &trajectory, &scenario),
-        (Kind::Pid, Test::Step) => ctx.go(pid(&x0), &step, &scenario),
-        (Kind::Pid, _) => ctx.go(pid(&x0), &trajectory, &scenario),
+        (Kind::Pid, Test::Step) => ctx.go(pid(&x0, settings), &step, &scenario),
+        (Kind::Pid, _) => ctx.go(pid(&x0, settings), &trajectory, &scenario),
     }
 }
 
-fn pid(x0: &[f64; 6]) -> PidController<PaperKalman> {
-    PidController::new(Pid::paper(), PaperKalman::new(x0))
+fn pid(x0: &[f64; 6], settings: &Settings) -> PidController<PaperKalman> {
+    PidController::new(Pid::paper(), PaperKalman::new(x0)).with_derivative(settings.pid_derivative)
 }
 
 struct Context<'a> {
@@ -296,7 +298,7 @@ impl Context<'_> {
             core::array::from_fn(|i| StepResponse::new(origin[i], Step::paper().size[i], at));
         let mut y_error = Vec::with_capacity(scenario.cycles);
         let mut rows = Vec::with_capacity(if self.keep_rows { scenario.cycles } else { 0 });
-        let (mut sum_ns, mut max_ns) = (0u128, 0u128);
+        let mut times_ns: Vec<u128> = Vec::with_capacity(scenario.cycles);
         let mut gap = self.oracle.map(|_| QpGap::default());
         fly(&mut timed, reference, scenario, |s, c| {
             let e = s.error();
@@ -305,8 +307,7 @@ impl Context<'_> {
             for (i, r) in steps.iter_mut().enumerate() {
                 r.push(s.t, s.state[i]);
             }
-            sum_ns += c.last_ns;
-            max_ns = max_ns.max(c.last_ns);
+            times_ns.push(c.last_ns);
             if let (Some(oracle), Some(g)) = (self.oracle, gap.as_mut()) {
                 if s.k % self.stride == 0 {
                     if let Some((x0, xref, plan)) = c.inner.last_solve(s.k, reference) {
@@ -330,7 +331,14 @@ impl Context<'_> {
                 });
             }
         });
-        let n = scenario.cycles.max(1) as f64;
+        let n = times_ns.len().max(1) as f64;
+        let sum_ns: u128 = times_ns.iter().sum();
+        times_ns.sort_unstable();
+        let p99_ns = times_ns
+            .get((times_ns.len() * 99) / 100)
+            .copied()
+            .unwrap_or(0);
+        let max_ns = times_ns.last().copied().unwrap_or(0);
         Run {
             kind: self.kind,
             test: self.test,
@@ -339,6 +347,7 @@ impl Context<'_> {
             step: core::array::from_fn(|i| steps[i].finish()),
             y_error,
             solve_us_mean: sum_ns as f64 / n / 1e3,
+            solve_us_p99: p99_ns as f64 / 1e3,
             solve_us_max: max_ns as f64 / 1e3,
             gap,
             rows,

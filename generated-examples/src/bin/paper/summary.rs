@@ -31,7 +31,11 @@ pub fn per_seed(flight: &Run, gusty: &Run, step: &Run) -> Value {
         "itse": t.itse,
         "smoothness": t.smoothness,
         "variance": t.variance,
-        "solve_time_us": { "mean": flight.solve_us_mean, "max": flight.solve_us_max },
+        "solve_time_us": {
+            "mean": flight.solve_us_mean,
+            "p99": flight.solve_us_p99,
+            "max": flight.solve_us_max,
+        },
         "step": {
             "rise_time_s": axes(|i| s[i].rise_time),
             "peak_time_s": axes(|i| s[i].peak_time),
