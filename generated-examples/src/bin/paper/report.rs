@@ -174,6 +174,7 @@ pub fn markdown(summary: &Value) -> String {
     }
     for (key, label) in [
         ("mean", "Computation time per step, mean (µs)"),
+        ("median", "Computation time per step, median (µs)"),
         ("p99", "Computation time per step, 99th percentile (µs)"),
         ("max", "Computation time per step, max (µs)"),
     ] {
@@ -289,7 +290,7 @@ pub fn csv(summary: &Value) -> Vec<(&'static str, String)> {
     }
     let mut time = head(&["value"]);
     for k in Kind::ALL {
-        for key in ["mean", "p99", "max"] {
+        for key in ["mean", "median", "p99", "max"] {
             row(
                 &mut time,
                 k,

@@ -124,6 +124,7 @@ pub struct Run {
     /// Y tracking error per cycle (flight and gust runs, for the gust figures).
     pub y_error: Vec<f64>,
     pub solve_us_mean: f64,
+    pub solve_us_median: f64,
     pub solve_us_p99: f64,
     pub solve_us_max: f64,
     pub gap: Option<QpGap>,
@@ -334,6 +335,7 @@ impl Context<'_> {
         let n = times_ns.len().max(1) as f64;
         let sum_ns: u128 = times_ns.iter().sum();
         times_ns.sort_unstable();
+        let median_ns = times_ns.get(times_ns.len() / 2).copied().unwrap_or(0);
         let p99_ns = times_ns
             .get((times_ns.len() * 99) / 100)
             .copied()
@@ -347,6 +349,7 @@ impl Context<'_> {
             step: core::array::from_fn(|i| steps[i].finish()),
             y_error,
             solve_us_mean: sum_ns as f64 / n / 1e3,
+            solve_us_median: median_ns as f64 / 1e3,
             solve_us_p99: p99_ns as f64 / 1e3,
             solve_us_max: max_ns as f64 / 1e3,
             gap,

@@ -33,6 +33,7 @@ pub fn per_seed(flight: &Run, gusty: &Run, step: &Run) -> Value {
         "variance": t.variance,
         "solve_time_us": {
             "mean": flight.solve_us_mean,
+            "median": flight.solve_us_median,
             "p99": flight.solve_us_p99,
             "max": flight.solve_us_max,
         },
@@ -106,8 +107,10 @@ pub fn aggregate(values: &[Value]) -> Value {
 pub fn mean_std(xs: &[f64]) -> (f64, f64) {
     let n = xs.len() as f64;
     let mean = xs.iter().sum::<f64>() / n;
-    if xs.len() < 2 {
-        return (mean, 0.0);
+    if xs.len() < 2 || xs.iter().all(|x| *x == xs[0]) {
+        // Identical values (a deterministic run repeated) have no spread, whatever the rounding
+        // of the mean.
+        return (if xs.len() < 2 { mean } else { xs[0] }, 0.0);
     }
     let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
     (mean, var.sqrt())
@@ -136,6 +139,7 @@ mod tests {
         assert_eq!(m, 5.0);
         assert!((s - (32.0f64 / 7.0).sqrt()).abs() < 1e-12);
         assert_eq!(mean_std(&[3.0]), (3.0, 0.0));
+        assert_eq!(mean_std(&[0.1; 50]), (0.1, 0.0));
     }
 
     #[test]

@@ -1,0 +1,188 @@
+//! The `paper` binary end to end on a short flight: its options, its files and the shape of
+//! `summary.json` that issue 5 specifies.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+use serde_json::Value;
+
+fn out_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("paper-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn paper(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_paper"))
+        .args(args)
+        .output()
+        .expect("runs the paper binary")
+}
+
+const TABLE2: [&str; 8] = [
+    "max_abs_error",
+    "rmse",
+    "iae",
+    "ise",
+    "itae",
+    "itse",
+    "smoothness",
+    "variance",
+];
+const STEP: [&str; 4] = [
+    "rise_time_s",
+    "peak_time_s",
+    "overshoot_pct",
+    "settling_time_s",
+];
+const GUST: [&str; 3] = ["rmse_y_during_m", "recovery_time_s", "rmse_y_after_m"];
+const CONTROLLERS: [&str; 3] = ["mpc", "mpc-faithful", "pid"];
+
+/// Checks the issue's shape, `number` checking each leaf figure.
+fn check_shape(summary: &Value, number: &dyn Fn(&Value) -> bool) {
+    let c = &summary["controllers"];
+    for name in CONTROLLERS {
+        let k = &c[name];
+        for m in TABLE2 {
+            let a = k[m]
+                .as_array()
+                .unwrap_or_else(|| panic!("{name}.{m} is an array"));
+            assert_eq!(a.len(), 3, "{name}.{m}");
+            assert!(a.iter().all(number), "{name}.{m}: {a:?}");
+        }
+        for m in ["mean", "max"] {
+            assert!(number(&k["solve_time_us"][m]), "{name}.solve_time_us.{m}");
+        }
+        for m in STEP {
+            let a = k["step"][m]
+                .as_array()
+                .unwrap_or_else(|| panic!("{name}.step.{m}"));
+            assert_eq!(a.len(), 3);
+            assert!(a.iter().all(number), "{name}.step.{m}: {a:?}");
+        }
+        for m in GUST {
+            assert!(number(&k["gust"][m]), "{name}.gust.{m}: {}", k["gust"][m]);
+        }
+    }
+    assert!(c["mpc"]["qp_gap"].is_object() && c["pid"].get("qp_gap").is_none());
+}
+
+#[test]
+fn one_seed_writes_every_file_and_plain_numbers() {
+    let out = out_dir("one");
+    let o = paper(&[
+        "--out",
+        out.to_str().unwrap(),
+        "--duration",
+        "45",
+        "--oracle-stride",
+        "50",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for heading in ["Table 2", "Table 3", "Gust", "exact optimum"] {
+        assert!(
+            stdout.contains(heading),
+            "{heading} missing from:\n{stdout}"
+        );
+    }
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let cfg = &summary["config"];
+    assert_eq!(
+        (cfg["seed"].as_u64(), cfg["seeds"].as_u64()),
+        (Some(1), Some(1))
+    );
+    assert_eq!(
+        (cfg["gps_sigma"].as_f64(), cfg["accel_sigma"].as_f64()),
+        (Some(0.3), Some(0.5))
+    );
+    assert_eq!(cfg["duration_s"].as_f64(), Some(45.0));
+    check_shape(&summary, &|v| v.as_f64().is_some_and(f64::is_finite));
+    for file in [
+        "summary.md",
+        "table2.csv",
+        "table3.csv",
+        "gust.csv",
+        "qp_gap.csv",
+        "computation_time.csv",
+        "trace_mpc_flight.csv",
+        "trace_pid_gust.csv",
+        "trace_mpc-faithful_step.csv",
+        "path.svg",
+        "errors.svg",
+        "controls.svg",
+        "step.svg",
+        "gust.svg",
+        "computation_time.svg",
+    ] {
+        let meta = std::fs::metadata(out.join(file)).unwrap_or_else(|_| panic!("{file} written"));
+        assert!(meta.len() > 100, "{file} is empty");
+    }
+    // 45 s of flight, one row a cycle, plus the header.
+    let trace = std::fs::read_to_string(out.join("trace_mpc_flight.csv")).unwrap();
+    assert_eq!(trace.lines().count(), 1 + (45.0f64 / 0.0128) as usize);
+    let svg = std::fs::read_to_string(out.join("step.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("pid"));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn several_seeds_give_mean_and_std_and_differ_from_one_seed() {
+    let out = out_dir("two");
+    let o = paper(&[
+        "--out",
+        out.to_str().unwrap(),
+        "--duration",
+        "40",
+        "--seeds",
+        "2",
+        "--seed",
+        "7",
+        "--oracle-stride",
+        "100",
+        "--no-plots",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["config"]["seeds"].as_u64(), Some(2));
+    check_shape(&summary, &|v| {
+        v["mean"].as_f64().is_some_and(f64::is_finite)
+            && v["std"].as_f64().is_some_and(|s| s >= 0.0)
+    });
+    // Two seeds meet different noise: the RMSE spreads.
+    assert!(
+        summary["controllers"]["pid"]["rmse"][0]["std"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
+    assert!(!out.join("path.svg").exists());
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn help_explains_every_option_and_bad_values_are_refused() {
+    let o = paper(&["--help"]);
+    assert!(o.status.success());
+    let help = String::from_utf8_lossy(&o.stdout);
+    for opt in [
+        "--out",
+        "--seed",
+        "--seeds",
+        "--gps-sigma",
+        "--accel-sigma",
+        "--duration",
+        "--pid-derivative",
+    ] {
+        assert!(help.contains(opt), "{opt} missing from --help");
+    }
+    let o = paper(&["--gps-sigma=-1", "--no-plots", "--quiet"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--gps-sigma"));
+    let o = paper(&["--duration", "10", "--no-plots", "--quiet"]);
+    assert!(!o.status.success());
+}
