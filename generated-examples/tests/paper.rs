@@ -186,3 +186,37 @@ fn help_explains_every_option_and_bad_values_are_refused() {
     let o = paper(&["--duration", "10", "--no-plots", "--quiet"]);
     assert!(!o.status.success());
 }
+
+#[test]
+fn a_chosen_set_of_controllers_is_flown_and_reported() {
+    let out = out_dir("some");
+    let o = paper(&[
+        "--out",
+        out.to_str().unwrap(),
+        "--duration",
+        "40",
+        "--controllers",
+        "pid,mpc-initial",
+        "--oracle-stride",
+        "100",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let keys: Vec<&str> = summary["controllers"]
+        .as_object()
+        .unwrap()
+        .keys()
+        .map(String::as_str)
+        .collect();
+    assert_eq!(keys, ["mpc-initial", "pid"]);
+    assert!(summary["controllers"]["mpc-initial"]["qp_gap"].is_object());
+    let table = std::fs::read_to_string(out.join("table2.csv")).unwrap();
+    assert!(table
+        .lines()
+        .skip(1)
+        .all(|l| l.starts_with("mpc-initial,") || l.starts_with("pid,")));
+    assert!(out.join("path.svg").exists() && out.join("trace_mpc-initial_step.csv").exists());
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -63,6 +63,17 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = PidDerivative::Difference)]
     pub pid_derivative: PidDerivative,
 
+    /// The controllers to fly, comma-separated: `mpc` (specs/paper.toml), `mpc-faithful`
+    /// (specs/paper-faithful.toml), `mpc-initial` (specs/paper-initial.toml, Table 1's initial
+    /// parameters) and `pid`.
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "mpc,mpc-faithful,pid"
+    )]
+    pub controllers: Vec<crate::run::Kind>,
+
     /// Do not write the SVG plots.
     #[arg(long)]
     pub no_plots: bool,
@@ -115,5 +126,13 @@ mod tests {
         assert!(Args::try_parse_from(["paper", "--seeds", "0"]).is_err());
         let a = Args::parse_from(["paper", "--seeds", "8", "--gps-sigma", "0.1", "--out", "x"]);
         assert_eq!((a.seeds, a.gps_sigma, a.out), (8, 0.1, PathBuf::from("x")));
+        use crate::run::Kind;
+        assert_eq!(
+            Args::parse_from(["paper"]).controllers,
+            [Kind::Mpc, Kind::MpcFaithful, Kind::Pid]
+        );
+        let a = Args::parse_from(["paper", "--controllers", "pid,mpc-initial"]);
+        assert_eq!(a.controllers, [Kind::Pid, Kind::MpcInitial]);
+        assert!(Args::try_parse_from(["paper", "--controllers", "lqr"]).is_err());
     }
 }

@@ -58,7 +58,10 @@ fn try_main(args: Args) -> Result<(), String> {
     // Without noise the step runs are the same for every seed: run them once.
     let step_seeds: &[u64] = if args.step_noise { &seeds } else { &seeds[..1] };
     let mut jobs: Vec<(Kind, Test, u64)> = Vec::new();
-    for &kind in &Kind::ALL {
+    let mut kinds = args.controllers.clone();
+    kinds.sort();
+    kinds.dedup();
+    for &kind in &kinds {
         for &seed in &seeds {
             jobs.push((kind, Test::Flight, seed));
             jobs.push((kind, Test::Gust, seed));
@@ -83,7 +86,7 @@ fn try_main(args: Args) -> Result<(), String> {
     bar.set_message(format!(
         "flying {} seed(s) × {} controllers",
         seeds.len(),
-        Kind::ALL.len()
+        kinds.len()
     ));
     let first = seeds[0];
     let runs: Vec<Run> = jobs
@@ -98,7 +101,7 @@ fn try_main(args: Args) -> Result<(), String> {
         by.insert((r.kind, r.test, r.seed), r);
     }
     let mut controllers = serde_json::Map::new();
-    for kind in Kind::ALL {
+    for &kind in &kinds {
         let per_seed: Vec<serde_json::Value> = seeds
             .iter()
             .map(|&seed| {
@@ -140,7 +143,7 @@ fn try_main(args: Args) -> Result<(), String> {
         write(out, name, &text)?;
     }
     let traces = |test: Test| -> Vec<(Kind, &[run::Row])> {
-        Kind::ALL
+        kinds
             .iter()
             .map(|&k| (k, by[&(k, test, first)].rows.as_slice()))
             .collect()

@@ -21,6 +21,7 @@ fn color(kind: Kind) -> RGBColor {
     match kind {
         Kind::Mpc => RGBColor(31, 119, 180),
         Kind::MpcFaithful => RGBColor(255, 127, 14),
+        Kind::MpcInitial => RGBColor(44, 160, 44),
         Kind::Pid => RGBColor(214, 39, 40),
     }
 }

@@ -115,9 +115,17 @@ fn paper_cell(xs: &[f64]) -> String {
     )
 }
 
-fn header(out: &mut String, first: &str, extra: &[&str]) {
+/// The controllers present in the summary, in report order.
+pub fn kinds(summary: &Value) -> Vec<Kind> {
+    Kind::ALL
+        .into_iter()
+        .filter(|k| summary["controllers"].get(k.key()).is_some())
+        .collect()
+}
+
+fn header(out: &mut String, kinds: &[Kind], first: &str, extra: &[&str]) {
     let mut cols = vec![first.to_string()];
-    cols.extend(Kind::ALL.iter().map(|k| format!("`{}`", k.key())));
+    cols.extend(kinds.iter().map(|k| format!("`{}`", k.key())));
     cols.extend(extra.iter().map(|s| s.to_string()));
     let _ = writeln!(out, "| {} |", cols.join(" | "));
     let _ = writeln!(out, "|{}", "---|".repeat(cols.len()));
@@ -127,6 +135,7 @@ fn header(out: &mut String, first: &str, extra: &[&str]) {
 pub fn markdown(summary: &Value) -> String {
     let c = &summary["controllers"];
     let cfg = &summary["config"];
+    let kinds = kinds(summary);
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -152,8 +161,10 @@ pub fn markdown(summary: &Value) -> String {
     let _ = writeln!(
         out,
         "Controllers: {}.\n",
-        Kind::ALL
+        kinds
+            .iter()
             .map(|k| format!("`{}` = {}", k.key(), k.label()))
+            .collect::<Vec<_>>()
             .join("; ")
     );
 
@@ -161,9 +172,9 @@ pub fn markdown(summary: &Value) -> String {
         out,
         "#### Table 2: tracking and control signal, per axis [x, y, z]\n"
     );
-    header(&mut out, "metric", &["paper: MPC", "paper: PID"]);
+    header(&mut out, &kinds, "metric", &["paper: MPC", "paper: PID"]);
     for (i, (key, label)) in TABLE2.iter().enumerate() {
-        let cells: Vec<String> = Kind::ALL.iter().map(|k| cell(&c[k.key()][*key])).collect();
+        let cells: Vec<String> = kinds.iter().map(|k| cell(&c[k.key()][*key])).collect();
         let _ = writeln!(
             out,
             "| {label} | {} | {} | {} |",
@@ -178,7 +189,7 @@ pub fn markdown(summary: &Value) -> String {
         ("p99", "Computation time per step, 99th percentile (µs)"),
         ("max", "Computation time per step, max (µs)"),
     ] {
-        let cells: Vec<String> = Kind::ALL
+        let cells: Vec<String> = kinds
             .iter()
             .map(|k| cell(&c[k.key()]["solve_time_us"][key]))
             .collect();
@@ -197,9 +208,9 @@ pub fn markdown(summary: &Value) -> String {
         out,
         "\n#### Table 3: 1 m step on each axis from hover, per axis [x, y, z]\n"
     );
-    header(&mut out, "metric", &["paper: MPC", "paper: PID"]);
+    header(&mut out, &kinds, "metric", &["paper: MPC", "paper: PID"]);
     for (i, (key, label)) in TABLE3.iter().enumerate() {
-        let cells: Vec<String> = Kind::ALL
+        let cells: Vec<String> = kinds
             .iter()
             .map(|k| cell(&c[k.key()]["step"][*key]))
             .collect();
@@ -213,9 +224,9 @@ pub fn markdown(summary: &Value) -> String {
     }
 
     let _ = writeln!(out, "\n#### Gust: +0.6 m/s² on Y from t = 20 s to 35 s\n");
-    header(&mut out, "figure", &["paper: MPC"]);
+    header(&mut out, &kinds, "figure", &["paper: MPC"]);
     for (i, (key, label)) in GUST.iter().enumerate() {
-        let cells: Vec<String> = Kind::ALL
+        let cells: Vec<String> = kinds
             .iter()
             .map(|k| cell(&c[k.key()]["gust"][*key]))
             .collect();
@@ -227,8 +238,9 @@ pub fn markdown(summary: &Value) -> String {
         );
     }
 
-    let mpcs: Vec<Kind> = Kind::ALL
-        .into_iter()
+    let mpcs: Vec<Kind> = kinds
+        .iter()
+        .copied()
         .filter(|k| !c[k.key()]["qp_gap"].is_null())
         .collect();
     if !mpcs.is_empty() {
@@ -254,6 +266,7 @@ pub fn markdown(summary: &Value) -> String {
 /// Per-axis figures have columns x, y, z; with several seeds each is a mean and a std column.
 pub fn csv(summary: &Value) -> Vec<(&'static str, String)> {
     let c = &summary["controllers"];
+    let kinds = kinds(summary);
     let seeds = summary["config"]["seeds"].as_u64().unwrap_or(1) > 1;
     let head = |names: &[&str]| -> String {
         let mut cols = vec!["controller".to_string(), "metric".to_string()];
@@ -283,13 +296,13 @@ pub fn csv(summary: &Value) -> Vec<(&'static str, String)> {
         let _ = writeln!(out, "{},{metric},{}", kind.key(), cells.join(","));
     };
     let mut table2 = head(&["x", "y", "z"]);
-    for k in Kind::ALL {
+    for &k in &kinds {
         for (key, _) in TABLE2 {
             row(&mut table2, k, key, &c[k.key()][key]);
         }
     }
     let mut time = head(&["value"]);
-    for k in Kind::ALL {
+    for &k in &kinds {
         for key in ["mean", "median", "p99", "max"] {
             row(
                 &mut time,
@@ -300,19 +313,19 @@ pub fn csv(summary: &Value) -> Vec<(&'static str, String)> {
         }
     }
     let mut table3 = head(&["x", "y", "z"]);
-    for k in Kind::ALL {
+    for &k in &kinds {
         for (key, _) in TABLE3 {
             row(&mut table3, k, key, &c[k.key()]["step"][key]);
         }
     }
     let mut gust = head(&["value"]);
-    for k in Kind::ALL {
+    for &k in &kinds {
         for (key, _) in GUST {
             row(&mut gust, k, key, &c[k.key()]["gust"][key]);
         }
     }
     let mut gap = head(&["value"]);
-    for k in Kind::ALL {
+    for &k in &kinds {
         if !c[k.key()]["qp_gap"].is_null() {
             for (key, _) in QP_GAP {
                 row(&mut gap, k, key, &c[k.key()]["qp_gap"][key]);

@@ -18,30 +18,42 @@ flight_sim::mpc_controller!(
     /// `specs/paper-faithful.toml`: the paper's Algorithm 1 (projected gradient, α = 0.04).
     pub struct FaithfulMpc(generated_examples::paper_faithful)
 );
+flight_sim::mpc_controller!(
+    /// `specs/paper-initial.toml`: Table 1's initial parameters (N = 5, 100 iterations, α = 0.01).
+    pub struct InitialMpc(generated_examples::paper_initial)
+);
 flight_sim::generated_kalman!(
     /// The generated filter of `specs/paper.toml`, feeding the PID.
     pub struct PaperKalman(generated_examples::paper)
 );
 
 /// The controllers compared, in report order.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, clap::ValueEnum)]
 pub enum Kind {
-    /// Generated from `specs/paper.toml`.
+    /// The MPC generated from `specs/paper.toml` (FGM, step 1/L).
+    #[value(name = "mpc")]
     Mpc,
-    /// Generated from `specs/paper-faithful.toml`.
+    /// The MPC generated from `specs/paper-faithful.toml` (Algorithm 1, α = 0.04).
+    #[value(name = "mpc-faithful")]
     MpcFaithful,
+    /// The MPC generated from `specs/paper-initial.toml` (Table 1's initial parameters).
+    #[value(name = "mpc-initial")]
+    MpcInitial,
     /// The PID of Section 3.1.2 on the generated filter.
+    #[value(name = "pid")]
     Pid,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 3] = [Kind::Mpc, Kind::MpcFaithful, Kind::Pid];
+    /// Every controller, in report order.
+    pub const ALL: [Kind; 4] = [Kind::Mpc, Kind::MpcFaithful, Kind::MpcInitial, Kind::Pid];
 
     /// Key in `summary.json` and file names.
     pub fn key(self) -> &'static str {
         match self {
             Kind::Mpc => "mpc",
             Kind::MpcFaithful => "mpc-faithful",
+            Kind::MpcInitial => "mpc-initial",
             Kind::Pid => "pid",
         }
     }
@@ -51,6 +63,7 @@ impl Kind {
         match self {
             Kind::Mpc => "MPC (paper.toml, FGM 1/L)",
             Kind::MpcFaithful => "MPC (paper-faithful.toml, Alg. 1 α=0.04)",
+            Kind::MpcInitial => "MPC (paper-initial.toml, Table 1: N=5, α=0.01)",
             Kind::Pid => "PID (kp 34.2, ki 8, kd 23.4)",
         }
     }
@@ -60,6 +73,7 @@ impl Kind {
         match self {
             Kind::Mpc => Some(include_str!("../../../../specs/paper.toml")),
             Kind::MpcFaithful => Some(include_str!("../../../../specs/paper-faithful.toml")),
+            Kind::MpcInitial => Some(include_str!("../../../../specs/paper-initial.toml")),
             Kind::Pid => None,
         }
     }
@@ -195,6 +209,7 @@ macro_rules! flown_mpc {
 }
 flown_mpc!(PaperMpc, generated_examples::paper);
 flown_mpc!(FaithfulMpc, generated_examples::paper_faithful);
+flown_mpc!(InitialMpc, generated_examples::paper_initial);
 
 /// Times each control step (filter update, control law, filter predict) with the wall clock.
 struct Timed<C> {
@@ -268,6 +283,8 @@ pub fn run(kind: Kind, test: Test, seed: u64, settings: &Settings, keep_rows: bo
         (Kind::Mpc, _) => ctx.go(PaperMpc::new(&x0), &trajectory, &scenario),
         (Kind::MpcFaithful, Test::Step) => ctx.go(FaithfulMpc::new(&x0), &step, &scenario),
         (Kind::MpcFaithful, _) => ctx.go(FaithfulMpc::new(&x0), &trajectory, &scenario),
+        (Kind::MpcInitial, Test::Step) => ctx.go(InitialMpc::new(&x0), &step, &scenario),
+        (Kind::MpcInitial, _) => ctx.go(InitialMpc::new(&x0), &trajectory, &scenario),
         (Kind::Pid, Test::Step) => ctx.go(pid(&x0, settings), &step, &scenario),
         (Kind::Pid, _) => ctx.go(pid(&x0, settings), &trajectory, &scenario),
     }
