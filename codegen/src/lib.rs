@@ -12,11 +12,13 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod certificate;
 pub mod emit;
 pub mod lower;
 pub mod oracle;
 pub mod render;
 
+pub use certificate::{certify, Certificate};
 pub use emit::Origin;
 pub use lower::{lower, Problem};
 pub use mpc_spec::{Diagnostic, Diagnostics, Spec};
@@ -63,6 +65,10 @@ pub struct Generated {
     pub tokens: TokenStream,
     /// What was computed at compile time.
     pub problem: Problem,
+    /// What the compiler proved and counted.
+    pub certificate: Certificate,
+    /// Findings that do not stop the build (e.g. fewer iterations than the spec's `tolerance` needs).
+    pub warnings: Diagnostics,
 }
 
 impl Generated {
@@ -78,9 +84,11 @@ impl Generated {
     }
 }
 
-/// Lowers `spec` and emits its module.
+/// Lowers `spec`, certifies it and emits its module.
 pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
     let problem = lower(spec)?;
+    let certificate = certify(&problem);
+    let warnings = certificate::review(spec, &certificate)?;
     let vis: TokenStream = opt.visibility.parse().map_err(|_| {
         Diagnostics::from(Diagnostic::new(
             format!("invalid visibility `{}`", opt.visibility),
@@ -88,8 +96,13 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
         ))
     })?;
     let name = Ident::new(&opt.name, Span::call_site());
-    let tokens = emit::module(&problem, &vis, &name, &opt.origin);
-    Ok(Generated { tokens, problem })
+    let tokens = emit::module(&problem, &certificate, &vis, &name, &opt.origin);
+    Ok(Generated {
+        tokens,
+        problem,
+        certificate,
+        warnings,
+    })
 }
 
 /// Parses, checks, lowers and emits the spec text `source`.

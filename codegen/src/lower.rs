@@ -5,7 +5,8 @@
 #![allow(non_snake_case)]
 
 use mpc_spec::{
-    Diagnostic, Diagnostics, FilterKind, KalmanNoise, Matrix, Method, ModelKind, Scalar, Spec, Step,
+    Diagnostic, Diagnostics, FilterKind, Iterations, KalmanNoise, Matrix, Method, ModelKind,
+    Scalar, Spec, Step,
 };
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
@@ -14,8 +15,10 @@ use nalgebra::{DMatrix, DVector, SymmetricEigen};
 pub struct Qp {
     /// Prediction horizon N.
     pub N: usize,
-    /// Solver iterations per control step.
+    /// Solver iterations per control step (resolved from `"auto"`).
     pub iterations: usize,
+    /// The suboptimality the iterations must guarantee, if the spec gives one.
+    pub tolerance: Option<f64>,
     /// The solver.
     pub method: Method,
     /// Stage state weight Q (nx × nx).
@@ -146,13 +149,34 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         Step::Auto => 1.0 / L,
         Step::Fixed(alpha) => alpha,
     };
-    check_step(&mut diags, m.method, step, L, span("mpc.step"));
     let momentum = match m.method {
         Method::Gradient => 0.0,
         Method::Fgm => {
             let r = (step * mu).min(1.0).sqrt();
             (1.0 - r) / (1.0 + r)
         }
+    };
+    check_step(&mut diags, m.method, step, momentum, L, span("mpc.step"));
+    let bound = crate::certificate::a_priori_rate(m.method, step, mu, L);
+    let iterations = match (m.iterations, m.tolerance, bound) {
+        (Iterations::Fixed(n), _, _) => n,
+        (Iterations::Auto, Some(tol), Some(bound)) => bound.iterations_for(tol),
+        (Iterations::Auto, _, None) => {
+            diags.push(
+                Diagnostic::new(
+                    "`iterations = \"auto\"` needs a step with an a priori bound",
+                    span("mpc.iterations"),
+                )
+                .label("no bound for this step")
+                .note(format!(
+                    "hint: the bounds hold for α ≤ 1/L = {:.6}; write `step = \"auto\"`",
+                    1.0 / L
+                )),
+            );
+            0
+        }
+        // `auto` without `tolerance` was reported by mpc-spec.
+        (Iterations::Auto, None, _) => 0,
     };
 
     let (Qn, Rn) = match &spec.kalman.noise {
@@ -209,7 +233,8 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         dt,
         qp: Qp {
             N,
-            iterations: m.iterations,
+            iterations,
+            tolerance: m.tolerance,
             method: m.method,
             Q,
             R,
@@ -398,26 +423,28 @@ fn check_definite(
     }
 }
 
-/// Projected gradient diverges for α ≥ 2/L; the fast gradient method's rate assumes α ≤ 1/L.
+/// Projected gradient diverges for α ≥ 2/L. The fast gradient method with constant momentum β iterates
+/// e⁺ = (1+β)(1−αλ)e − β(1−αλ)e⁻ along each eigenvalue λ of H, which is stable exactly when
+/// α < (2+2β)/((1+2β)λ): at λ = L that is the limit (about 1.53/L for the paper's spec).
 fn check_step(
     diags: &mut Diagnostics,
     method: Method,
     step: f64,
+    momentum: f64,
     L: f64,
     span: Option<mpc_spec::Span>,
 ) {
-    let (limit, ok, why) = match method {
+    let (limit, why) = match method {
         Method::Gradient => (
             2.0 / L,
-            step < 2.0 / L,
-            "below 2/L, or the gradient iteration diverges",
+            "below 2/L, or the projected gradient iteration diverges",
         ),
         Method::Fgm => (
-            1.0 / L,
-            step <= 1.0 / L * (1.0 + 1e-12),
-            "at most 1/L for the fast gradient method",
+            (2.0 + 2.0 * momentum) / ((1.0 + 2.0 * momentum) * L),
+            "below (2+2β)/((1+2β)L), or the fast gradient iteration diverges",
         ),
     };
+    let ok = step < limit;
     if !ok {
         diags.push(
             Diagnostic::new(

@@ -13,15 +13,24 @@ pub fn render(diags: &Diagnostics, source: &str, origin: &str) -> String {
         .join("\n")
 }
 
-/// One diagnostic drawn against `source`.
+/// One error drawn against `source`.
 pub fn render_one(d: &Diagnostic, source: &str, origin: &str) -> String {
+    render_at(Level::Error, d, source, origin)
+}
+
+/// One warning drawn against `source`.
+pub fn render_warning(d: &Diagnostic, source: &str, origin: &str) -> String {
+    render_at(Level::Warning, d, source, origin)
+}
+
+fn render_at(level: Level, d: &Diagnostic, source: &str, origin: &str) -> String {
     let label = d.label.as_deref().unwrap_or_default();
-    let mut message = Level::Error.title(&d.message);
+    let mut message = level.title(&d.message);
     if let Some(span) = d.span.clone() {
         // An empty span (a missing table) is widened to one character so that the caret shows.
         let end = span.end.max(span.start + 1).min(source.len());
         let start = span.start.min(end);
-        let annotation = Level::Error.span(start..end).label(label);
+        let annotation = level.span(start..end).label(label);
         message = message.snippet(
             Snippet::source(source)
                 .origin(origin)

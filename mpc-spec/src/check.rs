@@ -11,7 +11,10 @@ pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
         .as_ref()
         .map(|m| (m.kind.nx(), m.kind.nu(), m.kind.ny()));
     let mpc = dims.and_then(|(nx, nu, _)| check_mpc(&raw, nx, nu, diags));
-    let kalman = model.as_ref().filter(|_| raw.has("kalman")).and_then(|m| check_kalman(&raw, m, diags));
+    let kalman = model
+        .as_ref()
+        .filter(|_| raw.has("kalman"))
+        .and_then(|m| check_kalman(&raw, m, diags));
     let scalar = match raw.scalar.as_ref().map(|s| s.value.as_str()) {
         Some("f64") => Scalar::F64,
         _ => Scalar::F32,
@@ -146,16 +149,25 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
     let u_max = bound(diags, "mpc.u_max", raw.u_max.as_ref(), nu);
     if let (Some(lo), Some(hi)) = (&u_min, &u_max) {
         for (j, (l, h)) in lo.iter().zip(hi).enumerate() {
-            if l > h {
+            if l >= h {
                 diags.push(
                     Diagnostic::new(
-                        format!("input {j} has `u_min` {l} above `u_max` {h}"),
+                        format!("input {j} has `u_min` {l} not below `u_max` {h}"),
                         raw.u_max.as_ref().map(|x| x.span.clone()),
                     )
-                    .label(format!("entry {j} is below `u_min`"))
-                    .note("hint: each entry of `u_min` must be at most the same entry of `u_max`"),
+                    .label(format!("entry {j} is not above `u_min`"))
+                    .note("hint: each entry of `u_min` must be below the same entry of `u_max`; a fixed input is not a decision"),
                 );
             }
+        }
+    }
+    if let (Some(it), None) = (&raw.iterations, &raw.tolerance) {
+        if it.value.is_none() && !raw.has("mpc.tolerance") {
+            diags.push(
+                Diagnostic::new("`iterations = \"auto\"` needs `tolerance`", it.span.clone())
+                    .label("picks the iterations that guarantee `tolerance`")
+                    .note("hint: add `tolerance = 1e-4` to `[mpc]`: J(U_k) − J* ≤ tolerance·(J(U_0) − J*)"),
+            );
         }
     }
     let method = match raw.method.as_ref().map(|m| m.value.as_str()) {
@@ -168,7 +180,13 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
     };
     Some(Mpc {
         horizon: raw.horizon.as_ref()?.value,
-        iterations: raw.iterations.as_ref()?.value,
+        iterations: match raw.iterations.as_ref()?.value {
+            Some(n) => Iterations::Fixed(n),
+            None => Iterations::Auto,
+        },
+        tolerance: raw.tolerance.as_ref().map(|t| t.value),
+        strict: raw.strict.as_ref().is_some_and(|s| s.value),
+        accept_unstable: raw.accept_unstable.as_ref().is_some_and(|s| s.value),
         method,
         step,
         q: q?,
@@ -279,11 +297,19 @@ fn check_kalman(raw: &Raw, model: &Model, diags: &mut Diagnostics) -> Option<Kal
 }
 
 /// The value of `[kalman] key`, reporting it as missing unless it was written (and reported) already.
-fn required<T: Clone>(diags: &mut Diagnostics, raw: &Raw, v: Option<&Located<T>>, key: &str) -> Option<T> {
+fn required<T: Clone>(
+    diags: &mut Diagnostics,
+    raw: &Raw,
+    v: Option<&Located<T>>,
+    key: &str,
+) -> Option<T> {
     if v.is_none() && !raw.has(&format!("kalman.{key}")) {
         diags.push(
-            Diagnostic::new(format!("missing key `{key}` in `[kalman]`"), raw.kalman_span.clone())
-                .label(format!("`{key}` is required here")),
+            Diagnostic::new(
+                format!("missing key `{key}` in `[kalman]`"),
+                raw.kalman_span.clone(),
+            )
+            .label(format!("`{key}` is required here")),
         );
     }
     v.map(|x| x.value.clone())

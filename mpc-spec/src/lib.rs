@@ -12,6 +12,9 @@ mod model;
 mod parse;
 
 pub use diag::{Diagnostic, Diagnostics};
+
+/// The longest horizon a spec may ask for: the emitted code unrolls products that grow as N².
+pub const MAX_HORIZON: usize = 250;
 pub use model::*;
 
 /// Parses and validates a spec, reporting every problem at once, sorted by position.

@@ -94,6 +94,15 @@ pub enum ModelKind {
     },
 }
 
+/// `[mpc] iterations`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Iterations {
+    /// A fixed count.
+    Fixed(usize),
+    /// The smallest count the a priori bound guarantees for `tolerance`.
+    Auto,
+}
+
 /// How the QP is solved, `[mpc] method`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
@@ -118,7 +127,14 @@ pub struct Mpc {
     /// Prediction horizon N.
     pub horizon: usize,
     /// Solver iterations per control step.
-    pub iterations: usize,
+    pub iterations: Iterations,
+    /// The suboptimality the iterations must guarantee, relative to the initial gap:
+    /// J(U_k) − J* ≤ tolerance·(J(U_0) − J*).
+    pub tolerance: Option<f64>,
+    /// Whether fixed iterations below what `tolerance` needs are an error rather than a warning.
+    pub strict: bool,
+    /// Whether a closed loop found unstable is accepted.
+    pub accept_unstable: bool,
     /// The solver.
     pub method: Method,
     /// The step size.

@@ -64,7 +64,11 @@ pub struct Raw {
 
     pub mpc_span: Span,
     pub horizon: Option<Located<usize>>,
-    pub iterations: Option<Located<usize>>,
+    /// `None` inside for `"auto"`.
+    pub iterations: Option<Located<Option<usize>>>,
+    pub tolerance: Option<Located<f64>>,
+    pub strict: Option<Located<bool>>,
+    pub accept_unstable: Option<Located<bool>>,
     pub method: Option<Located<String>>,
     pub step: Option<Located<Option<f64>>>,
     pub q: Option<Located<MatrixInput>>,
@@ -113,7 +117,11 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
             return raw;
         }
     };
-    let mut p = Parser { diags, spans: BTreeMap::new(), present: BTreeSet::new() };
+    let mut p = Parser {
+        diags,
+        spans: BTreeMap::new(),
+        present: BTreeSet::new(),
+    };
     let root_span = root.span();
     let root = root.get_ref();
     p.unknown_keys(root, keys::TABLES, "", "table");
@@ -135,12 +143,25 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
     if let Some((span, t)) = p.table(root, keys::MPC, &root_span, true) {
         raw.mpc_span = span.clone();
         p.unknown_keys(t, keys::MPC_KEYS, "mpc", "key");
-        raw.horizon = p
-            .required(t, "mpc", "horizon", &span)
-            .and_then(|v| p.count(v, "mpc.horizon", 1));
+        raw.horizon = p.required(t, "mpc", "horizon", &span).and_then(|v| {
+            p.count_at_most(
+                v,
+                "mpc.horizon",
+                1,
+                crate::MAX_HORIZON as i64,
+                HORIZON_LIMIT,
+            )
+        });
         raw.iterations = p
             .required(t, "mpc", "iterations", &span)
-            .and_then(|v| p.count(v, "mpc.iterations", 1));
+            .and_then(|v| p.iterations(v));
+        raw.tolerance = t
+            .get("tolerance")
+            .and_then(|v| p.fraction(v, "mpc.tolerance"));
+        raw.strict = t.get("strict").and_then(|v| p.boolean(v, "mpc.strict"));
+        raw.accept_unstable = t
+            .get("accept_unstable")
+            .and_then(|v| p.boolean(v, "mpc.accept_unstable"));
         raw.method = t
             .get("method")
             .and_then(|v| p.choice(v, "mpc.method", keys::METHODS));
@@ -251,10 +272,18 @@ impl Parser<'_> {
     /// Reports every key of `t` not in `allowed`, with the closest allowed one as a hint.
     /// Records every key of the table `table` ("" for the root) as present.
     fn unknown_keys(&mut self, t: &DeTable<'_>, allowed: &[&str], table: &str, what: &str) {
-        let place = if table.is_empty() { "the spec".to_string() } else { format!("[{table}]") };
+        let place = if table.is_empty() {
+            "the spec".to_string()
+        } else {
+            format!("[{table}]")
+        };
         for (k, _) in t.iter() {
             let key: &str = k.get_ref();
-            self.present.insert(if table.is_empty() { key.to_string() } else { format!("{table}.{key}") });
+            self.present.insert(if table.is_empty() {
+                key.to_string()
+            } else {
+                format!("{table}.{key}")
+            });
             if allowed.contains(&key) {
                 continue;
             }
@@ -371,6 +400,18 @@ impl Parser<'_> {
 
     /// A whole number of at least `min`.
     fn count(&mut self, v: &Value<'_>, path: &str, min: i64) -> Option<Located<usize>> {
+        self.count_at_most(v, path, min, 100_000, "")
+    }
+
+    /// A whole number in `min..=max`; `why` explains the upper limit.
+    fn count_at_most(
+        &mut self,
+        v: &Value<'_>,
+        path: &str,
+        min: i64,
+        max: i64,
+        why: &str,
+    ) -> Option<Located<usize>> {
         let n = match v.get_ref() {
             DeValue::Integer(i) => {
                 i64::from_str_radix(&i.as_str().replace('_', ""), i.radix()).ok()
@@ -390,15 +431,17 @@ impl Parser<'_> {
             }
         };
         match n {
-            Some(n) if n >= min && n <= 100_000 => Some(self.located(path, v, n as usize)),
+            Some(n) if n >= min && n <= max => Some(self.located(path, v, n as usize)),
             _ => {
-                self.err(
-                    Diagnostic::new(
-                        format!("`{path}` must be between {min} and 100000"),
-                        v.span(),
-                    )
-                    .label("out of range"),
-                );
+                let mut d = Diagnostic::new(
+                    format!("`{path}` must be between {min} and {max}"),
+                    v.span(),
+                )
+                .label("out of range");
+                if !why.is_empty() {
+                    d = d.note(why.to_string());
+                }
+                self.err(d);
                 None
             }
         }
@@ -426,6 +469,64 @@ impl Parser<'_> {
                         v.span(),
                     )
                     .note(format!("hint: expected one of {}", quoted(options))),
+                );
+                None
+            }
+        }
+    }
+
+    /// `"auto"` (None) or a whole number of at least 1.
+    fn iterations(&mut self, v: &Value<'_>) -> Option<Located<Option<usize>>> {
+        match v.get_ref() {
+            DeValue::String(s) if s == "auto" => Some(self.located("mpc.iterations", v, None)),
+            DeValue::String(s) => {
+                self.err(
+                    Diagnostic::new(
+                        format!("unknown value \"{s}\" for `mpc.iterations`"),
+                        v.span(),
+                    )
+                    .label("unknown value")
+                    .note("hint: write \"auto\" (with `tolerance`) or a whole number"),
+                );
+                None
+            }
+            _ => self.count(v, "mpc.iterations", 1).map(|n| Located {
+                value: Some(n.value),
+                span: n.span,
+            }),
+        }
+    }
+
+    /// A number strictly between 0 and 1.
+    fn fraction(&mut self, v: &Value<'_>, path: &str) -> Option<Located<f64>> {
+        let x = self.number(v, path)?;
+        if x.value > 0.0 && x.value < 1.0 {
+            return Some(x);
+        }
+        self.err(
+            Diagnostic::new(
+                format!(
+                    "`{path}` must be between 0 and 1 (exclusive), found {}",
+                    x.value
+                ),
+                v.span(),
+            )
+            .label("out of range"),
+        );
+        None
+    }
+
+    /// `true` or `false`.
+    fn boolean(&mut self, v: &Value<'_>, path: &str) -> Option<Located<bool>> {
+        match v.get_ref() {
+            DeValue::Boolean(b) => Some(self.located(path, v, *b)),
+            other => {
+                self.err(
+                    Diagnostic::new(
+                        format!("`{path}` must be true or false, found {}", other.type_str()),
+                        v.span(),
+                    )
+                    .label("expected a boolean"),
                 );
                 None
             }
@@ -555,6 +656,9 @@ impl Parser<'_> {
         Some(self.located(path, v, input))
     }
 }
+
+/// Why the horizon is bounded.
+const HORIZON_LIMIT: &str = "hint: the emitted code unrolls the products with H (N·nu × N·nu) and Fr (N·nu × N·nx), which grow as N²; beyond this the generated source and its compile time grow past what is sensible for a fixed-iteration controller";
 
 fn quoted(options: &[&str]) -> String {
     options
