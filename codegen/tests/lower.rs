@@ -135,7 +135,12 @@ fn divergent_steps_are_rejected_at_the_step_key() {
     assert_eq!(&src[d.span.clone().unwrap()], "1.5");
     let fgm = include_str!("../../specs/paper.toml").replace("step = \"auto\"", "step = 0.8");
     let d = lower(&load(&fgm).unwrap()).unwrap_err();
-    assert!(d.iter().next().unwrap().message.contains("below (2+2β)/((1+2β)L)"));
+    assert!(d
+        .iter()
+        .next()
+        .unwrap()
+        .message
+        .contains("below (2+2β)/((1+2β)L)"));
     // 0.7 is above 1/L ≈ 0.49 but inside the fast gradient method's region (about 1.53/L): accepted.
     let fgm = include_str!("../../specs/paper.toml").replace("step = \"auto\"", "step = 0.7");
     assert!(lower(&load(&fgm).unwrap()).is_ok());

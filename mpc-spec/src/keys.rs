@@ -18,6 +18,9 @@ pub const MODEL_KEYS: &[&str] = &["type", "axes", "dt", "a", "b", "c"];
 pub const MPC_KEYS: &[&str] = &[
     "horizon",
     "iterations",
+    "tolerance",
+    "strict",
+    "accept_unstable",
     "method",
     "step",
     "q",

@@ -1,0 +1,182 @@
+//! The certificates: the paper's stability figures, the a priori bound checked against real iterations,
+//! `iterations = "auto"`, warnings and the unstable-loop error.
+#![allow(non_snake_case)]
+
+use codegen::certificate::{a_priori_rate, certify, review};
+use codegen::oracle::{exact_solution, iterate};
+use codegen::{generate_from_source, lower, Opt};
+use mpc_spec::load;
+use nalgebra::DVector;
+
+const PAPER: &str = include_str!("../../specs/paper.toml");
+const FAITHFUL: &str = include_str!("../../specs/paper-faithful.toml");
+
+fn round(v: f64, digits: i32) -> f64 {
+    let k = 10f64.powi(digits);
+    (v * k).round() / k
+}
+
+/// Section 2.4.3: ρ(F − G·K) = 0.939, λmin(P) = 4.61, λmax(P) = 142.44.
+#[test]
+fn paper_stability_figures() {
+    let c = certify(&lower(&load(PAPER).unwrap()).unwrap());
+    assert_eq!(round(c.lqr.spectral_radius, 3), 0.939);
+    assert_eq!(round(c.lqr.lyapunov_min, 2), 4.61);
+    assert_eq!(round(c.lqr.lyapunov_max, 2), 142.44);
+    // The exactly solved MPC and the 30-iteration FGM close (numerically) the same loop.
+    assert!(c.mpc.spectral_radius < 1.0);
+    let solver = c.mpc.solver_spectral_radius.unwrap();
+    assert!(
+        (solver - c.mpc.spectral_radius).abs() < 1e-6,
+        "{solver} vs {}",
+        c.mpc.spectral_radius
+    );
+}
+
+/// Algorithm 1 with α = 0.04 and 30 warm-started iterations is a different dynamic controller.
+#[test]
+fn paper_faithful_solver_loop_differs_from_the_mpc_gain() {
+    let c = certify(&lower(&load(FAITHFUL).unwrap()).unwrap());
+    let solver = c.mpc.solver_spectral_radius.unwrap();
+    assert!(
+        (solver - c.mpc.spectral_radius).abs() > 1e-4,
+        "{solver} vs {}",
+        c.mpc.spectral_radius
+    );
+    assert!(solver < 1.0);
+    // α = 0.04 is far below 1/L ≈ 0.49: thirty steps guarantee little.
+    assert!(c.iterations_bound.unwrap() > 700);
+    assert!(c.guaranteed_gap.unwrap() > 0.6);
+}
+
+#[test]
+fn paper_conditioning_and_rates() {
+    let c = certify(&lower(&load(PAPER).unwrap()).unwrap());
+    assert_eq!(c.step, 1.0 / c.lipschitz);
+    let kappa = c.condition_number;
+    assert!((c.rate.unwrap().factor - (1.0 - (1.0 / kappa).sqrt())).abs() < 1e-15);
+    // The asymptotic contraction of constant-momentum FGM at α = 1/L is 1 − 1/√κ as well.
+    assert!(
+        (c.contraction - (1.0 - (1.0 / kappa).sqrt())).abs() < 1e-6,
+        "{}",
+        c.contraction
+    );
+    assert_eq!(c.iterations_bound, Some(21));
+    assert!(c.guaranteed_gap.unwrap() < 1e-5);
+}
+
+/// The bound Δ_k ≤ C·ρᵏ·Δ_0 holds along real iterations from random starts in the box.
+#[test]
+fn a_priori_bound_holds_along_real_iterations() {
+    for src in [
+        PAPER,
+        FAITHFUL,
+        include_str!("../../specs/paper-initial.toml"),
+    ] {
+        let p = lower(&load(src).unwrap()).unwrap();
+        let qp = &p.qp;
+        let rate = a_priori_rate(qp.method, qp.step, qp.mu, qp.L).unwrap();
+        let nz = qp.N * p.nu;
+        let J = |U: &DVector<f64>, f: &DVector<f64>| 0.5 * U.dot(&(&qp.H * U)) + f.dot(U);
+        let mut seed = 1u64;
+        let mut uniform = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for trial in 0..40 {
+            let scale = [0.1, 1.0, 10.0, 100.0][trial % 4];
+            let f = DVector::from_fn(nz, |_, _| scale * 20.0 * uniform());
+            let U0 = DVector::from_fn(nz, |i, _| {
+                10.0 * uniform() * if i % 2 == 0 { 1.0 } else { 0.3 }
+            });
+            let exact = exact_solution(qp, &f, 1e-14, 200_000);
+            let (J0, Jstar) = (J(&U0, &f), J(&exact, &f));
+            for k in 1..=60 {
+                // k iterations from U0 (stepping one at a time would drop FGM's momentum).
+                let Uk = iterate(qp, &f, U0.clone(), k);
+                let gap = J(&Uk, &f) - Jstar;
+                let bound = rate.guaranteed(k) * (J0 - Jstar);
+                assert!(
+                    gap <= bound + 1e-9 * (1.0 + J0.abs()),
+                    "k = {k}: gap {gap:e} above the bound {bound:e}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn auto_iterations_are_the_bound() {
+    let src = PAPER.replace("iterations = 30", "iterations = \"auto\"\ntolerance = 1e-6");
+    let g = generate_from_source(&src, &Opt::default()).unwrap();
+    let rate = g.certificate.rate.unwrap();
+    let m = g.problem.qp.iterations;
+    assert_eq!(Some(m), g.certificate.iterations_bound);
+    assert!(rate.guaranteed(m) <= 1e-6 && rate.guaranteed(m - 1) > 1e-6);
+    assert!(g
+        .tokens
+        .to_string()
+        .contains(&format!("pub const ITERATIONS : usize = {m}")));
+    let missing = PAPER.replace("iterations = 30", "iterations = \"auto\"");
+    let diags = load(&missing).unwrap_err();
+    assert_eq!(
+        diags.iter().next().unwrap().message,
+        "`iterations = \"auto\"` needs `tolerance`"
+    );
+}
+
+#[test]
+fn too_few_iterations_warn_or_fail_when_strict() {
+    let src = FAITHFUL.replace("iterations = 30", "iterations = 30\ntolerance = 1e-4");
+    let spec = load(&src).unwrap();
+    let c = certify(&lower(&spec).unwrap());
+    let warnings = review(&spec, &c).unwrap();
+    let w = warnings.iter().next().unwrap();
+    assert!(
+        w.message
+            .starts_with("`iterations = 30` is below the 762 that guarantee `tolerance = 1e-4`"),
+        "{}",
+        w.message
+    );
+    assert_eq!(&src[w.span.clone().unwrap()], "30");
+    let strict = load(&src.replace("tolerance = 1e-4", "tolerance = 1e-4\nstrict = true")).unwrap();
+    assert!(review(&strict, &c).is_err());
+}
+
+#[test]
+fn unstable_loops_are_errors_unless_accepted() {
+    // An unstable open loop with a one-step horizon and a tiny state weight: the MPC barely acts.
+    let src = r#"
+[model]
+type = "linear"
+dt = 0.1
+a = [[1.2]]
+b = [[1.0]]
+c = [[1.0]]
+[mpc]
+horizon = 1
+iterations = 5
+q = 0.001
+r = 10
+u_min = [-1]
+u_max = [1]
+[kalman]
+q = 0.01
+r = 0.1
+"#;
+    let diags = generate_from_source(src, &Opt::default()).unwrap_err();
+    let msgs: Vec<_> = diags.iter().map(|d| d.message.clone()).collect();
+    assert!(
+        msgs.iter()
+            .any(|m| m.starts_with("the closed loop is not stable: the unconstrained MPC loop")),
+        "{msgs:?}"
+    );
+    assert!(
+        !msgs.iter().any(|m| m.contains("LQR")),
+        "the LQR of the stage weights stabilizes: {msgs:?}"
+    );
+    let accepted = src.replace("u_max = [1]", "u_max = [1]\naccept_unstable = true");
+    assert!(generate_from_source(&accepted, &Opt::default()).is_ok());
+}
