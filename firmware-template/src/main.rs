@@ -1,29 +1,32 @@
-//! Bare-metal Zynq-7000 firmware: the paper's closed loop with an `mpc!` controller baked in.
+//! Bare-metal firmware: the paper's closed loop with an `mpc!` controller baked in, on any of
+//! the template's boards.
 //!
 //! The drone (plant, reference trajectory and seeded noise from `flight-sim`) is simulated on the
 //! target itself, so the firmware flies exactly the loop the host simulation flies. Each control
 //! cycle (Kalman update, MPC solve, Kalman predict: the generated `Controller::step`) is timed
-//! with the Cortex-A9 global timer. At the end the firmware prints a summary and one
-//! `RESULT {json}` line over UART0, and exits through semihosting: 0 if the flight passed its
-//! checks, 1 if not, 10-15 on a CPU exception (`rt::status`), 20 on a panic.
+//! with the board's timer. At the end the firmware prints a summary and one `RESULT {json}` line
+//! on the board's serial port, and exits through semihosting: 0 if the flight passed its checks,
+//! 1 if not, 10-17 on a CPU exception (each board's `rt::status`), 20 on a panic.
+//!
+//! The board is picked by the build target (build.rs sets `cfg(board)`): `armv7a-none-eabihf`
+//! is the Zynq-7000 (`src/zynq/`), `thumbv7em-none-eabihf` the STM32F405 (`src/stm32f405/`).
+//! Everything in this file, `report`, `stats`, `console` and `decimal` is shared.
 #![no_std]
 #![no_main]
 
+#[cfg_attr(board = "zynq", path = "zynq/mod.rs")]
+#[cfg_attr(board = "stm32f405", path = "stm32f405/mod.rs")]
+mod board;
+mod console;
 mod decimal;
 mod report;
-mod rt;
-mod semihosting;
 mod stats;
-mod timer;
-mod uart;
 
 use core::hint::black_box;
 
 use flight_sim::{cast, fly, Controller, Reference, Scenario, Trajectory, NU, NX, NY};
 
 use stats::{Errors, Ticks};
-use timer::GlobalTimer;
-use uart::Uart0;
 
 // The spec baked in. `mpc!` takes a literal path (relative to this folder); scripts/firmware.sh
 // writes any other spec to spec-override/spec.toml and turns on the `spec-override` feature.
@@ -61,7 +64,7 @@ const CALIB_ITERS: u32 = 1_000_000;
 /// The generated controller, with each call timed.
 struct Timed<'t> {
     controller: ctrl::Controller,
-    timer: &'t GlobalTimer,
+    timer: &'t board::Timer,
     ticks: Ticks,
 }
 
@@ -74,8 +77,7 @@ impl Controller for Timed<'_> {
         let t0 = self.timer.now();
         // black_box: the call must happen between the two reads of the timer.
         let u = black_box(self.controller.step(black_box(&z), black_box(&xref)));
-        let t1 = self.timer.now();
-        self.ticks.add(t1.wrapping_sub(t0));
+        self.ticks.add(self.timer.since(t0));
         cast(&u)
     }
 
@@ -84,8 +86,8 @@ impl Controller for Timed<'_> {
     }
 }
 
-/// Global timer ticks taken by a loop of exactly `2 * iters` instructions.
-fn timed_loop(timer: &GlobalTimer, iters: u32) -> u64 {
+/// Timer ticks taken by a loop of exactly `2 * iters` instructions (A32 or Thumb alike).
+fn timed_loop(timer: &board::Timer, iters: u32) -> u64 {
     let t0 = timer.now();
     // SAFETY: a countdown loop on one register.
     unsafe {
@@ -97,13 +99,13 @@ fn timed_loop(timer: &GlobalTimer, iters: u32) -> u64 {
             options(nomem, nostack),
         );
     }
-    timer.now().wrapping_sub(t0)
+    timer.since(t0)
 }
 
 #[no_mangle]
 extern "C" fn main() -> ! {
-    let mut uart = Uart0::new();
-    let timer = GlobalTimer::start();
+    let mut serial = board::Serial::new();
+    let timer = board::Timer::start();
     let calib_ticks = timed_loop(&timer, CALIB_ITERS);
 
     let reference = Trajectory::paper();
@@ -115,26 +117,26 @@ extern "C" fn main() -> ! {
     };
     let mut errors = Errors::new();
     let scenario = Scenario::new(SEED, CYCLES);
-    report::header(&mut uart, &scenario);
+    report::header(&mut serial, &scenario);
     fly(&mut timed, &reference, &scenario, |sample, _| {
         errors.add(&sample.error())
     });
 
     let ok = report::result(
-        &mut uart,
+        &mut serial,
         &report::Run {
             scenario: &scenario,
             ticks: &timed.ticks,
             errors: &errors,
             calib_instructions: 2 * u64::from(CALIB_ITERS),
             calib_ticks,
-            stack_bytes: rt::stack_high_water(),
+            stack_bytes: board::stack_high_water(),
         },
     );
-    semihosting::exit(if ok { 0 } else { 1 })
+    board::exit(if ok { 0 } else { 1 })
 }
 
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
-    semihosting::exit(20)
+    board::exit(20)
 }

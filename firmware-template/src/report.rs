@@ -3,12 +3,10 @@
 
 use flight_sim::Scenario;
 
+use crate::board::{self, Serial};
+use crate::console::Console;
 use crate::stats::{micrometres, Errors, Ticks};
-use crate::uart::Uart0;
 use crate::{ctrl, LOST_M, SPEC_PATH, SPEC_TEXT};
-
-/// The board name in RESULT.
-const BOARD: &str = "zynq-7000";
 
 /// FNV-1a (64-bit) of the baked spec's text, so a test can check which spec a binary holds.
 const SPEC_FNV1A64: u64 = fnv1a64(SPEC_TEXT.as_bytes());
@@ -43,15 +41,17 @@ pub struct Run<'a> {
     pub calib_instructions: u64,
     /// Global timer ticks the calibration loop took.
     pub calib_ticks: u64,
-    /// Deepest use of the main (SVC) stack, bytes.
+    /// Deepest use of the main stack, bytes.
     pub stack_bytes: usize,
 }
 
 /// Prints what is about to fly.
-pub fn header(uart: &mut Uart0, scenario: &Scenario) {
-    uart.str("firmware-template on ")
-        .str(BOARD)
-        .str(" (Cortex-A9, VFPv3 + NEON)\nspec ")
+pub fn header(out: &mut Serial, scenario: &Scenario) {
+    out.str("firmware-template on ")
+        .str(board::NAME)
+        .str(" (")
+        .str(board::CPU)
+        .str(")\nspec ")
         .str(SPEC_PATH)
         .str(": ")
         .str(SCALAR)
@@ -68,7 +68,7 @@ pub fn header(uart: &mut Uart0, scenario: &Scenario) {
 
 /// Prints the summary and the RESULT line; returns whether the run passed its checks: every
 /// cycle flown, errors finite and below `LOST_M`.
-pub fn result(uart: &mut Uart0, run: &Run) -> bool {
+pub fn result(out: &mut Serial, run: &Run) -> bool {
     let rmse = run.errors.rmse().map(micrometres);
     let max_abs = run.errors.max_abs().map(micrometres);
     let lost_um = micrometres(LOST_M).unwrap_or(0);
@@ -77,27 +77,29 @@ pub fn result(uart: &mut Uart0, run: &Run) -> bool {
         && rmse.iter().all(Option::is_some)
         && max_abs.iter().all(|m| matches!(m, Some(m) if *m < lost_um));
 
-    uart.str("control cycle (Kalman update + MPC + Kalman predict), global timer ticks: min ")
+    out.str("control cycle (Kalman update + MPC + Kalman predict), ")
+        .str(board::TIMER)
+        .str(": min ")
         .u64(run.ticks.min)
         .str(", mean ")
         .u64(run.ticks.mean())
         .str(", max ")
         .u64(run.ticks.max)
         .str("\ntracking error x/y/z, um: rmse ");
-    axes(uart, &rmse, "/");
-    uart.str(", max ");
-    axes(uart, &max_abs, "/");
-    uart.str("\nstack used: ")
+    axes(out, &rmse, "/");
+    out.str(", max ");
+    axes(out, &max_abs, "/");
+    out.str("\nstack used: ")
         .u64(run.stack_bytes as u64)
         .str(" bytes\n")
         .str(if ok { "flight OK\n" } else { "flight FAILED\n" });
 
-    uart.str("RESULT {\"spec\":\"")
+    out.str("RESULT {\"spec\":\"")
         .str(SPEC_PATH)
         .str("\",\"spec_fnv1a64\":\"");
-    hex(uart, SPEC_FNV1A64);
-    uart.str("\",\"board\":\"")
-        .str(BOARD)
+    hex(out, SPEC_FNV1A64);
+    out.str("\",\"board\":\"")
+        .str(board::NAME)
         .str("\",\"scalar\":\"")
         .str(SCALAR)
         .str("\",\"nx\":")
@@ -127,32 +129,32 @@ pub fn result(uart: &mut Uart0, run: &Run) -> bool {
         .str(",\"stack_bytes\":")
         .u64(run.stack_bytes as u64)
         .str(",\"rmse_um\":[");
-    axes(uart, &rmse, ",");
-    uart.str("],\"max_abs_error_um\":[");
-    axes(uart, &max_abs, ",");
-    uart.str("],\"ok\":")
+    axes(out, &rmse, ",");
+    out.str("],\"max_abs_error_um\":[");
+    axes(out, &max_abs, ",");
+    out.str("],\"ok\":")
         .str(if ok { "true" } else { "false" })
         .str("}\n");
     ok
 }
 
 /// Three values joined by `sep`, `null` for a missing one.
-fn axes(uart: &mut Uart0, v: &[Option<u64>; 3], sep: &str) {
+fn axes(out: &mut Serial, v: &[Option<u64>; 3], sep: &str) {
     for (i, v) in v.iter().enumerate() {
         if i > 0 {
-            uart.str(sep);
+            out.str(sep);
         }
         match v {
-            Some(v) => uart.u64(*v),
-            None => uart.str("null"),
+            Some(v) => out.u64(*v),
+            None => out.str("null"),
         };
     }
 }
 
 /// `v` as 16 lowercase hex digits.
-fn hex(uart: &mut Uart0, v: u64) {
+fn hex(out: &mut Serial, v: u64) {
     for shift in (0..16).rev() {
         let d = ((v >> (4 * shift)) & 0xf) as u8;
-        uart.byte(if d < 10 { b'0' + d } else { b'a' + d - 10 });
+        out.byte(if d < 10 { b'0' + d } else { b'a' + d - 10 });
     }
 }

@@ -11,7 +11,7 @@
 //! - Every exception is a failure for this firmware (it polls, it takes no interrupts): each
 //!   default handler exits through semihosting with its own status, so a test sees which one fired.
 
-use crate::semihosting;
+use super::semihosting;
 
 /// Exit statuses of the default exception handlers (see `__default_*` below).
 pub mod status {

@@ -5,6 +5,8 @@
 
 use core::ptr::{read_volatile, write_volatile};
 
+use crate::console::Console;
+
 const BASE: usize = 0xE000_0000;
 const CR: usize = 0x00; // control
 const MR: usize = 0x04; // mode
@@ -41,31 +43,16 @@ impl Uart0 {
         }
         Uart0(())
     }
+}
 
-    /// Sends one byte, waiting while the TX FIFO is full.
-    pub fn byte(&mut self, b: u8) {
+impl Console for Uart0 {
+    /// Waits while the TX FIFO is full.
+    fn byte(&mut self, b: u8) {
         // SAFETY: as in `new`; `&mut self` serialises access to the FIFO.
         unsafe {
             while read(SR) & SR_TXFULL != 0 {}
             write(FIFO, u32::from(b));
         }
-    }
-
-    /// Sends a string, `\n` as `\r\n`.
-    pub fn str(&mut self, s: &str) -> &mut Self {
-        for b in s.bytes() {
-            if b == b'\n' {
-                self.byte(b'\r');
-            }
-            self.byte(b);
-        }
-        self
-    }
-
-    /// Sends `v` in decimal.
-    pub fn u64(&mut self, v: u64) -> &mut Self {
-        let mut digits = [0u8; 20];
-        self.str(crate::decimal::u64(v, &mut digits))
     }
 }
 

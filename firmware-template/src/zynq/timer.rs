@@ -14,6 +14,9 @@ const CONTROL: usize = 0x08;
 /// Timer enable, prescaler 0, no compare, no interrupt.
 const CONTROL_ENABLE: u32 = 1;
 
+/// A reading of the timer.
+pub type Instant = u64;
+
 /// The running global timer. Only one should exist.
 pub struct GlobalTimer(());
 
@@ -43,5 +46,11 @@ impl GlobalTimer {
                 return (u64::from(hi) << 32) | u64::from(lo);
             }
         }
+    }
+
+    /// Ticks since `t0` (the 64-bit counter does not wrap in practice).
+    #[inline(always)]
+    pub fn since(&self, t0: Instant) -> u64 {
+        self.now().wrapping_sub(t0)
     }
 }

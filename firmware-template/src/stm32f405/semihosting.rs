@@ -1,0 +1,28 @@
+//! ARM semihosting on M-profile (`bkpt 0xAB`): the only way this firmware talks to the debugger
+//! or emulator, to report its exit status.
+
+/// `SYS_EXIT_EXTENDED`: exit with a full 32-bit status (plain `SYS_EXIT` can only say 0 or 1).
+const SYS_EXIT_EXTENDED: u32 = 0x20;
+/// `ADP_Stopped_ApplicationExit`: the reason code for a normal exit; the status is the subcode.
+const ADP_STOPPED_APPLICATION_EXIT: u32 = 0x2_0026;
+
+/// Ends the program with `status` (QEMU exits with it). On a board with no debugger attached the
+/// `bkpt` escalates to a HardFault, whose handler comes back here and locks the core up: halted
+/// either way.
+pub fn exit(status: u32) -> ! {
+    let block = [ADP_STOPPED_APPLICATION_EXIT, status];
+    // SAFETY: the semihosting call reads the two words of `block`, which live until it returns,
+    // and writes only r0.
+    unsafe {
+        core::arch::asm!(
+            "bkpt 0xab",
+            inout("r0") SYS_EXIT_EXTENDED => _,
+            in("r1") block.as_ptr(),
+            options(nostack, readonly),
+        );
+    }
+    loop {
+        // SAFETY: `wfe` only waits for an event.
+        unsafe { core::arch::asm!("wfe", options(nomem, nostack)) };
+    }
+}
