@@ -1,0 +1,38 @@
+//! The command line.
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+/// The `mpc!` compiler on the command line: what it proves about a controller spec, and the code it emits.
+#[derive(Parser, Debug)]
+#[command(name = "mpcc", version, about, long_about = None)]
+#[command(
+    help_template = "{before-help}{name} {version}\n{about}\n\n{usage-heading} {usage}\n\n{all-args}{after-help}"
+)]
+pub(crate) struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub(crate) enum Command {
+    /// Check a spec and print what the compiler proves about it: conditioning, rates, iteration bound,
+    /// closed-loop stability, resources.
+    Check {
+        /// The TOML controller spec.
+        #[arg(value_name = "SPEC")]
+        spec: PathBuf,
+        /// Print the certificate as JSON, under stable names.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Print the module `mpc!` generates from a spec, formatted as a person would read it.
+    Emit {
+        /// The TOML controller spec; the module is named after its file stem.
+        #[arg(value_name = "SPEC")]
+        spec: PathBuf,
+        /// Write the module to FILE (only if its content changed) instead of printing it.
+        #[arg(short, long, value_name = "FILE")]
+        output: Option<PathBuf>,
+    },
+}

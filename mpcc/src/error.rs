@@ -1,0 +1,67 @@
+//! Operational failures of `mpcc`; mistakes in a spec arrive already rendered, as the macro shows them.
+
+use std::error::Error as StdError;
+use std::fmt::{self, Display};
+use std::io;
+use std::path::PathBuf;
+
+pub(crate) type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[derive(Debug)]
+pub(crate) enum Error {
+    /// The spec file could not be read.
+    Read(PathBuf, io::Error),
+    /// `-o FILE` could not be written.
+    Write(PathBuf, io::Error),
+    /// The spec has mistakes: `rendered` is every diagnostic drawn against the source by
+    /// `codegen::render`, exactly as the macro's error carries them.
+    Spec {
+        path: PathBuf,
+        count: usize,
+        rendered: String,
+    },
+}
+
+impl Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::Read(path, _) => write!(f, "cannot read the spec `{}`", path.display()),
+            Error::Write(path, _) => write!(f, "cannot write `{}`", path.display()),
+            Error::Spec { path, count, .. } => write!(
+                f,
+                "invalid controller spec `{}`: {count} error{}",
+                path.display(),
+                if *count == 1 { "" } else { "s" }
+            ),
+        }
+    }
+}
+
+impl StdError for Error {
+    fn source(&self) -> Option<&(dyn StdError + 'static)> {
+        match self {
+            Error::Read(_, e) | Error::Write(_, e) => Some(e),
+            Error::Spec { .. } => None,
+        }
+    }
+}
+
+/// What `main` prints for `error`: the rendered diagnostics of a bad spec, then `mpcc: {error}` and the
+/// chain of causes (cxxbridge's format).
+pub(crate) fn report(error: &Error) -> String {
+    let mut out = String::new();
+    if let Error::Spec { rendered, .. } = error {
+        out.push_str(rendered);
+        out.push_str("\n\n");
+    }
+    out.push_str(&format!("mpcc: {error}\n"));
+    let mut cause = error.source();
+    if cause.is_some() {
+        out.push_str("\nCaused by:\n");
+    }
+    while let Some(e) = cause {
+        out.push_str(&format!("    {e}\n"));
+        cause = e.source();
+    }
+    out
+}

@@ -1,0 +1,102 @@
+//! `mpcc`: the `mpc!` compiler on the command line.
+//!
+//! - `mpcc check SPEC [--json]` prints what the compiler proves about a controller spec (the certificate
+//!   that `mpc!` emits as the `report` submodule) and its warnings;
+//! - `mpcc emit SPEC [-o FILE]` prints the module `mpc!` would emit, formatted, or writes it to `FILE`
+//!   when its content changed.
+//!
+//! A bad spec prints the same rendered diagnostics as the macro (`codegen::render`) and exits 1. As in
+//! cxxbridge, `main` calls `try_main` and reports an error as `mpcc: {error}` with its `Caused by:` chain.
+
+mod app;
+mod check;
+mod emit;
+mod error;
+#[cfg(test)]
+mod test;
+
+use crate::app::{Cli, Command};
+use crate::error::{Error, Result};
+use clap::Parser;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    match try_main() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprint!("{}", error::report(&error));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn try_main() -> Result<()> {
+    match Cli::parse().command {
+        Command::Check { spec, json } => {
+            let loaded = Loaded::read(&spec)?;
+            let generated = loaded.generate("controller")?;
+            loaded.print_warnings(&generated.warnings);
+            let text = if json {
+                check::json(&loaded.shown, &generated)
+            } else {
+                check::text(&loaded.shown, &generated)
+            };
+            print!("{text}");
+            Ok(())
+        }
+        Command::Emit { spec, output } => {
+            let loaded = Loaded::read(&spec)?;
+            let generated = loaded.generate(&emit::module_name(&spec))?;
+            loaded.print_warnings(&generated.warnings);
+            let text = generated.pretty();
+            match output {
+                None => {
+                    print!("{text}");
+                    Ok(())
+                }
+                Some(path) => emit::write_file_if_changed(&path, &text)
+                    .map(|_| ())
+                    .map_err(|e| Error::Write(path, e)),
+            }
+        }
+    }
+}
+
+/// A spec file read from disk.
+struct Loaded {
+    /// The path as given on the command line, which is how diagnostics and the emitted docs name it.
+    shown: String,
+    source: String,
+}
+
+impl Loaded {
+    fn read(path: &Path) -> Result<Self> {
+        let source =
+            std::fs::read_to_string(path).map_err(|e| Error::Read(path.to_path_buf(), e))?;
+        Ok(Loaded {
+            shown: path.display().to_string(),
+            source,
+        })
+    }
+
+    /// Parses, checks, lowers, certifies and emits, as `mpc!` does; origin is the path as given, so the
+    /// output does not depend on the machine.
+    fn generate(&self, name: &str) -> Result<codegen::Generated> {
+        let opt = codegen::Opt::new(name, "pub", codegen::Origin::Named(self.shown.clone()));
+        codegen::generate_from_source(&self.source, &opt).map_err(|diags| Error::Spec {
+            path: PathBuf::from(&self.shown),
+            count: diags.0.len(),
+            rendered: codegen::render::render(&diags, &self.source, &self.shown),
+        })
+    }
+
+    fn print_warnings(&self, warnings: &codegen::Diagnostics) {
+        for w in warnings.iter() {
+            eprintln!(
+                "{}\n",
+                codegen::render::render_warning(w, &self.source, &self.shown)
+            );
+        }
+    }
+}

@@ -1,0 +1,227 @@
+//! `mpcc` as a user runs it: pinned `--help` texts, `check` in both forms, the exit code and rendered error
+//! of a bad spec, and `emit -o` writing only when the content changed.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+/// Runs `mpcc args` from the workspace root.
+fn mpcc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mpcc"))
+        .args(args)
+        .current_dir(workspace())
+        .output()
+        .expect("mpcc runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8(o.stdout.clone()).unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8(o.stderr.clone()).unwrap()
+}
+
+#[test]
+fn help() {
+    let o = mpcc(&["--help"]);
+    assert!(o.status.success());
+    assert_eq!(
+        stdout(&o),
+        "\
+mpcc 0.1.0
+The `mpc!` compiler on the command line: certificates of a controller spec, and its emitted module
+
+Usage: mpcc <COMMAND>
+
+Commands:
+  check  Check a spec and print what the compiler proves about it: conditioning, rates, iteration bound, closed-loop stability, resources
+  emit   Print the module `mpc!` generates from a spec, formatted as a person would read it
+  help   Print this message or the help of the given subcommand(s)
+
+Options:
+  -h, --help     Print help
+  -V, --version  Print version
+"
+    );
+}
+
+#[test]
+fn check_help() {
+    let o = mpcc(&["check", "--help"]);
+    assert!(o.status.success());
+    assert_eq!(
+        stdout(&o),
+        "\
+Check a spec and print what the compiler proves about it: conditioning, rates, iteration bound, closed-loop stability, resources
+
+Usage: mpcc check [OPTIONS] <SPEC>
+
+Arguments:
+  <SPEC>  The TOML controller spec
+
+Options:
+      --json  Print the certificate as JSON, under stable names
+  -h, --help  Print help
+"
+    );
+}
+
+#[test]
+fn emit_help() {
+    let o = mpcc(&["emit", "--help"]);
+    assert!(o.status.success());
+    assert_eq!(
+        stdout(&o),
+        "\
+Print the module `mpc!` generates from a spec, formatted as a person would read it
+
+Usage: mpcc emit [OPTIONS] <SPEC>
+
+Arguments:
+  <SPEC>  The TOML controller spec; the module is named after its file stem
+
+Options:
+  -o, --output <FILE>  Write the module to FILE (only if its content changed) instead of printing it
+  -h, --help           Print help
+"
+    );
+}
+
+#[test]
+fn check_prints_the_papers_numbers() {
+    let o = mpcc(&["check", "specs/paper.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(
+        out.starts_with("specs/paper.toml: fgm, horizon 15, 30 iterations"),
+        "{out}"
+    );
+    for line in [
+        "ρ(F − G·K_LQR)",
+        "0.939055 (stable)",
+        "4.61064",
+        "142.441",
+        "multiply-adds per control cycle",
+    ] {
+        assert!(out.contains(line), "`{line}` missing from\n{out}");
+    }
+    assert_eq!(stderr(&o), "");
+}
+
+#[test]
+fn check_json_has_the_stable_names() {
+    let o = mpcc(&["check", "specs/paper.toml", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("valid JSON");
+    for name in [
+        "lipschitz",
+        "strong_convexity",
+        "condition_number",
+        "step",
+        "momentum",
+        "contraction",
+        "iterations",
+        "iterations_bound",
+        "lqr.spectral_radius",
+        "lqr.lyapunov_min",
+        "lqr.lyapunov_max",
+        "mpc.spectral_radius",
+        "mpc.solver_spectral_radius",
+        "macs_per_cycle",
+        "bytes_constants",
+        "bytes_state",
+    ] {
+        let value = name.split('.').fold(&v, |v, key| &v[key]);
+        assert!(value.is_number(), "`{name}` is {value:?} in\n{v:#}");
+    }
+    let round = |name: &str, digits: i32| {
+        let value = name.split('.').fold(&v, |v, key| &v[key]).as_f64().unwrap();
+        (value * 10f64.powi(digits)).round() / 10f64.powi(digits)
+    };
+    assert_eq!(round("lqr.spectral_radius", 3), 0.939);
+    assert_eq!(round("lqr.lyapunov_min", 2), 4.61);
+    assert_eq!(round("lqr.lyapunov_max", 2), 142.44);
+    assert_eq!(v["iterations"], 30);
+    assert_eq!(v["warnings"], serde_json::json!([]));
+}
+
+#[test]
+fn check_a_bad_spec_renders_the_macros_error_and_exits_1() {
+    let dir = scratch("bad-spec");
+    let spec = dir.join("typo.toml");
+    let paper = std::fs::read_to_string(workspace().join("specs/paper.toml")).unwrap();
+    std::fs::write(&spec, paper.replace("horizon = 15", "horizion = 15")).unwrap();
+    let shown = spec.to_str().unwrap();
+    let o = mpcc(&["check", shown]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stdout(&o), "");
+    let err = stderr(&o);
+    let source = std::fs::read_to_string(&spec).unwrap();
+    let diags = mpc_spec::load(&source).unwrap_err();
+    let rendered = codegen::render::render(&diags, &source, shown);
+    assert_eq!(
+        err,
+        format!(
+            "{rendered}\n\nmpcc: invalid controller spec `{shown}`: {} errors\n",
+            diags.0.len()
+        )
+    );
+    assert!(err.contains("unknown key `horizion`"), "{err}");
+    assert!(err.contains(&format!("--> {shown}:")), "{err}");
+}
+
+#[test]
+fn a_missing_file_is_an_error_with_its_cause() {
+    let o = mpcc(&["check", "specs/no-such-spec.toml"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(
+        stderr(&o),
+        "mpcc: cannot read the spec `specs/no-such-spec.toml`\n\nCaused by:\n    No such file or directory (os error 2)\n"
+    );
+}
+
+#[test]
+fn emit_names_the_module_after_the_file_and_writes_only_changes() {
+    let printed = mpcc(&["emit", "specs/paper-faithful.toml"]);
+    assert!(printed.status.success(), "{}", stderr(&printed));
+    let text = stdout(&printed);
+    assert!(text.starts_with("// @generated by mpcc"), "{text}");
+    assert!(text.contains("pub mod paper_faithful {"));
+    assert!(text.contains("from `specs/paper-faithful.toml`"));
+    assert!(
+        !text.contains(&*workspace().to_string_lossy()),
+        "no absolute path"
+    );
+    syn::parse_file(&text).expect("`mpcc emit` prints a valid Rust file");
+
+    let out = scratch("emit").join("paper_faithful.rs");
+    let _ = std::fs::remove_file(&out);
+    let write = || {
+        let o = mpcc(&[
+            "emit",
+            "specs/paper-faithful.toml",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(stdout(&o), "");
+        std::fs::metadata(&out).unwrap().modified().unwrap()
+    };
+    let first = write();
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), text);
+    std::thread::sleep(std::time::Duration::from_millis(20));
+    assert_eq!(write(), first, "an unchanged file is not rewritten");
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
