@@ -12,6 +12,6 @@ fn main() {
             c.mpc.spectral_radius,
             c.mpc.solver_spectral_radius
         );
-        println!("  {:?}", c.resources);
+        println!("  {:?} tau_d {:?}", c.resources, c.disturbance_time_constant);
     }
 }

@@ -149,6 +149,9 @@ pub struct Certificate {
     pub mpc: MpcLoop,
     /// Costs.
     pub resources: Resources,
+    /// The disturbance estimate's time constant in seconds, with `[kalman] disturbance`: −Δt / ln ρ of the
+    /// steady-state estimation error dynamics F_a(I − K∞C_a), whose slowest mode is the disturbance's.
+    pub disturbance_time_constant: Option<f64>,
 }
 
 /// The rules that need the certificate: an unstable closed loop is an error unless the spec sets
@@ -227,6 +230,12 @@ pub fn certify(p: &Problem) -> Certificate {
         lqr: lqr(p),
         mpc: mpc_loop(p),
         resources: resources(p),
+        disturbance_time_constant: (p.filter.nd > 0).then(|| {
+            let f = &p.filter;
+            let na = p.nx + f.nd;
+            let error = &f.Fa * (DMatrix::identity(na, na) - &f.K_inf * &f.Ca);
+            -p.dt / spectral_radius(&error).ln()
+        }),
     }
 }
 
@@ -396,29 +405,32 @@ fn resources(p: &Problem) -> Resources {
             .count()
     };
     let qp = &p.qp;
-    let (nx, ny) = (p.nx, p.ny);
+    let f = &p.filter;
+    // The filter works on (x, d): na = nx + nd states.
+    let (na, ny) = (p.nx + f.nd, p.ny);
     let nz = qp.N * p.nu;
     let per_iteration = nnz(&qp.H) + nz + if qp.method == Method::Fgm { nz } else { 0 };
-    let gradient_map = nnz(&qp.Fx) + nnz(&qp.Fr);
-    let nnz_F_rows: Vec<usize> =
-        p.F.row_iter()
-            .map(|r| r.iter().filter(|v| num.round(**v) != 0.0).count())
-            .collect();
-    let predict_state = nnz(&p.F) + nnz(&p.G);
-    let mut filter_constants = coefficients(&p.F) + coefficients(&p.G) + coefficients(&p.C);
-    let filter = match p.filter.kind {
+    let gradient_map = nnz(&qp.Fx) + nnz(&qp.Fr) + nnz(&qp.Fd);
+    let (F, G, C) = (&f.Fa, &f.Ga, &f.Ca);
+    let nnz_F_rows: Vec<usize> = F
+        .row_iter()
+        .map(|r| r.iter().filter(|v| num.round(**v) != 0.0).count())
+        .collect();
+    let predict_state = nnz(&F.rows(0, p.nx).into_owned()) + nnz(G);
+    let mut filter_constants = coefficients(F) + coefficients(G) + coefficients(C);
+    let filter = match f.kind {
         FilterKind::SteadyState => {
-            filter_constants += coefficients(&p.filter.K_inf);
-            predict_state + nnz(&p.C) + nnz(&p.filter.K_inf)
+            filter_constants += coefficients(&f.K_inf);
+            predict_state + nnz(C) + nnz(&f.K_inf)
         }
         FilterKind::TimeVarying => {
-            filter_constants += coefficients(&p.filter.Qn) + coefficients(&p.filter.Rn);
+            filter_constants += coefficients(&f.Qn) + coefficients(&f.Rn);
             // F·P and (F·P)·Fᵀ (upper triangle), P·Cᵀ, C·P·Cᵀ, the ny × ny inverse, K = P·Cᵀ·S⁻¹,
             // the state correction, I − K·C, (I − KC)·P·(I − KC)ᵀ and K·R·Kᵀ.
-            let fp = nnz(&p.F) * nx;
-            let fpf: usize = (0..nx).map(|i| nnz_F_rows[i..].iter().sum::<usize>()).sum();
-            let pct = nx * nnz(&p.C);
-            let s = ny * nnz(&p.C);
+            let fp = nnz(F) * na;
+            let fpf: usize = (0..na).map(|i| nnz_F_rows[i..].iter().sum::<usize>()).sum();
+            let pct = na * nnz(C);
+            let s = ny * nnz(C);
             let inverse = ny * ny * ny;
             predict_state
                 + fp
@@ -426,12 +438,12 @@ fn resources(p: &Problem) -> Resources {
                 + pct
                 + s
                 + inverse
-                + nx * ny * ny
-                + nx * ny
-                + nx * nnz(&p.C)
-                + 2 * nx * nx * nx
-                + nx * ny * ny
-                + nx * nx * ny
+                + na * ny * ny
+                + na * ny
+                + na * nnz(C)
+                + 2 * na * na * na
+                + na * ny * ny
+                + na * na * ny
         }
     };
     let size = match p.scalar {
@@ -439,9 +451,9 @@ fn resources(p: &Problem) -> Resources {
         mpc_spec::Scalar::F64 => 8,
     };
     let bytes_state_mpc = nz * size;
-    let bytes_state_kalman = match p.filter.kind {
-        FilterKind::SteadyState => nx * size,
-        FilterKind::TimeVarying => (nx + nx * nx) * size,
+    let bytes_state_kalman = match f.kind {
+        FilterKind::SteadyState => na * size,
+        FilterKind::TimeVarying => (na + na * na) * size,
     };
     Resources {
         macs_per_iteration: per_iteration,
@@ -449,6 +461,7 @@ fn resources(p: &Problem) -> Resources {
         bytes_constants: (coefficients(&qp.H)
             + coefficients(&qp.Fx)
             + coefficients(&qp.Fr)
+            + coefficients(&qp.Fd)
             + filter_constants)
             * size,
         bytes_state_mpc,

@@ -37,6 +37,10 @@ pub struct Qp {
     pub Fx: DMatrix<f64>,
     /// Fr = 2 Suᵀ Q_blk, (N·nu) × (N·nx): the gradient's dependence on Xref (eq. 10).
     pub Fr: DMatrix<f64>,
+    /// Fd = H·(1_N ⊗ I), (N·nu) × nd: the gradient's dependence on the estimated input disturbance d.
+    /// With V = U + (1_N ⊗ d) the offset-free problem (prediction with u + d, input cost on u − u_ss,
+    /// u_ss = −d) is the plain one in V, so f gains exactly H·(1_N ⊗ d). Zero columns without disturbance.
+    pub Fd: DMatrix<f64>,
     /// Largest eigenvalue of H.
     pub L: f64,
     /// Smallest eigenvalue of H.
@@ -68,17 +72,26 @@ impl Qp {
 /// The linear Kalman filter of Section 2.3.
 #[derive(Clone, Debug)]
 pub struct Filter {
-    /// Process noise covariance (nx × nx), eq. 3 with symmetric Δt³/2 off-diagonal blocks.
+    /// Disturbance states: nu with `[kalman] disturbance`, else 0. The filter's state is (x, d), na = nx + nd.
+    pub nd: usize,
+    /// The filter's transition [F G; 0 I] (na × na): x⁺ = F x + G (u + d), d⁺ = d. F without disturbance.
+    pub Fa: DMatrix<f64>,
+    /// The filter's input matrix [G; 0] (na × nu).
+    pub Ga: DMatrix<f64>,
+    /// The filter's measurement matrix [C 0] (ny × na).
+    pub Ca: DMatrix<f64>,
+    /// Process noise covariance (na × na): eq. 3 with symmetric Δt³/2 off-diagonal blocks, then the
+    /// disturbance's random walk.
     pub Qn: DMatrix<f64>,
     /// Measurement noise covariance (ny × ny).
     pub Rn: DMatrix<f64>,
-    /// Initial (prior) covariance (nx × nx).
+    /// Initial (prior) covariance (na × na); the disturbance block is the identity, (m/s²)² for a drone.
     pub P0: DMatrix<f64>,
     /// Time-varying or steady-state.
     pub kind: FilterKind,
     /// The steady-state prior covariance P∞ of the discrete Riccati recursion.
     pub P_inf: DMatrix<f64>,
-    /// The steady-state gain K∞ = P∞ Cᵀ (C P∞ Cᵀ + R)⁻¹ (nx × ny).
+    /// The steady-state gain K∞ = P∞ Cᵀ (C P∞ Cᵀ + R)⁻¹ (na × ny).
     pub K_inf: DMatrix<f64>,
 }
 
@@ -193,6 +206,18 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         KalmanNoise::Covariances { q, r } => (dense(q), dense(r)),
     };
     let P0 = dense(&spec.kalman.p0);
+    let nd = spec.kalman.disturbance.as_ref().map_or(0, |_| nu);
+    let (Fa, Ga, Ca, Qn, P0) = augment(&F, &G, &C, &Qn, &P0, spec.kalman.disturbance.as_deref());
+    if nd > 0 && !disturbance_detectable(&F, &G, &C) {
+        diags.push(
+            Diagnostic::new(
+                "the disturbance is not detectable: rank [I − F, −G; C, 0] is below nx + nd",
+                span("kalman.disturbance"),
+            )
+            .label("the measurements cannot tell this disturbance from the state")
+            .note("hint: an input disturbance per input channel needs at least as many independent measurements as inputs"),
+        );
+    }
     check_definite(
         &mut diags,
         &Qn,
@@ -217,7 +242,7 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     if !diags.is_empty() {
         return Err(diags.sorted());
     }
-    let (P_inf, K_inf) = match steady_state_filter(&F, &C, &Qn, &Rn, &P0) {
+    let (P_inf, K_inf) = match steady_state_filter(&Fa, &Ca, &Qn, &Rn, &P0) {
         Some(pk) => pk,
         None => {
             return Err(Diagnostic::new("the Kalman filter has no steady state: the Riccati recursion does not converge", span("kalman"))
@@ -226,6 +251,7 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         }
     };
 
+    let Fd = &H * DMatrix::from_fn(N * nu, nd, |i, j| if i % nu == j { 1.0 } else { 0.0 });
     Ok(Problem {
         nx,
         nu,
@@ -242,6 +268,7 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
             Sx,
             Su,
             H,
+            Fd,
             Fx,
             Fr,
             L,
@@ -252,6 +279,10 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
             u_max: DVector::from_column_slice(&m.u_max),
         },
         filter: Filter {
+            nd,
+            Fa,
+            Ga,
+            Ca,
             Qn,
             Rn,
             P0,
@@ -300,6 +331,59 @@ pub fn white_acceleration_noise(axes: usize, dt: f64, sigma_a: f64) -> DMatrix<f
         Q[(v, v)] = s2 * dt * dt;
     }
     Q
+}
+
+/// The filter's model augmented with a constant input disturbance per input channel (x⁺ = F x + G (u + d),
+/// d⁺ = d + w_d, w_d ~ N(0, diag(σ_d²))), or the plain model when `sigma_d` is `None`.
+#[allow(clippy::type_complexity)]
+pub fn augment(
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+    C: &DMatrix<f64>,
+    Qn: &DMatrix<f64>,
+    P0: &DMatrix<f64>,
+    sigma_d: Option<&[f64]>,
+) -> (
+    DMatrix<f64>,
+    DMatrix<f64>,
+    DMatrix<f64>,
+    DMatrix<f64>,
+    DMatrix<f64>,
+) {
+    let Some(sigma_d) = sigma_d else {
+        return (F.clone(), G.clone(), C.clone(), Qn.clone(), P0.clone());
+    };
+    let (nx, nu, ny, nd) = (F.nrows(), G.ncols(), C.nrows(), sigma_d.len());
+    let na = nx + nd;
+    let mut Fa = DMatrix::identity(na, na);
+    Fa.view_mut((0, 0), (nx, nx)).copy_from(F);
+    Fa.view_mut((0, nx), (nx, nd)).copy_from(G);
+    let mut Ga = DMatrix::zeros(na, nu);
+    Ga.view_mut((0, 0), (nx, nu)).copy_from(G);
+    let mut Ca = DMatrix::zeros(ny, na);
+    Ca.view_mut((0, 0), (ny, nx)).copy_from(C);
+    let mut Qa = DMatrix::zeros(na, na);
+    Qa.view_mut((0, 0), (nx, nx)).copy_from(Qn);
+    let mut Pa = DMatrix::identity(na, na);
+    Pa.view_mut((0, 0), (nx, nx)).copy_from(P0);
+    for (j, s) in sigma_d.iter().enumerate() {
+        Qa[(nx + j, nx + j)] = s * s;
+    }
+    (Fa, Ga, Ca, Qa, Pa)
+}
+
+/// The standard condition for estimating an input disturbance alongside the state:
+/// rank [I − F, −G; C, 0] = nx + nd (with (F, C) detectable, which the Riccati recursion checks).
+pub fn disturbance_detectable(F: &DMatrix<f64>, G: &DMatrix<f64>, C: &DMatrix<f64>) -> bool {
+    let (nx, nd, ny) = (F.nrows(), G.ncols(), C.nrows());
+    let mut M = DMatrix::zeros(nx + ny, nx + nd);
+    M.view_mut((0, 0), (nx, nx))
+        .copy_from(&(DMatrix::identity(nx, nx) - F));
+    M.view_mut((0, nx), (nx, nd)).copy_from(&(-G));
+    M.view_mut((nx, 0), (ny, nx)).copy_from(C);
+    let sv = M.singular_values();
+    let tol = sv.max() * (nx + nd).max(nx + ny) as f64 * f64::EPSILON * 1e3;
+    sv.iter().filter(|s| **s > tol).count() == nx + nd
 }
 
 /// Sx (eq. 12) and Su (eq. 13) for horizon N.

@@ -47,14 +47,25 @@ impl Mpc {
     /// One control step: warm start, fixed iterations, first input. Non-finite inputs give the rest input
     /// and reset the warm start, as the emitted code does.
     pub fn solve(&mut self, x0: &DVector<f64>, xref: &[DVector<f64>]) -> DVector<f64> {
+        let d = DVector::zeros(self.qp.Fd.ncols());
+        self.solve_with_disturbance(x0, &d, xref)
+    }
+
+    /// One control step of the offset-free MPC: the prediction includes the estimated input disturbance
+    /// `d` and the input cost is on u + d, so f gains Fd·d.
+    pub fn solve_with_disturbance(
+        &mut self,
+        x0: &DVector<f64>,
+        d: &DVector<f64>,
+        xref: &[DVector<f64>],
+    ) -> DVector<f64> {
         let nu = self.qp.u_min.len();
-        if !x0.iter().all(|v| v.is_finite())
-            || !xref.iter().all(|r| r.iter().all(|v| v.is_finite()))
-        {
+        let finite = |v: &DVector<f64>| v.iter().all(|x| x.is_finite());
+        if !finite(x0) || !finite(d) || !xref.iter().all(finite) {
             self.reset();
             return self.qp.rest_input();
         }
-        let f = self.linear_term(x0, xref);
+        let f = self.linear_term(x0, xref) + &self.qp.Fd * d;
         let start = self.warm_start();
         self.plan = iterate(&self.qp, &f, start, self.qp.iterations);
         self.plan.rows(0, nu).into_owned()
@@ -152,13 +163,17 @@ pub struct Kalman {
 }
 
 impl Kalman {
-    /// A filter at x0 with the spec's initial covariance.
+    /// A filter at x0 (and a zero disturbance estimate) with the spec's initial covariance.
     pub fn new(problem: &Problem, x0: DVector<f64>) -> Self {
         let f = &problem.filter;
+        let x0 = DVector::from_iterator(
+            x0.len() + f.nd,
+            x0.iter().copied().chain(std::iter::repeat_n(0.0, f.nd)),
+        );
         Kalman {
-            F: problem.F.clone(),
-            G: problem.G.clone(),
-            C: problem.C.clone(),
+            F: f.Fa.clone(),
+            G: f.Ga.clone(),
+            C: f.Ca.clone(),
             Qn: f.Qn.clone(),
             Rn: f.Rn.clone(),
             K_inf: (f.kind == FilterKind::SteadyState).then(|| f.K_inf.clone()),
@@ -204,7 +219,7 @@ impl Kalman {
         true
     }
 
-    /// The estimate.
+    /// The estimate: the state, then the disturbance estimate when the spec models one.
     pub fn state(&self) -> &DVector<f64> {
         &self.x
     }
@@ -244,7 +259,11 @@ impl Controller {
     /// Update with z, solve from the estimate, predict with the command; returns the command.
     pub fn step(&mut self, z: &DVector<f64>, xref: &[DVector<f64>]) -> DVector<f64> {
         self.kalman.update(z);
-        let u = self.mpc.solve(self.kalman.state(), xref);
+        let nx = self.mpc.qp().Fx.ncols();
+        let estimate = self.kalman.state();
+        let x = estimate.rows(0, nx).into_owned();
+        let d = estimate.rows(nx, estimate.len() - nx).into_owned();
+        let u = self.mpc.solve_with_disturbance(&x, &d, xref);
         self.kalman.predict(&u);
         u
     }

@@ -180,3 +180,48 @@ r = 0.1
     let accepted = src.replace("u_max = [1]", "u_max = [1]\naccept_unstable = true");
     assert!(generate_from_source(&accepted, &Opt::default()).is_ok());
 }
+
+#[test]
+fn disturbance_models_are_checked_and_timed() {
+    let src = include_str!("../../specs/paper-offset-free.toml");
+    let g = generate_from_source(src, &Opt::default()).unwrap();
+    let tau = g.certificate.disturbance_time_constant.unwrap();
+    assert!((0.5..5.0).contains(&tau), "τ = {tau} s");
+    assert_eq!(g.problem.filter.nd, 3);
+    // Fd = H·(1_N ⊗ I).
+    let qp = &g.problem.qp;
+    for i in 0..45 {
+        for j in 0..3 {
+            let expected: f64 = (0..15).map(|k| qp.H[(i, 3 * k + j)]).sum();
+            assert!((qp.Fd[(i, j)] - expected).abs() < 1e-12);
+        }
+    }
+    // One measurement cannot separate two input disturbances from the state.
+    let blind = r#"
+[model]
+type = "linear"
+dt = 0.1
+a = [[1, 0.1], [0, 1]]
+b = [[0.005, 0.0], [0.1, 0.1]]
+c = [[1, 0]]
+[mpc]
+horizon = 5
+iterations = 10
+q = [1, 0.1]
+r = [0.1, 0.1]
+u_min = [-1, -1]
+u_max = [1, 1]
+[kalman]
+q = 0.001
+r = 0.01
+disturbance = 0.01
+"#;
+    let diags = generate_from_source(blind, &Opt::default()).unwrap_err();
+    let d = diags.iter().next().unwrap();
+    assert!(
+        d.message.starts_with("the disturbance is not detectable"),
+        "{}",
+        d.message
+    );
+    assert_eq!(&blind[d.span.clone().unwrap()], "0.01");
+}

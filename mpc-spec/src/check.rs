@@ -289,10 +289,31 @@ fn check_kalman(raw: &Raw, model: &Model, diags: &mut Diagnostics) -> Option<Kal
         Some("steady_state") => FilterKind::SteadyState,
         _ => FilterKind::TimeVarying,
     };
+    let nu = model.kind.nu();
+    let disturbance = match raw.disturbance.as_ref() {
+        None => None,
+        Some(d) => {
+            match &d.value {
+                MatrixInput::Scalar(s) => Some(vec![*s; nu]),
+                MatrixInput::Diagonal(v) if v.len() == nu => Some(v.clone()),
+                _ => {
+                    diags.push(
+                    Diagnostic::new(
+                        format!("`kalman.disturbance` must be a number or a list of {nu} (nu) numbers"),
+                        d.span.clone(),
+                    )
+                    .label("one random-walk standard deviation per input channel"),
+                );
+                    return None;
+                }
+            }
+        }
+    };
     Some(Kalman {
         noise: noise?,
         p0: p0?,
         filter,
+        disturbance,
     })
 }
 

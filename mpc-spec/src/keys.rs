@@ -31,7 +31,15 @@ pub const MPC_KEYS: &[&str] = &[
     "u_max",
 ];
 /// Keys of `[kalman]`.
-pub const KALMAN_KEYS: &[&str] = &["sigma_a", "sigma_meas", "q", "r", "p0", "filter"];
+pub const KALMAN_KEYS: &[&str] = &[
+    "sigma_a",
+    "sigma_meas",
+    "q",
+    "r",
+    "p0",
+    "filter",
+    "disturbance",
+];
 /// Keys of `[codegen]`.
 pub const CODEGEN_KEYS: &[&str] = &["scalar"];
 

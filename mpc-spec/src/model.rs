@@ -188,6 +188,9 @@ pub struct Kalman {
     pub p0: Matrix,
     /// Filter kind.
     pub filter: FilterKind,
+    /// The random-walk standard deviation per step of a constant input disturbance per input channel,
+    /// estimated by the filter and cancelled by the MPC (offset-free MPC); `None`: no disturbance model.
+    pub disturbance: Option<Vec<f64>>,
 }
 
 /// The floating-point type of the emitted code, `[codegen] scalar`.

@@ -85,6 +85,7 @@ pub struct Raw {
     pub kalman_r: Option<Located<MatrixInput>>,
     pub p0: Option<Located<MatrixInput>>,
     pub filter: Option<Located<String>>,
+    pub disturbance: Option<Located<MatrixInput>>,
 
     pub scalar: Option<Located<String>>,
 
@@ -201,6 +202,9 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.p0 = t
             .get("p0")
             .and_then(|v| p.matrix_input(v, "kalman.p0", false));
+        raw.disturbance = t
+            .get("disturbance")
+            .and_then(|v| p.matrix_input(v, "kalman.disturbance", true));
         raw.filter = t
             .get("filter")
             .and_then(|v| p.choice(v, "kalman.filter", keys::FILTERS));

@@ -287,3 +287,30 @@ fn missing_tables_are_reported() {
     let msgs: Vec<&str> = errs.iter().map(|e| e.0.as_str()).collect();
     assert_eq!(msgs, ["missing table `[mpc]`", "missing table `[kalman]`"]);
 }
+
+#[test]
+fn disturbance_is_optional_and_sized() {
+    assert_eq!(load(PAPER).unwrap().kalman.disturbance, None);
+    let spec = load(&edited(
+        "filter = \"time_varying\"",
+        "filter = \"time_varying\"\ndisturbance = 0.01",
+    ))
+    .unwrap();
+    assert_eq!(spec.kalman.disturbance, Some(vec![0.01; 3]));
+    let errs = errors(&edited(
+        "filter = \"time_varying\"",
+        "filter = \"time_varying\"\ndisturbance = [0.01, 0.02]",
+    ));
+    assert_eq!(
+        errs[0].0,
+        "`kalman.disturbance` must be a number or a list of 3 (nu) numbers"
+    );
+    let errs = errors(&edited(
+        "filter = \"time_varying\"",
+        "filter = \"time_varying\"\ndisturbance = 0",
+    ));
+    assert_eq!(
+        errs[0].0,
+        "the diagonal of `kalman.disturbance` must be positive"
+    );
+}

@@ -46,6 +46,19 @@ pub trait Generated {
     }
 }
 
+/// A generated module with `[kalman] disturbance`.
+pub trait OffsetFree: Generated {
+    /// `Mpc::solve_with_disturbance`, inputs rounded to `Real`.
+    fn mpc_solve_with_disturbance(
+        mpc: &mut Self::Mpc,
+        x0: &[f64],
+        d: &[f64],
+        xref: &[Vec<f64>],
+    ) -> Vec<f64>;
+    /// `Kalman::disturbance`.
+    fn kalman_disturbance(k: &Self::Kalman) -> Vec<f64>;
+}
+
 /// A reproducible random source for a named test.
 pub fn rng(seed: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(seed)

@@ -108,4 +108,29 @@ controllers! {
     linear_f64 => "specs/linear-f64.toml",
     linear_f32 => "specs/linear-f32.toml",
     converged => "specs/converged.toml",
+    offset_free => "../specs/paper-offset-free.toml",
+    offset_free_f64 => "specs/offset-free-f64.toml",
+    linear_offset_free => "specs/linear-offset-free.toml",
 }
+
+/// Implements [`harness::OffsetFree`] for generated modules with a disturbance model.
+macro_rules! offset_free {
+    ($($name:ident),*) => {$(
+        impl harness::OffsetFree for generated::$name {
+            fn mpc_solve_with_disturbance(mpc: &mut Self::Mpc, x0: &[f64], d: &[f64], xref: &[Vec<f64>]) -> Vec<f64> {
+                use $name::{N, ND, NX};
+                type R = $name::Real;
+                let x: [R; NX] = core::array::from_fn(|i| x0[i] as R);
+                let d: [R; ND] = core::array::from_fn(|i| d[i] as R);
+                let r: [[R; NX]; N] = core::array::from_fn(|k| core::array::from_fn(|i| xref[k][i] as R));
+                mpc.solve_with_disturbance(&x, &d, &r).iter().map(|v| *v as f64).collect()
+            }
+
+            fn kalman_disturbance(k: &Self::Kalman) -> Vec<f64> {
+                k.disturbance().iter().map(|v| *v as f64).collect()
+            }
+        }
+    )*};
+}
+
+offset_free!(offset_free, offset_free_f64, linear_offset_free);

@@ -123,4 +123,5 @@ mpc_tests! {
     mpc_full_q: full_q,
     mpc_linear_f64: linear_f64,
     mpc_linear_f32: linear_f32,
+    mpc_offset_free_without_estimate: offset_free,
 }

@@ -98,6 +98,7 @@ filter_tests! {
     kalman_full_q: full_q,                     // f32, time-varying, full P0
     kalman_linear_f64: linear_f64,             // f64, time-varying, full covariances
     kalman_linear_f32: linear_f32,             // f32, steady-state
+    // The augmented filters (state and disturbance) are compared in `offset_free.rs`.
 }
 
 /// The time-varying filter's gain converges to the steady-state gain solved at compile time.

@@ -11,19 +11,27 @@ use quote::{format_ident, quote};
 /// The `Kalman` type and its unrolled kernels.
 pub fn emit(p: &Problem, num: Num) -> TokenStream {
     let (nx, nu, ny) = (p.nx, p.nu, p.ny);
-    let (x, u) = (quote!(x), quote!(u));
-    // x⁺ = F x + G u (eq. 1 without noise).
+    let f = &p.filter;
+    let u = quote!(u);
+    let (state_params, _) = state_signature(p);
+    // x⁺ = F x + G (u + d) (eq. 1 without noise; d only with a disturbance model). d⁺ = d needs no code.
     let predict_rows = (0..nx).map(|i| {
-        let fx = (0..nx).map(|k| (p.F[(i, k)], at1(&x, k)));
-        let gu = (0..nu).map(|k| (p.G[(i, k)], at1(&u, k)));
+        let fx = (0..nx + f.nd).map(|k| (f.Fa[(i, k)], element(p, k)));
+        let gu = (0..nu).map(|k| (f.Ga[(i, k)], at1(&u, k)));
         num.sum(None, fx.chain(gu))
     });
     // C x, the predicted measurement.
-    let measure_rows = (0..ny).map(|i| num.sum(None, (0..nx).map(|k| (p.C[(i, k)], at1(&x, k)))));
+    let measure_rows =
+        (0..ny).map(|i| num.sum(None, (0..nx).map(|k| (f.Ca[(i, k)], element(p, k)))));
+    let predict_doc = if f.nd > 0 {
+        " F·x + G·(u + d) (eq. 1 with the input disturbance), unrolled."
+    } else {
+        " F·x + G·u (eq. 1), unrolled."
+    };
     let kernels = quote! {
-        /// F·x + G·u (eq. 1), unrolled.
+        #[doc = #predict_doc]
         #[inline(always)]
-        fn predict_state(x: &[Real; NX], u: &[Real; NU]) -> [Real; NX] {
+        fn predict_state(#state_params, u: &[Real; NU]) -> [Real; NX] {
             [#(#predict_rows),*]
         }
 
@@ -39,16 +47,84 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
     }
 }
 
+/// Entry k of the filter's state (x, d): `x[k]`, or `d[k − nx]` for the disturbance.
+fn element(p: &Problem, k: usize) -> TokenStream {
+    if k < p.nx {
+        at1(&quote!(x), k)
+    } else {
+        at1(&quote!(d), k - p.nx)
+    }
+}
+
+/// The parameters and arguments that carry the filter's state into a kernel.
+fn state_signature(p: &Problem) -> (TokenStream, TokenStream) {
+    if p.filter.nd > 0 {
+        (
+            quote!(x: &[Real; NX], d: &[Real; ND]),
+            quote!(&self.x, &self.d),
+        )
+    } else {
+        (quote!(x: &[Real; NX]), quote!(&self.x))
+    }
+}
+
+/// The `Kalman` items shared by both filter kinds when a disturbance is modelled: its field, its
+/// accessor and the correction of the estimate.
+fn disturbance_parts(p: &Problem) -> (TokenStream, TokenStream, TokenStream) {
+    if p.filter.nd == 0 {
+        return (quote!(), quote!(), quote!());
+    }
+    (
+        quote!(d: [Real; ND],),
+        quote!(d: [0.0; ND],),
+        quote! {
+            /// The estimated input disturbance (the input that cancels it is its negative).
+            pub fn disturbance(&self) -> &[Real; ND] {
+                &self.d
+            }
+        },
+    )
+}
+
 fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
-    let (nx, ny) = (p.nx, p.ny);
-    let innovation = quote!(innovation);
-    let x = quote!(x);
+    let (nx, ny, nd) = (p.nx, p.ny, p.filter.nd);
+    let K = &p.filter.K_inf;
+    let (x, d, innovation) = (quote!(x), quote!(d), quote!(innovation));
     let correct_rows = (0..nx).map(|i| {
         num.sum(
             Some(at1(&x, i)),
-            (0..ny).map(|j| (p.filter.K_inf[(i, j)], at1(&innovation, j))),
+            (0..ny).map(|j| (K[(i, j)], at1(&innovation, j))),
         )
     });
+    let (_, state_args) = state_signature(p);
+    let (d_field, d_init, d_accessor) = disturbance_parts(p);
+    let (d_kernel, d_correct, d_commit, d_check) = if nd > 0 {
+        let rows = (0..nd).map(|i| {
+            num.sum(
+                Some(at1(&d, i)),
+                (0..ny).map(|j| (K[(nx + i, j)], at1(&innovation, j))),
+            )
+        });
+        (
+            quote! {
+                /// d + K∞_d·innovation: the disturbance rows of the steady-state gain.
+                #[inline(always)]
+                fn correct_disturbance(d: &[Real; ND], innovation: &[Real; NY]) -> [Real; ND] {
+                    [#(#rows),*]
+                }
+            },
+            quote!(let d = correct_disturbance(&self.d, &innovation);),
+            quote!(self.d = d;),
+            quote!(&&all_finite(&d)),
+        )
+    } else {
+        (quote!(), quote!(), quote!(), quote!())
+    };
+    let covariance_type = if nd > 0 {
+        quote!([[Real; NA]; NA])
+    } else {
+        quote!([[Real; NX]; NX])
+    };
     quote! {
         #kernels
 
@@ -58,22 +134,25 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
             [#(#correct_rows),*]
         }
 
+        #d_kernel
+
         /// The steady-state Kalman filter: the gain K∞ of the discrete Riccati equation, fixed at compile time.
         #[derive(Clone, Debug, PartialEq)]
         pub struct Kalman {
             x: [Real; NX],
+            #d_field
         }
 
         impl Kalman {
             /// A filter whose estimate starts at `x0`.
             pub const fn new(x0: [Real; NX]) -> Self {
-                Kalman { x: x0 }
+                Kalman { x: x0, #d_init }
             }
 
             /// The time update x ← F x + G u. A non-finite `u` changes nothing.
             pub fn predict(&mut self, u: &[Real; NU]) {
                 if all_finite(u) {
-                    let x = predict_state(&self.x, u);
+                    let x = predict_state(#state_args, u);
                     if all_finite(&x) {
                         self.x = x;
                     }
@@ -92,10 +171,12 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
                     *e -= *zp;
                 }
                 let x = correct(&self.x, &innovation);
-                if !all_finite(&x) {
+                #d_correct
+                if !(all_finite(&x) #d_check) {
                     return false;
                 }
                 self.x = x;
+                #d_commit
                 true
             }
 
@@ -104,8 +185,10 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
                 &self.x
             }
 
+            #d_accessor
+
             /// The covariance the gain was computed from: the steady-state prior P∞.
-            pub fn covariance(&self) -> &[[Real; NX]; NX] {
+            pub fn covariance(&self) -> &#covariance_type {
                 &P_INF
             }
         }
@@ -113,7 +196,29 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
 }
 
 fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
-    let (nx, ny) = (p.nx, p.ny);
+    let (ny, nd) = (p.ny, p.filter.nd);
+    // The covariance is over the filter's state (x, d): na = nx + nd entries.
+    let nx = p.nx + nd;
+    let (Fa, Ca) = (&p.filter.Fa, &p.filter.Ca);
+    let ns = if nd > 0 { quote!(NA) } else { quote!(NX) };
+    let (_, state_args) = state_signature(p);
+    let (d_field, d_init, d_accessor) = disturbance_parts(p);
+    let (d_correct, d_commit, d_check) = if nd > 0 {
+        (
+            quote! {
+                let mut d = self.d;
+                for (d_i, K_i) in d.iter_mut().zip(K.iter().skip(NX)) {
+                    for ((k, z), zp) in K_i.iter().zip(z.iter()).zip(predicted.iter()) {
+                        *d_i += *k * (*z - *zp);
+                    }
+                }
+            },
+            quote!(self.d = d;),
+            quote!(&&all_finite(&d)),
+        )
+    } else {
+        (quote!(), quote!(), quote!())
+    };
     let (P, FP, PCt, K) = (quote!(P), quote!(FP), quote!(PCt), quote!(K));
     let ix = |i: usize| Literal::usize_unsuffixed(i);
     let m = |name: &TokenStream, i: usize, j: usize| {
@@ -122,13 +227,13 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
     };
     // F·P, then (F·P)·Fᵀ + Q, upper triangle computed and mirrored so P stays symmetric.
     let fp_rows = (0..nx).map(|i| {
-        let row = (0..nx).map(|j| num.sum(None, (0..nx).map(|k| (p.F[(i, k)], m(&P, k, j)))));
+        let row = (0..nx).map(|j| num.sum(None, (0..nx).map(|k| (Fa[(i, k)], m(&P, k, j)))));
         quote!([#(#row),*])
     });
     let mut propagate = Vec::new();
     for i in 0..nx {
         for j in i..nx {
-            let e = num.sum(None, (0..nx).map(|k| (p.F[(j, k)], m(&FP, i, k))));
+            let e = num.sum(None, (0..nx).map(|k| (Fa[(j, k)], m(&FP, i, k))));
             let q = num.lit(p.filter.Qn[(i, j)]);
             let (ii, jj) = (ix(i), ix(j));
             let value = if num.round(p.filter.Qn[(i, j)]) == 0.0 {
@@ -144,12 +249,12 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
     }
     // P·Cᵀ (nx × ny) and C·(P·Cᵀ) + R (ny × ny).
     let pct_rows = (0..nx).map(|i| {
-        let row = (0..ny).map(|j| num.sum(None, (0..nx).map(|k| (p.C[(j, k)], m(&P, i, k)))));
+        let row = (0..ny).map(|j| num.sum(None, (0..nx).map(|k| (Ca[(j, k)], m(&P, i, k)))));
         quote!([#(#row),*])
     });
     let s_rows = (0..ny).map(|i| {
         let row = (0..ny).map(|j| {
-            let e = num.sum(None, (0..nx).map(|k| (p.C[(i, k)], m(&PCt, k, j))));
+            let e = num.sum(None, (0..nx).map(|k| (Ca[(i, k)], m(&PCt, k, j))));
             let r = num.lit(p.filter.Rn[(i, j)]);
             if num.round(p.filter.Rn[(i, j)]) == 0.0 {
                 e
@@ -163,7 +268,7 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
     let ikc_rows = (0..nx).map(|i| {
         let row = (0..nx).map(|j| {
             let one = if i == j { Some(num.lit(1.0)) } else { None };
-            num.sum(one, (0..ny).map(|l| (-p.C[(l, j)], m(&K, i, l))))
+            num.sum(one, (0..ny).map(|l| (-Ca[(l, j)], m(&K, i, l))))
         });
         quote!([#(#row),*])
     });
@@ -173,34 +278,34 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
 
         /// F·P, unrolled over the nonzeros of F.
         #[inline(always)]
-        fn f_times(P: &[[Real; NX]; NX]) -> [[Real; NX]; NX] {
+        fn f_times(P: &[[Real; #ns]; #ns]) -> [[Real; #ns]; #ns] {
             [#(#fp_rows),*]
         }
 
         /// F·P·Fᵀ + Q, symmetric by construction.
         #[inline(always)]
-        fn propagate(P: &[[Real; NX]; NX]) -> [[Real; NX]; NX] {
+        fn propagate(P: &[[Real; #ns]; #ns]) -> [[Real; #ns]; #ns] {
             let FP = f_times(P);
-            let mut out = [[0.0; NX]; NX];
+            let mut out = [[0.0; #ns]; #ns];
             #(#propagate)*
             out
         }
 
         /// P·Cᵀ, unrolled over the nonzeros of C.
         #[inline(always)]
-        fn times_c_transpose(P: &[[Real; NX]; NX]) -> [[Real; NY]; NX] {
+        fn times_c_transpose(P: &[[Real; #ns]; #ns]) -> [[Real; NY]; #ns] {
             [#(#pct_rows),*]
         }
 
         /// The innovation covariance C·P·Cᵀ + R from P·Cᵀ.
         #[inline(always)]
-        fn innovation_covariance(PCt: &[[Real; NY]; NX]) -> [[Real; NY]; NY] {
+        fn innovation_covariance(PCt: &[[Real; NY]; #ns]) -> [[Real; NY]; NY] {
             [#(#s_rows),*]
         }
 
         /// I − K·C.
         #[inline(always)]
-        fn i_minus_kc(K: &[[Real; NY]; NX]) -> [[Real; NX]; NX] {
+        fn i_minus_kc(K: &[[Real; NY]; #ns]) -> [[Real; #ns]; #ns] {
             [#(#ikc_rows),*]
         }
 
@@ -211,13 +316,14 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
         #[derive(Clone, Debug, PartialEq)]
         pub struct Kalman {
             x: [Real; NX],
-            P: [[Real; NX]; NX],
+            #d_field
+            P: [[Real; #ns]; #ns],
         }
 
         impl Kalman {
             /// A filter whose estimate starts at `x0`, with covariance P0.
             pub const fn new(x0: [Real; NX]) -> Self {
-                Kalman { x: x0, P: P0 }
+                Kalman { x: x0, #d_init P: P0 }
             }
 
             /// The time update x ← F x + G u, P ← F P Fᵀ + Q. A non-finite `u` changes nothing.
@@ -225,7 +331,7 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
                 if !all_finite(u) {
                     return;
                 }
-                let x = predict_state(&self.x, u);
+                let x = predict_state(#state_args, u);
                 let P = propagate(&self.P);
                 if all_finite(&x) && P.iter().all(|row| all_finite(row)) {
                     self.x = x;
@@ -252,6 +358,7 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
                         *x_i += *k * (*z - *zp);
                     }
                 }
+                #d_correct
                 let A = i_minus_kc(&K);
                 let KR = mat_mul(&K, &R_NOISE);
                 let mut P = mat_mul_transposed(&mat_mul(&A, &self.P), &A);
@@ -262,10 +369,11 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
                     }
                 }
                 let P = symmetrized(&P);
-                if !(all_finite(&x) && P.iter().all(|row| all_finite(row))) {
+                if !(all_finite(&x) #d_check && P.iter().all(|row| all_finite(row))) {
                     return false;
                 }
                 self.x = x;
+                #d_commit
                 self.P = P;
                 true
             }
@@ -275,8 +383,10 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
                 &self.x
             }
 
+            #d_accessor
+
             /// The covariance: the prior after `predict`, the posterior after `update`.
-            pub fn covariance(&self) -> &[[Real; NX]; NX] {
+            pub fn covariance(&self) -> &[[Real; #ns]; #ns] {
                 &self.P
             }
         }

@@ -101,6 +101,32 @@ pub fn items(p: &Problem, num: Num) -> TokenStream {
         num.matrix(&p.filter.P0),
     );
     let (k_inf, p_inf) = (num.matrix(&p.filter.K_inf), num.matrix(&p.filter.P_inf));
+    let nd = p.filter.nd;
+    // The filter's state: x, or (x, d) with a disturbance model.
+    let ns = if nd > 0 { quote!(NA) } else { quote!(NX) };
+    let disturbance_items = if nd > 0 {
+        let nd_lit = Literal::usize_unsuffixed(nd);
+        let fd = num.matrix(&qp.Fd);
+        quote! {
+            /// Disturbance states: one constant input disturbance per input channel (offset-free MPC).
+            pub const ND: usize = #nd_lit;
+            /// The filter's state dimension: the state, then the disturbance.
+            pub const NA: usize = NX + ND;
+            /// Fd = H·(1_N ⊗ I): the gradient's dependence on the estimated disturbance, f = Fx·x0 − Fr·Xref + Fd·d.
+            pub const FD: [[Real; ND]; #nz] = #fd;
+        }
+    } else {
+        quote!()
+    };
+    let solve_call = if nd > 0 {
+        quote!(self.mpc.solve_with_disturbance(
+            self.kalman.state(),
+            self.kalman.disturbance(),
+            xref
+        ))
+    } else {
+        quote!(self.mpc.solve(self.kalman.state(), xref))
+    };
     let step_doc = match qp.method {
         Method::Fgm => format!(" The step α = {} (1/L = {:.6e}).", qp.step, 1.0 / qp.L),
         Method::Gradient => format!(
@@ -159,16 +185,17 @@ pub fn items(p: &Problem, num: Num) -> TokenStream {
         pub const FX: [[Real; NX]; #nz] = #fx;
         /// Fr = 2 Suᵀ Q_blk (eq. 10), acting on Xref = [xref₁; …; xref_N] (eq. 14).
         pub const FR: [[Real; #nr]; #nz] = #fr;
-        /// Process noise covariance Q, eq. 3.
-        pub const Q_NOISE: [[Real; NX]; NX] = #qn;
+        #disturbance_items
+        /// Process noise covariance Q, eq. 3 (with the disturbance's random walk last, if modelled).
+        pub const Q_NOISE: [[Real; #ns]; #ns] = #qn;
         /// Measurement noise covariance R.
         pub const R_NOISE: [[Real; NY]; NY] = #rn;
         /// Initial covariance P0.
-        pub const P0: [[Real; NX]; NX] = #p0;
+        pub const P0: [[Real; #ns]; #ns] = #p0;
         /// Steady-state prior covariance P∞ of the discrete Riccati recursion.
-        pub const P_INF: [[Real; NX]; NX] = #p_inf;
+        pub const P_INF: [[Real; #ns]; #ns] = #p_inf;
         /// Steady-state Kalman gain K∞ = P∞ Cᵀ (C P∞ Cᵀ + R)⁻¹.
-        pub const K_INF: [[Real; NY]; NX] = #k_inf;
+        pub const K_INF: [[Real; NY]; #ns] = #k_inf;
 
         #support
         #mpc
@@ -192,7 +219,7 @@ pub fn items(p: &Problem, num: Num) -> TokenStream {
             /// A rejected measurement (non-finite) leaves the estimate to the prediction alone.
             pub fn step(&mut self, z: &[Real; NY], xref: &[[Real; NX]; N]) -> [Real; NU] {
                 self.kalman.update(z);
-                let u = self.mpc.solve(self.kalman.state(), xref);
+                let u = #solve_call;
                 self.kalman.predict(&u);
                 u
             }

@@ -14,12 +14,15 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
     let nz = N * nu;
     let (x0, xref, y, f) = (quote!(x0), quote!(xref), quote!(y), quote!(f));
 
-    // f = Fx·x0 − Fr·Xref, one entry per decision variable (eq. 10).
+    // f = Fx·x0 − Fr·Xref (+ Fd·d), one entry per decision variable (eq. 10).
+    let nd = p.filter.nd;
+    let d = quote!(d);
     let f_entries: Vec<TokenStream> = (0..nz)
         .map(|i| {
             let from_x0 = (0..nx).map(|k| (qp.Fx[(i, k)], at1(&x0, k)));
             let from_ref = (0..N * nx).map(|j| (-qp.Fr[(i, j)], at2(&xref, j, nx)));
-            num.sum(None, from_x0.chain(from_ref))
+            let from_d = (0..nd).map(|j| (qp.Fd[(i, j)], at1(&d, j)));
+            num.sum(None, from_x0.chain(from_ref).chain(from_d))
         })
         .collect();
     // ∇J = H·y + f (eq. 11), exact zeros of H skipped.
@@ -55,6 +58,54 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
             }
         },
     };
+    let body = quote! {
+        let mut u: [[Real; NU]; N] = [#(#shifted,)* U_REST];
+        #iterations
+        self.plan = u;
+        u[0]
+    };
+    let (d_param, solve_fns) = if nd > 0 {
+        (
+            quote!(d: &[Real; ND],),
+            quote! {
+                /// One control step with no disturbance estimate (d = 0); see [`Mpc::solve_with_disturbance`].
+                pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
+                    self.solve_with_disturbance(x0, &[0.0; ND], xref)
+                }
+
+                /// One control step of the offset-free MPC: `x0` is the current state, `d` the estimated
+                /// input disturbance (`Kalman::disturbance`), `xref[k]` the reference of predicted state k+1.
+                /// The prediction includes d and the input cost is on u + d, so the command cancels a
+                /// constant disturbance. Returns the first input, always finite and inside [U_MIN, U_MAX];
+                /// a non-finite argument returns the rest input and resets the warm start.
+                pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; NX]; N]) -> [Real; NU] {
+                    if !(all_finite(x0) && all_finite(d) && xref.iter().all(|r| all_finite(r))) {
+                        self.reset();
+                        return U_REST;
+                    }
+                    let f = linear_term(x0, d, xref);
+                    #body
+                }
+            },
+        )
+    } else {
+        (
+            quote!(),
+            quote! {
+                /// One control step: `x0` is the current state, `xref[k]` the reference of predicted state k+1.
+                /// Returns the first input of the plan, always finite and inside [U_MIN, U_MAX]. A non-finite
+                /// `x0` or `xref` returns the rest input and resets the warm start.
+                pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
+                    if !(all_finite(x0) && xref.iter().all(|r| all_finite(r))) {
+                        self.reset();
+                        return U_REST;
+                    }
+                    let f = linear_term(x0, xref);
+                    #body
+                }
+            },
+        )
+    };
     let (nnz_h, nnz_f) = (
         qp.H.iter().filter(|v| num.round(**v) != 0.0).count(),
         qp.Fx
@@ -71,7 +122,7 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
     quote! {
         #[doc = #linear_doc]
         #[inline(always)]
-        fn linear_term(x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [[Real; NU]; N] {
+        fn linear_term(x0: &[Real; NX], #d_param xref: &[[Real; NX]; N]) -> [[Real; NU]; N] {
             [#(#f_rows),*]
         }
 
@@ -118,21 +169,7 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
                 Mpc { plan: [U_REST; N] }
             }
 
-            /// One control step: `x0` is the current state, `xref[k]` the reference of predicted state k+1.
-            /// Returns the first input of the plan, always finite and inside [U_MIN, U_MAX]. A non-finite
-            /// `x0` or `xref` returns the rest input and resets the warm start.
-            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
-                if !(all_finite(x0) && xref.iter().all(|r| all_finite(r))) {
-                    self.reset();
-                    return U_REST;
-                }
-                let f = linear_term(x0, xref);
-                let mut u: [[Real; NU]; N] = [#(#shifted,)* U_REST];
-                #iterations
-                self.plan = u;
-                u[0]
-            }
-
+            #solve_fns
             /// The plan of the last solve, one input per predicted step.
             pub fn plan(&self) -> &[[Real; NU]; N] {
                 &self.plan

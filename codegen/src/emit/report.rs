@@ -59,6 +59,7 @@ pub fn emit(c: &Certificate) -> TokenStream {
         f(c.mpc.spectral_radius),
         opt_f(c.mpc.solver_spectral_radius),
     );
+    let disturbance_tau = opt_f(c.disturbance_time_constant);
     let r = &c.resources;
     let (macs_iter, macs_cycle, bytes_constants) = (
         u(r.macs_per_iteration),
@@ -126,6 +127,8 @@ pub fn emit(c: &Certificate) -> TokenStream {
             pub const BYTES_STATE_KALMAN: usize = #bytes_kalman;
             /// Bytes of `Controller`, all the state carried between cycles.
             pub const BYTES_STATE: usize = #bytes_state;
+            /// The disturbance estimate's time constant, s (with `[kalman] disturbance`).
+            pub const DISTURBANCE_TIME_CONSTANT: Option<f64> = #disturbance_tau;
         }
     }
 }
