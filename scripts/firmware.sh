@@ -2,8 +2,10 @@
 # Builds firmware-template with a controller spec baked in, runs it on the emulated board and exits
 # with the firmware's own status (0: the closed loop flew and passed its checks).
 #
-#   scripts/firmware.sh [--board zynq] [--build-only] [--elf-out PATH] [SPEC]
+#   scripts/firmware.sh [--board zynq|netduinoplus2] [--build-only] [--elf-out PATH] [SPEC]
 #
+# Boards: zynq (default; Zynq-7000, Cortex-A9, QEMU xilinx-zynq-a9, target armv7a-none-eabihf) and
+# netduinoplus2 (alias stm32f405; Cortex-M4F, QEMU netduinoplus2, target thumbv7em-none-eabihf).
 # SPEC defaults to specs/paper.toml, which the template's `mpc!` reads directly. Any other spec is
 # copied to firmware-template/spec-override/spec.toml and built with the `spec-override` feature:
 # `mpc!` takes a literal path, and its `include_str!` makes cargo rebuild when that file changes.
@@ -14,7 +16,7 @@
 # Environment: FIRMWARE_TIMEOUT (seconds for the emulated run, default 600).
 set -euo pipefail
 
-usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; }
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 template="$root/firmware-template"
@@ -34,11 +36,14 @@ while [ $# -gt 0 ]; do
     esac
 done
 
-# One board so far. Another one needs its own memory.x, UART and timer, and its runner.
+# The target picks the board module (firmware-template/build.rs); the runner for each target is in
+# firmware-template/.cargo/config.toml.
 case "$board" in
-    zynq) qemu=qemu-system-arm ;;
-    *) echo "firmware.sh: unknown board '$board' (supported: zynq)" >&2; exit 2 ;;
+    zynq) target=armv7a-none-eabihf ;;
+    netduinoplus2|stm32f405) target=thumbv7em-none-eabihf ;;
+    *) echo "firmware.sh: unknown board '$board' (supported: zynq, netduinoplus2)" >&2; exit 2 ;;
 esac
+qemu=qemu-system-arm
 
 install_missing() {
     if ! command -v "$qemu" >/dev/null 2>&1; then
@@ -51,7 +56,7 @@ install_missing() {
         fi
     fi
     if ! rustup component list --toolchain nightly --installed 2>/dev/null | grep -q '^rust-src'; then
-        echo "firmware.sh: adding rust-src to the nightly toolchain (core is rebuilt for the A9)" >&2
+        echo "firmware.sh: adding rust-src to the nightly toolchain (core is rebuilt for the target)" >&2
         rustup component add rust-src --toolchain nightly >&2
     fi
 }
@@ -74,10 +79,10 @@ cd "$template"
 # The outer toolchain (RUSTUP_TOOLCHAIN, exported by rustup to children) would override the
 # template's rust-toolchain.toml, and outer RUSTFLAGS would replace its target flags.
 cargo_=(env -u RUSTUP_TOOLCHAIN -u RUSTFLAGS -u CARGO_TARGET_DIR -u CARGO_BUILD_TARGET cargo +nightly)
-"${cargo_[@]}" build --release "${features[@]}"
-[ -z "$elf_out" ] || cp target/armv7a-none-eabihf/release/firmware "$elf_out"
+"${cargo_[@]}" build --release --target "$target" "${features[@]}"
+[ -z "$elf_out" ] || cp "target/$target/release/firmware" "$elf_out"
 [ "$build_only" = 1 ] && exit 0
 status=0
-timeout "${FIRMWARE_TIMEOUT:-600}" "${cargo_[@]}" run --release -q "${features[@]}" || status=$?
+timeout "${FIRMWARE_TIMEOUT:-600}" "${cargo_[@]}" run --release -q --target "$target" "${features[@]}" || status=$?
 [ "$status" = 124 ] && echo "firmware.sh: the firmware did not finish within ${FIRMWARE_TIMEOUT:-600} s" >&2
 exit "$status"

@@ -20,6 +20,7 @@ mod board;
 mod console;
 mod decimal;
 mod report;
+mod stack;
 mod stats;
 
 use core::hint::black_box;
@@ -66,6 +67,7 @@ struct Timed<'t> {
     controller: ctrl::Controller,
     timer: &'t board::Timer,
     ticks: Ticks,
+    stack: stack::CycleProbe,
 }
 
 impl Controller for Timed<'_> {
@@ -74,10 +76,13 @@ impl Controller for Timed<'_> {
         // simulation's work, not the controller's: it stays outside the timed span.
         let xref = reference.window::<ctrl::Real, { ctrl::N }>(k);
         let z: [ctrl::Real; NY] = cast(z);
+        // Painting the stack for the probe is outside the timed span too.
+        let painted = self.stack.paint();
         let t0 = self.timer.now();
         // black_box: the call must happen between the two reads of the timer.
         let u = black_box(self.controller.step(black_box(&z), black_box(&xref)));
         self.ticks.add(self.timer.since(t0));
+        self.stack.measure(painted);
         cast(&u)
     }
 
@@ -114,6 +119,7 @@ extern "C" fn main() -> ! {
         controller: ctrl::Controller::new(cast(&x0)),
         timer: &timer,
         ticks: Ticks::new(),
+        stack: stack::CycleProbe::new(),
     };
     let mut errors = Errors::new();
     let scenario = Scenario::new(SEED, CYCLES);
@@ -130,7 +136,9 @@ extern "C" fn main() -> ! {
             errors: &errors,
             calib_instructions: 2 * u64::from(CALIB_ITERS),
             calib_ticks,
-            stack_bytes: board::stack_high_water(),
+            stack_bytes: stack::high_water().max(timed.stack.from_top),
+            cycle_stack_bytes: timed.stack.deepest,
+            cycle_stack_overflowed: timed.stack.overflowed,
         },
     );
     board::exit(if ok { 0 } else { 1 })

@@ -41,8 +41,12 @@ pub struct Run<'a> {
     pub calib_instructions: u64,
     /// Global timer ticks the calibration loop took.
     pub calib_ticks: u64,
-    /// Deepest use of the main stack, bytes.
+    /// Deepest use of the main stack over the whole run, bytes.
     pub stack_bytes: usize,
+    /// Deepest use of the stack by one control cycle, below its caller's stack pointer, bytes.
+    pub cycle_stack_bytes: usize,
+    /// A control cycle went deeper than the probe painted: `cycle_stack_bytes` is a lower bound.
+    pub cycle_stack_overflowed: bool,
 }
 
 /// Prints what is about to fly.
@@ -67,13 +71,14 @@ pub fn header(out: &mut Serial, scenario: &Scenario) {
 }
 
 /// Prints the summary and the RESULT line; returns whether the run passed its checks: every
-/// cycle flown, errors finite and below `LOST_M`.
+/// cycle flown, errors finite and below `LOST_M`, the stack probe not overflowed.
 pub fn result(out: &mut Serial, run: &Run) -> bool {
     let rmse = run.errors.rmse().map(micrometres);
     let max_abs = run.errors.max_abs().map(micrometres);
     let lost_um = micrometres(LOST_M).unwrap_or(0);
     let flown = run.ticks.count == run.scenario.cycles as u64;
     let ok = flown
+        && !run.cycle_stack_overflowed
         && rmse.iter().all(Option::is_some)
         && max_abs.iter().all(|m| matches!(m, Some(m) if *m < lost_um));
 
@@ -91,7 +96,13 @@ pub fn result(out: &mut Serial, run: &Run) -> bool {
     axes(out, &max_abs, "/");
     out.str("\nstack used: ")
         .u64(run.stack_bytes as u64)
-        .str(" bytes\n")
+        .str(" bytes, of which a control cycle ")
+        .u64(run.cycle_stack_bytes as u64)
+        .str(if run.cycle_stack_overflowed {
+            " or more (deeper than the probe painted)\n"
+        } else {
+            "\n"
+        })
         .str(if ok { "flight OK\n" } else { "flight FAILED\n" });
 
     out.str("RESULT {\"spec\":\"")
@@ -128,6 +139,8 @@ pub fn result(out: &mut Serial, run: &Run) -> bool {
         .u64(run.calib_ticks)
         .str(",\"stack_bytes\":")
         .u64(run.stack_bytes as u64)
+        .str(",\"cycle_stack_bytes\":")
+        .u64(run.cycle_stack_bytes as u64)
         .str(",\"rmse_um\":[");
     axes(out, &rmse, ",");
     out.str("],\"max_abs_error_um\":[");

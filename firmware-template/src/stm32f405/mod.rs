@@ -11,7 +11,7 @@ mod semihosting;
 mod tim2;
 mod usart;
 
-pub use rt::stack_high_water;
+pub use rt::{stack_bounds, STACK_PAINT};
 pub use semihosting::exit;
 pub use tim2::Tim2 as Timer;
 pub use usart::Usart1 as Serial;

@@ -1,6 +1,6 @@
 //! Startup of the Cortex-M4F, from `cortex-m-rt`: vector table, reset handler (FPU enabled
 //! through CPACR, .bss zeroed, .data copied, the stack painted with its `paint-stack` feature),
-//! then `main`. This file only adds the exception handlers and reads the painted stack.
+//! then `main`. This file only adds the exception handlers and says where the painted stack is.
 //!
 //! Developer notes
 //! - Every exception is a failure for this firmware (it polls, it takes no interrupts): each
@@ -31,6 +31,9 @@ unsafe fn DefaultHandler(_irqn: i16) -> ! {
     semihosting::exit(status::OTHER)
 }
 
+/// What the reset handler writes over the stack (cortex-m-rt's `paint-stack`).
+pub const STACK_PAINT: u32 = STACK_PAINT_VALUE;
+
 extern "C" {
     // Set by cortex-m-rt's link.x: the stack grows down from `_stack_start` (the end of RAM) to
     // `_stack_end` (the end of .bss/.uninit); the reset handler paints everything in between.
@@ -38,18 +41,11 @@ extern "C" {
     static _stack_end: u32;
 }
 
-/// Bytes of the main stack used so far at most: the painted words that were overwritten.
-/// (A word that happens to be written with the paint value itself is counted as unused.)
-pub fn stack_high_water() -> usize {
-    // SAFETY: cortex-m-rt's link script places [_stack_end, _stack_start) in RAM as the stack,
-    // painted at reset; reading its words, above or below the stack pointer, has no side effect.
-    unsafe {
-        let bottom = core::ptr::addr_of!(_stack_end);
-        let top = core::ptr::addr_of!(_stack_start);
-        let mut p = bottom;
-        while p < top && core::ptr::read_volatile(p) == STACK_PAINT_VALUE {
-            p = p.add(1);
-        }
-        (top as usize).wrapping_sub(p as usize)
-    }
+/// The main stack: [bottom, top), painted at reset.
+pub fn stack_bounds() -> (usize, usize) {
+    // Only the addresses of the linker symbols are taken; nothing is read.
+    (
+        core::ptr::addr_of!(_stack_end) as usize,
+        core::ptr::addr_of!(_stack_start) as usize,
+    )
 }

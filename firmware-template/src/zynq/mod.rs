@@ -3,14 +3,14 @@
 //! MPCore global timer for timing; memory layout in `boards/zynq/`.
 //!
 //! Every board module offers the same items, which `main.rs` and `report.rs` use: `NAME`, `CPU`,
-//! `TIMER`, `Serial`, `Timer`, `exit` and `stack_high_water`.
+//! `TIMER`, `Serial`, `Timer`, `exit`, `stack_bounds` and `STACK_PAINT`.
 
 mod rt;
 mod semihosting;
 mod timer;
 mod uart;
 
-pub use rt::stack_high_water;
+pub use rt::{stack_bounds, STACK_PAINT};
 pub use semihosting::exit;
 pub use timer::GlobalTimer as Timer;
 pub use uart::Uart0 as Serial;

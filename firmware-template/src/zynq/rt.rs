@@ -103,7 +103,7 @@ _start:
     strlo r2, [r0], #4
     blo   1b
 
-    @ Paint the SVC stack, so that `stack_high_water` can tell how deep it went.
+    @ Paint the SVC stack, so that `crate::stack` can tell how deep it went.
     ldr   r0, =__exception_stacks_top
     ldr   r1, =__stack_top
     ldr   r2, ={paint}
@@ -215,27 +215,20 @@ __default_fiq:
 );
 
 /// What the startup code writes over the SVC stack before `main` runs.
-const STACK_PAINT: u32 = 0xDEAD_BEEF;
+pub const STACK_PAINT: u32 = 0xDEAD_BEEF;
 
 extern "C" {
     static __exception_stacks_top: u32;
     static __stack_top: u32;
 }
 
-/// Bytes of the SVC stack used so far at most: the painted words that were overwritten.
-/// (A word that happens to be written with the paint value itself is counted as unused.)
-pub fn stack_high_water() -> usize {
-    // SAFETY: the linker script places [__exception_stacks_top, __stack_top) in DDR as the SVC
-    // stack; reading its words, above or below the current stack pointer, has no side effect.
-    unsafe {
-        let bottom = core::ptr::addr_of!(__exception_stacks_top);
-        let top = core::ptr::addr_of!(__stack_top);
-        let mut p = bottom;
-        while p < top && core::ptr::read_volatile(p) == STACK_PAINT {
-            p = p.add(1);
-        }
-        (top as usize).wrapping_sub(p as usize)
-    }
+/// The SVC stack, where the firmware runs: [bottom, top), painted at startup.
+pub fn stack_bounds() -> (usize, usize) {
+    // Only the addresses of the linker symbols are taken; nothing is read.
+    (
+        core::ptr::addr_of!(__exception_stacks_top) as usize,
+        core::ptr::addr_of!(__stack_top) as usize,
+    )
 }
 
 /// Target of the default exception handlers, running on the exception mode's own stack.
