@@ -1,0 +1,23 @@
+// `u_min` not below `u_max` in the second component.
+mpc_macros::mpc!(mod controller {
+    r#"
+    [model]
+    type = "double_integrator"
+    axes = 2
+    dt = 0.1
+
+    [mpc]
+    horizon = 10
+    iterations = 20
+    q = [1, 1, 0.1, 0.1]
+    r = [0.1, 0.1]
+    u_min = [-1, 1]
+    u_max = [1, 1]
+
+    [kalman]
+    sigma_a = 0.5
+    sigma_meas = 0.2
+    "#
+});
+
+fn main() {}

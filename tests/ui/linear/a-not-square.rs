@@ -1,0 +1,25 @@
+// A `linear` state matrix that is not square.
+mpc_macros::mpc!(mod controller {
+    r#"
+    [model]
+    type = "linear"
+    a = [[2.0, 1.0]]
+    b = [[1.0]]
+    c = [[1.0]]
+    dt = 0.1
+
+    [mpc]
+    horizon = 1
+    iterations = 20
+    q = [1]
+    r = [100]
+    u_min = [-10]
+    u_max = [10]
+
+    [kalman]
+    q = [[0.01]]
+    r = [[0.01]]
+    "#
+});
+
+fn main() {}

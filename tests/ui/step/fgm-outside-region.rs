@@ -1,0 +1,24 @@
+// A fixed step outside the fast gradient method's region (2 + 2β)/((1 + 2β)L) (L = 0.48007; at α = 4.2, β = 0.044 and the bound is 3.99).
+mpc_macros::mpc!(mod controller {
+    r#"
+    [model]
+    type = "double_integrator"
+    axes = 1
+    dt = 0.1
+
+    [mpc]
+    horizon = 10
+    iterations = 20
+    step = 4.2
+    q = [1, 0.1]
+    r = [0.1]
+    u_min = [-1]
+    u_max = [1]
+
+    [kalman]
+    sigma_a = 0.5
+    sigma_meas = 0.2
+    "#
+});
+
+fn main() {}

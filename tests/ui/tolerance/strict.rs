@@ -1,0 +1,25 @@
+// `strict = true`: fixed iterations below what the spec's own `tolerance` needs are an error, not a warning.
+mpc_macros::mpc!(mod controller {
+    r#"
+    [model]
+    type = "double_integrator"
+    axes = 1
+    dt = 0.1
+
+    [mpc]
+    horizon = 10
+    iterations = 3
+    tolerance = 1e-6
+    strict = true
+    q = [1, 0.1]
+    r = [0.1]
+    u_min = [-1]
+    u_max = [1]
+
+    [kalman]
+    sigma_a = 0.5
+    sigma_meas = 0.2
+    "#
+});
+
+fn main() {}
