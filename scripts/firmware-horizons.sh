@@ -39,7 +39,7 @@ trap 'rm -rf "$tmp"' EXIT
 field() { grep -o "\"$1\":[0-9]*" "$tmp/out" | tail -1 | cut -d: -f2; }
 section() { "$size" -A -d "$tmp/elf" | awk -v s="$1" '$1 == s { print $2 }' | grep . || echo 0; }
 
-echo "| N | ticks per cycle (min / mean / max) | instructions per cycle | .text B | .rodata B | .data + .bss B | stack B |"
+echo "| N | ticks per cycle (min / mean / max) | instructions per cycle | .text B | .rodata B | .data + .bss B | stack B (run / control cycle) |"
 echo "| --- | --- | --- | --- | --- | --- | --- |"
 for n in "${horizons[@]}"; do
     sed -E "s/^horizon *=.*/horizon = $n/" "$base" > "$tmp/spec-n$n.toml"
@@ -53,5 +53,6 @@ for n in "${horizons[@]}"; do
     fi
     mean=$(field ticks_mean)
     echo "| $n | $(field ticks_min) / $mean / $(field ticks_max) | $((mean * per_tick)) |" \
-         "$(section .text) | $(section .rodata) | $(( $(section .data) + $(section .bss) )) | $(field stack_bytes) |"
+         "$(section .text) | $(section .rodata) | $(( $(section .data) + $(section .bss) )) |" \
+         "$(field stack_bytes) / $(field cycle_stack_bytes) |"
 done

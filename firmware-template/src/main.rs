@@ -80,7 +80,8 @@ impl Controller for Timed<'_> {
         let painted = self.stack.paint();
         let t0 = self.timer.now();
         // black_box: the call must happen between the two reads of the timer.
-        let u = black_box(self.controller.step(black_box(&z), black_box(&xref)));
+        let controller = &mut self.controller;
+        let u = black_box(out_of_line(|| controller.step(black_box(&z), black_box(&xref))));
         self.ticks.add(self.timer.since(t0));
         self.stack.measure(painted);
         cast(&u)
@@ -89,6 +90,13 @@ impl Controller for Timed<'_> {
     fn estimate(&self) -> [f64; NX] {
         cast(self.controller.kalman().state())
     }
+}
+
+/// Calls `f` in a frame of its own: the stack probe measures below the caller's stack pointer,
+/// and an inlined `Controller::step` would keep its variables in the caller's frame instead.
+#[inline(never)]
+fn out_of_line<R>(f: impl FnOnce() -> R) -> R {
+    f()
 }
 
 /// Timer ticks taken by a loop of exactly `2 * iters` instructions (A32 or Thumb alike).
