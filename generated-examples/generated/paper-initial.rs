@@ -819,7 +819,7 @@ pub mod paper_initial {
             5.12f32,
         ],
     ];
-    /// Process noise covariance Q, eq. 3.
+    /// Process noise covariance Q, eq. 3 (with the disturbance's random walk last, if modelled).
     pub const Q_NOISE: [[Real; NX]; NX] = [
         [0.00000000015099494f32, 0f32, 0f32, 0.00000002359296f32, 0f32, 0f32],
         [0f32, 0.00000000015099494f32, 0f32, 0f32, 0.00000002359296f32, 0f32],
@@ -1461,5 +1461,7 @@ pub mod paper_initial {
         pub const BYTES_STATE_KALMAN: usize = 168;
         /// Bytes of `Controller`, all the state carried between cycles.
         pub const BYTES_STATE: usize = 228;
+        /// The disturbance estimate's time constant, s (with `[kalman] disturbance`).
+        pub const DISTURBANCE_TIME_CONSTANT: Option<f64> = None;
     }
 }
