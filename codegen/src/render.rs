@@ -27,9 +27,11 @@ fn render_at(level: Level, d: &Diagnostic, source: &str, origin: &str) -> String
     let label = d.label.as_deref().unwrap_or_default();
     let mut message = level.title(&d.message);
     if let Some(span) = d.span.clone() {
-        // An empty span (a missing table) is widened to one character so that the caret shows.
-        let end = span.end.max(span.start + 1).min(source.len());
-        let start = span.start.min(end);
+        // An empty span (a missing table) is widened to one character so that the caret shows; a whole
+        // character, as annotate-snippets panics on a range that ends inside one.
+        let start = span.start.min(source.len());
+        let next = source[start..].chars().next().map_or(0, char::len_utf8);
+        let end = span.end.max(start + next).min(source.len());
         let annotation = level.span(start..end).label(label);
         message = message.snippet(
             Snippet::source(source)
