@@ -49,8 +49,71 @@ macro_rules! generated_kalman {
 /// flight_sim::mpc_controller!(pub struct PaperMpc(generated_examples::paper));
 /// let mut mpc = PaperMpc::new(&x0);
 /// ```
+///
+/// For a module generated with `[kalman] disturbance` (offset-free MPC), add `, disturbance`: the
+/// wrapper then steps as that module's `Controller::step` does, passing the filter's disturbance
+/// estimate to `Mpc::solve_with_disturbance`, and also keeps the estimate each solve used
+/// (`last_disturbance`):
+///
+/// ```ignore
+/// flight_sim::mpc_controller!(pub struct OffsetFree(generated_examples::paper_offset_free), disturbance);
+/// ```
 #[macro_export]
 macro_rules! mpc_controller {
+    ($(#[$attr:meta])* $vis:vis struct $name:ident($($m:ident)::+), disturbance $(;)?) => {
+        $(#[$attr])*
+        $vis struct $name {
+            kalman: $($m)::+::Kalman,
+            mpc: $($m)::+::Mpc,
+            x0: [$($m)::+::Real; $($m)::+::NX],
+            d: [$($m)::+::Real; $($m)::+::ND],
+        }
+
+        #[allow(dead_code)]
+        impl $name {
+            /// The generated filter started at `x0` (disturbance estimate zero) and a fresh MPC.
+            $vis fn new(x0: &[f64; 6]) -> Self {
+                let x0 = $crate::cast(x0);
+                Self {
+                    kalman: $($m)::+::Kalman::new(x0),
+                    mpc: $($m)::+::Mpc::new(),
+                    x0,
+                    d: [0.0; $($m)::+::ND],
+                }
+            }
+            /// The generated MPC (its `plan()` is the last solution).
+            $vis fn mpc(&self) -> &$($m)::+::Mpc {
+                &self.mpc
+            }
+            /// The generated Kalman filter (its `disturbance()` is the current estimate).
+            $vis fn kalman(&self) -> &$($m)::+::Kalman {
+                &self.kalman
+            }
+            /// The estimate the last solve started from, in the module's scalar.
+            $vis fn last_x0(&self) -> &[$($m)::+::Real; $($m)::+::NX] {
+                &self.x0
+            }
+            /// The disturbance estimate the last solve used, in the module's scalar.
+            $vis fn last_disturbance(&self) -> &[$($m)::+::Real; $($m)::+::ND] {
+                &self.d
+            }
+        }
+
+        impl $crate::Controller for $name {
+            fn step<R: $crate::Reference>(&mut self, k: usize, z: &[f64; 3], reference: &R) -> [f64; 3] {
+                let _ = self.kalman.update(&$crate::cast(z));
+                self.x0 = *self.kalman.state();
+                self.d = *self.kalman.disturbance();
+                let xref = $crate::Reference::window::<$($m)::+::Real, { $($m)::+::N }>(reference, k);
+                let u = self.mpc.solve_with_disturbance(&self.x0, &self.d, &xref);
+                self.kalman.predict(&u);
+                $crate::cast(&u)
+            }
+            fn estimate(&self) -> [f64; 6] {
+                $crate::cast(&self.x0)
+            }
+        }
+    };
     ($(#[$attr:meta])* $vis:vis struct $name:ident($($m:ident)::+) $(;)?) => {
         $(#[$attr])*
         $vis struct $name {
@@ -137,7 +200,52 @@ mod tests {
         }
     }
 
+    /// The same with a disturbance estimate, as a module generated with `[kalman] disturbance`.
+    #[allow(dead_code, clippy::all)]
+    mod fake_offset_free {
+        pub type Real = f64;
+        pub const NX: usize = 6;
+        pub const NU: usize = 3;
+        pub const ND: usize = 3;
+        pub const N: usize = 4;
+        pub struct Kalman([Real; NX], [Real; ND]);
+        impl Kalman {
+            pub const fn new(x0: [Real; NX]) -> Self {
+                Self(x0, [0.0; ND])
+            }
+            pub fn predict(&mut self, u: &[Real; NU]) {
+                self.0[3] += u[0];
+            }
+            pub fn update(&mut self, z: &[Real; 3]) -> bool {
+                self.0[0] = z[0];
+                self.1[0] += 0.5;
+                true
+            }
+            pub fn state(&self) -> &[Real; NX] {
+                &self.0
+            }
+            pub fn disturbance(&self) -> &[Real; ND] {
+                &self.1
+            }
+        }
+        pub struct Mpc;
+        impl Mpc {
+            pub const fn new() -> Self {
+                Self
+            }
+            pub fn solve_with_disturbance(
+                &mut self,
+                x0: &[Real; NX],
+                d: &[Real; ND],
+                xref: &[[Real; NX]; N],
+            ) -> [Real; NU] {
+                [xref[N - 1][0] - x0[0] - d[0], 0.0, 0.0]
+            }
+        }
+    }
+
     crate::mpc_controller!(struct FakeMpc(self::fake));
+    crate::mpc_controller!(struct FakeOffsetFree(self::fake_offset_free), disturbance);
     crate::generated_kalman!(struct FakeKalman(self::fake));
 
     #[test]
@@ -159,5 +267,12 @@ mod tests {
         k.predict(&[0.5, 0.0, 0.0]);
         assert_eq!(k.state()[0], 2.0);
         assert_eq!(k.state()[3], 1.5);
+        // The offset-free form hands the filter's disturbance estimate to the MPC.
+        let mut c = FakeOffsetFree::new(&[0.0; 6]);
+        let u = c.step(0, &[0.25, 0.0, 0.0], &r);
+        assert_eq!(u, [0.25, 0.0, 0.0]);
+        assert_eq!(c.last_disturbance(), &[0.5, 0.0, 0.0]);
+        assert_eq!(c.kalman().disturbance()[0], 0.5);
+        assert_eq!(c.estimate()[0], 0.25);
     }
 }

@@ -3,6 +3,7 @@
 use crate::model::{Plant, DT, NU, NX, NY};
 use crate::noise::{Noise, NoiseConfig};
 use crate::reference::Reference;
+use crate::wind::DisturbanceModel;
 
 /// A controller flown by [`fly`]: from a GPS position to an acceleration command.
 pub trait Controller {
@@ -135,10 +136,31 @@ impl Sample {
 /// command; the plant advances one period under command + acceleration noise + disturbance.
 /// The noise draws depend only on the seed and the cycle, never on the controller, so two
 /// controllers flown with the same seed meet the same noise.
-pub fn fly<C, R, F>(controller: &mut C, reference: &R, scenario: &Scenario, mut observe: F) -> Plant
+pub fn fly<C, R, F>(controller: &mut C, reference: &R, scenario: &Scenario, observe: F) -> Plant
 where
     C: Controller,
     R: Reference,
+    F: FnMut(&Sample, &C),
+{
+    let mut none = Disturbance::NONE;
+    fly_with(controller, reference, scenario, &mut none, observe)
+}
+
+/// As [`fly`], with a time-varying disturbance model (a [`Wind`](crate::Wind), say) added to
+/// `scenario.disturbance`: the plant's input each cycle is command + acceleration noise +
+/// `scenario.disturbance` + `extra`, and [`Sample::disturbance`] reports the sum of the last two.
+/// `extra` is called once per cycle, in order.
+pub fn fly_with<C, R, D, F>(
+    controller: &mut C,
+    reference: &R,
+    scenario: &Scenario,
+    extra: &mut D,
+    mut observe: F,
+) -> Plant
+where
+    C: Controller,
+    R: Reference,
+    D: DisturbanceModel + ?Sized,
     F: FnMut(&Sample, &C),
 {
     let mut plant = Plant::new(reference.state(0));
@@ -150,7 +172,9 @@ where
         let z = [p[0] + v[0], p[1] + v[1], p[2] + v[2]];
         let command = controller.step(k, &z, reference);
         let w = noise.accel();
-        let d = scenario.disturbance.at(t);
+        let step = scenario.disturbance.at(t);
+        let wind = extra.accel(t);
+        let d = [step[0] + wind[0], step[1] + wind[1], step[2] + wind[2]];
         let sample = Sample {
             k,
             t,

@@ -13,11 +13,13 @@ mod noise;
 mod pid;
 mod real;
 mod reference;
+pub mod wind;
 
 pub use estimator::{Estimator, ModelEstimator};
-pub use fly::{fly, Controller, Disturbance, Sample, Scenario};
+pub use fly::{fly, fly_with, Controller, Disturbance, Sample, Scenario};
 pub use model::{Plant, DT, NU, NX, NY};
 pub use noise::{Noise, NoiseConfig};
 pub use pid::{Derivative, Pid, PidController, PidGains};
 pub use real::{cast, Real};
 pub use reference::{Hover, Reference, Step, Trajectory};
+pub use wind::{DisturbanceModel, Dryden, Wind, WindConfig};

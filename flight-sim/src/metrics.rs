@@ -343,6 +343,100 @@ pub fn gust(dt: f64, y_gust: &[f64], y_calm: &[f64], start: f64, end: f64) -> Gu
     }
 }
 
+/// The band of [`gust_settling`]: 0.1 m, the "back under 0.1 m".
+pub const SETTLE_BAND: f64 = 0.1;
+
+/// How fast a disturbance's own effect on one axis dies out, after its onset and after its end
+/// (see [`gust_settling`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GustSettling {
+    /// Time from the onset until the effect is back within the band for good while the
+    /// disturbance lasts, s: 0 if it never leaves the band, `None` if it is still outside at the
+    /// end of the disturbance.
+    pub settle_after_onset: Option<f64>,
+    /// Time from the end until the effect is back within the band for good, to the end of the
+    /// record, s: 0 if it is within the band from the end on, `None` if it is outside at the end
+    /// of the record (or the record stops before the disturbance does).
+    pub settle_after_end: Option<f64>,
+    /// The largest effect over the record, m.
+    pub max_effect: f64,
+}
+
+/// Index of the first cycle at or after time `t`, clamped to `[0, n]`.
+fn cycle_at(dt: f64, t: f64, n: usize) -> usize {
+    let k = libm::ceil(t / dt - 1e-9);
+    if k <= 0.0 {
+        0
+    } else if k as usize > n {
+        n
+    } else {
+        k as usize
+    }
+}
+
+/// The times a disturbance on `[start, end)` takes to stop mattering on one axis, from the error
+/// of the disturbed run, `e_gust[k]`, and of the same controller's undisturbed run with the same
+/// seed, `e_calm[k]` (cycle `k` at `k·dt`).
+///
+/// As in [`gust`], the two runs meet the same noise, so `e_gust − e_calm` is the disturbance's own
+/// effect, free of the noise that no controller can remove (the raw error of the calm run is
+/// above 0.1 m on many cycles). The effect is *back within the band* at the first cycle from which
+/// `|e_gust − e_calm| ≤ band` on every cycle until the end of the disturbance (after the onset)
+/// or until the end of the record (after the end). Times are cycle-resolved.
+pub fn gust_settling(
+    dt: f64,
+    e_gust: &[f64],
+    e_calm: &[f64],
+    start: f64,
+    end: f64,
+    band: f64,
+) -> GustSettling {
+    let n = e_gust.len().min(e_calm.len());
+    let effect = |k: usize| (e_gust[k] - e_calm[k]).abs();
+    let max_effect = (0..n).map(effect).fold(0.0, f64::max);
+    // The first cycle of [from, to) from which the effect stays within the band up to `to`;
+    // `None` if it is outside on the last cycle before `to` or the range is empty.
+    let settled = |from: usize, to: usize| -> Option<usize> {
+        if from >= to {
+            return None;
+        }
+        match (from..to).rev().find(|&k| effect(k) > band) {
+            None => Some(from),
+            Some(k) if k + 1 < to => Some(k + 1),
+            Some(_) => None,
+        }
+    };
+    let (k_start, k_end) = (cycle_at(dt, start, n), cycle_at(dt, end, n));
+    let since = |k: usize, t0: f64| {
+        let t = k as f64 * dt;
+        if t > t0 {
+            t - t0
+        } else {
+            0.0
+        }
+    };
+    let ends_in_record = end < n as f64 * dt;
+    GustSettling {
+        settle_after_onset: settled(k_start, k_end).map(|k| since(k, start)),
+        settle_after_end: if ends_in_record {
+            settled(k_end, n).map(|k| since(k, end))
+        } else {
+            None
+        },
+        max_effect,
+    }
+}
+
+/// RMS of `e` over the cycles of `[from, to)` (`e[k]` at `k·dt`), 0 for an empty range.
+pub fn rms_over(dt: f64, e: &[f64], from: f64, to: f64) -> f64 {
+    let n = e.len();
+    let (a, b) = (cycle_at(dt, from, n), cycle_at(dt, to, n));
+    if a >= b {
+        return 0.0;
+    }
+    sqrt(e[a..b].iter().map(|x| x * x).sum::<f64>() / (b - a) as f64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -477,6 +571,41 @@ mod tests {
         assert!(close(m.peak_time.unwrap(), 0.0, 1e-12));
         // |r − 1| = 0.1 e^{−τ} ≤ 0.02 from τ = ln 5.
         assert!(close(m.settling_time.unwrap(), 5f64.ln(), 1e-3));
+    }
+
+    #[test]
+    fn gust_settling_by_hand() {
+        // dt = 1, gust on [2, 8): the effect jumps to 0.5, decays to 0.05 by t = 5; after the end it
+        // jumps to -0.3 at t = 8, 9 and is back within 0.1 m from t = 10. Calm error ±0.2 (above
+        // the band: only the effect counts).
+        let calm: [f64; 14] = core::array::from_fn(|k| if k % 2 == 0 { 0.2 } else { -0.2 });
+        let effect = [
+            0., 0., 0.5, 0.3, 0.15, 0.05, 0.08, -0.02, -0.3, -0.2, 0.09, 0.0, 0.0, 0.0,
+        ];
+        let gusty: [f64; 14] = core::array::from_fn(|k| calm[k] + effect[k]);
+        let s = gust_settling(1.0, &gusty, &calm, 2.0, 8.0, 0.1);
+        assert_eq!(s.settle_after_onset, Some(3.0));
+        assert_eq!(s.settle_after_end, Some(2.0));
+        assert!((s.max_effect - 0.5).abs() < 1e-12);
+        // Never leaves the band: 0; still out at the end of the gust or the record: None.
+        let s = gust_settling(1.0, &calm, &calm, 2.0, 8.0, 0.1);
+        assert_eq!(
+            (s.settle_after_onset, s.settle_after_end),
+            (Some(0.0), Some(0.0))
+        );
+        let held: [f64; 14] = core::array::from_fn(|k| calm[k] + if k >= 2 { 1.0 } else { 0.0 });
+        let s = gust_settling(1.0, &held, &calm, 2.0, 8.0, 0.1);
+        assert_eq!((s.settle_after_onset, s.settle_after_end), (None, None));
+        // A record that stops before the gust does: nothing after the end.
+        let s = gust_settling(1.0, &gusty[..6], &calm[..6], 2.0, 8.0, 0.1);
+        assert_eq!(
+            (s.settle_after_onset, s.settle_after_end),
+            (Some(3.0), None)
+        );
+        // RMS over a window: t in [2, 4) is cycles 2 and 3.
+        let r = rms_over(1.0, &effect, 2.0, 4.0);
+        assert!((r - ((0.25 + 0.09) / 2.0f64).sqrt()).abs() < 1e-12);
+        assert_eq!(rms_over(1.0, &effect, 5.0, 5.0), 0.0);
     }
 
     #[test]

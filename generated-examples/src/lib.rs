@@ -5,3 +5,4 @@
 mpc_macros::mpc!(pub mod paper = "../specs/paper.toml");
 mpc_macros::mpc!(pub mod paper_faithful = "../specs/paper-faithful.toml");
 mpc_macros::mpc!(pub mod paper_initial = "../specs/paper-initial.toml");
+mpc_macros::mpc!(pub mod paper_offset_free = "../specs/paper-offset-free.toml");

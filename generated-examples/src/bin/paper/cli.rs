@@ -64,16 +64,23 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = PidDerivative::Difference)]
     pub pid_derivative: PidDerivative,
 
-    /// The controllers to fly, comma-separated: `mpc` (specs/paper.toml), `mpc-faithful`
+    /// The controllers to fly, comma-separated: `mpc` (specs/paper.toml), `mpc-offset-free`
+    /// (specs/paper-offset-free.toml, with a disturbance estimate), `mpc-faithful`
     /// (specs/paper-faithful.toml), `mpc-initial` (specs/paper-initial.toml, Table 1's initial
     /// parameters) and `pid`.
     #[arg(
         long,
         value_enum,
         value_delimiter = ',',
-        default_value = "mpc,mpc-faithful,pid"
+        default_value = "mpc,mpc-offset-free,mpc-faithful,pid"
     )]
     pub controllers: Vec<crate::run::Kind>,
+
+    /// Mean wind speed of the wind scenario, m/s (blowing towards (0.6, 0.8, 0) from t = 20 s to
+    /// 80 s, at 10 m, pushing with 0.1 s⁻¹ × the wind velocity; also sets the Dryden turbulence's
+    /// intensity, σ_w = 0.1 × speed, and time constants, L / speed). See SIMULATION.md.
+    #[arg(long, default_value_t = 6.0)]
+    pub wind_speed: f64,
 
     /// Do not write the SVG plots.
     #[arg(long)]
@@ -130,7 +137,7 @@ mod tests {
         use crate::run::Kind;
         assert_eq!(
             Args::parse_from(["paper"]).controllers,
-            [Kind::Mpc, Kind::MpcFaithful, Kind::Pid]
+            [Kind::Mpc, Kind::MpcOffsetFree, Kind::MpcFaithful, Kind::Pid]
         );
         let a = Args::parse_from(["paper", "--controllers", "pid,mpc-initial"]);
         assert_eq!(a.controllers, [Kind::Pid, Kind::MpcInitial]);

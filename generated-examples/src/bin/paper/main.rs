@@ -53,6 +53,10 @@ fn try_main(args: Args) -> Result<(), String> {
         step_noise: args.step_noise,
         oracle_stride: args.oracle_stride,
         pid_derivative: args.pid_derivative.to_sim(),
+        wind: flight_sim::Dryden {
+            speed: args.wind_speed,
+            ..flight_sim::Dryden::DEFAULT
+        },
     };
     let seeds: Vec<u64> = (0..args.seeds).map(|i| args.seed.wrapping_add(i)).collect();
     // Without noise the step runs are the same for every seed: run them once.
@@ -65,6 +69,7 @@ fn try_main(args: Args) -> Result<(), String> {
         for &seed in &seeds {
             jobs.push((kind, Test::Flight, seed));
             jobs.push((kind, Test::Gust, seed));
+            jobs.push((kind, Test::Wind, seed));
         }
         for &seed in step_seeds {
             jobs.push((kind, Test::Step, seed));
@@ -109,7 +114,9 @@ fn try_main(args: Args) -> Result<(), String> {
                 summary::per_seed(
                     &by[&(kind, Test::Flight, seed)],
                     &by[&(kind, Test::Gust, seed)],
+                    &by[&(kind, Test::Wind, seed)],
                     &by[&(kind, Test::Step, step_seed)],
+                    (settings.wind.start, settings.wind.end),
                 )
             })
             .collect();
@@ -124,6 +131,7 @@ fn try_main(args: Args) -> Result<(), String> {
             "duration_s": args.duration,
             "step_noise": args.step_noise,
             "pid_derivative": args.pid_derivative.name(),
+            "wind": wind_json(&settings.wind),
         },
         "controllers": controllers,
     });
@@ -151,6 +159,7 @@ fn try_main(args: Args) -> Result<(), String> {
     for (test, name) in [
         (Test::Flight, "flight"),
         (Test::Gust, "gust"),
+        (Test::Wind, "wind"),
         (Test::Step, "step"),
     ] {
         for (kind, rows) in traces(test) {
@@ -166,7 +175,9 @@ fn try_main(args: Args) -> Result<(), String> {
             out,
             &traces(Test::Flight),
             &traces(Test::Gust),
+            &traces(Test::Wind),
             &traces(Test::Step),
+            &settings.wind,
         )?;
     }
     say(&format!(
@@ -186,10 +197,30 @@ fn say(text: &str) -> Result<(), String> {
     }
 }
 
+/// The wind scenario's parameters and what they give, for `summary.json`.
+fn wind_json(d: &flight_sim::Dryden) -> serde_json::Value {
+    let c = d.config();
+    json!({
+        "model": "mean wind plus first-order Dryden-like turbulence (MIL-F-8785C low altitude), as an acceleration = drag x wind velocity",
+        "speed_m_s": d.speed,
+        "direction_xy": d.direction,
+        "altitude_m": d.altitude,
+        "drag_per_s": d.drag,
+        "start_s": d.start,
+        "end_s": d.end,
+        "length_scales_m": d.length_scales(),
+        "intensities_m_s": d.intensities(),
+        "mean_accel_m_s2": c.mean,
+        "sigma_accel_m_s2": c.sigma,
+        "tau_s": c.tau,
+    })
+}
+
 fn check(args: &Args) -> Result<(), String> {
     for (name, v) in [
         ("--gps-sigma", args.gps_sigma),
         ("--accel-sigma", args.accel_sigma),
+        ("--wind-speed", args.wind_speed),
     ] {
         if !(v.is_finite() && v >= 0.0) {
             return Err(format!("{name} must be a finite number ≥ 0, not {v}"));
@@ -218,7 +249,7 @@ fn write(dir: &Path, name: &str, text: &str) -> Result<(), String> {
 }
 
 fn trace_csv(rows: &[run::Row]) -> String {
-    let mut s = String::from("t,ref_x,ref_y,ref_z,ref_vx,ref_vy,ref_vz,x,y,z,vx,vy,vz,est_x,est_y,est_z,est_vx,est_vy,est_vz,ax,ay,az,step_us\n");
+    let mut s = String::from("t,ref_x,ref_y,ref_z,ref_vx,ref_vy,ref_vz,x,y,z,vx,vy,vz,est_x,est_y,est_z,est_vx,est_vy,est_vz,ax,ay,az,step_us,dist_x,dist_y,dist_z,dist_est_x,dist_est_y,dist_est_z\n");
     for r in rows {
         let cols: Vec<String> = std::iter::once(r.t)
             .chain(r.reference)
@@ -226,7 +257,14 @@ fn trace_csv(rows: &[run::Row]) -> String {
             .chain(r.estimate)
             .chain(r.command)
             .chain([r.solve_us])
+            .chain(r.disturbance)
             .map(|v| format!("{v:.6}"))
+            .chain(
+                r.disturbance_estimate
+                    .map_or([const { String::new() }; 3], |d| {
+                        d.map(|v| format!("{v:.6}"))
+                    }),
+            )
             .collect();
         s.push_str(&cols.join(","));
         s.push('\n');

@@ -6,7 +6,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::run::{Kind, Row};
-use flight_sim::{Disturbance, Step};
+use flight_sim::{Disturbance, Dryden, Step};
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
 
@@ -20,6 +20,7 @@ struct Curve {
 fn color(kind: Kind) -> RGBColor {
     match kind {
         Kind::Mpc => RGBColor(31, 119, 180),
+        Kind::MpcOffsetFree => RGBColor(148, 103, 189),
         Kind::MpcFaithful => RGBColor(255, 127, 14),
         Kind::MpcInitial => RGBColor(44, 160, 44),
         Kind::Pid => RGBColor(214, 39, 40),
@@ -133,12 +134,24 @@ pub fn all(
     out: &Path,
     flight: &[(Kind, &[Row])],
     gust: &[(Kind, &[Row])],
+    wind: &[(Kind, &[Row])],
     step: &[(Kind, &[Row])],
+    dryden: &Dryden,
 ) -> Result<(), String> {
     const AXES: [&str; 3] = ["x", "y", "z"];
     // The PID first, so that the MPC curves are drawn on top of its wider excursions.
-    let (flight, gust, step) = (reversed(flight), reversed(gust), reversed(step));
-    let (flight, gust, step) = (flight.as_slice(), gust.as_slice(), step.as_slice());
+    let (flight, gust, wind, step) = (
+        reversed(flight),
+        reversed(gust),
+        reversed(wind),
+        reversed(step),
+    );
+    let (flight, gust, wind, step) = (
+        flight.as_slice(),
+        gust.as_slice(),
+        wind.as_slice(),
+        step.as_slice(),
+    );
     let reference_rows = flight[0].1;
 
     // The path against the reference: three projections, then a zoom on the square's corner
@@ -290,11 +303,12 @@ pub fn all(
     }
     root.present().map_err(err)?;
 
-    // Gust response.
+    // Gust response, and the disturbance estimates against the gust.
     let g = Disturbance::GUST;
     let path = out.join("gust.svg");
-    let root = SVGBackend::new(&path, (1400, 520)).into_drawing_area();
+    let root = SVGBackend::new(&path, (1400, 900)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
+    let areas = root.split_evenly((2, 1));
     let curves: Vec<Curve> = gust
         .iter()
         .map(|&(k, rows)| Curve {
@@ -310,12 +324,69 @@ pub fn all(
         g.accel[1], g.start, g.end
     );
     panel(
-        &root,
+        &areas[0],
         &title,
         ("t (s)", "y − y_ref (m)"),
         &curves,
         Some((10.0, 60.0)),
         &[(g.start, g.end)],
+        &[-0.1, 0.1],
+    )?;
+    panel(
+        &areas[1],
+        "the push on Y and the offset-free filter's estimate of it",
+        ("t (s)", "a (m/s²)"),
+        &disturbance_curves(gust, &[1], 10.0, 60.0),
+        Some((10.0, 60.0)),
+        &[(g.start, g.end)],
+        &[],
+    )?;
+    root.present().map_err(err)?;
+
+    // Wind response: X and Y errors, and the push with its estimate.
+    let (a, b) = (
+        10.0,
+        (dryden.end + 20.0).min(wind[0].1.last().map_or(b_max(), |r| r.t)),
+    );
+    let path = out.join("wind.svg");
+    let root = SVGBackend::new(&path, (1400, 1200)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let areas = root.split_evenly((3, 1));
+    for (n, ax) in [0, 1].into_iter().enumerate() {
+        let curves: Vec<Curve> = wind
+            .iter()
+            .map(|&(k, rows)| Curve {
+                name: k.key().into(),
+                color: color(k),
+                points: every(
+                    window(rows, a, b).copied().collect::<Vec<_>>().as_slice(),
+                    2,
+                )
+                .map(|r| (r.t, r.state[ax] - r.reference[ax]))
+                .collect(),
+            })
+            .collect();
+        let title = format!(
+            "{} tracking error in a {} m/s wind with Dryden-like gusts from {} s to {} s (shaded)",
+            AXES[ax], dryden.speed, dryden.start, dryden.end
+        );
+        panel(
+            &areas[n],
+            &title,
+            ("t (s)", &format!("{0} − {0}_ref (m)", AXES[ax])),
+            &curves,
+            Some((a, b)),
+            &[(dryden.start, dryden.end)],
+            &[-0.1, 0.1],
+        )?;
+    }
+    panel(
+        &areas[2],
+        "the wind's push on X and Y and the offset-free filter's estimates of it",
+        ("t (s)", "a (m/s²)"),
+        &disturbance_curves(wind, &[0, 1], a, b),
+        Some((a, b)),
+        &[(dryden.start, dryden.end)],
         &[],
     )?;
     root.present().map_err(err)?;
@@ -362,6 +433,48 @@ pub fn all(
         .map_err(err)?;
     root.present().map_err(err)?;
     Ok(())
+}
+
+/// An upper bound for the wind plot's time axis when the trace is empty.
+fn b_max() -> f64 {
+    1.0
+}
+
+/// The true push on `axes` and the disturbance estimates of the controllers that have one.
+fn disturbance_curves(runs: &[(Kind, &[Row])], axes: &[usize], a: f64, b: f64) -> Vec<Curve> {
+    const AXES: [&str; 3] = ["x", "y", "z"];
+    let mut curves = Vec::new();
+    let shades = [RGBColor(40, 40, 40), RGBColor(150, 150, 150)];
+    for (n, &ax) in axes.iter().enumerate() {
+        curves.push(Curve {
+            name: format!("push on {}", AXES[ax]),
+            color: shades[n % 2],
+            points: window(runs[0].1, a, b)
+                .map(|r| (r.t, r.disturbance[ax]))
+                .collect(),
+        });
+    }
+    for &(k, rows) in runs {
+        if rows.first().and_then(|r| r.disturbance_estimate).is_none() {
+            continue;
+        }
+        for (n, &ax) in axes.iter().enumerate() {
+            let base = color(k);
+            let c = if n == 0 {
+                base
+            } else {
+                RGBColor(base.0 / 2 + 100, base.1 / 2 + 100, base.2 / 2 + 100)
+            };
+            curves.push(Curve {
+                name: format!("{}: estimate on {}", k.key(), AXES[ax]),
+                color: c,
+                points: window(rows, a, b)
+                    .filter_map(|r| r.disturbance_estimate.map(|d| (r.t, d[ax])))
+                    .collect(),
+            });
+        }
+    }
+    curves
 }
 
 /// The ±2 % settling band of a step, in position units relative to the origin.

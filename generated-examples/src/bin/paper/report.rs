@@ -66,13 +66,46 @@ const TABLE3: [(&str, &str); 4] = [
     ("settling_time_s", "Settling time ±2 % (s)"),
 ];
 
-const GUST: [(&str, &str); 3] = [
+/// The gust's figures; the paper has the first three.
+const GUST: [(&str, &str); 6] = [
     (
         "rmse_y_during_m",
         "Y RMSE during the gust, from 3 s after onset (m)",
     ),
     ("recovery_time_s", "Recovery time after the gust (s)"),
     ("rmse_y_after_m", "Y RMSE over 10 s after recovery (m)"),
+    (
+        "settle_after_onset_s",
+        "Time until the gust's effect on Y is back under 0.1 m, after onset (s)",
+    ),
+    (
+        "settle_after_end_s",
+        "Time until the gust's effect on Y is back under 0.1 m, after it stops (s)",
+    ),
+    ("max_effect_y_m", "Largest effect of the gust on Y (m)"),
+];
+
+/// The wind's figures: the gust's, and the RMSE per axis over the same window.
+const WIND: [(&str, &str); 7] = [
+    (
+        "rmse_during_m",
+        "RMSE per axis [x, y, z] while the wind blows, from 3 s after onset (m)",
+    ),
+    (
+        "rmse_y_during_m",
+        "Y RMSE while the wind blows, from 3 s after onset (m)",
+    ),
+    (
+        "settle_after_onset_s",
+        "Time until the wind's effect on Y is back under 0.1 m, after onset (s)",
+    ),
+    (
+        "settle_after_end_s",
+        "Time until the wind's effect on Y is back under 0.1 m, after it stops (s)",
+    ),
+    ("recovery_time_s", "Recovery time after the wind stops (s)"),
+    ("rmse_y_after_m", "Y RMSE over 10 s after recovery (m)"),
+    ("max_effect_y_m", "Largest effect of the wind on Y (m)"),
 ];
 
 const QP_GAP: [(&str, &str); 4] = [
@@ -230,13 +263,40 @@ pub fn markdown(summary: &Value) -> String {
             .iter()
             .map(|k| cell(&c[k.key()]["gust"][*key]))
             .collect();
-        let _ = writeln!(
-            out,
-            "| {label} | {} | {} |",
-            cells.join(" | "),
-            fmt(paper::GUST_MPC[i])
-        );
+        let paper = paper::GUST_MPC.get(i).map_or("—".into(), |x| fmt(*x));
+        let _ = writeln!(out, "| {label} | {} | {paper} |", cells.join(" | "));
     }
+    let _ = writeln!(
+        out,
+        "\nThe gust's *effect* is the gust run's Y error minus the calm run's (same seed, same \
+         noise); — where it is not back under 0.1 m within the window.\n"
+    );
+
+    let w = &cfg["wind"];
+    let _ = writeln!(
+        out,
+        "#### Wind: {} m/s towards {} from t = {} s to {} s, Dryden-like turbulence\n",
+        w["speed_m_s"], w["direction_xy"], w["start_s"], w["end_s"]
+    );
+    let _ = writeln!(
+        out,
+        "Mean push {} m/s², turbulent push σ = {} m/s² with τ = {} s per axis [x, y, z] \
+         (altitude {} m, drag {} 1/s; the wind's own seeded stream).\n",
+        cell(&w["mean_accel_m_s2"]),
+        cell(&w["sigma_accel_m_s2"]),
+        cell(&w["tau_s"]),
+        w["altitude_m"],
+        w["drag_per_s"],
+    );
+    header(&mut out, &kinds, "figure", &[]);
+    for (key, label) in WIND {
+        let cells: Vec<String> = kinds
+            .iter()
+            .map(|k| cell(&c[k.key()]["wind"][key]))
+            .collect();
+        let _ = writeln!(out, "| {label} | {} |", cells.join(" | "));
+    }
+    targets(&mut out, summary);
 
     let mpcs: Vec<Kind> = kinds
         .iter()
@@ -260,6 +320,49 @@ pub fn markdown(summary: &Value) -> String {
         }
     }
     out
+}
+
+/// The targets of issue 8, when both the plain and the offset-free MPC were flown: the offset-free
+/// controller's Y RMSE during the gust under 0.1 m, and its RMSE without wind at most 1.1 times
+/// the plain MPC's (ratio of the means over the seeds, per axis).
+fn targets(out: &mut String, summary: &Value) {
+    let c = &summary["controllers"];
+    let (plain, free) = (&c[Kind::Mpc.key()], &c[Kind::MpcOffsetFree.key()]);
+    if plain.is_null() || free.is_null() {
+        return;
+    }
+    let seeds = summary["config"]["seeds"].as_u64().unwrap_or(1);
+    let _ = writeln!(
+        out,
+        "\n#### Offset-free targets (issue 8), over {seeds} seed{}\n",
+        if seeds == 1 { "" } else { "s" }
+    );
+    let _ = writeln!(out, "| target | `mpc` | `mpc-offset-free` | met |");
+    let _ = writeln!(out, "|---|---|---|---|");
+    let during = |v: &Value| number(&v["gust"]["rmse_y_during_m"]);
+    if let Some(f) = during(free) {
+        let _ = writeln!(
+            out,
+            "| Y RMSE during the gust < 0.1 m | {} | {} | {} |",
+            cell(&plain["gust"]["rmse_y_during_m"]),
+            cell(&free["gust"]["rmse_y_during_m"]),
+            if f.0 < 0.1 { "yes" } else { "no" }
+        );
+    }
+    for axis in 0..3 {
+        let rmse = |v: &Value| number(&v["rmse"][axis]).map(|x| x.0);
+        if let (Some(p), Some(f)) = (rmse(plain), rmse(free)) {
+            let _ = writeln!(
+                out,
+                "| RMSE without wind, {} axis: offset-free ≤ 1.1 × plain | {} | {} (× {:.3}) | {} |",
+                ["x", "y", "z"][axis],
+                fmt(p),
+                fmt(f),
+                f / p,
+                if f <= 1.1 * p { "yes" } else { "no" }
+            );
+        }
+    }
 }
 
 /// CSV files `(name, contents)`: Table 2 (with the computation time), Table 3, gust and QP gap.
@@ -324,6 +427,18 @@ pub fn csv(summary: &Value) -> Vec<(&'static str, String)> {
             row(&mut gust, k, key, &c[k.key()]["gust"][key]);
         }
     }
+    let mut wind = head(&["x", "y", "z"]);
+    for &k in &kinds {
+        for (key, _) in WIND {
+            let v = &c[k.key()]["wind"][key];
+            // Scalar figures in the y column.
+            let v = match v {
+                Value::Array(_) => v.clone(),
+                v => Value::Array(vec![Value::Null, v.clone(), Value::Null]),
+            };
+            row(&mut wind, k, key, &v);
+        }
+    }
     let mut gap = head(&["value"]);
     for &k in &kinds {
         if !c[k.key()]["qp_gap"].is_null() {
@@ -337,6 +452,7 @@ pub fn csv(summary: &Value) -> Vec<(&'static str, String)> {
         ("computation_time.csv", time),
         ("table3.csv", table3),
         ("gust.csv", gust),
+        ("wind.csv", wind),
         ("qp_gap.csv", gap),
     ]
 }

@@ -1,12 +1,13 @@
-//! The runs: each controller on the flight, on the flight with the gust, and on the step.
+//! The runs: each controller on the flight, on the flight with the gust, on the flight in wind,
+//! and on the step.
 
 use std::time::Instant;
 
 use codegen::lower::Qp;
 use flight_sim::metrics::{StepMetrics, StepResponse, Table2, Tracking};
 use flight_sim::{
-    fly, Controller, Disturbance, NoiseConfig, Pid, PidController, Reference, Scenario, Step,
-    Trajectory, DT,
+    fly_with, Controller, Disturbance, DisturbanceModel, Dryden, NoiseConfig, Pid, PidController,
+    Reference, Scenario, Step, Trajectory, Wind, DT,
 };
 use nalgebra::DVector;
 
@@ -22,6 +23,11 @@ flight_sim::mpc_controller!(
     /// `specs/paper-initial.toml`: Table 1's initial parameters (N = 5, 100 iterations, α = 0.01).
     pub struct InitialMpc(generated_examples::paper_initial)
 );
+flight_sim::mpc_controller!(
+    /// `specs/paper-offset-free.toml`: `paper.toml` with a disturbance estimate (offset-free MPC).
+    pub struct OffsetFreeMpc(generated_examples::paper_offset_free),
+    disturbance
+);
 flight_sim::generated_kalman!(
     /// The generated filter of `specs/paper.toml`, feeding the PID.
     pub struct PaperKalman(generated_examples::paper)
@@ -33,6 +39,10 @@ pub enum Kind {
     /// The MPC generated from `specs/paper.toml` (FGM, step 1/L).
     #[value(name = "mpc")]
     Mpc,
+    /// The offset-free MPC generated from `specs/paper-offset-free.toml` (`paper.toml` with a
+    /// disturbance-estimating filter).
+    #[value(name = "mpc-offset-free")]
+    MpcOffsetFree,
     /// The MPC generated from `specs/paper-faithful.toml` (Algorithm 1, α = 0.04).
     #[value(name = "mpc-faithful")]
     MpcFaithful,
@@ -46,12 +56,19 @@ pub enum Kind {
 
 impl Kind {
     /// Every controller, in report order.
-    pub const ALL: [Kind; 4] = [Kind::Mpc, Kind::MpcFaithful, Kind::MpcInitial, Kind::Pid];
+    pub const ALL: [Kind; 5] = [
+        Kind::Mpc,
+        Kind::MpcOffsetFree,
+        Kind::MpcFaithful,
+        Kind::MpcInitial,
+        Kind::Pid,
+    ];
 
     /// Key in `summary.json` and file names.
     pub fn key(self) -> &'static str {
         match self {
             Kind::Mpc => "mpc",
+            Kind::MpcOffsetFree => "mpc-offset-free",
             Kind::MpcFaithful => "mpc-faithful",
             Kind::MpcInitial => "mpc-initial",
             Kind::Pid => "pid",
@@ -62,6 +79,9 @@ impl Kind {
     pub fn label(self) -> &'static str {
         match self {
             Kind::Mpc => "MPC (paper.toml, FGM 1/L)",
+            Kind::MpcOffsetFree => {
+                "offset-free MPC (paper-offset-free.toml: paper.toml + disturbance estimate)"
+            }
             Kind::MpcFaithful => "MPC (paper-faithful.toml, Alg. 1 α=0.04)",
             Kind::MpcInitial => "MPC (paper-initial.toml, Table 1: N=5, α=0.01)",
             Kind::Pid => "PID (kp 34.2, ki 8, kd 23.4)",
@@ -72,6 +92,7 @@ impl Kind {
     fn spec(self) -> Option<&'static str> {
         match self {
             Kind::Mpc => Some(include_str!("../../../../specs/paper.toml")),
+            Kind::MpcOffsetFree => Some(include_str!("../../../../specs/paper-offset-free.toml")),
             Kind::MpcFaithful => Some(include_str!("../../../../specs/paper-faithful.toml")),
             Kind::MpcInitial => Some(include_str!("../../../../specs/paper-initial.toml")),
             Kind::Pid => None,
@@ -79,13 +100,15 @@ impl Kind {
     }
 }
 
-/// The three scenarios of the paper.
+/// The three scenarios of the paper, and the wind.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Test {
     /// The tracking flight (Table 2).
     Flight,
     /// The same flight with the gust of Section 3.2.4.
     Gust,
+    /// The same flight in a constant wind with Dryden-like gusts (`flight_sim::Wind`).
+    Wind,
     /// 1 m steps from hover (Table 3).
     Step,
 }
@@ -99,6 +122,8 @@ pub struct Settings {
     pub step_noise: bool,
     pub oracle_stride: usize,
     pub pid_derivative: flight_sim::Derivative,
+    /// The wind of [`Test::Wind`].
+    pub wind: Dryden,
 }
 
 /// One cycle kept for plots and CSV.
@@ -110,6 +135,10 @@ pub struct Row {
     pub estimate: [f64; 6],
     pub command: [f64; 3],
     pub solve_us: f64,
+    /// The acceleration added to the plant (gust or wind), m/s².
+    pub disturbance: [f64; 3],
+    /// The controller's disturbance estimate (offset-free MPC only), m/s².
+    pub disturbance_estimate: Option<[f64; 3]>,
 }
 
 /// Distance of the generated command from the exact optimum of the same QP, over the cycles
@@ -135,8 +164,8 @@ pub struct Run {
     pub seed: u64,
     pub table2: Table2,
     pub step: [StepMetrics; 3],
-    /// Y tracking error per cycle (flight and gust runs, for the gust figures).
-    pub y_error: Vec<f64>,
+    /// Tracking error per cycle and axis (for the gust and wind figures).
+    pub error: Vec<[f64; 3]>,
     pub solve_us_mean: f64,
     pub solve_us_median: f64,
     pub solve_us_p99: f64,
@@ -164,12 +193,22 @@ impl Oracle {
         })
     }
 
-    /// Compares the plan `plan` (N·nu, stacked by step) solved from `x0` and `xref` with the
-    /// exact optimum: returns (|u₀ − u₀*|₂, J(U) − J(U*), |u₀*|₂).
-    pub fn compare(&self, x0: &[f64], xref: &[Vec<f64>], plan: &[f64]) -> (f64, f64, f64) {
+    /// Compares the plan `plan` (N·nu, stacked by step) solved from `x0`, the disturbance estimate
+    /// `d` (empty without one) and `xref` with the exact optimum: returns (|u₀ − u₀*|₂,
+    /// J(U) − J(U*), |u₀*|₂).
+    pub fn compare(
+        &self,
+        x0: &[f64],
+        d: &[f64],
+        xref: &[Vec<f64>],
+        plan: &[f64],
+    ) -> (f64, f64, f64) {
         let x0 = DVector::from_column_slice(x0);
         let xref: Vec<DVector<f64>> = xref.iter().map(|r| DVector::from_column_slice(r)).collect();
-        let f = self.mpc.linear_term(&x0, &xref);
+        let mut f = self.mpc.linear_term(&x0, &xref);
+        if !d.is_empty() {
+            f += &self.qp.Fd * DVector::from_column_slice(d);
+        }
         let exact = codegen::oracle::exact_solution(&self.qp, &f, 1e-9, 20_000);
         let u = DVector::from_column_slice(plan);
         let cost = |v: &DVector<f64>| 0.5 * v.dot(&(&self.qp.H * v)) + f.dot(v);
@@ -182,32 +221,53 @@ impl Oracle {
 /// A controller as the runs see it: it may expose its plan for the oracle.
 pub trait Flown: Controller {
     /// For an MPC, what its last solve (at cycle `k`) saw and gave, in `f64`: the estimate it
-    /// started from, the reference window (rounded to the controller's scalar, as it saw it) and
-    /// the plan (N·nu, stacked by step).
+    /// started from, the disturbance estimate it used (empty without one), the reference window
+    /// (rounded to the controller's scalar, as it saw it) and the plan (N·nu, stacked by step).
     fn last_solve<R: Reference>(&self, _k: usize, _reference: &R) -> Option<LastSolve> {
+        None
+    }
+
+    /// The disturbance estimate the last command was computed with, m/s² (offset-free only).
+    fn disturbance_estimate(&self) -> Option<[f64; 3]> {
         None
     }
 }
 
 /// See [`Flown::last_solve`].
-pub type LastSolve = (Vec<f64>, Vec<Vec<f64>>, Vec<f64>);
+pub type LastSolve = (Vec<f64>, Vec<f64>, Vec<Vec<f64>>, Vec<f64>);
 
 impl Flown for PidController<PaperKalman> {}
 
 macro_rules! flown_mpc {
-    ($name:ident, $($m:ident)::+) => {
+    (@disturbance $c:ident) => {
+        Vec::new()
+    };
+    (@disturbance $c:ident, $disturbance:ident) => {
+        $c.last_disturbance().iter().map(|v| f64::from(*v)).collect()
+    };
+    ($name:ident, $($m:ident)::+ $(, $disturbance:ident)?) => {
         impl Flown for $name {
             fn last_solve<R: Reference>(&self, k: usize, reference: &R) -> Option<LastSolve> {
                 let x0 = self.last_x0().iter().map(|v| f64::from(*v)).collect();
+                let d: Vec<f64> = flown_mpc!(@disturbance self $(, $disturbance)?);
                 let window = reference.window::<$($m)::+::Real, { $($m)::+::N }>(k);
                 let xref = window.iter().map(|r| r.iter().map(|v| f64::from(*v)).collect()).collect();
                 let plan = self.mpc().plan().iter().flatten().map(|v| f64::from(*v)).collect();
-                Some((x0, xref, plan))
+                Some((x0, d, xref, plan))
             }
+            $(fn disturbance_estimate(&self) -> Option<[f64; 3]> {
+                let $disturbance = flight_sim::cast(self.last_disturbance());
+                Some($disturbance)
+            })?
         }
     };
 }
 flown_mpc!(PaperMpc, generated_examples::paper);
+flown_mpc!(
+    OffsetFreeMpc,
+    generated_examples::paper_offset_free,
+    disturbance
+);
 flown_mpc!(FaithfulMpc, generated_examples::paper_faithful);
 flown_mpc!(InitialMpc, generated_examples::paper_initial);
 
@@ -240,7 +300,7 @@ pub fn run(kind: Kind, test: Test, seed: u64, settings: &Settings, keep_rows: bo
     let trajectory = Trajectory::paper();
     let step = Step::paper();
     let (cycles, noise, disturbance) = match test {
-        Test::Flight => (
+        Test::Flight | Test::Wind => (
             Scenario::cycles_for(settings.duration),
             settings.noise,
             Disturbance::NONE,
@@ -270,6 +330,15 @@ pub fn run(kind: Kind, test: Test, seed: u64, settings: &Settings, keep_rows: bo
         Test::Step => step.state(0),
         _ => trajectory.start(),
     };
+    // The wind's own ChaCha8 stream of the seed: every controller meets the same wind.
+    let mut wind = Wind::new(
+        seed,
+        if test == Test::Wind {
+            settings.wind.config()
+        } else {
+            flight_sim::WindConfig::NONE
+        },
+    );
     let ctx = Context {
         kind,
         test,
@@ -278,15 +347,18 @@ pub fn run(kind: Kind, test: Test, seed: u64, settings: &Settings, keep_rows: bo
         oracle: oracle.as_ref(),
         stride: settings.oracle_stride,
     };
+    let w = &mut wind;
     match (kind, test) {
-        (Kind::Mpc, Test::Step) => ctx.go(PaperMpc::new(&x0), &step, &scenario),
-        (Kind::Mpc, _) => ctx.go(PaperMpc::new(&x0), &trajectory, &scenario),
-        (Kind::MpcFaithful, Test::Step) => ctx.go(FaithfulMpc::new(&x0), &step, &scenario),
-        (Kind::MpcFaithful, _) => ctx.go(FaithfulMpc::new(&x0), &trajectory, &scenario),
-        (Kind::MpcInitial, Test::Step) => ctx.go(InitialMpc::new(&x0), &step, &scenario),
-        (Kind::MpcInitial, _) => ctx.go(InitialMpc::new(&x0), &trajectory, &scenario),
-        (Kind::Pid, Test::Step) => ctx.go(pid(&x0, settings), &step, &scenario),
-        (Kind::Pid, _) => ctx.go(pid(&x0, settings), &trajectory, &scenario),
+        (Kind::Mpc, Test::Step) => ctx.go(PaperMpc::new(&x0), &step, &scenario, w),
+        (Kind::Mpc, _) => ctx.go(PaperMpc::new(&x0), &trajectory, &scenario, w),
+        (Kind::MpcOffsetFree, Test::Step) => ctx.go(OffsetFreeMpc::new(&x0), &step, &scenario, w),
+        (Kind::MpcOffsetFree, _) => ctx.go(OffsetFreeMpc::new(&x0), &trajectory, &scenario, w),
+        (Kind::MpcFaithful, Test::Step) => ctx.go(FaithfulMpc::new(&x0), &step, &scenario, w),
+        (Kind::MpcFaithful, _) => ctx.go(FaithfulMpc::new(&x0), &trajectory, &scenario, w),
+        (Kind::MpcInitial, Test::Step) => ctx.go(InitialMpc::new(&x0), &step, &scenario, w),
+        (Kind::MpcInitial, _) => ctx.go(InitialMpc::new(&x0), &trajectory, &scenario, w),
+        (Kind::Pid, Test::Step) => ctx.go(pid(&x0, settings), &step, &scenario, w),
+        (Kind::Pid, _) => ctx.go(pid(&x0, settings), &trajectory, &scenario, w),
     }
 }
 
@@ -304,7 +376,13 @@ struct Context<'a> {
 }
 
 impl Context<'_> {
-    fn go<C: Flown, R: Reference>(&self, controller: C, reference: &R, scenario: &Scenario) -> Run {
+    fn go<C: Flown, R: Reference>(
+        &self,
+        controller: C,
+        reference: &R,
+        scenario: &Scenario,
+        extra: &mut dyn DisturbanceModel,
+    ) -> Run {
         let mut timed = Timed {
             inner: controller,
             last_ns: 0,
@@ -314,22 +392,22 @@ impl Context<'_> {
         let at = Step::paper().at;
         let mut steps: [StepResponse; 3] =
             core::array::from_fn(|i| StepResponse::new(origin[i], Step::paper().size[i], at));
-        let mut y_error = Vec::with_capacity(scenario.cycles);
+        let mut error = Vec::with_capacity(scenario.cycles);
         let mut rows = Vec::with_capacity(if self.keep_rows { scenario.cycles } else { 0 });
         let mut times_ns: Vec<u128> = Vec::with_capacity(scenario.cycles);
         let mut gap = self.oracle.map(|_| QpGap::default());
-        fly(&mut timed, reference, scenario, |s, c| {
+        fly_with(&mut timed, reference, scenario, extra, |s, c| {
             let e = s.error();
             tracking.push(s.t, &e, &s.command);
-            y_error.push(e[1]);
+            error.push(e);
             for (i, r) in steps.iter_mut().enumerate() {
                 r.push(s.t, s.state[i]);
             }
             times_ns.push(c.last_ns);
             if let (Some(oracle), Some(g)) = (self.oracle, gap.as_mut()) {
                 if s.k % self.stride == 0 {
-                    if let Some((x0, xref, plan)) = c.inner.last_solve(s.k, reference) {
-                        let (du, dj, us) = oracle.compare(&x0, &xref, &plan);
+                    if let Some((x0, d, xref, plan)) = c.inner.last_solve(s.k, reference) {
+                        let (du, dj, us) = oracle.compare(&x0, &d, &xref, &plan);
                         g.count += 1;
                         g.u_dist_sum += du;
                         g.u_dist_max = g.u_dist_max.max(du);
@@ -346,6 +424,8 @@ impl Context<'_> {
                     estimate: c.estimate(),
                     command: s.command,
                     solve_us: c.last_ns as f64 / 1e3,
+                    disturbance: s.disturbance,
+                    disturbance_estimate: c.inner.disturbance_estimate(),
                 });
             }
         });
@@ -364,7 +444,7 @@ impl Context<'_> {
             seed: self.seed,
             table2: tracking.finish(),
             step: core::array::from_fn(|i| steps[i].finish()),
-            y_error,
+            error,
             solve_us_mean: sum_ns as f64 / n / 1e3,
             solve_us_median: median_ns as f64 / 1e3,
             solve_us_p99: p99_ns as f64 / 1e3,

@@ -1,7 +1,7 @@
 //! From runs to `summary.json`: one JSON object per controller and seed, then mean ± standard
 //! deviation over seeds, number by number.
 
-use flight_sim::metrics::{gust, StepMetrics};
+use flight_sim::metrics::{gust, gust_settling, rms_over, StepMetrics, GUST_SETTLE, SETTLE_BAND};
 use flight_sim::{Disturbance, DT};
 use serde_json::{json, Map, Value};
 
@@ -11,16 +11,31 @@ fn axes<T>(f: impl Fn(usize) -> T) -> [T; 3] {
     core::array::from_fn(f)
 }
 
-/// The figures of one controller for one seed, from its flight, gust and step runs.
-pub fn per_seed(flight: &Run, gusty: &Run, step: &Run) -> Value {
+/// The figures of a disturbance on `[start, end)`, from the disturbed run and the calm run of the
+/// same controller and seed: the paper's three (Y RMSE from 3 s after the onset to the end, the
+/// recovery time and the Y RMSE after it, `metrics::gust`), the times to get the disturbance's
+/// own effect on Y back under 0.1 m after the onset and after the end and its largest value
+/// (`metrics::gust_settling`), and the RMSE per axis over the same window as the first.
+fn disturbed(disturbed: &Run, calm: &Run, start: f64, end: f64) -> Value {
+    let axis = |run: &Run, i: usize| run.error.iter().map(|e| e[i]).collect::<Vec<f64>>();
+    let (y_gust, y_calm) = (axis(disturbed, 1), axis(calm, 1));
+    let g = gust(DT, &y_gust, &y_calm, start, end);
+    let s = gust_settling(DT, &y_gust, &y_calm, start, end, SETTLE_BAND);
+    json!({
+        "rmse_y_during_m": g.rmse_y_during,
+        "recovery_time_s": g.recovery_time,
+        "rmse_y_after_m": g.rmse_y_after,
+        "settle_after_onset_s": s.settle_after_onset,
+        "settle_after_end_s": s.settle_after_end,
+        "max_effect_y_m": s.max_effect,
+        "rmse_during_m": axes(|i| rms_over(DT, &axis(disturbed, i), start + GUST_SETTLE, end)),
+    })
+}
+
+/// The figures of one controller for one seed, from its flight, gust, wind and step runs; `wind`
+/// is the wind's window `[start, end)`.
+pub fn per_seed(flight: &Run, gusty: &Run, windy: &Run, step: &Run, wind: (f64, f64)) -> Value {
     let t = &flight.table2;
-    let g = gust(
-        DT,
-        &gusty.y_error,
-        &flight.y_error,
-        Disturbance::GUST.start,
-        Disturbance::GUST.end,
-    );
     let s: &[StepMetrics; 3] = &step.step;
     let mut v = json!({
         "max_abs_error": t.max_abs_error,
@@ -43,11 +58,8 @@ pub fn per_seed(flight: &Run, gusty: &Run, step: &Run) -> Value {
             "overshoot_pct": axes(|i| s[i].overshoot_pct),
             "settling_time_s": axes(|i| s[i].settling_time),
         },
-        "gust": {
-            "rmse_y_during_m": g.rmse_y_during,
-            "recovery_time_s": g.recovery_time,
-            "rmse_y_after_m": g.rmse_y_after,
-        },
+        "gust": disturbed(gusty, flight, Disturbance::GUST.start, Disturbance::GUST.end),
+        "wind": disturbed(windy, flight, wind.0, wind.1),
     });
     if let Some(gap) = flight.gap.filter(|g| g.count > 0) {
         let n = gap.count as f64;
