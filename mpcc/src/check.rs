@@ -42,6 +42,7 @@ pub(crate) fn json(shown: &str, g: &Generated) -> String {
             "spectral_radius": c.mpc.spectral_radius,
             "solver_spectral_radius": c.mpc.solver_spectral_radius,
         },
+        "disturbance_time_constant": c.disturbance_time_constant,
         "macs_per_iteration": r.macs_per_iteration,
         "macs_per_cycle": r.macs_per_cycle,
         "bytes_constants": r.bytes_constants,
@@ -98,7 +99,7 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             "none: the step is above 1/L (see the contraction)".to_string(),
         )],
     };
-    let sections: Vec<(&str, Vec<(String, String)>)> = vec![
+    let mut sections: Vec<(&str, Vec<(String, String)>)> = vec![
         (
             "QP (condensed Hessian H)",
             vec![
@@ -167,6 +168,15 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             ],
         ),
     ];
+    if let Some(tau) = c.disturbance_time_constant {
+        sections.insert(
+            5,
+            (
+                "offset-free: the input disturbance estimate",
+                vec![("time constant, s".into(), num(tau))],
+            ),
+        );
+    }
     let width = sections
         .iter()
         .flat_map(|(_, lines)| lines.iter().map(|(what, _)| what.chars().count()))

@@ -225,3 +225,17 @@ fn scratch(name: &str) -> PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
+
+#[test]
+fn check_reports_the_disturbance_time_constant_of_an_offset_free_spec() {
+    let o = mpcc(&["check", "specs/paper-offset-free.toml", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let tau = v["disturbance_time_constant"].as_f64().unwrap();
+    assert!((tau - 1.42).abs() < 0.005, "{tau}");
+    let o = mpcc(&["check", "specs/paper.toml", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["disturbance_time_constant"].is_null());
+    let text = stdout(&mpcc(&["check", "specs/paper-offset-free.toml"]));
+    assert!(text.contains("time constant, s"), "{text}");
+}
