@@ -13,6 +13,8 @@ pub(crate) enum Error {
     Read(PathBuf, io::Error),
     /// `-o FILE` could not be written.
     Write(PathBuf, io::Error),
+    /// Standard output could not be written.
+    Stdout(io::Error),
     /// The spec has mistakes: `rendered` is every diagnostic drawn against the source by
     /// `codegen::render`, exactly as the macro's error carries them.
     Spec {
@@ -27,6 +29,7 @@ impl Display for Error {
         match self {
             Error::Read(path, _) => write!(f, "cannot read the spec `{}`", path.display()),
             Error::Write(path, _) => write!(f, "cannot write `{}`", path.display()),
+            Error::Stdout(_) => f.write_str("cannot write to standard output"),
             Error::Spec { path, count, .. } => write!(
                 f,
                 "invalid controller spec `{}`: {count} error{}",
@@ -40,7 +43,7 @@ impl Display for Error {
 impl StdError for Error {
     fn source(&self) -> Option<&(dyn StdError + 'static)> {
         match self {
-            Error::Read(_, e) | Error::Write(_, e) => Some(e),
+            Error::Read(_, e) | Error::Write(_, e) | Error::Stdout(e) => Some(e),
             Error::Spec { .. } => None,
         }
     }

@@ -42,8 +42,7 @@ fn try_main() -> Result<()> {
             } else {
                 check::text(&loaded.shown, &generated)
             };
-            print!("{text}");
-            Ok(())
+            print(&text)
         }
         Command::Emit { spec, output } => {
             let loaded = Loaded::read(&spec)?;
@@ -51,15 +50,22 @@ fn try_main() -> Result<()> {
             loaded.print_warnings(&generated.warnings);
             let text = generated.pretty();
             match output {
-                None => {
-                    print!("{text}");
-                    Ok(())
-                }
+                None => print(&text),
                 Some(path) => emit::write_file_if_changed(&path, &text)
                     .map(|_| ())
                     .map_err(|e| Error::Write(path, e)),
             }
         }
+    }
+}
+
+/// Writes `text` to stdout; a closed pipe (`mpcc emit SPEC | head`) ends the output quietly.
+fn print(text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(Error::Stdout(e)),
+        _ => Ok(()),
     }
 }
 

@@ -239,3 +239,54 @@ fn check_reports_the_disturbance_time_constant_of_an_offset_free_spec() {
     let text = stdout(&mpcc(&["check", "specs/paper-offset-free.toml"]));
     assert!(text.contains("time constant, s"), "{text}");
 }
+
+#[test]
+fn a_closed_pipe_ends_the_output_quietly() {
+    use std::io::Read;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mpcc"))
+        .args(["emit", "specs/paper.toml"])
+        .current_dir(workspace())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = [0u8; 64];
+    child.stdout.take().unwrap().read_exact(&mut first).unwrap();
+    // The read end is dropped here: the rest of the module goes to a closed pipe.
+    let status = child.wait().unwrap();
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    assert!(status.success(), "{status}: {err}");
+    assert_eq!(err, "");
+}
+
+#[test]
+fn check_prints_warnings_and_succeeds() {
+    let spec = scratch("warning").join("few-iterations.toml");
+    let paper = std::fs::read_to_string(workspace().join("specs/paper.toml")).unwrap();
+    std::fs::write(
+        &spec,
+        paper.replace("iterations = 30", "iterations = 5\ntolerance = 1e-6"),
+    )
+    .unwrap();
+    let o = mpcc(&["check", spec.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.starts_with("warning: `iterations = 5` is below the"),
+        "{err}"
+    );
+    assert!(
+        stdout(&o).ends_with("1 warning (above)\n"),
+        "{}",
+        stdout(&o)
+    );
+    let o = mpcc(&["check", spec.to_str().unwrap(), "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["warnings"].as_array().unwrap().len(), 1);
+}
