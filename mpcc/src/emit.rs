@@ -47,3 +47,20 @@ pub(crate) fn write_file_if_changed(path: &Path, content: &str) -> io::Result<bo
     std::fs::write(path, content)?;
     Ok(true)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::module_name;
+    use std::path::Path;
+
+    #[test]
+    fn module_names_from_file_stems() {
+        let name = |p: &str| module_name(Path::new(p));
+        assert_eq!(name("specs/paper.toml"), "paper");
+        assert_eq!(name("specs/paper-faithful.toml"), "paper_faithful");
+        assert_eq!(name("2d.quad.toml"), "_2d_quad");
+        assert_eq!(name("type.toml"), "type_");
+        assert_eq!(name("drönë.toml"), "dr_n_");
+        assert_eq!(name("---.toml"), "controller");
+    }
+}
