@@ -1,13 +1,14 @@
-//! The paper's closed loop (issue 5): the generated MPCs and the PID flying `flight_sim`'s plant.
+//! The paper's closed loop (issue 5): the generated MPCs and the PID flying `flight_sim`'s plant;
+//! the offset-free MPC in the gust and in wind (issue 8).
 //!
 //! Short flights over a few fixed seeds, asserting only what holds with a wide margin on every
 //! seed: ratios between controllers, never absolute figures. The full comparison, with its
 //! findings, is the `paper` binary of `generated-examples` (see `generated-examples/SIMULATION.md`).
 
-use flight_sim::metrics::{gust, StepResponse, Tracking};
+use flight_sim::metrics::{gust, gust_settling, StepResponse, Tracking, SETTLE_BAND};
 use flight_sim::{
-    fly, Controller, Disturbance, NoiseConfig, Pid, PidController, Reference, Scenario, Step,
-    Trajectory, DT,
+    fly, fly_with, Controller, Disturbance, DisturbanceModel, Dryden, NoiseConfig, Pid,
+    PidController, Reference, Scenario, Step, Trajectory, Wind, DT,
 };
 
 mpc_macros::mpc!(mod paper = "../specs/paper.toml");
@@ -16,6 +17,9 @@ mpc_macros::mpc!(mod paper_faithful = "../specs/paper-faithful.toml");
 flight_sim::mpc_controller!(struct PaperMpc(self::paper));
 flight_sim::mpc_controller!(struct FaithfulMpc(self::paper_faithful));
 flight_sim::generated_kalman!(struct PaperKalman(self::paper));
+// `specs/paper-offset-free.toml`, as the library of this crate already generates it.
+use mpc_tests::offset_free;
+flight_sim::mpc_controller!(struct OffsetFreeMpc(self::offset_free), disturbance);
 
 /// Seeds of the noisy flights.
 const SEEDS: [u64; 3] = [1, 2, 3];
@@ -29,13 +33,28 @@ fn pid(x0: &[f64; 6]) -> PidController<PaperKalman> {
 
 /// Table 2 of `controller` on `reference` under `scenario`, and the Y errors per cycle.
 fn flown<C: Controller, R: Reference>(
-    mut controller: C,
+    controller: C,
     reference: &R,
     scenario: &Scenario,
 ) -> (flight_sim::metrics::Table2, Vec<f64>) {
+    flown_with(
+        controller,
+        reference,
+        scenario,
+        &mut Disturbance::NONE.clone(),
+    )
+}
+
+/// As [`flown`], with the disturbance model `extra` (a wind) added.
+fn flown_with<C: Controller, R: Reference>(
+    mut controller: C,
+    reference: &R,
+    scenario: &Scenario,
+    extra: &mut dyn DisturbanceModel,
+) -> (flight_sim::metrics::Table2, Vec<f64>) {
     let mut m = Tracking::new(DT);
     let mut y = Vec::with_capacity(scenario.cycles);
-    fly(&mut controller, reference, scenario, |s, _| {
+    fly_with(&mut controller, reference, scenario, extra, |s, _| {
         m.push(s.t, &s.error(), &s.command);
         y.push(s.error()[1]);
     });
@@ -213,4 +232,198 @@ fn step_responses_settle_and_the_mpc_overshoots_less() {
         );
         assert!(m.rise_time < p.rise_time, "axis {axis}: {m:?} vs {p:?}");
     }
+}
+
+#[test]
+fn the_offset_free_adapter_steps_exactly_as_the_generated_controller() {
+    // `mpc_controller!(…, disturbance)` hands the filter's disturbance estimate to the MPC as the
+    // module's `Controller::step` does: the same bits on a 20 s flight through the gust.
+    let r = Trajectory::paper();
+    let x0 = r.start();
+    let mut adapter = OffsetFreeMpc::new(&x0);
+    let mut generated = offset_free::Controller::new(flight_sim::cast(&x0));
+    let s = Scenario {
+        disturbance: Disturbance {
+            accel: [0.0, 0.6, 0.0],
+            start: 5.0,
+            end: 20.0,
+        },
+        ..Scenario::new(5, Scenario::cycles_for(20.0))
+    };
+    let mut estimate_moved = false;
+    fly(&mut adapter, &r, &s, |sample, a| {
+        let z: [offset_free::Real; 3] = flight_sim::cast(&sample.measurement);
+        let xref = r.window::<offset_free::Real, { offset_free::N }>(sample.k);
+        let u = generated.step(&z, &xref);
+        assert_eq!(
+            flight_sim::cast::<_, f64, 3>(&u),
+            sample.command,
+            "cycle {}",
+            sample.k
+        );
+        assert_eq!(a.last_disturbance(), generated.kalman().disturbance());
+        estimate_moved |= a.last_disturbance()[1] > 0.3;
+    });
+    assert!(estimate_moved, "the estimate found the push on Y");
+}
+
+#[test]
+fn the_offset_free_mpc_holds_the_reference_in_the_gust() {
+    // The paper's gust (0.6 m/s² on Y from 20 s to 35 s) on the flight with the default noise: the
+    // plain MPC holds about 1.5 m, the offset-free one stays at its noise level (seeds 1-50 of the
+    // `paper` binary: 1.495 ± 0.040 m against 0.064 ± 0.009 m). Asserted with a wide margin: a
+    // tenth of the plain MPC's error, and under 0.1 m, on every seed; the effect of the gust back
+    // under 0.1 m while it still blows, which the plain MPC never manages.
+    let r = Trajectory::paper();
+    let x0 = r.start();
+    let g = Disturbance::GUST;
+    let mut calm_ms = [0.0; 2];
+    for seed in SEEDS {
+        let calm = Scenario::new(seed, Scenario::cycles_for(45.0));
+        let gusty = Scenario {
+            disturbance: g,
+            ..calm
+        };
+        let (plain_calm, plain_y_calm) = flown(PaperMpc::new(&x0), &r, &calm);
+        let (_, plain_y_gust) = flown(PaperMpc::new(&x0), &r, &gusty);
+        let (free_calm, free_y_calm) = flown(OffsetFreeMpc::new(&x0), &r, &calm);
+        let (_, free_y_gust) = flown(OffsetFreeMpc::new(&x0), &r, &gusty);
+        let plain = gust(DT, &plain_y_gust, &plain_y_calm, g.start, g.end);
+        let free = gust(DT, &free_y_gust, &free_y_calm, g.start, g.end);
+        assert!(
+            free.rmse_y_during < 0.1 * plain.rmse_y_during && free.rmse_y_during < 0.1,
+            "seed {seed}: offset-free {} m, plain {} m",
+            free.rmse_y_during,
+            plain.rmse_y_during
+        );
+        let plain = gust_settling(
+            DT,
+            &plain_y_gust,
+            &plain_y_calm,
+            g.start,
+            g.end,
+            SETTLE_BAND,
+        );
+        let free = gust_settling(DT, &free_y_gust, &free_y_calm, g.start, g.end, SETTLE_BAND);
+        assert_eq!(plain.settle_after_onset, None, "seed {seed}: {plain:?}");
+        // The disturbance estimate's time constant is 1.42 s: back under 0.1 m within 5 s (2.7 s).
+        let onset = free.settle_after_onset.expect("settles during the gust");
+        let end = free.settle_after_end.expect("settles after the gust");
+        assert!(onset < 5.0 && end < 5.0, "seed {seed}: {free:?}");
+        assert!(free.max_effect < 0.5 * plain.max_effect, "seed {seed}");
+        for axis in 0..3 {
+            calm_ms[0] += plain_calm.rmse[axis].powi(2);
+            calm_ms[1] += free_calm.rmse[axis].powi(2);
+        }
+    }
+    // Without wind it tracks no worse than the plain MPC (the issue's budget: 1.1 times), on the
+    // RMS over the seeds and axes: one seed and axis of a 45 s record is too noisy a figure (seeds
+    // 1-40: from 0.6 to 1.25 times; over the three axes at most 1.08 times; the `paper` binary's
+    // 111 s flights over 50 seeds: 0.83-0.85 times on every axis).
+    let ratio = (calm_ms[1] / calm_ms[0]).sqrt();
+    assert!(
+        ratio <= 1.1,
+        "offset-free / plain RMSE without wind: {ratio}"
+    );
+}
+
+#[test]
+fn the_offset_free_mpc_rides_out_the_wind() {
+    // The wind scenario (6 m/s with Dryden-like turbulence from 20 s): over 20-45 s the plain MPC's
+    // X and Y errors are held by the mean push and the slow gusts, the offset-free MPC's are not
+    // (seeds 1-50 of the `paper` binary over 23-80 s: about 1 m against 0.065 m).
+    let r = Trajectory::paper();
+    let x0 = r.start();
+    let config = Dryden::DEFAULT.config();
+    for seed in SEEDS {
+        let s = Scenario::new(seed, Scenario::cycles_for(45.0));
+        let (plain, _) = flown_with(PaperMpc::new(&x0), &r, &s, &mut Wind::new(seed, config));
+        let (free, _) = flown_with(
+            OffsetFreeMpc::new(&x0),
+            &r,
+            &s,
+            &mut Wind::new(seed, config),
+        );
+        for axis in 0..2 {
+            let ratio = free.rmse[axis] / plain.rmse[axis];
+            assert!(ratio < 0.3, "seed {seed}, axis {axis}: {ratio}");
+        }
+        assert!(free.rmse.iter().all(|e| *e < 0.1), "seed {seed}: {free:?}");
+    }
+}
+
+#[test]
+fn the_wind_is_what_its_documentation_says() {
+    // The push the plant feels, as `fly_with` reports it (no noise, no control): zero outside the
+    // window, and inside it the documented mean plus turbulence of the documented intensity. The
+    // slow horizontal turbulence (τ = 11.2 s) needs long records: the mean and standard deviation
+    // over 64 windows of 1000 s each (64 seeds), within 10 % of σ and of the mean.
+    let long = Dryden {
+        start: 0.0,
+        end: f64::INFINITY,
+        ..Dryden::DEFAULT
+    };
+    let c = long.config();
+    struct Idle;
+    impl Controller for Idle {
+        fn step<R: Reference>(&mut self, _: usize, _: &[f64; 3], _: &R) -> [f64; 3] {
+            [0.0; 3]
+        }
+        fn estimate(&self) -> [f64; 6] {
+            [0.0; 6]
+        }
+    }
+    let (mut sum, mut sum_sq, mut n) = ([0.0; 3], [0.0; 3], 0.0);
+    for seed in 0..64 {
+        let s = Scenario {
+            noise: NoiseConfig::NONE,
+            ..Scenario::new(seed, Scenario::cycles_for(1000.0))
+        };
+        fly_with(
+            &mut Idle,
+            &flight_sim::Hover([0.0; 3]),
+            &s,
+            &mut Wind::new(seed, c),
+            |x, _| {
+                for i in 0..3 {
+                    sum[i] += x.disturbance[i];
+                    sum_sq[i] += x.disturbance[i] * x.disturbance[i];
+                }
+                n += 1.0;
+            },
+        );
+    }
+    for i in 0..3 {
+        let mean = sum[i] / n;
+        let sigma = (sum_sq[i] / n - mean * mean).sqrt();
+        println!(
+            "axis {i}: mean {mean:.4} (stated {}), σ {sigma:.4} (stated {:.4})",
+            c.mean[i], c.sigma[i]
+        );
+        assert!(
+            (mean - c.mean[i]).abs() < 0.1 * c.sigma[i].max(c.mean[i].abs()),
+            "axis {i}: mean {mean}"
+        );
+        assert!(
+            (sigma / c.sigma[i] - 1.0).abs() < 0.1,
+            "axis {i}: σ {sigma} vs {}",
+            c.sigma[i]
+        );
+    }
+    // The window: nothing before the onset or from the end on.
+    let short = Dryden::DEFAULT;
+    let s = Scenario {
+        noise: NoiseConfig::NONE,
+        ..Scenario::new(1, Scenario::cycles_for(short.end + 1.0))
+    };
+    fly_with(
+        &mut Idle,
+        &flight_sim::Hover([0.0; 3]),
+        &s,
+        &mut Wind::new(1, short.config()),
+        |x, _| {
+            let blows = x.t >= short.start && x.t < short.end;
+            assert_eq!(x.disturbance == [0.0; 3], !blows, "t = {}", x.t);
+        },
+    );
 }
