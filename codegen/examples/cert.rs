@@ -12,6 +12,9 @@ fn main() {
             c.mpc.spectral_radius,
             c.mpc.solver_spectral_radius
         );
-        println!("  {:?} tau_d {:?}", c.resources, c.disturbance_time_constant);
+        println!(
+            "  {:?} tau_d {:?}",
+            c.resources, c.disturbance_time_constant
+        );
     }
 }

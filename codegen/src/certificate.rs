@@ -159,28 +159,30 @@ pub struct Certificate {
 /// with `strict`. Returns the warnings.
 pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> {
     let (mut errors, mut warnings) = (Diagnostics::default(), Diagnostics::default());
-    let loops = [
-        (
-            "the LQR loop of the stage weights, ρ(F − G·K_LQR)",
-            Some(c.lqr.spectral_radius),
-        ),
-        (
-            "the unconstrained MPC loop, ρ(F − G·K_MPC)",
-            Some(c.mpc.spectral_radius),
-        ),
-        (
-            "the loop of the fixed-iteration, warm-started solver",
-            c.mpc.solver_spectral_radius,
-        ),
-    ];
+    // One finding per cause: the solver's loop is only reported when the exactly solved MPC is stable.
+    let unstable = |rho: f64| rho.is_nan() || rho >= 1.0;
+    let mut loops = vec![(
+        "the LQR loop of the stage weights, ρ(F − G·K_LQR),",
+        c.lqr.spectral_radius,
+    )];
+    if unstable(c.mpc.spectral_radius) {
+        loops.push((
+            "the unconstrained MPC loop, ρ(F − G·K_MPC),",
+            c.mpc.spectral_radius,
+        ));
+    } else if let Some(rho) = c.mpc.solver_spectral_radius {
+        loops.push(("the loop of the fixed-iteration, warm-started solver", rho));
+    }
     if !spec.mpc.accept_unstable {
         for (what, rho) in loops {
-            let Some(rho) = rho else { continue };
-            if rho.is_nan() || rho >= 1.0 {
+            if unstable(rho) {
                 errors.push(
-                    Diagnostic::new(format!("the closed loop is not stable: {what} has spectral radius {rho:.6}"), spec.spans.get("mpc"))
-                        .label("controller defined here")
-                        .note("hint: raise the weights, the horizon or the iterations, or set `accept_unstable = true` in `[mpc]` to build it anyway"),
+                    Diagnostic::new(
+                        format!("the closed loop is not stable: {what} has spectral radius {rho:.6}"),
+                        spec.spans.get("mpc"),
+                    )
+                    .label("controller defined here")
+                    .note("hint: raise the weights, the horizon or the iterations, or set `accept_unstable = true` in `[mpc]` to build it anyway"),
                 );
             }
         }

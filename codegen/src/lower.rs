@@ -137,9 +137,12 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     } else {
         "mpc.q"
     };
-    check_definite(&mut diags, &Q, false, "Q", span("mpc.q"));
-    check_definite(&mut diags, &Qf, false, "Qf", span(qf_key));
-    check_definite(&mut diags, &R, true, "R", span("mpc.r"));
+    check_definite(&mut diags, &Q, false, "`mpc.q`", span("mpc.q"));
+    // Qf = k·Q or Q is definite exactly when Q is: check it only when it is written.
+    if qf_key == "mpc.qf" {
+        check_definite(&mut diags, &Qf, false, "`mpc.qf`", span(qf_key));
+    }
+    check_definite(&mut diags, &R, true, "`mpc.r`", span("mpc.r"));
 
     let N = m.horizon;
     let (Sx, Su) = prediction_matrices(&F, &G, N);
@@ -222,21 +225,21 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         &mut diags,
         &Qn,
         false,
-        "the process noise covariance",
+        "the process noise covariance (`kalman.q`)",
         span("kalman.q").or(span("kalman.sigma_a")),
     );
     check_definite(
         &mut diags,
         &Rn,
         true,
-        "the measurement noise covariance",
+        "the measurement noise covariance (`kalman.r`)",
         span("kalman.r").or(span("kalman.sigma_meas")),
     );
     check_definite(
         &mut diags,
         &P0,
         true,
-        "P0",
+        "`kalman.p0`",
         span("kalman.p0").or(span("kalman")),
     );
     if !diags.is_empty() {
@@ -252,6 +255,47 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     };
 
     let Fd = &H * DMatrix::from_fn(N * nu, nd, |i, j| if i % nu == j { 1.0 } else { 0.0 });
+    // Every number the emitter writes must exist in the emitted scalar type.
+    let bounds = DMatrix::from_iterator(2, nu, m.u_min.iter().chain(m.u_max.iter()).copied());
+    let step_matrix = DMatrix::from_element(1, 1, step);
+    let emitted: [(&str, &str, &DMatrix<f64>); 13] = [
+        ("the input bounds", "mpc.u_max", &bounds),
+        ("the step", "mpc.step", &step_matrix),
+        ("the Hessian H", "mpc.q", &H),
+        ("the gradient map Fx", "mpc.q", &Fx),
+        ("the gradient map Fr", "mpc.q", &Fr),
+        ("the disturbance map Fd", "mpc.q", &Fd),
+        ("the model F", "model", &F),
+        ("the model G", "model", &G),
+        ("the process noise Q", "kalman", &Qn),
+        ("the measurement noise R", "kalman", &Rn),
+        ("the initial covariance P0", "kalman", &P0),
+        ("the steady-state covariance P∞", "kalman", &P_inf),
+        ("the steady-state gain K∞", "kalman", &K_inf),
+    ];
+    let scalar = spec.codegen.scalar;
+    let limit = match scalar {
+        Scalar::F32 => f32::MAX as f64,
+        Scalar::F64 => f64::MAX,
+    };
+    for (what, key, M) in emitted {
+        let worst = M.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+        if !worst.is_finite() || worst > limit {
+            let d = Diagnostic::new(
+                format!(
+                    "{what} would overflow {}: its largest magnitude is {worst:e}",
+                    scalar_name(scalar)
+                ),
+                span(key).or(span("codegen.scalar")),
+            )
+            .label("out of range for the emitted scalar type")
+            .note("hint: rescale the weights or units, or write `scalar = \"f64\"` in `[codegen]`");
+            diags.push(d);
+        }
+    }
+    if !diags.is_empty() {
+        return Err(diags.sorted());
+    }
     Ok(Problem {
         nx,
         nu,
@@ -295,6 +339,13 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         C,
         scalar: spec.codegen.scalar,
     })
+}
+
+fn scalar_name(s: Scalar) -> &'static str {
+    match s {
+        Scalar::F32 => "f32",
+        Scalar::F64 => "f64",
+    }
 }
 
 /// F, G and the measurement matrix C of the model.
@@ -499,7 +550,7 @@ fn check_definite(
         };
         diags.push(
             Diagnostic::new(
-                format!("{name} must be {what}; its smallest eigenvalue is {lo:.6e}"),
+                format!("{name} must be {what}; its smallest eigenvalue is {lo:.4}"),
                 span,
             )
             .label(format!("not {what}")),
@@ -521,20 +572,24 @@ fn check_step(
     let (limit, why) = match method {
         Method::Gradient => (
             2.0 / L,
-            "below 2/L, or the projected gradient iteration diverges",
+            format!(
+                "below 2/L = {:.6} (L = {L:.6}), or the projected gradient iteration diverges",
+                2.0 / L
+            ),
         ),
-        Method::Fgm => (
-            (2.0 + 2.0 * momentum) / ((1.0 + 2.0 * momentum) * L),
-            "below (2+2β)/((1+2β)L), or the fast gradient iteration diverges",
-        ),
+        Method::Fgm => {
+            let limit = (2.0 + 2.0 * momentum) / ((1.0 + 2.0 * momentum) * L);
+            (
+                limit,
+                format!("below (2+2β)/((1+2β)L) = {limit:.6} (β = {momentum:.4}, L = {L:.6}), or the fast gradient iteration diverges"),
+            )
+        }
     };
     let ok = step < limit;
     if !ok {
         diags.push(
             Diagnostic::new(
-                format!(
-                    "`mpc.step` = {step} is too large: it must be {why} ({limit:.6}, L = {L:.6})"
-                ),
+                format!("`mpc.step` = {step} is too large: it must be {why}"),
                 span,
             )
             .label("step too large")

@@ -10,7 +10,7 @@ pub fn render(diags: &Diagnostics, source: &str, origin: &str) -> String {
         .iter()
         .map(|d| render_one(d, source, origin))
         .collect::<Vec<_>>()
-        .join("\n")
+        .join("\n\n")
 }
 
 /// One error drawn against `source`.

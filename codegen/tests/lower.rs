@@ -153,7 +153,23 @@ fn indefinite_weights_are_rejected() {
         "q = [[1, 2, 0, 0, 0, 0], [2, 1, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0], [0, 0, 0, 1, 0, 0], [0, 0, 0, 0, 1, 0], [0, 0, 0, 0, 0, 1]]",
     );
     let diags = lower(&load(&src).unwrap()).unwrap_err();
-    assert!(diags
-        .iter()
-        .any(|d| d.message.starts_with("Q must be positive semidefinite")));
+    assert!(diags.iter().any(|d| d
+        .message
+        .starts_with("`mpc.q` must be positive semidefinite")));
+}
+
+#[test]
+fn values_beyond_the_scalar_type_are_located_errors() {
+    let src = include_str!("../../specs/paper.toml")
+        .replace("u_max = [10, 10, 10]", "u_max = [10, 1e300, 10]");
+    let diags = lower(&load(&src).unwrap()).unwrap_err();
+    let d = diags.iter().next().unwrap();
+    assert!(
+        d.message.starts_with("the input bounds would overflow f32"),
+        "{}",
+        d.message
+    );
+    assert_eq!(&src[d.span.clone().unwrap()], "[10, 1e300, 10]");
+    let f64_src = src.replace("scalar = \"f32\"", "scalar = \"f64\"");
+    assert!(lower(&load(&f64_src).unwrap()).is_ok());
 }

@@ -103,13 +103,31 @@ fn expand(input: &Input) -> syn::Result<proc_macro2::TokenStream> {
         input.vis.to_token_stream().to_string(),
         origin,
     );
-    codegen::generate_from_source(&source, &opt)
-        .map(|g| g.tokens)
-        .map_err(|diags| {
-            let rendered = codegen::render::render(&diags, &source, &shown);
-            syn::Error::new(
-                input.spec.span(),
-                format!("invalid controller spec\n{rendered}"),
-            )
-        })
+    let generated = codegen::generate_from_source(&source, &opt).map_err(|diags| {
+        let rendered = codegen::render::render(&diags, &source, &shown);
+        syn::Error::new(
+            input.spec.span(),
+            format!("invalid controller spec\n{rendered}"),
+        )
+    })?;
+    // Stable proc macros cannot emit warnings. Using a `#[deprecated]` item does make rustc print one,
+    // and the span of the spec literal points it at the user's code.
+    let warnings = generated.warnings.iter().enumerate().map(|(i, w)| {
+        let note = format!(
+            "controller spec warning\n{}",
+            codegen::render::render_warning(w, &source, &shown)
+        );
+        let name = quote::format_ident!("__mpc_spec_warning_{}", i, span = input.spec.span());
+        quote::quote_spanned! {input.spec.span()=>
+            #[deprecated(note = #note)]
+            #[allow(non_upper_case_globals)]
+            const #name: () = ();
+            const _: () = #name;
+        }
+    });
+    let tokens = generated.tokens;
+    Ok(quote::quote! {
+        #tokens
+        #(#warnings)*
+    })
 }

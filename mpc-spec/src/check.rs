@@ -360,7 +360,10 @@ fn square(
                     format!("`{path}` must be {n}×{n} ({dim} = {n}), found {found}"),
                     m.span.clone(),
                 )
-                .label(format!("expected {n} diagonal entries or a {n}×{n} matrix")),
+                .label(format!(
+                    "expected a diagonal of {} or a {n}×{n} matrix",
+                    crate::parse::entries(n)
+                )),
             );
             None
         }
@@ -378,12 +381,13 @@ fn bound(
         diags.push(
             Diagnostic::new(
                 format!(
-                    "`{path}` must have {nu} entries (nu = {nu}), found {}",
+                    "`{path}` must have {} (nu = {nu}), found {}",
+                    crate::parse::entries(nu),
                     v.value.len()
                 ),
                 v.span.clone(),
             )
-            .label(format!("expected {nu} entries")),
+            .label(format!("expected {}", crate::parse::entries(nu))),
         );
         return None;
     }

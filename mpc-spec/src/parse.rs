@@ -35,7 +35,7 @@ impl MatrixInput {
         match self {
             MatrixInput::Scalar(k) => Ok(Matrix::diagonal(&vec![*k; n])),
             MatrixInput::Diagonal(d) if d.len() == n => Ok(Matrix::diagonal(d)),
-            MatrixInput::Diagonal(d) => Err(format!("a diagonal of {} entries", d.len())),
+            MatrixInput::Diagonal(d) => Err(format!("a diagonal of {}", entries(d.len()))),
             MatrixInput::Full(m) if m.rows == n && m.cols == n => Ok(m.clone()),
             MatrixInput::Full(m) => Err(format!("a {}×{} matrix", m.rows, m.cols)),
         }
@@ -122,6 +122,7 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         diags,
         spans: BTreeMap::new(),
         present: BTreeSet::new(),
+        suggested: BTreeSet::new(),
     };
     let root_span = root.span();
     let root = root.get_ref();
@@ -224,6 +225,8 @@ struct Parser<'d> {
     diags: &'d mut Diagnostics,
     spans: BTreeMap<String, Span>,
     present: BTreeSet<String>,
+    /// Keys offered as "did you mean" for a misspelled one: not reported again as missing.
+    suggested: BTreeSet<String>,
 }
 
 impl Parser<'_> {
@@ -279,7 +282,7 @@ impl Parser<'_> {
         let place = if table.is_empty() {
             "the spec".to_string()
         } else {
-            format!("[{table}]")
+            format!("`[{table}]`")
         };
         for (k, _) in t.iter() {
             let key: &str = k.get_ref();
@@ -298,6 +301,12 @@ impl Parser<'_> {
                 .map(|a| (strsim::jaro_winkler(a, key), *a))
                 .fold((0.0, ""), |best, c| if c.0 > best.0 { c } else { best });
             d = if closest.0 > 0.8 {
+                let prefix = if table.is_empty() {
+                    String::new()
+                } else {
+                    format!("{table}.")
+                };
+                self.suggested.insert(format!("{prefix}{}", closest.1));
                 d.note(format!("hint: did you mean `{}`?", closest.1))
             } else {
                 d.note(format!(
@@ -317,7 +326,8 @@ impl Parser<'_> {
         table_span: &Span,
     ) -> Option<&'a Value<'i>> {
         let v = t.get(key);
-        if v.is_none() {
+        // A misspelled key was reported with this one as its suggestion: once is enough.
+        if v.is_none() && !self.suggested.contains(&format!("{table}.{key}")) {
             self.err(
                 Diagnostic::new(
                     format!("missing key `{key}` in `[{table}]`"),
@@ -442,7 +452,7 @@ impl Parser<'_> {
                     v.span(),
                 )
                 .label("out of range");
-                if !why.is_empty() {
+                if !why.is_empty() && n.is_some_and(|n| n > max) {
                     d = d.note(why.to_string());
                 }
                 self.err(d);
@@ -663,6 +673,15 @@ impl Parser<'_> {
 
 /// Why the horizon is bounded.
 const HORIZON_LIMIT: &str = "hint: the emitted code unrolls the products with H (N·nu × N·nu) and Fr (N·nu × N·nx), which grow as N²; beyond this the generated source and its compile time grow past what is sensible for a fixed-iteration controller";
+
+/// "1 entry", "3 entries".
+pub fn entries(n: usize) -> String {
+    if n == 1 {
+        "1 entry".to_string()
+    } else {
+        format!("{n} entries")
+    }
+}
 
 fn quoted(options: &[&str]) -> String {
     options

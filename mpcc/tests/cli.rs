@@ -169,8 +169,9 @@ fn check_a_bad_spec_renders_the_macros_error_and_exits_1() {
     assert_eq!(
         err,
         format!(
-            "{rendered}\n\nmpcc: invalid controller spec `{shown}`: {} errors\n",
-            diags.0.len()
+            "{rendered}\n\nmpcc: invalid controller spec `{shown}`: {} error{}\n",
+            diags.0.len(),
+            if diags.0.len() == 1 { "" } else { "s" }
         )
     );
     assert!(err.contains("unknown key `horizion`"), "{err}");

@@ -18,8 +18,10 @@ fn situations(n: usize) -> Vec<([f64; 6], Vec<[f64; 6]>)> {
     let mut rng = mpc_tests::harness::rng(42);
     (0..64)
         .map(|_| {
-            let x0: [f64; 6] = core::array::from_fn(|i| rng.gen_range(-1.0..1.0) * if i < 3 { 2.0 } else { 1.0 });
-            let r: [f64; 6] = core::array::from_fn(|i| if i < 3 { rng.gen_range(-0.5..0.5) } else { 0.0 });
+            let x0: [f64; 6] =
+                core::array::from_fn(|i| rng.gen_range(-1.0..1.0) * if i < 3 { 2.0 } else { 1.0 });
+            let r: [f64; 6] =
+                core::array::from_fn(|i| if i < 3 { rng.gen_range(-0.5..0.5) } else { 0.0 });
             (x0, vec![r; n])
         })
         .collect()
@@ -35,7 +37,12 @@ macro_rules! bench_generated {
         use $m::{Mpc, N};
         let cases: Vec<([$real; 6], [[$real; 6]; N])> = situations(N)
             .into_iter()
-            .map(|(x, r)| (x.map(|v| v as $real), core::array::from_fn(|k| r[k].map(|v| v as $real))))
+            .map(|(x, r)| {
+                (
+                    x.map(|v| v as $real),
+                    core::array::from_fn(|k| r[k].map(|v| v as $real)),
+                )
+            })
             .collect();
         let mut mpc = Mpc::new();
         let mut i = 0;
@@ -49,12 +56,20 @@ macro_rules! bench_generated {
     }};
 }
 
-fn bench_oracle(group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>, path: &str) {
+fn bench_oracle(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    path: &str,
+) {
     let p = problem(path);
     let n = p.qp.N;
     let cases: Vec<(DVector<f64>, Vec<DVector<f64>>)> = situations(n)
         .into_iter()
-        .map(|(x, r)| (DVector::from_row_slice(&x), r.iter().map(|v| DVector::from_row_slice(v)).collect()))
+        .map(|(x, r)| {
+            (
+                DVector::from_row_slice(&x),
+                r.iter().map(|v| DVector::from_row_slice(v)).collect(),
+            )
+        })
         .collect();
     let mut mpc = oracle::Mpc::new(&p);
     let mut i = 0;
@@ -106,7 +121,12 @@ fn cycle(c: &mut Criterion) {
     let mut generic = oracle::Controller::new(&p, DVector::zeros(6));
     let dcases: Vec<(DVector<f64>, Vec<DVector<f64>>)> = cases
         .iter()
-        .map(|(x, r)| (DVector::from_row_slice(&x[..3]), r.iter().map(|v| DVector::from_row_slice(v)).collect()))
+        .map(|(x, r)| {
+            (
+                DVector::from_row_slice(&x[..3]),
+                r.iter().map(|v| DVector::from_row_slice(v)).collect(),
+            )
+        })
         .collect();
     group.bench_function("generic f64", |b| {
         b.iter(|| {

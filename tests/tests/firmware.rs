@@ -84,8 +84,8 @@ static FIRMWARE: Mutex<()> = Mutex::new(());
 fn build_and_fly(board: Board, spec: Option<&str>, name: &str) -> Flight {
     let _guard = FIRMWARE.lock().unwrap_or_else(|e| e.into_inner());
     let root = root();
-    let elf = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("firmware-{}-{name}.elf", board.arg));
+    let elf =
+        Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("firmware-{}-{name}.elf", board.arg));
     let mut build = Command::new("timeout");
     build
         .arg(BUILD_TIMEOUT_S.to_string())
@@ -305,7 +305,10 @@ fn assert_flew(f: &Flight, board: Board, spec: &str, scalar: &str, horizon: u64,
     assert!(stack > 256 && stack < 48 * 1024, "stack use {stack} B");
     // One control cycle's share, from the probe painted below the caller's stack pointer.
     let cycle = uint(r, "cycle_stack_bytes");
-    assert!(cycle > 256 && cycle < stack, "control cycle stack {cycle} B of {stack} B");
+    assert!(
+        cycle > 256 && cycle < stack,
+        "control cycle stack {cycle} B of {stack} B"
+    );
     let full = (Trajectory::paper().duration() / flight_sim::DT) as u64;
     assert_eq!(
         uint(r, "cycles"),
@@ -446,7 +449,8 @@ fn assert_calibrated(r: &Value, board: Board) {
     // The loop plus the few instructions of the two timer reads.
     let measured = ticks * board.instructions_per_tick;
     assert!(
-        measured >= instructions && measured <= instructions + 16.max(4 * board.instructions_per_tick),
+        measured >= instructions
+            && measured <= instructions + 16.max(4 * board.instructions_per_tick),
         "{instructions} instructions took {ticks} ticks on {}",
         board.name
     );
@@ -579,7 +583,11 @@ fn paper_spec_cortex_m4_firmware_agrees_with_the_host() {
     // Both boards fly the very same loop: the same errors to the micrometre.
     let a9 = &paper_flight().result;
     for key in ["rmse_um", "max_abs_error_um"] {
-        assert_eq!(axes(r, key), axes(a9, key), "{key}: Cortex-M4F vs Cortex-A9");
+        assert_eq!(
+            axes(r, key),
+            axes(a9, key),
+            "{key}: Cortex-M4F vs Cortex-A9"
+        );
     }
 }
 
@@ -598,5 +606,8 @@ fn f64_spec_flies_on_the_cortex_m4_in_software_floating_point() {
     // No double-precision FPU: the same controller costs many times the A9's instructions.
     let m4 = uint(&f.result, "ticks_mean") * M4.instructions_per_tick;
     let a9 = uint(&f64_flight().result, "ticks_mean") * ZYNQ.instructions_per_tick;
-    assert!(m4 > 5 * a9, "f64 on the M4: {m4} instructions, on the A9: {a9}");
+    assert!(
+        m4 > 5 * a9,
+        "f64 on the M4: {m4} instructions, on the A9: {a9}"
+    );
 }
