@@ -71,6 +71,36 @@ pub fn norm_inf(M: &DMatrix<f64>) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The scale of the rounding error of a generated solve against the oracle's (see
+/// `tests/generated_vs_generic.rs`): ε·(‖Fx‖∞|x0|∞ + ‖Fr‖∞|Xref|∞ + ‖H‖∞|U|max + ‖Fd‖∞|d|∞)/μ.
+pub fn mpc_error_scale(
+    qp: &codegen::lower::Qp,
+    eps: f64,
+    x0_abs: f64,
+    xref_abs: f64,
+    d_abs: f64,
+) -> f64 {
+    let u_abs = qp.u_min.amax().max(qp.u_max.amax());
+    let fd = if qp.Fd.ncols() > 0 {
+        norm_inf(&qp.Fd) * d_abs
+    } else {
+        0.0
+    };
+    eps * (norm_inf(&qp.Fx) * x0_abs + norm_inf(&qp.Fr) * xref_abs + norm_inf(&qp.H) * u_abs + fd)
+        / qp.mu
+}
+
+/// The largest entrywise difference of two equally long sequences.
+pub fn max_difference<'a>(
+    a: impl IntoIterator<Item = &'a f64>,
+    b: impl IntoIterator<Item = &'a f64>,
+) -> f64 {
+    a.into_iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
 /// A random vector with entries uniform in ±`scale`.
 pub fn random_vector(rng: &mut impl Rng, n: usize, scale: f64) -> DVector<f64> {
     DVector::from_iterator(n, (0..n).map(|_| rng.gen_range(-scale..=scale)))

@@ -28,7 +28,6 @@ fn compare_mpc<G: Generated>(seed: u64, runs: usize, steps: usize) -> f64 {
     let mut generated = G::mpc_new();
     let eps = G::epsilon();
     let u_abs = qp.u_min.amax().max(qp.u_max.amax());
-    let (norm_Fx, norm_Fr, norm_H) = (norm_inf(&qp.Fx), norm_inf(&qp.Fr), norm_inf(&qp.H));
     let round = |v: &DVector<f64>| v.map(G::round);
     let mut worst: f64 = 0.0;
     let (mut saturated, mut interior) = (0, 0);
@@ -66,7 +65,7 @@ fn compare_mpc<G: Generated>(seed: u64, runs: usize, steps: usize) -> f64 {
             }
             let x_abs = x0.amax();
             let r_abs = xref.iter().map(|r| r.amax()).fold(0.0, f64::max);
-            let scale = eps * (norm_Fx * x_abs + norm_Fr * r_abs + norm_H * u_abs) / qp.mu;
+            let scale = mpc_error_scale(qp, eps, x_abs, r_abs, 0.0);
             let diff = plan
                 .iter()
                 .zip(oracle.plan().iter())

@@ -20,12 +20,6 @@ fn compare_offset_free_mpc<G: OffsetFree>(seed: u64) -> f64 {
     let mut oracle = oracle::Mpc::new(&p);
     let mut generated = G::mpc_new();
     let u_abs = qp.u_min.amax().max(qp.u_max.amax());
-    let norms = (
-        norm_inf(&qp.Fx),
-        norm_inf(&qp.Fr),
-        norm_inf(&qp.H),
-        norm_inf(&qp.Fd),
-    );
     let round = |v: &DVector<f64>| v.map(G::round);
     let mut worst: f64 = 0.0;
     for run in 0..100 {
@@ -53,15 +47,8 @@ fn compare_offset_free_mpc<G: OffsetFree>(seed: u64) -> f64 {
                 .enumerate()
                 .all(|(j, v)| v.is_finite() && *v >= qp.u_min[j] && *v <= qp.u_max[j]));
             let r_abs = xref.iter().map(|r| r.amax()).fold(0.0, f64::max);
-            let scale = G::epsilon()
-                * (norms.0 * x0.amax() + norms.1 * r_abs + norms.2 * u_abs + norms.3 * d.amax())
-                / qp.mu;
-            let plan = G::mpc_plan(&generated);
-            let diff = plan
-                .iter()
-                .zip(oracle.plan().iter())
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
+            let scale = mpc_error_scale(qp, G::epsilon(), x0.amax(), r_abs, d.amax());
+            let diff = max_difference(&G::mpc_plan(&generated), oracle.plan().iter());
             worst = worst.max(diff / scale);
         }
     }
