@@ -479,7 +479,7 @@ pub fn steady_state_filter(
 ) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
     let mut P = P0.clone();
     for _ in 0..1_000_000 {
-        let (K, P_post) = kalman_gain_and_posterior(&P, C, Rn)?;
+        let (_, P_post) = kalman_gain_and_posterior(&P, C, Rn)?;
         let next = symmetrize(&(F * P_post * F.transpose() + Qn));
         let change = (&next - &P).amax();
         P = next;
@@ -487,7 +487,6 @@ pub fn steady_state_filter(
             return None;
         }
         if change <= 1e-15 * P.amax() {
-            let _ = K;
             let (K, _) = kalman_gain_and_posterior(&P, C, Rn)?;
             return Some((P, K));
         }

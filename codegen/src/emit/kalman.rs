@@ -198,7 +198,7 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
 fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
     let (ny, nd) = (p.ny, p.filter.nd);
     // The covariance is over the filter's state (x, d): na = nx + nd entries.
-    let nx = p.nx + nd;
+    let na = p.nx + nd;
     let (Fa, Ca) = (&p.filter.Fa, &p.filter.Ca);
     let ns = if nd > 0 { quote!(NA) } else { quote!(NX) };
     let (_, state_args) = state_signature(p);
@@ -226,14 +226,14 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
         quote!(#name[#i][#j])
     };
     // F·P, then (F·P)·Fᵀ + Q, upper triangle computed and mirrored so P stays symmetric.
-    let fp_rows = (0..nx).map(|i| {
-        let row = (0..nx).map(|j| num.sum(None, (0..nx).map(|k| (Fa[(i, k)], m(&P, k, j)))));
+    let fp_rows = (0..na).map(|i| {
+        let row = (0..na).map(|j| num.sum(None, (0..na).map(|k| (Fa[(i, k)], m(&P, k, j)))));
         quote!([#(#row),*])
     });
     let mut propagate = Vec::new();
-    for i in 0..nx {
-        for j in i..nx {
-            let e = num.sum(None, (0..nx).map(|k| (Fa[(j, k)], m(&FP, i, k))));
+    for i in 0..na {
+        for j in i..na {
+            let e = num.sum(None, (0..na).map(|k| (Fa[(j, k)], m(&FP, i, k))));
             let q = num.lit(p.filter.Qn[(i, j)]);
             let (ii, jj) = (ix(i), ix(j));
             let value = if num.round(p.filter.Qn[(i, j)]) == 0.0 {
@@ -247,14 +247,14 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
             }
         }
     }
-    // P·Cᵀ (nx × ny) and C·(P·Cᵀ) + R (ny × ny).
-    let pct_rows = (0..nx).map(|i| {
-        let row = (0..ny).map(|j| num.sum(None, (0..nx).map(|k| (Ca[(j, k)], m(&P, i, k)))));
+    // P·Cᵀ (na × ny) and C·(P·Cᵀ) + R (ny × ny).
+    let pct_rows = (0..na).map(|i| {
+        let row = (0..ny).map(|j| num.sum(None, (0..na).map(|k| (Ca[(j, k)], m(&P, i, k)))));
         quote!([#(#row),*])
     });
     let s_rows = (0..ny).map(|i| {
         let row = (0..ny).map(|j| {
-            let e = num.sum(None, (0..nx).map(|k| (Ca[(i, k)], m(&PCt, k, j))));
+            let e = num.sum(None, (0..na).map(|k| (Ca[(i, k)], m(&PCt, k, j))));
             let r = num.lit(p.filter.Rn[(i, j)]);
             if num.round(p.filter.Rn[(i, j)]) == 0.0 {
                 e
@@ -265,8 +265,8 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
         quote!([#(#row),*])
     });
     // I − K·C.
-    let ikc_rows = (0..nx).map(|i| {
-        let row = (0..nx).map(|j| {
+    let ikc_rows = (0..na).map(|i| {
+        let row = (0..na).map(|j| {
             let one = if i == j { Some(num.lit(1.0)) } else { None };
             num.sum(one, (0..ny).map(|l| (-Ca[(l, j)], m(&K, i, l))))
         });
