@@ -22,6 +22,13 @@ fn main() {
         panic!("firmware-template has no board for target {target} (known: {known:?})");
     };
     println!("cargo::rustc-cfg=board=\"{board}\"");
+    // The generated lane kernels use NEON intrinsics under `cfg(mpc_neon)` (the A9 has NEON; the M4
+    // has none). `MPC_NEON=0` builds the portable scalar path instead, to measure the difference.
+    println!("cargo::rustc-check-cfg=cfg(mpc_neon)");
+    println!("cargo::rerun-if-env-changed=MPC_NEON");
+    if board == "zynq" && env::var("MPC_NEON").as_deref() != Ok("0") {
+        println!("cargo::rustc-cfg=mpc_neon");
+    }
     for script in scripts {
         let src = format!("boards/{board}/{script}");
         fs::copy(&src, out.join(script)).unwrap_or_else(|e| panic!("copying {src}: {e}"));

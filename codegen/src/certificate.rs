@@ -16,7 +16,7 @@
 
 use crate::emit::tokens::Num;
 use crate::lower::{extreme_eigenvalues, Problem};
-use mpc_spec::{Diagnostic, Diagnostics, FilterKind, Iterations, Method, Spec};
+use mpc_spec::{Diagnostic, Diagnostics, Emission, FilterKind, Iterations, Method, Spec};
 use nalgebra::DMatrix;
 
 /// The tolerance the report uses when the spec gives none.
@@ -149,6 +149,10 @@ pub struct Certificate {
     pub mpc: MpcLoop,
     /// Costs.
     pub resources: Resources,
+    /// How the gradient is emitted.
+    pub emission: Emission,
+    /// The cost model's estimate of every emission choice ([`crate::cost`]).
+    pub estimates: Vec<crate::cost::Estimate>,
     /// The disturbance estimate's time constant in seconds, with `[kalman] disturbance`: −Δt / ln ρ of the
     /// steady-state estimation error dynamics F_a(I − K∞C_a), whose slowest mode is the disturbance's.
     pub disturbance_time_constant: Option<f64>,
@@ -232,6 +236,8 @@ pub fn certify(p: &Problem) -> Certificate {
         lqr: lqr(p),
         mpc: mpc_loop(p),
         resources: resources(p),
+        emission: p.emission,
+        estimates: crate::cost::estimates(p),
         disturbance_time_constant: (p.filter.nd > 0).then(|| {
             let f = &p.filter;
             let na = p.nx + f.nd;
@@ -411,8 +417,28 @@ fn resources(p: &Problem) -> Resources {
     // The filter works on (x, d): na = nx + nd states.
     let (na, ny) = (p.nx + f.nd, p.ny);
     let nz = qp.N * p.nu;
-    let per_iteration = nnz(&qp.H) + nz + if qp.method == Method::Fgm { nz } else { 0 };
-    let gradient_map = nnz(&qp.Fx) + nnz(&qp.Fr) + nnz(&qp.Fd);
+    let estimates = crate::cost::estimates(p);
+    let chosen = estimates
+        .iter()
+        .find(|e| e.emission == p.emission)
+        .expect("the problem's emission is one of the estimated choices");
+    let per_iteration = chosen.macs + crate::cost::update_macs(p, p.emission);
+    // f: unrolled over Fx, Fr and Fd, or one pass of the matrix-free sweeps (f = ∇J(0)).
+    let (gradient_map, gradient_map_constants) = match p.emission {
+        Emission::Unrolled => (
+            nnz(&qp.Fx) + nnz(&qp.Fr) + nnz(&qp.Fd),
+            coefficients(&qp.H) + coefficients(&qp.Fx) + coefficients(&qp.Fr) + coefficients(&qp.Fd),
+        ),
+        _ => {
+            let sweep = estimates
+                .iter()
+                .find(|e| e.emission == Emission::MatrixFree)
+                .map_or(0, |e| e.macs);
+            let tables = chosen.table_bytes / num.bytes();
+            let model = coefficients(&p.F) + coefficients(&p.G) + coefficients(&qp.Q) + coefficients(&qp.Qf) + coefficients(&qp.R);
+            (sweep, tables + model)
+        }
+    };
     let (F, G, C) = (&f.Fa, &f.Ga, &f.Ca);
     let nnz_F_rows: Vec<usize> = F
         .row_iter()
@@ -452,7 +478,10 @@ fn resources(p: &Problem) -> Resources {
         mpc_spec::Scalar::F32 => 4,
         mpc_spec::Scalar::F64 => 8,
     };
-    let bytes_state_mpc = nz * size;
+    let bytes_state_mpc = match p.emission {
+        Emission::Lanes => qp.N * crate::cost::lane_count(p.nu) * size,
+        _ => nz * size,
+    };
     let bytes_state_kalman = match f.kind {
         FilterKind::SteadyState => na * size,
         FilterKind::TimeVarying => (na + na * na) * size,
@@ -460,12 +489,7 @@ fn resources(p: &Problem) -> Resources {
     Resources {
         macs_per_iteration: per_iteration,
         macs_per_cycle: qp.iterations * per_iteration + gradient_map + filter,
-        bytes_constants: (coefficients(&qp.H)
-            + coefficients(&qp.Fx)
-            + coefficients(&qp.Fr)
-            + coefficients(&qp.Fd)
-            + filter_constants)
-            * size,
+        bytes_constants: (gradient_map_constants + filter_constants) * size,
         bytes_state_mpc,
         bytes_state_kalman,
         bytes_state: bytes_state_mpc + bytes_state_kalman,

@@ -13,10 +13,12 @@
 #![warn(missing_docs)]
 
 pub mod certificate;
+pub mod cost;
 pub mod emit;
 pub mod lower;
 pub mod oracle;
 pub mod render;
+pub mod structure;
 
 pub use certificate::{certify, Certificate};
 pub use emit::Origin;

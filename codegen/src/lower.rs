@@ -5,7 +5,7 @@
 #![allow(non_snake_case)]
 
 use mpc_spec::{
-    Diagnostic, Diagnostics, FilterKind, Iterations, KalmanNoise, Matrix, Method, ModelKind,
+    Diagnostic, Diagnostics, Emission, FilterKind, Iterations, KalmanNoise, Matrix, Method, ModelKind,
     Scalar, Spec, Step,
 };
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
@@ -37,6 +37,8 @@ pub struct Qp {
     pub Fx: DMatrix<f64>,
     /// Fr = 2 Suᵀ Q_blk, (N·nu) × (N·nx): the gradient's dependence on Xref (eq. 10).
     pub Fr: DMatrix<f64>,
+    /// H_axis with H = H_axis ⊗ I_nu (N × N), when H has that structure ([`crate::structure`]).
+    pub H_axis: Option<DMatrix<f64>>,
     /// Fd = H·(1_N ⊗ I), (N·nu) × nd: the gradient's dependence on the estimated input disturbance d.
     /// With V = U + (1_N ⊗ d) the offset-free problem (prediction with u + d, input cost on u − u_ss,
     /// u_ss = −d) is the plain one in V, so f gains exactly H·(1_N ⊗ d). Zero columns without disturbance.
@@ -118,6 +120,8 @@ pub struct Problem {
     pub filter: Filter,
     /// The scalar type to emit.
     pub scalar: Scalar,
+    /// How the gradient is emitted: the spec's forced choice, or the cost model's ([`crate::cost`]).
+    pub emission: Emission,
 }
 
 /// Computes the QP and the filter of `spec`. Fails, with located diagnostics, when a weight or
@@ -296,7 +300,8 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     if !diags.is_empty() {
         return Err(diags.sorted());
     }
-    Ok(Problem {
+    let H_axis = crate::structure::kronecker_identity(&H, nu);
+    let mut problem = Problem {
         nx,
         nu,
         ny,
@@ -311,6 +316,7 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
             Qf,
             Sx,
             Su,
+            H_axis: H_axis.as_ref().ok().cloned(),
             H,
             Fd,
             Fx,
@@ -338,7 +344,34 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         G,
         C,
         scalar: spec.codegen.scalar,
-    })
+        emission: Emission::Table,
+    };
+    let estimates = crate::cost::estimates(&problem);
+    problem.emission = match (spec.codegen.emission, H_axis) {
+        (Emission::Auto, _) => crate::cost::choose(&estimates),
+        (Emission::Lanes, Err(e)) => {
+            let (r, c) = e.entry;
+            return Err(Diagnostic::new(
+                format!("`emission = \"lanes\"` needs H = H_axis ⊗ I_{nu}, and this H is not one"),
+                span("codegen.emission"),
+            )
+            .label("no lane structure")
+            .note(format!(
+                "H[{r}][{c}] = {:e} where the lanes need {:e}: input {} at step {} and input {} at step {} {}",
+                e.value,
+                e.expected,
+                r % nu,
+                r / nu,
+                c % nu,
+                c / nu,
+                if r % nu == c % nu { "differ from the first input's weights" } else { "are coupled" },
+            ))
+            .note("hint: the lanes need independent inputs with equal weights and dynamics; write `emission = \"auto\"` to let the compiler choose")
+            .into());
+        }
+        (forced, _) => forced,
+    };
+    Ok(problem)
 }
 
 fn scalar_name(s: Scalar) -> &'static str {

@@ -13,6 +13,8 @@
 //! Everything in this file, `report`, `stats`, `console` and `decimal` is shared.
 #![no_std]
 #![no_main]
+// The generated controller's NEON kernels (cfg set by build.rs on the A9): arm's intrinsics are nightly-only.
+#![cfg_attr(mpc_neon, feature(stdarch_arm_neon_intrinsics))]
 
 #[cfg_attr(board = "zynq", path = "zynq/mod.rs")]
 #[cfg_attr(board = "stm32f405", path = "stm32f405/mod.rs")]

@@ -5,6 +5,7 @@
 pub mod paper_initial {
     #![allow(
         non_snake_case,
+        unexpected_cfgs,
         dead_code,
         clippy::all,
         clippy::pedantic,
@@ -915,153 +916,152 @@ pub mod paper_initial {
         }
         out
     }
-    /// f = Fx·x0 − Fr·Xref (eq. 10), unrolled over the 120 nonzeros of Fx and Fr.
+    /// How the gradient is emitted: `lanes` ([codegen] emission; `mpcc check` prints the cost model).
+    pub const EMISSION: &str = "lanes";
+    /// Entries per plan step: the NU inputs padded to 4 SIMD lanes (H = H_AXIS ⊗ I); padding stays zero.
+    pub const LANES: usize = 4;
+    /// A plan: one row of LANES per predicted step.
+    type Plan = [[Real; LANES]; N];
+    /// U_MIN over the lanes.
+    const LO: [Real; LANES] = [-10f32, -10f32, -10f32, 0f32];
+    /// U_MAX over the lanes.
+    const HI: [Real; LANES] = [10f32, 10f32, 10f32, 0f32];
+    /// U_REST over the lanes.
+    const REST: [Real; LANES] = [0f32, 0f32, 0f32, 0f32];
+    /// ∇J(v) without H: a forward sweep of the dynamics, then a backward adjoint sweep (O(N)).
+    /// λ_k = 2W_k(x_k − r_k) + Fᵀλ_{k+1}, g_k = Gᵀλ_{k+1} + 2R·u_k, W_k = Q, and Qf at the last step.
     #[inline(always)]
-    fn linear_term(x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [[Real; NU]; N] {
-        [
-            [
-                3.473408f32 * x0[0] + 7.377715f32 * x0[3] - 0.032768f32 * xref[0][0]
-                    - 0.512f32 * xref[0][3] - 0.098304f32 * xref[1][0]
-                    - 0.512f32 * xref[1][3] - 0.16384f32 * xref[2][0]
-                    - 0.512f32 * xref[2][3] - 0.229376f32 * xref[3][0]
-                    - 0.512f32 * xref[3][3] - 2.94912f32 * xref[4][0]
-                    - 5.12f32 * xref[4][3],
-                3.473408f32 * x0[1] + 7.377715f32 * x0[4] - 0.032768f32 * xref[0][1]
-                    - 0.512f32 * xref[0][4] - 0.098304f32 * xref[1][1]
-                    - 0.512f32 * xref[1][4] - 0.16384f32 * xref[2][1]
-                    - 0.512f32 * xref[2][4] - 0.229376f32 * xref[3][1]
-                    - 0.512f32 * xref[3][4] - 2.94912f32 * xref[4][1]
-                    - 5.12f32 * xref[4][4],
-                3.473408f32 * x0[2] + 7.377715f32 * x0[5] - 0.032768f32 * xref[0][2]
-                    - 0.512f32 * xref[0][5] - 0.098304f32 * xref[1][2]
-                    - 0.512f32 * xref[1][5] - 0.16384f32 * xref[2][2]
-                    - 0.512f32 * xref[2][5] - 0.229376f32 * xref[3][2]
-                    - 0.512f32 * xref[3][5] - 2.94912f32 * xref[4][2]
-                    - 5.12f32 * xref[4][5],
-            ],
-            [
-                2.588672f32 * x0[0] + 6.815803f32 * x0[3] - 0.032768f32 * xref[1][0]
-                    - 0.512f32 * xref[1][3] - 0.098304f32 * xref[2][0]
-                    - 0.512f32 * xref[2][3] - 0.16384f32 * xref[3][0]
-                    - 0.512f32 * xref[3][3] - 2.29376f32 * xref[4][0]
-                    - 5.12f32 * xref[4][3],
-                2.588672f32 * x0[1] + 6.815803f32 * x0[4] - 0.032768f32 * xref[1][1]
-                    - 0.512f32 * xref[1][4] - 0.098304f32 * xref[2][1]
-                    - 0.512f32 * xref[2][4] - 0.16384f32 * xref[3][1]
-                    - 0.512f32 * xref[3][4] - 2.29376f32 * xref[4][1]
-                    - 5.12f32 * xref[4][4],
-                2.588672f32 * x0[2] + 6.815803f32 * x0[5] - 0.032768f32 * xref[1][2]
-                    - 0.512f32 * xref[1][5] - 0.098304f32 * xref[2][2]
-                    - 0.512f32 * xref[2][5] - 0.16384f32 * xref[3][2]
-                    - 0.512f32 * xref[3][5] - 2.29376f32 * xref[4][2]
-                    - 5.12f32 * xref[4][5],
-            ],
-            [
-                1.769472f32 * x0[0] + 6.255149f32 * x0[3] - 0.032768f32 * xref[2][0]
-                    - 0.512f32 * xref[2][3] - 0.098304f32 * xref[3][0]
-                    - 0.512f32 * xref[3][3] - 1.6384f32 * xref[4][0]
-                    - 5.12f32 * xref[4][3],
-                1.769472f32 * x0[1] + 6.255149f32 * x0[4] - 0.032768f32 * xref[2][1]
-                    - 0.512f32 * xref[2][4] - 0.098304f32 * xref[3][1]
-                    - 0.512f32 * xref[3][4] - 1.6384f32 * xref[4][1]
-                    - 5.12f32 * xref[4][4],
-                1.769472f32 * x0[2] + 6.255149f32 * x0[5] - 0.032768f32 * xref[2][2]
-                    - 0.512f32 * xref[2][5] - 0.098304f32 * xref[3][2]
-                    - 0.512f32 * xref[3][5] - 1.6384f32 * xref[4][2]
-                    - 5.12f32 * xref[4][5],
-            ],
-            [
-                1.015808f32 * x0[0] + 5.6965923f32 * x0[3] - 0.032768f32 * xref[3][0]
-                    - 0.512f32 * xref[3][3] - 0.98304f32 * xref[4][0]
-                    - 5.12f32 * xref[4][3],
-                1.015808f32 * x0[1] + 5.6965923f32 * x0[4] - 0.032768f32 * xref[3][1]
-                    - 0.512f32 * xref[3][4] - 0.98304f32 * xref[4][1]
-                    - 5.12f32 * xref[4][4],
-                1.015808f32 * x0[2] + 5.6965923f32 * x0[5] - 0.032768f32 * xref[3][2]
-                    - 0.512f32 * xref[3][5] - 0.98304f32 * xref[4][2]
-                    - 5.12f32 * xref[4][5],
-            ],
-            [
-                0.32768f32 * x0[0] + 5.1409717f32 * x0[3] - 0.32768f32 * xref[4][0]
-                    - 5.12f32 * xref[4][3],
-                0.32768f32 * x0[1] + 5.1409717f32 * x0[4] - 0.32768f32 * xref[4][1]
-                    - 5.12f32 * xref[4][4],
-                0.32768f32 * x0[2] + 5.1409717f32 * x0[5] - 0.32768f32 * xref[4][2]
-                    - 5.12f32 * xref[4][5],
-            ],
-        ]
+    fn adjoint_gradient(v: &Plan, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> Plan {
+        let mut x = [[0.0; NX]; N];
+        let mut prev = *x0;
+        for (x_k, v_k) in x.iter_mut().zip(v.iter()) {
+            let u: [Real; NU] = [v_k[0], v_k[1], v_k[2]];
+            *x_k = [
+                prev[0] + 0.0128f32 * prev[3] + 0.00008192f32 * u[0],
+                prev[1] + 0.0128f32 * prev[4] + 0.00008192f32 * u[1],
+                prev[2] + 0.0128f32 * prev[5] + 0.00008192f32 * u[2],
+                prev[3] + 0.0128f32 * u[0],
+                prev[4] + 0.0128f32 * u[1],
+                prev[5] + 0.0128f32 * u[2],
+            ];
+            prev = *x_k;
+        }
+        let mut g = [[0.0; LANES]; N];
+        let mut lambda = [0.0; NX];
+        let steps = g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()));
+        for (k, ((g_k, x_k), (r_k, v_k))) in steps.enumerate().rev() {
+            let u: [Real; NU] = [v_k[0], v_k[1], v_k[2]];
+            let e: [Real; NX] = [
+                x_k[0] - r_k[0],
+                x_k[1] - r_k[1],
+                x_k[2] - r_k[2],
+                x_k[3] - r_k[3],
+                x_k[4] - r_k[4],
+                x_k[5] - r_k[5],
+            ];
+            let we: [Real; NX] = if k + 1 == N {
+                [
+                    4000f32 * e[0],
+                    4000f32 * e[1],
+                    4000f32 * e[2],
+                    400f32 * e[3],
+                    400f32 * e[4],
+                    400f32 * e[5],
+                ]
+            } else {
+                [
+                    400f32 * e[0],
+                    400f32 * e[1],
+                    400f32 * e[2],
+                    40f32 * e[3],
+                    40f32 * e[4],
+                    40f32 * e[5],
+                ]
+            };
+            lambda = [
+                we[0] + lambda[0],
+                we[1] + lambda[1],
+                we[2] + lambda[2],
+                we[3] + 0.0128f32 * lambda[0] + lambda[3],
+                we[4] + 0.0128f32 * lambda[1] + lambda[4],
+                we[5] + 0.0128f32 * lambda[2] + lambda[5],
+            ];
+            *g_k = [
+                0.00008192f32 * lambda[0] + 0.0128f32 * lambda[3] + 0.02f32 * u[0],
+                0.00008192f32 * lambda[1] + 0.0128f32 * lambda[4] + 0.02f32 * u[1],
+                0.00008192f32 * lambda[2] + 0.0128f32 * lambda[5] + 0.02f32 * u[2],
+                0f32,
+            ];
+        }
+        g
     }
-    /// ∇J(y) = H·y + f (eq. 11), unrolled over the 75 nonzeros of H.
+    /// H_axis with H = H_axis ⊗ I_NU (5×5): every input's share of the Hessian, one table for all lanes.
+    pub const H_AXIS: [[Real; N]; N] = [
+        [0.11415021f32, 0.08703022f32, 0.079920955f32, 0.072833166f32, 0.06577759f32],
+        [0.08703022f32, 0.10660609f32, 0.079631045f32, 0.072666734f32, 0.0657239f32],
+        [0.079920955f32, 0.079631045f32, 0.09934113f32, 0.0725003f32, 0.065670215f32],
+        [0.072833166f32, 0.072666734f32, 0.0725003f32, 0.092333876f32, 0.06561653f32],
+        [0.06577759f32, 0.0657239f32, 0.065670215f32, 0.06561653f32, 0.08556284f32],
+    ];
+    /// ∇J(y) = (H_AXIS ⊗ I)·y + f (eq. 11): 25 lane-wise multiply-adds of 4 lanes.
+    #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
     #[inline(always)]
-    fn gradient(y: &[[Real; NU]; N], f: &[[Real; NU]; N]) -> [[Real; NU]; N] {
-        [
-            [
-                f[0][0] + 0.11415021f32 * y[0][0] + 0.08703022f32 * y[1][0]
-                    + 0.079920955f32 * y[2][0] + 0.072833166f32 * y[3][0]
-                    + 0.06577759f32 * y[4][0],
-                f[0][1] + 0.11415021f32 * y[0][1] + 0.08703022f32 * y[1][1]
-                    + 0.079920955f32 * y[2][1] + 0.072833166f32 * y[3][1]
-                    + 0.06577759f32 * y[4][1],
-                f[0][2] + 0.11415021f32 * y[0][2] + 0.08703022f32 * y[1][2]
-                    + 0.079920955f32 * y[2][2] + 0.072833166f32 * y[3][2]
-                    + 0.06577759f32 * y[4][2],
-            ],
-            [
-                f[1][0] + 0.08703022f32 * y[0][0] + 0.10660609f32 * y[1][0]
-                    + 0.079631045f32 * y[2][0] + 0.072666734f32 * y[3][0]
-                    + 0.0657239f32 * y[4][0],
-                f[1][1] + 0.08703022f32 * y[0][1] + 0.10660609f32 * y[1][1]
-                    + 0.079631045f32 * y[2][1] + 0.072666734f32 * y[3][1]
-                    + 0.0657239f32 * y[4][1],
-                f[1][2] + 0.08703022f32 * y[0][2] + 0.10660609f32 * y[1][2]
-                    + 0.079631045f32 * y[2][2] + 0.072666734f32 * y[3][2]
-                    + 0.0657239f32 * y[4][2],
-            ],
-            [
-                f[2][0] + 0.079920955f32 * y[0][0] + 0.079631045f32 * y[1][0]
-                    + 0.09934113f32 * y[2][0] + 0.0725003f32 * y[3][0]
-                    + 0.065670215f32 * y[4][0],
-                f[2][1] + 0.079920955f32 * y[0][1] + 0.079631045f32 * y[1][1]
-                    + 0.09934113f32 * y[2][1] + 0.0725003f32 * y[3][1]
-                    + 0.065670215f32 * y[4][1],
-                f[2][2] + 0.079920955f32 * y[0][2] + 0.079631045f32 * y[1][2]
-                    + 0.09934113f32 * y[2][2] + 0.0725003f32 * y[3][2]
-                    + 0.065670215f32 * y[4][2],
-            ],
-            [
-                f[3][0] + 0.072833166f32 * y[0][0] + 0.072666734f32 * y[1][0]
-                    + 0.0725003f32 * y[2][0] + 0.092333876f32 * y[3][0]
-                    + 0.06561653f32 * y[4][0],
-                f[3][1] + 0.072833166f32 * y[0][1] + 0.072666734f32 * y[1][1]
-                    + 0.0725003f32 * y[2][1] + 0.092333876f32 * y[3][1]
-                    + 0.06561653f32 * y[4][1],
-                f[3][2] + 0.072833166f32 * y[0][2] + 0.072666734f32 * y[1][2]
-                    + 0.0725003f32 * y[2][2] + 0.092333876f32 * y[3][2]
-                    + 0.06561653f32 * y[4][2],
-            ],
-            [
-                f[4][0] + 0.06577759f32 * y[0][0] + 0.0657239f32 * y[1][0]
-                    + 0.065670215f32 * y[2][0] + 0.06561653f32 * y[3][0]
-                    + 0.08556284f32 * y[4][0],
-                f[4][1] + 0.06577759f32 * y[0][1] + 0.0657239f32 * y[1][1]
-                    + 0.065670215f32 * y[2][1] + 0.06561653f32 * y[3][1]
-                    + 0.08556284f32 * y[4][1],
-                f[4][2] + 0.06577759f32 * y[0][2] + 0.0657239f32 * y[1][2]
-                    + 0.065670215f32 * y[2][2] + 0.06561653f32 * y[3][2]
-                    + 0.08556284f32 * y[4][2],
-            ],
-        ]
+    fn gradient(y: &Plan, f: &Plan) -> Plan {
+        let mut g = *f;
+        for (h_j, y_j) in H_AXIS.iter().zip(y.iter()) {
+            for (g_i, h_ij) in g.iter_mut().zip(h_j.iter()) {
+                for (g, y) in g_i.iter_mut().zip(y_j.iter()) {
+                    *g += *h_ij * *y;
+                }
+            }
+        }
+        g
+    }
+    /// ∇J(y) = (H_AXIS ⊗ I)·y + f (eq. 11): 25 lane-wise multiply-adds of 4 lanes.
+    /// NEON: one `vmla.f32 q, q, d[x]` per entry of H_AXIS.
+    #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
+    #[inline(always)]
+    fn gradient(y: &Plan, f: &Plan) -> Plan {
+        use core::arch::arm::{float32x4_t, vld1q_f32, vmlaq_n_f32, vst1q_f32};
+        let mut g = *f;
+        unsafe {
+            let mut acc: [float32x4_t; N] = core::array::from_fn(|_| vld1q_f32(
+                REST.as_ptr(),
+            ));
+            for (a, f_i) in acc.iter_mut().zip(f.iter()) {
+                *a = vld1q_f32(f_i.as_ptr());
+            }
+            for (h_j, y_j) in H_AXIS.iter().zip(y.iter()) {
+                let y_j = vld1q_f32(y_j.as_ptr());
+                for (a, h_ij) in acc.iter_mut().zip(h_j.iter()) {
+                    *a = vmlaq_n_f32(*a, y_j, *h_ij);
+                }
+            }
+            for (g_i, a) in g.iter_mut().zip(acc.iter()) {
+                vst1q_f32(g_i.as_mut_ptr(), *a);
+            }
+        }
+        g
+    }
+    /// The NU inputs of one plan step.
+    #[inline(always)]
+    fn inputs(step: &[Real; LANES]) -> [Real; NU] {
+        let mut out = [0.0; NU];
+        for (o, v) in out.iter_mut().zip(step.iter()) {
+            *o = *v;
+        }
+        out
     }
     /// proj(y − STEP·g) onto the input box (Algorithm 1, lines 4-5).
     #[inline(always)]
-    fn projected_step(y: &[[Real; NU]; N], g: &[[Real; NU]; N]) -> [[Real; NU]; N] {
+    fn projected_step(y: &Plan, g: &Plan) -> Plan {
         let mut out = *y;
         for (out_k, g_k) in out.iter_mut().zip(g.iter()) {
             for (((u, g), lo), hi) in out_k
                 .iter_mut()
                 .zip(g_k.iter())
-                .zip(U_MIN.iter())
-                .zip(U_MAX.iter())
+                .zip(LO.iter())
+                .zip(HI.iter())
             {
                 *u = project(*u - STEP * *g, *lo, *hi);
             }
@@ -1071,10 +1071,7 @@ pub mod paper_initial {
     /// The momentum step of the fast gradient method: next + MOMENTUM·(next − previous).
     #[allow(dead_code)]
     #[inline(always)]
-    fn extrapolate(
-        next: &[[Real; NU]; N],
-        previous: &[[Real; NU]; N],
-    ) -> [[Real; NU]; N] {
+    fn extrapolate(next: &Plan, previous: &Plan) -> Plan {
         let mut out = *next;
         for (out_k, prev_k) in out.iter_mut().zip(previous.iter()) {
             for (y, prev) in out_k.iter_mut().zip(prev_k.iter()) {
@@ -1086,12 +1083,12 @@ pub mod paper_initial {
     /// Fixed-iteration, warm-started MPC over the condensed QP (paper Section 2.4, Algorithm 1).
     #[derive(Clone, Debug, PartialEq)]
     pub struct Mpc {
-        plan: [[Real; NU]; N],
+        plan: Plan,
     }
     impl Mpc {
         /// A cold controller: the first solve starts from the rest input (zero, projected onto the box).
         pub const fn new() -> Self {
-            Mpc { plan: [U_REST; N] }
+            Mpc { plan: [REST; N] }
         }
         /// One control step: `x0` is the current state, `xref[k]` the reference of predicted state k+1.
         /// Returns the first input of the plan, always finite and inside [U_MIN, U_MAX]. A non-finite
@@ -1101,24 +1098,29 @@ pub mod paper_initial {
                 self.reset();
                 return U_REST;
             }
-            let f = linear_term(x0, xref);
-            let mut u: [[Real; NU]; N] = [
+            let f = adjoint_gradient(&[[0.0; LANES]; N], x0, xref);
+            let mut u: Plan = [
                 self.plan[1],
                 self.plan[2],
                 self.plan[3],
                 self.plan[4],
-                U_REST,
+                REST,
             ];
             for _ in 0..ITERATIONS {
-                let g = gradient(&u, &f);
+                let y = u;
+                let g = gradient(&y, &f);
                 u = projected_step(&u, &g);
             }
             self.plan = u;
-            u[0]
+            inputs(&u[0])
         }
         /// The plan of the last solve, one input per predicted step.
-        pub fn plan(&self) -> &[[Real; NU]; N] {
-            &self.plan
+        pub fn plan(&self) -> [[Real; NU]; N] {
+            let mut out = [[0.0; NU]; N];
+            for (o, step) in out.iter_mut().zip(self.plan.iter()) {
+                *o = inputs(step);
+            }
+            out
         }
         /// Forgets the warm start.
         pub fn reset(&mut self) {
@@ -1450,17 +1452,17 @@ pub mod paper_initial {
         /// ρ of the loop the fixed-iteration, warm-started solver closes, in (x, previous plan).
         pub const MPC_SOLVER_SPECTRAL_RADIUS: Option<f64> = Some(0.9951890591485366f64);
         /// Multiply-adds of one solver iteration.
-        pub const MACS_PER_ITERATION: usize = 90;
+        pub const MACS_PER_ITERATION: usize = 120;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
-        pub const MACS_PER_CYCLE: usize = 9954;
+        pub const MACS_PER_CYCLE: usize = 13059;
         /// Bytes of coefficients inlined into the code.
-        pub const BYTES_CONSTANTS: usize = 876;
+        pub const BYTES_CONSTANTS: usize = 292;
         /// Bytes of `Mpc`.
-        pub const BYTES_STATE_MPC: usize = 60;
+        pub const BYTES_STATE_MPC: usize = 80;
         /// Bytes of `Kalman`.
         pub const BYTES_STATE_KALMAN: usize = 168;
         /// Bytes of `Controller`, all the state carried between cycles.
-        pub const BYTES_STATE: usize = 228;
+        pub const BYTES_STATE: usize = 248;
         /// The disturbance estimate's time constant, s (with `[kalman] disturbance`).
         pub const DISTURBANCE_TIME_CONSTANT: Option<f64> = None;
     }

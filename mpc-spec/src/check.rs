@@ -19,6 +19,13 @@ pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
         Some("f64") => Scalar::F64,
         _ => Scalar::F32,
     };
+    let emission = match raw.emission.as_ref().map(|s| s.value.as_str()) {
+        Some("unrolled") => Emission::Unrolled,
+        Some("table") => Emission::Table,
+        Some("lanes") => Emission::Lanes,
+        Some("matrix_free") => Emission::MatrixFree,
+        _ => Emission::Auto,
+    };
     if !diags.is_empty() {
         return None;
     }
@@ -26,7 +33,7 @@ pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
         model: model?,
         mpc: mpc?,
         kalman: kalman?,
-        codegen: Codegen { scalar },
+        codegen: Codegen { scalar, emission },
         spans: Spans(raw.spans),
     })
 }

@@ -41,7 +41,7 @@ pub const KALMAN_KEYS: &[&str] = &[
     "disturbance",
 ];
 /// Keys of `[codegen]`.
-pub const CODEGEN_KEYS: &[&str] = &["scalar"];
+pub const CODEGEN_KEYS: &[&str] = &["scalar", "emission"];
 
 /// Values of `[model] type`.
 pub const MODEL_TYPES: &[&str] = &["double_integrator", "linear"];
@@ -51,3 +51,5 @@ pub const METHODS: &[&str] = &["fgm", "gradient"];
 pub const FILTERS: &[&str] = &["time_varying", "steady_state"];
 /// Values of `[codegen] scalar`.
 pub const SCALARS: &[&str] = &["f32", "f64"];
+/// Values of `[codegen] emission`.
+pub const EMISSIONS: &[&str] = &["auto", "unrolled", "table", "lanes", "matrix_free"];

@@ -207,6 +207,36 @@ pub enum Scalar {
 pub struct Codegen {
     /// The emitted scalar type.
     pub scalar: Scalar,
+    /// How the solver's products are emitted; `Auto` lets the compiler's cost model choose.
+    pub emission: Emission,
+}
+
+/// How the gradient ∇J = H·U + f is emitted, `[codegen] emission`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Emission {
+    /// The compiler's cost model chooses (`mpcc check` prints it).
+    Auto,
+    /// Every nonzero of H inlined as a constant, one statement per row.
+    Unrolled,
+    /// A loop over H stored as a constant table: code size independent of the horizon.
+    Table,
+    /// H = H_axis ⊗ I: the inputs' components run side by side in SIMD lanes and share one table.
+    Lanes,
+    /// No H at all: a forward sweep of the dynamics and a backward adjoint sweep, O(N) per iteration.
+    MatrixFree,
+}
+
+impl Emission {
+    /// The spelling in a spec.
+    pub fn name(self) -> &'static str {
+        match self {
+            Emission::Auto => "auto",
+            Emission::Unrolled => "unrolled",
+            Emission::Table => "table",
+            Emission::Lanes => "lanes",
+            Emission::MatrixFree => "matrix_free",
+        }
+    }
 }
 
 /// The source spans of the spec's keys, by dotted path (`"mpc.step"`), for diagnostics raised after parsing.

@@ -88,6 +88,7 @@ pub struct Raw {
     pub disturbance: Option<Located<MatrixInput>>,
 
     pub scalar: Option<Located<String>>,
+    pub emission: Option<Located<String>>,
 
     pub spans: BTreeMap<String, Span>,
     /// Every table and key written, readable or not (`"kalman"`, `"kalman.sigma_a"`), so that a value
@@ -215,6 +216,9 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.scalar = t
             .get("scalar")
             .and_then(|v| p.choice(v, "codegen.scalar", keys::SCALARS));
+        raw.emission = t
+            .get("emission")
+            .and_then(|v| p.choice(v, "codegen.emission", keys::EMISSIONS));
     }
     raw.spans = p.spans;
     raw.present = p.present;

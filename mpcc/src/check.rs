@@ -49,6 +49,15 @@ pub(crate) fn json(shown: &str, g: &Generated) -> String {
         "bytes_state": r.bytes_state,
         "bytes_state_mpc": r.bytes_state_mpc,
         "bytes_state_kalman": r.bytes_state_kalman,
+        "emission": c.emission.name(),
+        "emission_estimates": c.estimates.iter().map(|e| json!({
+            "emission": e.emission.name(),
+            "unavailable": e.unavailable,
+            "score": e.score,
+            "macs_per_iteration": e.macs,
+            "code_bytes": e.code_bytes,
+            "table_bytes": e.table_bytes,
+        })).collect::<Vec<_>>(),
         "warnings": g.warnings.iter().map(|w| Value::from(w.message.clone())).collect::<Vec<_>>(),
     });
     let mut out = serde_json::to_string_pretty(&value).expect("a JSON value serializes");
@@ -168,6 +177,10 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             ],
         ),
     ];
+    sections.push((
+        "emission of the gradient (cost model; force with [codegen] emission)",
+        emission_lines(c),
+    ));
     if let Some(tau) = c.disturbance_time_constant {
         sections.insert(
             5,
@@ -260,4 +273,30 @@ mod tests {
         assert_eq!(num(1.5e-5), "1.50000e-5");
         assert_eq!(num(f64::NAN), "-");
     }
+}
+
+/// One line per emission choice: the score, the work and the code, and which one was taken.
+fn emission_lines(c: &codegen::Certificate) -> Vec<(String, String)> {
+    c.estimates
+        .iter()
+        .map(|e| {
+            let what = format!(
+                "{}{}",
+                e.emission.name(),
+                if e.emission == c.emission { " (chosen)" } else { "" }
+            );
+            let value = match &e.unavailable {
+                Some(why) => format!("unavailable: {why}"),
+                None => format!(
+                    "score {:.0}, {} multiply-adds/iteration, code ≈ {} B{}, tables {} B",
+                    e.score,
+                    e.macs,
+                    e.code_bytes,
+                    if e.code_bytes > codegen::cost::CODE_BUDGET { " (over budget)" } else { "" },
+                    e.table_bytes
+                ),
+            };
+            (what, value)
+        })
+        .collect()
 }

@@ -111,6 +111,23 @@ controllers! {
     offset_free => "../specs/paper-offset-free.toml",
     offset_free_f64 => "specs/offset-free-f64.toml",
     linear_offset_free => "specs/linear-offset-free.toml",
+    // The same specs with the gradient's emission forced, one module per choice (`auto` chose the others).
+    paper_unrolled => "specs/emission/paper-unrolled.toml",
+    paper_table => "specs/emission/paper-table.toml",
+    paper_matrix_free => "specs/emission/paper-matrix-free.toml",
+    paper_f64_table => "specs/emission/paper-f64-table.toml",
+    paper_f64_matrix_free => "specs/emission/paper-f64-matrix-free.toml",
+    full_q_unrolled => "specs/emission/full-q-unrolled.toml",
+    full_q_matrix_free => "specs/emission/full-q-matrix-free.toml",
+    horizon40_unrolled => "specs/emission/horizon40-unrolled.toml",
+    horizon40_matrix_free => "specs/emission/horizon40-matrix-free.toml",
+    linear_f64_unrolled => "specs/emission/linear-f64-unrolled.toml",
+    linear_f64_matrix_free => "specs/emission/linear-f64-matrix-free.toml",
+    offset_free_unrolled => "specs/emission/offset-free-unrolled.toml",
+    offset_free_table => "specs/emission/offset-free-table.toml",
+    offset_free_matrix_free => "specs/emission/offset-free-matrix-free.toml",
+    linear_offset_free_unrolled => "specs/emission/linear-offset-free-unrolled.toml",
+    linear_offset_free_matrix_free => "specs/emission/linear-offset-free-matrix-free.toml",
 }
 
 /// Implements [`harness::OffsetFree`] for generated modules with a disturbance model.
@@ -133,4 +150,13 @@ macro_rules! offset_free {
     )*};
 }
 
-offset_free!(offset_free, offset_free_f64, linear_offset_free);
+offset_free!(
+    offset_free,
+    offset_free_f64,
+    linear_offset_free,
+    offset_free_unrolled,
+    offset_free_table,
+    offset_free_matrix_free,
+    linear_offset_free_unrolled,
+    linear_offset_free_matrix_free
+);

@@ -123,4 +123,36 @@ mpc_tests! {
     mpc_linear_f64: linear_f64,
     mpc_linear_f32: linear_f32,
     mpc_offset_free_without_estimate: offset_free,
+    // Every emission choice ([codegen] emission) on the same specs.
+    mpc_paper_unrolled: paper_unrolled,
+    mpc_paper_table: paper_table,
+    mpc_paper_matrix_free: paper_matrix_free,
+    mpc_paper_f64_table: paper_f64_table,
+    mpc_paper_f64_matrix_free: paper_f64_matrix_free,
+    mpc_full_q_unrolled: full_q_unrolled,
+    mpc_full_q_matrix_free: full_q_matrix_free,
+    mpc_horizon40_unrolled: horizon40_unrolled,
+    mpc_horizon40_matrix_free: horizon40_matrix_free,
+    mpc_linear_f64_unrolled: linear_f64_unrolled,
+    mpc_linear_f64_matrix_free: linear_f64_matrix_free,
+}
+
+/// The modules above cover every emission: `auto` chose lanes or a table, the key forced the rest.
+#[test]
+fn every_emission_is_covered() {
+    use mpc_tests as m;
+    let chosen = [
+        ("paper", m::paper::EMISSION, "lanes"),
+        ("paper_f64", m::paper_f64::EMISSION, "lanes"),
+        ("full_q", m::full_q::EMISSION, "table"),
+        ("paper_unrolled", m::paper_unrolled::EMISSION, "unrolled"),
+        ("paper_table", m::paper_table::EMISSION, "table"),
+        ("paper_matrix_free", m::paper_matrix_free::EMISSION, "matrix_free"),
+        ("full_q_unrolled", m::full_q_unrolled::EMISSION, "unrolled"),
+        ("offset_free", m::offset_free::EMISSION, "lanes"),
+        ("offset_free_matrix_free", m::offset_free_matrix_free::EMISSION, "matrix_free"),
+    ];
+    for (name, got, want) in chosen {
+        assert_eq!(got, want, "{name}");
+    }
 }

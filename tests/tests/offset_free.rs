@@ -62,6 +62,12 @@ fn offset_free_mpc_matches_the_generic_solver() {
         compare_offset_free_mpc::<offset_free>(1),
         compare_offset_free_mpc::<offset_free_f64>(2),
         compare_offset_free_mpc::<linear_offset_free>(3),
+        // Every emission choice: auto chose lanes (paper) and a table (linear), the key forced the rest.
+        compare_offset_free_mpc::<offset_free_unrolled>(7),
+        compare_offset_free_mpc::<offset_free_table>(8),
+        compare_offset_free_mpc::<offset_free_matrix_free>(9),
+        compare_offset_free_mpc::<linear_offset_free_unrolled>(10),
+        compare_offset_free_mpc::<linear_offset_free_matrix_free>(11),
     ] {
         assert!(
             worst <= K_MPC,

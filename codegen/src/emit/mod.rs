@@ -65,6 +65,7 @@ pub fn module(
         #vis mod #name {
             #![allow(
                 non_snake_case,
+                unexpected_cfgs,
                 dead_code,
                 clippy::all,
                 clippy::pedantic,

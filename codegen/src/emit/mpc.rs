@@ -2,21 +2,229 @@
 #![allow(non_snake_case)]
 
 use super::tokens::{at1, at2, Num};
+use crate::cost::lane_count;
 use crate::lower::Problem;
-use mpc_spec::Method;
-use proc_macro2::TokenStream;
+use mpc_spec::{Emission, Method};
+use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
-/// The `Mpc` type and its unrolled kernels.
+/// The `Mpc` type and its kernels, in the problem's emission ([`crate::cost`]).
 pub fn emit(p: &Problem, num: Num) -> TokenStream {
     let qp = &p.qp;
-    let (nx, nu, N) = (p.nx, p.nu, qp.N);
-    let nz = N * nu;
-    let (x0, xref, y, f) = (quote!(x0), quote!(xref), quote!(y), quote!(f));
-
-    // f = Fx·x0 − Fr·Xref (+ Fd·d), one entry per decision variable (eq. 10).
+    let (nu, N) = (p.nu, qp.N);
     let nd = p.filter.nd;
-    let d = quote!(d);
+    let lanes = match p.emission {
+        Emission::Lanes => lane_count(nu),
+        _ => nu,
+    };
+    let lanes_lit = Literal::usize_unsuffixed(lanes);
+    let padded = |v: &nalgebra::DVector<f64>| {
+        num.vector((0..lanes).map(|a| if a < nu { v[a] } else { 0.0 }))
+    };
+    let (lo, hi, rest) = (
+        padded(&qp.u_min),
+        padded(&qp.u_max),
+        padded(&qp.rest_input()),
+    );
+    let d_arg = if nd > 0 { quote!(d,) } else { quote!() };
+    let (kernels, prepare, gradient_call) = match p.emission {
+        Emission::Unrolled => (
+            unrolled(p, num),
+            quote!(let f = linear_term(x0, #d_arg xref);),
+            quote!(gradient(&y, &f)),
+        ),
+        Emission::Table | Emission::Lanes => {
+            let product = if p.emission == Emission::Table {
+                table(p)
+            } else {
+                lanes_product(p, num)
+            };
+            let sweep = adjoint_gradient(p, num, lanes);
+            (
+                quote!(#sweep #product),
+                quote! {
+                    // f = ∇J(0): the same sweeps as the matrix-free form, O(N) instead of the O(N²) Fr·Xref.
+                    let f = adjoint_gradient(&[[0.0; LANES]; N], x0, #d_arg xref);
+                },
+                quote!(gradient(&y, &f)),
+            )
+        }
+        Emission::MatrixFree | Emission::Auto => (
+            adjoint_gradient(p, num, lanes),
+            quote!(),
+            quote!(adjoint_gradient(&y, x0, #d_arg xref)),
+        ),
+    };
+    // Warm start: the previous plan shifted by one block, the rest input appended (Algorithm 1, line 8).
+    let shifted = (1..N).map(|k| {
+        let k = Literal::usize_unsuffixed(k);
+        quote!(self.plan[#k])
+    });
+    let iterations = match qp.method {
+        Method::Gradient => quote! {
+            for _ in 0..ITERATIONS {
+                let y = u;
+                let g = #gradient_call;
+                u = projected_step(&u, &g);
+            }
+        },
+        Method::Fgm => quote! {
+            let mut y = u;
+            for _ in 0..ITERATIONS {
+                let g = #gradient_call;
+                let next = projected_step(&y, &g);
+                y = extrapolate(&next, &u);
+                u = next;
+            }
+        },
+    };
+    let body = quote! {
+        #prepare
+        let mut u: Plan = [#(#shifted,)* REST];
+        #iterations
+        self.plan = u;
+        inputs(&u[0])
+    };
+    let solve_fns = if nd > 0 {
+        quote! {
+            /// One control step with no disturbance estimate (d = 0); see [`Mpc::solve_with_disturbance`].
+            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
+                self.solve_with_disturbance(x0, &[0.0; ND], xref)
+            }
+
+            /// One control step of the offset-free MPC: `x0` is the current state, `d` the estimated
+            /// input disturbance (`Kalman::disturbance`), `xref[k]` the reference of predicted state k+1.
+            /// The prediction includes d and the input cost is on u + d, so the command cancels a
+            /// constant disturbance. Returns the first input, always finite and inside [U_MIN, U_MAX];
+            /// a non-finite argument returns the rest input and resets the warm start.
+            pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; NX]; N]) -> [Real; NU] {
+                if !(all_finite(x0) && all_finite(d) && xref.iter().all(|r| all_finite(r))) {
+                    self.reset();
+                    return U_REST;
+                }
+                #body
+            }
+        }
+    } else {
+        quote! {
+            /// One control step: `x0` is the current state, `xref[k]` the reference of predicted state k+1.
+            /// Returns the first input of the plan, always finite and inside [U_MIN, U_MAX]. A non-finite
+            /// `x0` or `xref` returns the rest input and resets the warm start.
+            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
+                if !(all_finite(x0) && xref.iter().all(|r| all_finite(r))) {
+                    self.reset();
+                    return U_REST;
+                }
+                #body
+            }
+        }
+    };
+    let lanes_doc = match p.emission {
+        Emission::Lanes => format!(
+            " Entries per plan step: the NU inputs padded to {lanes} SIMD lanes (H = H_AXIS ⊗ I); padding stays zero."
+        ),
+        _ => " Entries per plan step: the NU inputs.".to_string(),
+    };
+    let emission_doc = format!(
+        " How the gradient is emitted: `{}` ([codegen] emission; `mpcc check` prints the cost model).",
+        p.emission.name()
+    );
+
+    let emission = p.emission.name();
+    quote! {
+        #[doc = #emission_doc]
+        pub const EMISSION: &str = #emission;
+        #[doc = #lanes_doc]
+        pub const LANES: usize = #lanes_lit;
+        /// A plan: one row of LANES per predicted step.
+        type Plan = [[Real; LANES]; N];
+        /// U_MIN over the lanes.
+        const LO: [Real; LANES] = #lo;
+        /// U_MAX over the lanes.
+        const HI: [Real; LANES] = #hi;
+        /// U_REST over the lanes.
+        const REST: [Real; LANES] = #rest;
+
+        #kernels
+
+        /// The NU inputs of one plan step.
+        #[inline(always)]
+        fn inputs(step: &[Real; LANES]) -> [Real; NU] {
+            let mut out = [0.0; NU];
+            for (o, v) in out.iter_mut().zip(step.iter()) {
+                *o = *v;
+            }
+            out
+        }
+
+        /// proj(y − STEP·g) onto the input box (Algorithm 1, lines 4-5).
+        #[inline(always)]
+        fn projected_step(y: &Plan, g: &Plan) -> Plan {
+            let mut out = *y;
+            for (out_k, g_k) in out.iter_mut().zip(g.iter()) {
+                for (((u, g), lo), hi) in out_k.iter_mut().zip(g_k.iter()).zip(LO.iter()).zip(HI.iter()) {
+                    *u = project(*u - STEP * *g, *lo, *hi);
+                }
+            }
+            out
+        }
+
+        /// The momentum step of the fast gradient method: next + MOMENTUM·(next − previous).
+        #[allow(dead_code)]
+        #[inline(always)]
+        fn extrapolate(next: &Plan, previous: &Plan) -> Plan {
+            let mut out = *next;
+            for (out_k, prev_k) in out.iter_mut().zip(previous.iter()) {
+                for (y, prev) in out_k.iter_mut().zip(prev_k.iter()) {
+                    *y = *y + MOMENTUM * (*y - *prev);
+                }
+            }
+            out
+        }
+
+        /// Fixed-iteration, warm-started MPC over the condensed QP (paper Section 2.4, Algorithm 1).
+        #[derive(Clone, Debug, PartialEq)]
+        pub struct Mpc {
+            plan: Plan,
+        }
+
+        impl Mpc {
+            /// A cold controller: the first solve starts from the rest input (zero, projected onto the box).
+            pub const fn new() -> Self {
+                Mpc { plan: [REST; N] }
+            }
+
+            #solve_fns
+            /// The plan of the last solve, one input per predicted step.
+            pub fn plan(&self) -> [[Real; NU]; N] {
+                let mut out = [[0.0; NU]; N];
+                for (o, step) in out.iter_mut().zip(self.plan.iter()) {
+                    *o = inputs(step);
+                }
+                out
+            }
+
+            /// Forgets the warm start.
+            pub fn reset(&mut self) {
+                *self = Self::new();
+            }
+        }
+
+        impl Default for Mpc {
+            fn default() -> Self {
+                Self::new()
+            }
+        }
+    }
+}
+
+/// `unrolled`: f = Fx·x0 − Fr·Xref (+ Fd·d) and ∇J = H·y + f, one statement per row, exact zeros skipped.
+fn unrolled(p: &Problem, num: Num) -> TokenStream {
+    let qp = &p.qp;
+    let (nx, nu, N, nd) = (p.nx, p.nu, qp.N, p.filter.nd);
+    let nz = N * nu;
+    let (x0, xref, y, f, d) = (quote!(x0), quote!(xref), quote!(y), quote!(f), quote!(d));
+    // f = Fx·x0 − Fr·Xref (+ Fd·d), one entry per decision variable (eq. 10).
     let f_entries: Vec<TokenStream> = (0..nz)
         .map(|i| {
             let from_x0 = (0..nx).map(|k| (qp.Fx[(i, k)], at1(&x0, k)));
@@ -36,159 +244,213 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
         .collect();
     let f_rows = blocks(&f_entries, nu);
     let g_rows = blocks(&g_entries, nu);
-    // Warm start: the previous plan shifted by one block, the rest input appended (Algorithm 1, line 8).
-    let shifted = (1..N).map(|k| {
-        let k = proc_macro2::Literal::usize_unsuffixed(k);
-        quote!(self.plan[#k])
-    });
-    let iterations = match qp.method {
-        Method::Gradient => quote! {
-            for _ in 0..ITERATIONS {
-                let g = gradient(&u, &f);
-                u = projected_step(&u, &g);
-            }
-        },
-        Method::Fgm => quote! {
-            let mut y = u;
-            for _ in 0..ITERATIONS {
-                let g = gradient(&y, &f);
-                let next = projected_step(&y, &g);
-                y = extrapolate(&next, &u);
-                u = next;
-            }
-        },
-    };
-    let body = quote! {
-        let mut u: [[Real; NU]; N] = [#(#shifted,)* U_REST];
-        #iterations
-        self.plan = u;
-        u[0]
-    };
-    let (d_param, solve_fns) = if nd > 0 {
-        (
-            quote!(d: &[Real; ND],),
-            quote! {
-                /// One control step with no disturbance estimate (d = 0); see [`Mpc::solve_with_disturbance`].
-                pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
-                    self.solve_with_disturbance(x0, &[0.0; ND], xref)
-                }
-
-                /// One control step of the offset-free MPC: `x0` is the current state, `d` the estimated
-                /// input disturbance (`Kalman::disturbance`), `xref[k]` the reference of predicted state k+1.
-                /// The prediction includes d and the input cost is on u + d, so the command cancels a
-                /// constant disturbance. Returns the first input, always finite and inside [U_MIN, U_MAX];
-                /// a non-finite argument returns the rest input and resets the warm start.
-                pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; NX]; N]) -> [Real; NU] {
-                    if !(all_finite(x0) && all_finite(d) && xref.iter().all(|r| all_finite(r))) {
-                        self.reset();
-                        return U_REST;
-                    }
-                    let f = linear_term(x0, d, xref);
-                    #body
-                }
-            },
-        )
-    } else {
-        (
-            quote!(),
-            quote! {
-                /// One control step: `x0` is the current state, `xref[k]` the reference of predicted state k+1.
-                /// Returns the first input of the plan, always finite and inside [U_MIN, U_MAX]. A non-finite
-                /// `x0` or `xref` returns the rest input and resets the warm start.
-                pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
-                    if !(all_finite(x0) && xref.iter().all(|r| all_finite(r))) {
-                        self.reset();
-                        return U_REST;
-                    }
-                    let f = linear_term(x0, xref);
-                    #body
-                }
-            },
-        )
-    };
-    let (nnz_h, nnz_f) = (
-        qp.H.iter().filter(|v| num.round(**v) != 0.0).count(),
-        qp.Fx
-            .iter()
-            .chain(qp.Fr.iter())
-            .filter(|v| num.round(**v) != 0.0)
-            .count(),
+    let d_param = if nd > 0 { quote!(d: &[Real; ND],) } else { quote!() };
+    let nonzeros = |M: &nalgebra::DMatrix<f64>| M.iter().filter(|v| num.round(**v) != 0.0).count();
+    let gradient_doc = format!(
+        " ∇J(y) = H·y + f (eq. 11), unrolled over the {} nonzeros of H.",
+        nonzeros(&qp.H)
     );
-    let gradient_doc =
-        format!(" ∇J(y) = H·y + f (eq. 11), unrolled over the {nnz_h} nonzeros of H.");
-    let linear_doc =
-        format!(" f = Fx·x0 − Fr·Xref (eq. 10), unrolled over the {nnz_f} nonzeros of Fx and Fr.");
-
+    let linear_doc = format!(
+        " f = Fx·x0 − Fr·Xref (eq. 10), unrolled over the {} nonzeros of Fx and Fr.",
+        nonzeros(&qp.Fx) + nonzeros(&qp.Fr)
+    );
     quote! {
         #[doc = #linear_doc]
         #[inline(always)]
-        fn linear_term(x0: &[Real; NX], #d_param xref: &[[Real; NX]; N]) -> [[Real; NU]; N] {
+        fn linear_term(x0: &[Real; NX], #d_param xref: &[[Real; NX]; N]) -> Plan {
             [#(#f_rows),*]
         }
 
         #[doc = #gradient_doc]
         #[inline(always)]
-        fn gradient(y: &[[Real; NU]; N], f: &[[Real; NU]; N]) -> [[Real; NU]; N] {
+        fn gradient(y: &Plan, f: &Plan) -> Plan {
             [#(#g_rows),*]
-        }
-
-        /// proj(y − STEP·g) onto the input box (Algorithm 1, lines 4-5).
-        #[inline(always)]
-        fn projected_step(y: &[[Real; NU]; N], g: &[[Real; NU]; N]) -> [[Real; NU]; N] {
-            let mut out = *y;
-            for (out_k, g_k) in out.iter_mut().zip(g.iter()) {
-                for (((u, g), lo), hi) in out_k.iter_mut().zip(g_k.iter()).zip(U_MIN.iter()).zip(U_MAX.iter()) {
-                    *u = project(*u - STEP * *g, *lo, *hi);
-                }
-            }
-            out
-        }
-
-        /// The momentum step of the fast gradient method: next + MOMENTUM·(next − previous).
-        #[allow(dead_code)]
-        #[inline(always)]
-        fn extrapolate(next: &[[Real; NU]; N], previous: &[[Real; NU]; N]) -> [[Real; NU]; N] {
-            let mut out = *next;
-            for (out_k, prev_k) in out.iter_mut().zip(previous.iter()) {
-                for (y, prev) in out_k.iter_mut().zip(prev_k.iter()) {
-                    *y = *y + MOMENTUM * (*y - *prev);
-                }
-            }
-            out
-        }
-
-        /// Fixed-iteration, warm-started MPC over the condensed QP (paper Section 2.4, Algorithm 1).
-        #[derive(Clone, Debug, PartialEq)]
-        pub struct Mpc {
-            plan: [[Real; NU]; N],
-        }
-
-        impl Mpc {
-            /// A cold controller: the first solve starts from the rest input (zero, projected onto the box).
-            pub const fn new() -> Self {
-                Mpc { plan: [U_REST; N] }
-            }
-
-            #solve_fns
-            /// The plan of the last solve, one input per predicted step.
-            pub fn plan(&self) -> &[[Real; NU]; N] {
-                &self.plan
-            }
-
-            /// Forgets the warm start.
-            pub fn reset(&mut self) {
-                *self = Self::new();
-            }
-        }
-
-        impl Default for Mpc {
-            fn default() -> Self {
-                Self::new()
-            }
         }
     }
 }
 
+/// `table`: ∇J = H·y + f as a loop over the constant H, column by column (H is symmetric, so column j is
+/// row j): every row accumulates at once, which SIMD units run side by side.
+fn table(p: &Problem) -> TokenStream {
+    let nz = p.qp.N * p.nu;
+    let doc = format!(" ∇J(y) = H·y + f (eq. 11), a loop over the {nz}×{nz} table H.");
+    quote! {
+        #[doc = #doc]
+        #[inline(always)]
+        fn gradient(y: &Plan, f: &Plan) -> Plan {
+            let mut g = *f;
+            for (h_j, y_j) in H.iter().zip(y.as_flattened().iter()) {
+                for (g_i, h_ij) in g.as_flattened_mut().iter_mut().zip(h_j.iter()) {
+                    *g_i += *h_ij * *y_j;
+                }
+            }
+            g
+        }
+    }
+}
+
+/// `lanes`: ∇J = (H_AXIS ⊗ I)·y + f. Each plan step is a vector of lanes; the product is N² lane-wise
+/// multiply-adds by scalars of H_AXIS, column by column. On an ARMv7 with NEON (`--cfg mpc_neon`, nightly)
+/// the same loop is written with intrinsics: LLVM does not vectorize f32 for NEON by itself, because
+/// NEON flushes subnormals and is not IEEE-exact there.
+fn lanes_product(p: &Problem, num: Num) -> TokenStream {
+    let N = p.qp.N;
+    let H_axis = p
+        .qp
+        .H_axis
+        .as_ref()
+        .expect("lower() chooses `lanes` only with H = H_axis ⊗ I");
+    let table = num.matrix(H_axis);
+    let table_doc = format!(
+        " H_axis with H = H_axis ⊗ I_NU ({N}×{N}): every input's share of the Hessian, one table for all lanes."
+    );
+    let doc = format!(
+        " ∇J(y) = (H_AXIS ⊗ I)·y + f (eq. 11): {} lane-wise multiply-adds of {} lanes.",
+        N * N,
+        lane_count(p.nu)
+    );
+    let neon = (p.scalar == mpc_spec::Scalar::F32 && lane_count(p.nu) == 4).then(|| {
+        quote! {
+            #[doc = #doc]
+            /// NEON: one `vmla.f32 q, q, d[x]` per entry of H_AXIS.
+            #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
+            #[inline(always)]
+            fn gradient(y: &Plan, f: &Plan) -> Plan {
+                use core::arch::arm::{float32x4_t, vld1q_f32, vmlaq_n_f32, vst1q_f32};
+                let mut g = *f;
+                // SAFETY: NEON is enabled at compile time (the cfg above), and every pointer is to a
+                // live `[f32; 4]`, which is what the 4-lane loads and stores read and write.
+                unsafe {
+                    let mut acc: [float32x4_t; N] = core::array::from_fn(|_| vld1q_f32(REST.as_ptr()));
+                    for (a, f_i) in acc.iter_mut().zip(f.iter()) {
+                        *a = vld1q_f32(f_i.as_ptr());
+                    }
+                    for (h_j, y_j) in H_AXIS.iter().zip(y.iter()) {
+                        let y_j = vld1q_f32(y_j.as_ptr());
+                        for (a, h_ij) in acc.iter_mut().zip(h_j.iter()) {
+                            *a = vmlaq_n_f32(*a, y_j, *h_ij);
+                        }
+                    }
+                    for (g_i, a) in g.iter_mut().zip(acc.iter()) {
+                        vst1q_f32(g_i.as_mut_ptr(), *a);
+                    }
+                }
+                g
+            }
+        }
+    });
+    let portable_cfg = if neon.is_some() {
+        quote!(#[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))])
+    } else {
+        quote!()
+    };
+    quote! {
+        #[doc = #table_doc]
+        pub const H_AXIS: [[Real; N]; N] = #table;
+
+        #[doc = #doc]
+        #portable_cfg
+        #[inline(always)]
+        fn gradient(y: &Plan, f: &Plan) -> Plan {
+            let mut g = *f;
+            for (h_j, y_j) in H_AXIS.iter().zip(y.iter()) {
+                for (g_i, h_ij) in g.iter_mut().zip(h_j.iter()) {
+                    for (g, y) in g_i.iter_mut().zip(y_j.iter()) {
+                        *g += *h_ij * *y;
+                    }
+                }
+            }
+            g
+        }
+
+        #neon
+    }
+}
+
+/// The matrix-free gradient ∇J(v) = 2 Suᵀ Q_blk (Sx·x0 + Su·v − Xref) + 2 R_blk·v without Su: a forward
+/// sweep x_{k+1} = F x_k + G u_k, then a backward adjoint sweep λ_k = 2W_k (x_k − r_k) + Fᵀ λ_{k+1},
+/// g_k = Gᵀ λ_{k+1} + 2R u_k. With a disturbance, u = v + d (the offset-free problem is the plain one in
+/// v + d, see [`crate::lower::Qp::Fd`]).
+fn adjoint_gradient(p: &Problem, num: Num, lanes: usize) -> TokenStream {
+    let qp = &p.qp;
+    let (nx, nu, nd) = (p.nx, p.nu, p.filter.nd);
+    let (prev, u, e, lambda) = (quote!(prev), quote!(u), quote!(e), quote!(lambda));
+    let inputs: Vec<TokenStream> = (0..nu)
+        .map(|a| {
+            let a = Literal::usize_unsuffixed(a);
+            if nd > 0 {
+                quote!(v_k[#a] + d[#a])
+            } else {
+                quote!(v_k[#a])
+            }
+        })
+        .collect();
+    let forward: Vec<TokenStream> = (0..nx)
+        .map(|i| {
+            let from_x = (0..nx).map(|j| (p.F[(i, j)], at1(&prev, j)));
+            let from_u = (0..nu).map(|b| (p.G[(i, b)], at1(&u, b)));
+            num.sum(None, from_x.chain(from_u))
+        })
+        .collect();
+    let error: Vec<TokenStream> = (0..nx)
+        .map(|i| {
+            let i = Literal::usize_unsuffixed(i);
+            quote!(x_k[#i] - r_k[#i])
+        })
+        .collect();
+    let weighted = |W: &nalgebra::DMatrix<f64>| -> Vec<TokenStream> {
+        (0..nx)
+            .map(|i| num.sum(None, (0..nx).map(|j| (2.0 * W[(i, j)], at1(&e, j)))))
+            .collect()
+    };
+    let (stage, terminal) = (weighted(&qp.Q), weighted(&qp.Qf));
+    let we = quote!(we);
+    let adjoint: Vec<TokenStream> = (0..nx)
+        .map(|i| {
+            num.sum(
+                Some(at1(&we, i)),
+                (0..nx).map(|j| (p.F[(j, i)], at1(&lambda, j))),
+            )
+        })
+        .collect();
+    let grad: Vec<TokenStream> = (0..lanes)
+        .map(|a| {
+            if a >= nu {
+                return num.lit(0.0);
+            }
+            let from_lambda = (0..nx).map(|i| (p.G[(i, a)], at1(&lambda, i)));
+            let from_u = (0..nu).map(|b| (2.0 * qp.R[(a, b)], at1(&u, b)));
+            num.sum(None, from_lambda.chain(from_u))
+        })
+        .collect();
+    let d_param = if nd > 0 { quote!(d: &[Real; ND],) } else { quote!() };
+    quote! {
+        /// ∇J(v) without H: a forward sweep of the dynamics, then a backward adjoint sweep (O(N)).
+        /// λ_k = 2W_k(x_k − r_k) + Fᵀλ_{k+1}, g_k = Gᵀλ_{k+1} + 2R·u_k, W_k = Q, and Qf at the last step.
+        #[inline(always)]
+        fn adjoint_gradient(v: &Plan, x0: &[Real; NX], #d_param xref: &[[Real; NX]; N]) -> Plan {
+            // The predicted states x_1 … x_N.
+            let mut x = [[0.0; NX]; N];
+            let mut prev = *x0;
+            for (x_k, v_k) in x.iter_mut().zip(v.iter()) {
+                let u: [Real; NU] = [#(#inputs),*];
+                *x_k = [#(#forward),*];
+                prev = *x_k;
+            }
+            let mut g = [[0.0; LANES]; N];
+            let mut lambda = [0.0; NX];
+            let steps = g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()));
+            for (k, ((g_k, x_k), (r_k, v_k))) in steps.enumerate().rev() {
+                let u: [Real; NU] = [#(#inputs),*];
+                let e: [Real; NX] = [#(#error),*];
+                let we: [Real; NX] = if k + 1 == N { [#(#terminal),*] } else { [#(#stage),*] };
+                lambda = [#(#adjoint),*];
+                *g_k = [#(#grad),*];
+            }
+            g
+        }
+    }
+}
 /// `[[e0, e1], [e2, e3]]` from a flat list, `width` per block.
 pub fn blocks(entries: &[TokenStream], width: usize) -> Vec<TokenStream> {
     entries.chunks(width).map(|c| quote!([#(#c),*])).collect()

@@ -19,6 +19,14 @@ impl Num {
         }
     }
 
+    /// Bytes of one number.
+    pub fn bytes(self) -> usize {
+        match self.0 {
+            Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+
     /// `v` rounded to the emitted type.
     pub fn round(self, v: f64) -> f64 {
         match self.0 {

@@ -1,0 +1,133 @@
+//! The cost model that chooses how the solver's gradient ∇J = H·U + f is emitted, and that `mpcc check`
+//! prints. Every count comes from the lowered matrices (nonzeros in the emitted scalar type).
+//!
+//! - `unrolled`: one multiply-add per nonzero of H, each coefficient inlined. Fastest for small sparse
+//!   H, but its code grows with N² and must fit the instruction cache.
+//! - `table`: a loop over H as a constant table, every entry multiplied (zeros too); code size does not
+//!   depend on N, and the loop runs in SIMD lanes down each column.
+//! - `lanes`: with H = H_axis ⊗ I (see [`crate::structure`]) the input's components run side by side in
+//!   SIMD lanes and share the N × N table H_axis: N² vector multiply-adds per iteration.
+//! - `matrix_free`: no H. A forward sweep of the dynamics and a backward adjoint sweep, O(N) per
+//!   iteration, but a recursion from step to step whose latency the hardware cannot hide.
+//!
+//! The score is the expected time of one iteration in vector multiply-adds of four lanes: a scalar
+//! multiply-add counts one, a 4-lane one counts one, and the matrix-free sweep's multiply-adds count 1.5
+//! for the latency of its recursion. `auto` takes the lowest score among the choices whose code fits
+//! [`CODE_BUDGET`].
+#![allow(non_snake_case)]
+
+use crate::lower::Problem;
+use crate::emit::tokens::Num;
+use mpc_spec::{Emission, Method};
+use nalgebra::DMatrix;
+
+/// Bytes of code the gradient may take under `auto`: half the Cortex-A9's 32 KiB L1 instruction cache,
+/// the other half left to the filter, the projection and the caller.
+pub const CODE_BUDGET: usize = 16 * 1024;
+/// The SIMD width the score assumes (NEON's q registers and SSE hold four f32).
+pub const VECTOR_WIDTH: usize = 4;
+/// Bytes of A32 code per inlined multiply-add: a literal-pool load (4), its literal (4), the multiply-add (4).
+const BYTES_PER_INLINED_MAC: usize = 12;
+/// Bytes of a loop over a constant table: the loop, its address arithmetic, the lane loads and stores.
+const BYTES_OF_A_LOOP: usize = 256;
+
+/// What one emission choice costs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// The choice.
+    pub emission: Emission,
+    /// Why it cannot be used for this problem, if it cannot.
+    pub unavailable: Option<String>,
+    /// Scalar multiply-adds of one iteration's gradient (padding lanes included).
+    pub macs: usize,
+    /// The score: one iteration's gradient in 4-lane vector multiply-adds (lower is faster).
+    pub score: f64,
+    /// Estimated bytes of code for the gradient (A32).
+    pub code_bytes: usize,
+    /// Bytes of constant tables read by the gradient.
+    pub table_bytes: usize,
+}
+
+impl Estimate {
+    /// Whether `auto` may take it.
+    pub fn eligible(&self) -> bool {
+        self.unavailable.is_none() && self.code_bytes <= CODE_BUDGET
+    }
+}
+
+/// Lanes of the `lanes` form: the input's components padded to a power of two, so that three axes fill
+/// one 4-lane register.
+pub fn lane_count(nu: usize) -> usize {
+    nu.next_power_of_two()
+}
+
+/// Every choice's estimate, in the order of [`Emission`].
+pub fn estimates(p: &Problem) -> Vec<Estimate> {
+    let num = Num(p.scalar);
+    let nnz = |M: &DMatrix<f64>| M.iter().filter(|v| num.round(**v) != 0.0).count();
+    let qp = &p.qp;
+    let (N, nu) = (qp.N, p.nu);
+    let nz = N * nu;
+    let size = num.bytes();
+
+    let unrolled = Estimate {
+        emission: Emission::Unrolled,
+        unavailable: None,
+        macs: nnz(&qp.H),
+        score: nnz(&qp.H) as f64,
+        code_bytes: nnz(&qp.H) * BYTES_PER_INLINED_MAC,
+        table_bytes: 0,
+    };
+    let table = Estimate {
+        emission: Emission::Table,
+        unavailable: None,
+        macs: nz * nz,
+        score: (nz * nz) as f64 / VECTOR_WIDTH as f64,
+        code_bytes: BYTES_OF_A_LOOP,
+        table_bytes: nz * nz * size,
+    };
+    let lanes = lane_count(nu);
+    let lanes = Estimate {
+        emission: Emission::Lanes,
+        unavailable: match &qp.H_axis {
+            Some(_) => None,
+            None => Some(format!("H is not H_axis ⊗ I_{nu}")),
+        },
+        macs: N * N * lanes,
+        score: (N * N * lanes.div_ceil(VECTOR_WIDTH)) as f64,
+        code_bytes: BYTES_OF_A_LOOP,
+        table_bytes: N * N * size,
+    };
+    // Per step: x⁺ = F x + G u forward; λ = 2W e + Fᵀ λ⁺ and g = Gᵀ λ⁺ + 2R u backward, e = x − r.
+    let (F, G) = (nnz(&p.F), nnz(&p.G));
+    let W = nnz(&qp.Q).max(nnz(&qp.Qf));
+    let step = 2 * F + 2 * G + W + nnz(&qp.R) + p.nx;
+    let matrix_free = Estimate {
+        emission: Emission::MatrixFree,
+        unavailable: None,
+        macs: N * step,
+        score: 1.5 * (N * step) as f64,
+        code_bytes: (step + nnz(&qp.Qf)) * BYTES_PER_INLINED_MAC + BYTES_OF_A_LOOP,
+        table_bytes: 0,
+    };
+    vec![unrolled, table, lanes, matrix_free]
+}
+
+/// The lowest-scoring eligible choice (`table` always is: its code does not grow).
+pub fn choose(estimates: &[Estimate]) -> Emission {
+    estimates
+        .iter()
+        .filter(|e| e.eligible())
+        .min_by(|a, b| a.score.total_cmp(&b.score))
+        .map_or(Emission::Table, |e| e.emission)
+}
+
+/// Multiply-adds of one iteration besides the gradient: the projected step, and the momentum of FGM.
+pub fn update_macs(p: &Problem, emission: Emission) -> usize {
+    let width = match emission {
+        Emission::Lanes => lane_count(p.nu),
+        _ => p.nu,
+    };
+    let n = p.qp.N * width;
+    n + if p.qp.method == Method::Fgm { n } else { 0 }
+}
