@@ -427,7 +427,10 @@ fn resources(p: &Problem) -> Resources {
     let (gradient_map, gradient_map_constants) = match p.emission {
         Emission::Unrolled => (
             nnz(&qp.Fx) + nnz(&qp.Fr) + nnz(&qp.Fd),
-            coefficients(&qp.H) + coefficients(&qp.Fx) + coefficients(&qp.Fr) + coefficients(&qp.Fd),
+            coefficients(&qp.H)
+                + coefficients(&qp.Fx)
+                + coefficients(&qp.Fr)
+                + coefficients(&qp.Fd),
         ),
         _ => {
             let sweep = estimates
@@ -435,7 +438,11 @@ fn resources(p: &Problem) -> Resources {
                 .find(|e| e.emission == Emission::MatrixFree)
                 .map_or(0, |e| e.macs);
             let tables = chosen.table_bytes / num.bytes();
-            let model = coefficients(&p.F) + coefficients(&p.G) + coefficients(&qp.Q) + coefficients(&qp.Qf) + coefficients(&qp.R);
+            let model = coefficients(&p.F)
+                + coefficients(&p.G)
+                + coefficients(&qp.Q)
+                + coefficients(&qp.Qf)
+                + coefficients(&qp.R);
             (sweep, tables + model)
         }
     };

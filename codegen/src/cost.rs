@@ -16,8 +16,8 @@
 //! [`CODE_BUDGET`].
 #![allow(non_snake_case)]
 
-use crate::lower::Problem;
 use crate::emit::tokens::Num;
+use crate::lower::Problem;
 use mpc_spec::{Emission, Method};
 use nalgebra::DMatrix;
 

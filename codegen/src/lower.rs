@@ -5,8 +5,8 @@
 #![allow(non_snake_case)]
 
 use mpc_spec::{
-    Diagnostic, Diagnostics, Emission, FilterKind, Iterations, KalmanNoise, Matrix, Method, ModelKind,
-    Scalar, Spec, Step,
+    Diagnostic, Diagnostics, Emission, FilterKind, Iterations, KalmanNoise, Matrix, Method,
+    ModelKind, Scalar, Spec, Step,
 };
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
@@ -355,17 +355,25 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
                 format!("`emission = \"lanes\"` needs H = H_axis ⊗ I_{nu}, and this H is not one"),
                 span("codegen.emission"),
             )
-            .label("no lane structure")
-            .note(format!(
-                "H[{r}][{c}] = {:e} where the lanes need {:e}: input {} at step {} and input {} at step {} {}",
-                e.value,
-                e.expected,
-                r % nu,
-                r / nu,
-                c % nu,
-                c / nu,
-                if r % nu == c % nu { "differ from the first input's weights" } else { "are coupled" },
-            ))
+            .label(if r % nu == c % nu {
+                format!(
+                    "H[{r}][{c}] = {:.6e}: input {}'s weight between steps {} and {} differs from input 0's ({:.6e})",
+                    e.value,
+                    r % nu,
+                    r / nu,
+                    c / nu,
+                    e.expected
+                )
+            } else {
+                format!(
+                    "H[{r}][{c}] = {:.6e} couples input {} at step {} with input {} at step {}",
+                    e.value,
+                    r % nu,
+                    r / nu,
+                    c % nu,
+                    c / nu
+                )
+            })
             .note("hint: the lanes need independent inputs with equal weights and dynamics; write `emission = \"auto\"` to let the compiler choose")
             .into());
         }

@@ -26,12 +26,16 @@ pub struct NotKronecker {
 /// lanes are computed by the same sums over different positions) and far below what the emitted scalar
 /// can resolve. The first lane's values are the ones kept.
 pub fn kronecker_identity(M: &DMatrix<f64>, p: usize) -> Result<DMatrix<f64>, NotKronecker> {
-    assert!(p > 0 && M.nrows() % p == 0 && M.ncols() % p == 0);
+    assert!(p > 0 && M.nrows().is_multiple_of(p) && M.ncols().is_multiple_of(p));
     let tol = 8.0 * f64::EPSILON * M.amax();
     let (n, m) = (M.nrows() / p, M.ncols() / p);
     let A = DMatrix::from_fn(n, m, |i, j| M[(i * p, j * p)]);
     for (r, c) in (0..M.nrows()).flat_map(|r| (0..M.ncols()).map(move |c| (r, c))) {
-        let expected = if r % p == c % p { A[(r / p, c / p)] } else { 0.0 };
+        let expected = if r % p == c % p {
+            A[(r / p, c / p)]
+        } else {
+            0.0
+        };
         let value = M[(r, c)];
         if (value - expected).abs() > tol || !value.is_finite() {
             return Err(NotKronecker {

@@ -81,8 +81,7 @@ fn zeros_of_the_hessian_are_skipped() {
     let code = emitted(include_str!(
         "../../tests/specs/emission/paper-unrolled.toml"
     ));
-    let gradient =
-        &code[code.find("fn gradient").unwrap()..code.find("fn projected_step").unwrap()];
+    let gradient = &code[code.find("fn gradient").unwrap()..code.find("fn inputs").unwrap()];
     // 675 nonzeros of H: one product each (none of them is exactly ±1).
     assert_eq!(gradient.matches(" * y[").count(), 675);
     assert!(code.contains("unrolled over the 675 nonzeros of H"));
@@ -93,13 +92,19 @@ fn the_paper_runs_its_three_axes_in_lanes_of_one_table() {
     let code = emitted(include_str!("../../specs/paper.toml"));
     assert!(code.contains("pub const EMISSION: &str = \"lanes\";"));
     assert!(code.contains("pub const LANES: usize = 4;"));
-    // One 15 × 15 table for all three axes, and the portable kernel beside the NEON one.
+    // One 15 × 15 table for all three axes, and the portable iteration beside the NEON one.
     assert_eq!(code.matches("pub const H_AXIS: [[Real; N]; N]").count(), 1);
-    assert_eq!(code.matches("fn gradient(").count(), 2);
-    assert!(code.contains("vmlaq_n_f32"));
+    assert_eq!(code.matches("fn fast_gradient_iteration(").count(), 2);
+    assert!(code.contains("vmlaq_lane_f32"));
+    // The gradient is fused into the iteration: no `g` buffer, no separate step.
+    assert!(!code.contains("fn gradient("));
+    assert!(!code.contains("fn fast_gradient_step("));
     // The NEON kernel only exists where the firmware asks for it; the host compiles the portable one.
-    assert!(code.contains("#[cfg(all(mpc_neon, target_arch = \"arm\", target_feature = \"neon\"))]"));
-    assert!(code.contains("#[cfg(not(all(mpc_neon, target_arch = \"arm\", target_feature = \"neon\")))]"));
+    assert!(
+        code.contains("#[cfg(all(mpc_neon, target_arch = \"arm\", target_feature = \"neon\"))]")
+    );
+    assert!(code
+        .contains("#[cfg(not(all(mpc_neon, target_arch = \"arm\", target_feature = \"neon\")))]"));
 }
 
 #[test]
@@ -109,5 +114,5 @@ fn the_matrix_free_form_has_no_hessian_product() {
     ));
     assert!(!code.contains("fn gradient("));
     assert!(code.contains("fn adjoint_gradient("));
-    assert!(code.contains("let g = adjoint_gradient(&y, x0, xref);"));
+    assert!(code.contains("adjoint_gradient(&y, x0, xref, &mut g);"));
 }

@@ -931,7 +931,12 @@ pub mod paper_initial {
     /// ∇J(v) without H: a forward sweep of the dynamics, then a backward adjoint sweep (O(N)).
     /// λ_k = 2W_k(x_k − r_k) + Fᵀλ_{k+1}, g_k = Gᵀλ_{k+1} + 2R·u_k, W_k = Q, and Qf at the last step.
     #[inline(always)]
-    fn adjoint_gradient(v: &Plan, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> Plan {
+    fn adjoint_gradient(
+        v: &Plan,
+        x0: &[Real; NX],
+        xref: &[[Real; NX]; N],
+        g: &mut Plan,
+    ) {
         let mut x = [[0.0; NX]; N];
         let mut prev = *x0;
         for (x_k, v_k) in x.iter_mut().zip(v.iter()) {
@@ -946,7 +951,6 @@ pub mod paper_initial {
             ];
             prev = *x_k;
         }
-        let mut g = [[0.0; LANES]; N];
         let mut lambda = [0.0; NX];
         let steps = g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()));
         for (k, ((g_k, x_k), (r_k, v_k))) in steps.enumerate().rev() {
@@ -993,7 +997,6 @@ pub mod paper_initial {
                 0f32,
             ];
         }
-        g
     }
     /// H_axis with H = H_axis ⊗ I_NU (5×5): every input's share of the Hessian, one table for all lanes.
     pub const H_AXIS: [[Real; N]; N] = [
@@ -1003,45 +1006,233 @@ pub mod paper_initial {
         [0.072833166f32, 0.072666734f32, 0.0725003f32, 0.092333876f32, 0.06561653f32],
         [0.06577759f32, 0.0657239f32, 0.065670215f32, 0.06561653f32, 0.08556284f32],
     ];
-    /// ∇J(y) = (H_AXIS ⊗ I)·y + f (eq. 11): 25 lane-wise multiply-adds of 4 lanes.
+    /// g_i = f_i + Σ_j H_AXIS[i][j]·y_j: every lane of row i accumulates the same weights.
     #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
     #[inline(always)]
-    fn gradient(y: &Plan, f: &Plan) -> Plan {
-        let mut g = *f;
-        for (h_j, y_j) in H_AXIS.iter().zip(y.iter()) {
-            for (g_i, h_ij) in g.iter_mut().zip(h_j.iter()) {
-                for (g, y) in g_i.iter_mut().zip(y_j.iter()) {
-                    *g += *h_ij * *y;
-                }
+    fn gradient_row(h_i: &[Real; N], f_i: &[Real; LANES], y: &Plan) -> [Real; LANES] {
+        let mut g_i = *f_i;
+        for (h_ij, y_j) in h_i.iter().zip(y.iter()) {
+            for (g, y) in g_i.iter_mut().zip(y_j.iter()) {
+                *g += *h_ij * *y;
             }
         }
-        g
+        g_i
     }
-    /// ∇J(y) = (H_AXIS ⊗ I)·y + f (eq. 11): 25 lane-wise multiply-adds of 4 lanes.
-    /// NEON: one `vmla.f32 q, q, d[x]` per entry of H_AXIS.
+    /// One FGM iteration, row by row: g_i = f_i + Σ_j H_AXIS[i][j]·y_j (25 lane-wise multiply-adds of 4 lanes), next = proj(y_i − STEP·g_i), y_next_i = next + MOMENTUM·(next − u_i), u_i = next.
+    #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
+    #[allow(dead_code)]
+    #[inline]
+    fn fast_gradient_iteration(u: &mut Plan, y: &Plan, y_next: &mut Plan, f: &Plan) {
+        let rows = u
+            .iter_mut()
+            .zip(y_next.iter_mut())
+            .zip(y.iter().zip(f.iter()))
+            .zip(H_AXIS.iter());
+        for (((u_i, y_next_i), (y_i, f_i)), h_i) in rows {
+            let g_i = gradient_row(h_i, f_i, y);
+            let lanes = u_i
+                .iter_mut()
+                .zip(y_next_i.iter_mut())
+                .zip(y_i.iter().zip(g_i.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+        }
+    }
+    /// One projected gradient iteration (Algorithm 1, lines 3-5), row by row: g_i = f_i + Σ_j H_AXIS[i][j]·u_j (25 lane-wise multiply-adds of 4 lanes), next_i = proj(u_i − STEP·g_i).
+    #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
+    #[allow(dead_code)]
+    #[inline]
+    fn gradient_iteration(u: &Plan, next: &mut Plan, f: &Plan) {
+        let rows = next.iter_mut().zip(u.iter().zip(f.iter())).zip(H_AXIS.iter());
+        for ((next_i, (u_i, f_i)), h_i) in rows {
+            let g_i = gradient_row(h_i, f_i, u);
+            let lanes = next_i.iter_mut().zip(u_i.iter().zip(g_i.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+        }
+    }
+    /// H_AXIS in blocks of four rows, column by column (zero rows pad the last block): the four
+    /// multipliers of one NEON step are one 128-bit load.
+    #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
+    const H_BLOCKS: [[[Real; 4]; N]; 2] = [
+        [
+            [0.11415021f32, 0.08703022f32, 0.079920955f32, 0.072833166f32],
+            [0.08703022f32, 0.10660609f32, 0.079631045f32, 0.072666734f32],
+            [0.079920955f32, 0.079631045f32, 0.09934113f32, 0.0725003f32],
+            [0.072833166f32, 0.072666734f32, 0.0725003f32, 0.092333876f32],
+            [0.06577759f32, 0.0657239f32, 0.065670215f32, 0.06561653f32],
+        ],
+        [
+            [0.06577759f32, 0f32, 0f32, 0f32],
+            [0.0657239f32, 0f32, 0f32, 0f32],
+            [0.065670215f32, 0f32, 0f32, 0f32],
+            [0.06561653f32, 0f32, 0f32, 0f32],
+            [0.08556284f32, 0f32, 0f32, 0f32],
+        ],
+    ];
+    /// NEON: proj(v) as two compare-and-selects, exactly `project` (NaN → lower bound).
     #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
     #[inline(always)]
-    fn gradient(y: &Plan, f: &Plan) -> Plan {
-        use core::arch::arm::{float32x4_t, vld1q_f32, vmlaq_n_f32, vst1q_f32};
-        let mut g = *f;
+    unsafe fn project_lanes(
+        v: core::arch::arm::float32x4_t,
+        lo: core::arch::arm::float32x4_t,
+        hi: core::arch::arm::float32x4_t,
+    ) -> core::arch::arm::float32x4_t {
+        use core::arch::arm::{vbslq_f32, vcgtq_f32, vcltq_f32};
+        let v = vbslq_f32(vcgtq_f32(v, lo), v, lo);
+        vbslq_f32(vcltq_f32(v, hi), v, hi)
+    }
+    /// NEON: one FGM iteration, four rows per block, two blocks per pass over j.
+    #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
+    #[allow(dead_code, unused_imports)]
+    #[inline]
+    fn fast_gradient_iteration(u: &mut Plan, y: &Plan, y_next: &mut Plan, f: &Plan) {
+        use core::arch::arm::{
+            vbslq_f32, vcgtq_f32, vcltq_f32, vget_high_f32, vget_low_f32, vld1q_f32,
+            vmlaq_lane_f32, vmlaq_n_f32, vmlsq_n_f32, vst1q_f32, vsubq_f32,
+        };
         unsafe {
-            let mut acc: [float32x4_t; N] = core::array::from_fn(|_| vld1q_f32(
-                REST.as_ptr(),
-            ));
-            for (a, f_i) in acc.iter_mut().zip(f.iter()) {
-                *a = vld1q_f32(f_i.as_ptr());
-            }
-            for (h_j, y_j) in H_AXIS.iter().zip(y.iter()) {
-                let y_j = vld1q_f32(y_j.as_ptr());
-                for (a, h_ij) in acc.iter_mut().zip(h_j.iter()) {
-                    *a = vmlaq_n_f32(*a, y_j, *h_ij);
+            let table: &[[[Real; 4]; N]; 2] = core::hint::black_box(&H_BLOCKS);
+            let rounds = core::hint::black_box(N);
+            let (lo, hi) = (vld1q_f32(LO.as_ptr()), vld1q_f32(HI.as_ptr()));
+            {
+                let mut acc0_0 = vld1q_f32(f[0].as_ptr());
+                let mut acc0_1 = vld1q_f32(f[1].as_ptr());
+                let mut acc0_2 = vld1q_f32(f[2].as_ptr());
+                let mut acc0_3 = vld1q_f32(f[3].as_ptr());
+                let mut acc1_0 = vld1q_f32(f[4].as_ptr());
+                let mut acc1_1 = vld1q_f32(REST.as_ptr());
+                let mut acc1_2 = vld1q_f32(REST.as_ptr());
+                let mut acc1_3 = vld1q_f32(REST.as_ptr());
+                let steps = y.iter().zip(table[0].iter()).zip(table[1].iter());
+                for ((ys, h0), h1) in steps.take(rounds) {
+                    let y_j = vld1q_f32(ys.as_ptr());
+                    let m = vld1q_f32(h0.as_ptr());
+                    let (m_lo, m_hi) = (vget_low_f32(m), vget_high_f32(m));
+                    acc0_0 = vmlaq_lane_f32::<0>(acc0_0, y_j, m_lo);
+                    acc0_1 = vmlaq_lane_f32::<1>(acc0_1, y_j, m_lo);
+                    acc0_2 = vmlaq_lane_f32::<0>(acc0_2, y_j, m_hi);
+                    acc0_3 = vmlaq_lane_f32::<1>(acc0_3, y_j, m_hi);
+                    let m = vld1q_f32(h1.as_ptr());
+                    let (m_lo, m_hi) = (vget_low_f32(m), vget_high_f32(m));
+                    acc1_0 = vmlaq_lane_f32::<0>(acc1_0, y_j, m_lo);
+                    acc1_1 = vmlaq_lane_f32::<1>(acc1_1, y_j, m_lo);
+                    acc1_2 = vmlaq_lane_f32::<0>(acc1_2, y_j, m_hi);
+                    acc1_3 = vmlaq_lane_f32::<1>(acc1_3, y_j, m_hi);
                 }
-            }
-            for (g_i, a) in g.iter_mut().zip(acc.iter()) {
-                vst1q_f32(g_i.as_mut_ptr(), *a);
+                let next = project_lanes(
+                    vmlsq_n_f32(vld1q_f32(y[0].as_ptr()), acc0_0, STEP),
+                    lo,
+                    hi,
+                );
+                let previous = vld1q_f32(u[0].as_ptr());
+                vst1q_f32(
+                    y_next[0].as_mut_ptr(),
+                    vmlaq_n_f32(next, vsubq_f32(next, previous), MOMENTUM),
+                );
+                vst1q_f32(u[0].as_mut_ptr(), next);
+                let next = project_lanes(
+                    vmlsq_n_f32(vld1q_f32(y[1].as_ptr()), acc0_1, STEP),
+                    lo,
+                    hi,
+                );
+                let previous = vld1q_f32(u[1].as_ptr());
+                vst1q_f32(
+                    y_next[1].as_mut_ptr(),
+                    vmlaq_n_f32(next, vsubq_f32(next, previous), MOMENTUM),
+                );
+                vst1q_f32(u[1].as_mut_ptr(), next);
+                let next = project_lanes(
+                    vmlsq_n_f32(vld1q_f32(y[2].as_ptr()), acc0_2, STEP),
+                    lo,
+                    hi,
+                );
+                let previous = vld1q_f32(u[2].as_ptr());
+                vst1q_f32(
+                    y_next[2].as_mut_ptr(),
+                    vmlaq_n_f32(next, vsubq_f32(next, previous), MOMENTUM),
+                );
+                vst1q_f32(u[2].as_mut_ptr(), next);
+                let next = project_lanes(
+                    vmlsq_n_f32(vld1q_f32(y[3].as_ptr()), acc0_3, STEP),
+                    lo,
+                    hi,
+                );
+                let previous = vld1q_f32(u[3].as_ptr());
+                vst1q_f32(
+                    y_next[3].as_mut_ptr(),
+                    vmlaq_n_f32(next, vsubq_f32(next, previous), MOMENTUM),
+                );
+                vst1q_f32(u[3].as_mut_ptr(), next);
+                let next = project_lanes(
+                    vmlsq_n_f32(vld1q_f32(y[4].as_ptr()), acc1_0, STEP),
+                    lo,
+                    hi,
+                );
+                let previous = vld1q_f32(u[4].as_ptr());
+                vst1q_f32(
+                    y_next[4].as_mut_ptr(),
+                    vmlaq_n_f32(next, vsubq_f32(next, previous), MOMENTUM),
+                );
+                vst1q_f32(u[4].as_mut_ptr(), next);
             }
         }
-        g
+    }
+    /// NEON: one projected gradient iteration, four rows per block, two blocks per pass over j.
+    #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
+    #[allow(dead_code, unused_imports)]
+    #[inline]
+    fn gradient_iteration(u: &Plan, next: &mut Plan, f: &Plan) {
+        use core::arch::arm::{
+            vbslq_f32, vcgtq_f32, vcltq_f32, vget_high_f32, vget_low_f32, vld1q_f32,
+            vmlaq_lane_f32, vmlaq_n_f32, vmlsq_n_f32, vst1q_f32, vsubq_f32,
+        };
+        unsafe {
+            let table: &[[[Real; 4]; N]; 2] = core::hint::black_box(&H_BLOCKS);
+            let rounds = core::hint::black_box(N);
+            let (lo, hi) = (vld1q_f32(LO.as_ptr()), vld1q_f32(HI.as_ptr()));
+            {
+                let mut acc0_0 = vld1q_f32(f[0].as_ptr());
+                let mut acc0_1 = vld1q_f32(f[1].as_ptr());
+                let mut acc0_2 = vld1q_f32(f[2].as_ptr());
+                let mut acc0_3 = vld1q_f32(f[3].as_ptr());
+                let mut acc1_0 = vld1q_f32(f[4].as_ptr());
+                let mut acc1_1 = vld1q_f32(REST.as_ptr());
+                let mut acc1_2 = vld1q_f32(REST.as_ptr());
+                let mut acc1_3 = vld1q_f32(REST.as_ptr());
+                let steps = u.iter().zip(table[0].iter()).zip(table[1].iter());
+                for ((ys, h0), h1) in steps.take(rounds) {
+                    let y_j = vld1q_f32(ys.as_ptr());
+                    let m = vld1q_f32(h0.as_ptr());
+                    let (m_lo, m_hi) = (vget_low_f32(m), vget_high_f32(m));
+                    acc0_0 = vmlaq_lane_f32::<0>(acc0_0, y_j, m_lo);
+                    acc0_1 = vmlaq_lane_f32::<1>(acc0_1, y_j, m_lo);
+                    acc0_2 = vmlaq_lane_f32::<0>(acc0_2, y_j, m_hi);
+                    acc0_3 = vmlaq_lane_f32::<1>(acc0_3, y_j, m_hi);
+                    let m = vld1q_f32(h1.as_ptr());
+                    let (m_lo, m_hi) = (vget_low_f32(m), vget_high_f32(m));
+                    acc1_0 = vmlaq_lane_f32::<0>(acc1_0, y_j, m_lo);
+                    acc1_1 = vmlaq_lane_f32::<1>(acc1_1, y_j, m_lo);
+                    acc1_2 = vmlaq_lane_f32::<0>(acc1_2, y_j, m_hi);
+                    acc1_3 = vmlaq_lane_f32::<1>(acc1_3, y_j, m_hi);
+                }
+                let stepped = vmlsq_n_f32(vld1q_f32(u[0].as_ptr()), acc0_0, STEP);
+                vst1q_f32(next[0].as_mut_ptr(), project_lanes(stepped, lo, hi));
+                let stepped = vmlsq_n_f32(vld1q_f32(u[1].as_ptr()), acc0_1, STEP);
+                vst1q_f32(next[1].as_mut_ptr(), project_lanes(stepped, lo, hi));
+                let stepped = vmlsq_n_f32(vld1q_f32(u[2].as_ptr()), acc0_2, STEP);
+                vst1q_f32(next[2].as_mut_ptr(), project_lanes(stepped, lo, hi));
+                let stepped = vmlsq_n_f32(vld1q_f32(u[3].as_ptr()), acc0_3, STEP);
+                vst1q_f32(next[3].as_mut_ptr(), project_lanes(stepped, lo, hi));
+                let stepped = vmlsq_n_f32(vld1q_f32(u[4].as_ptr()), acc1_0, STEP);
+                vst1q_f32(next[4].as_mut_ptr(), project_lanes(stepped, lo, hi));
+            }
+        }
     }
     /// The NU inputs of one plan step.
     #[inline(always)]
@@ -1049,34 +1240,6 @@ pub mod paper_initial {
         let mut out = [0.0; NU];
         for (o, v) in out.iter_mut().zip(step.iter()) {
             *o = *v;
-        }
-        out
-    }
-    /// proj(y − STEP·g) onto the input box (Algorithm 1, lines 4-5).
-    #[inline(always)]
-    fn projected_step(y: &Plan, g: &Plan) -> Plan {
-        let mut out = *y;
-        for (out_k, g_k) in out.iter_mut().zip(g.iter()) {
-            for (((u, g), lo), hi) in out_k
-                .iter_mut()
-                .zip(g_k.iter())
-                .zip(LO.iter())
-                .zip(HI.iter())
-            {
-                *u = project(*u - STEP * *g, *lo, *hi);
-            }
-        }
-        out
-    }
-    /// The momentum step of the fast gradient method: next + MOMENTUM·(next − previous).
-    #[allow(dead_code)]
-    #[inline(always)]
-    fn extrapolate(next: &Plan, previous: &Plan) -> Plan {
-        let mut out = *next;
-        for (out_k, prev_k) in out.iter_mut().zip(previous.iter()) {
-            for (y, prev) in out_k.iter_mut().zip(prev_k.iter()) {
-                *y = *y + MOMENTUM * (*y - *prev);
-            }
         }
         out
     }
@@ -1098,7 +1261,8 @@ pub mod paper_initial {
                 self.reset();
                 return U_REST;
             }
-            let f = adjoint_gradient(&[[0.0; LANES]; N], x0, xref);
+            let mut f: Plan = [[0.0; LANES]; N];
+            adjoint_gradient(&[[0.0; LANES]; N], x0, xref, &mut f);
             let mut u: Plan = [
                 self.plan[1],
                 self.plan[2],
@@ -1106,10 +1270,14 @@ pub mod paper_initial {
                 self.plan[4],
                 REST,
             ];
-            for _ in 0..ITERATIONS {
-                let y = u;
-                let g = gradient(&y, &f);
-                u = projected_step(&u, &g);
+            let mut next: Plan = u;
+            for _ in 0..ITERATIONS / 2 {
+                gradient_iteration(&u, &mut next, &f);
+                gradient_iteration(&next, &mut u, &f);
+            }
+            if ITERATIONS % 2 == 1 {
+                gradient_iteration(&u, &mut next, &f);
+                u = next;
             }
             self.plan = u;
             inputs(&u[0])

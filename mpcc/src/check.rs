@@ -260,6 +260,40 @@ fn num(v: f64) -> String {
     }
 }
 
+/// One line per emission choice: the score, the work and the code, and which one was taken.
+fn emission_lines(c: &codegen::Certificate) -> Vec<(String, String)> {
+    c.estimates
+        .iter()
+        .map(|e| {
+            let what = format!(
+                "{}{}",
+                e.emission.name(),
+                if e.emission == c.emission {
+                    " (chosen)"
+                } else {
+                    ""
+                }
+            );
+            let value = match &e.unavailable {
+                Some(why) => format!("unavailable: {why}"),
+                None => format!(
+                    "score {:.0}, {} multiply-adds/iteration, code ≈ {} B{}, tables {} B",
+                    e.score,
+                    e.macs,
+                    e.code_bytes,
+                    if e.code_bytes > codegen::cost::CODE_BUDGET {
+                        " (over budget)"
+                    } else {
+                        ""
+                    },
+                    e.table_bytes
+                ),
+            };
+            (what, value)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::num;
@@ -273,30 +307,4 @@ mod tests {
         assert_eq!(num(1.5e-5), "1.50000e-5");
         assert_eq!(num(f64::NAN), "-");
     }
-}
-
-/// One line per emission choice: the score, the work and the code, and which one was taken.
-fn emission_lines(c: &codegen::Certificate) -> Vec<(String, String)> {
-    c.estimates
-        .iter()
-        .map(|e| {
-            let what = format!(
-                "{}{}",
-                e.emission.name(),
-                if e.emission == c.emission { " (chosen)" } else { "" }
-            );
-            let value = match &e.unavailable {
-                Some(why) => format!("unavailable: {why}"),
-                None => format!(
-                    "score {:.0}, {} multiply-adds/iteration, code ≈ {} B{}, tables {} B",
-                    e.score,
-                    e.macs,
-                    e.code_bytes,
-                    if e.code_bytes > codegen::cost::CODE_BUDGET { " (over budget)" } else { "" },
-                    e.table_bytes
-                ),
-            };
-            (what, value)
-        })
-        .collect()
 }

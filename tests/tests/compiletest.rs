@@ -26,6 +26,7 @@ const FAMILIES: &[&str] = &[
     "linear",
     "sigma",
     "tolerance",
+    "emission",
 ];
 
 #[test]

@@ -147,10 +147,18 @@ fn every_emission_is_covered() {
         ("full_q", m::full_q::EMISSION, "table"),
         ("paper_unrolled", m::paper_unrolled::EMISSION, "unrolled"),
         ("paper_table", m::paper_table::EMISSION, "table"),
-        ("paper_matrix_free", m::paper_matrix_free::EMISSION, "matrix_free"),
+        (
+            "paper_matrix_free",
+            m::paper_matrix_free::EMISSION,
+            "matrix_free",
+        ),
         ("full_q_unrolled", m::full_q_unrolled::EMISSION, "unrolled"),
         ("offset_free", m::offset_free::EMISSION, "lanes"),
-        ("offset_free_matrix_free", m::offset_free_matrix_free::EMISSION, "matrix_free"),
+        (
+            "offset_free_matrix_free",
+            m::offset_free_matrix_free::EMISSION,
+            "matrix_free",
+        ),
     ];
     for (name, got, want) in chosen {
         assert_eq!(got, want, "{name}");

@@ -1,6 +1,7 @@
 //! The emitter: `quote!` only, no math. It turns a lowered [`Problem`] into the generated module.
 
 mod kalman;
+mod lanes;
 mod mpc;
 mod report;
 mod support;

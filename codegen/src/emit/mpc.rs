@@ -27,32 +27,38 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
         padded(&qp.rest_input()),
     );
     let d_arg = if nd > 0 { quote!(d,) } else { quote!() };
+    // Where the gradient is taken: the extrapolated point y (FGM) or the iterate u itself.
+    let point = match qp.method {
+        Method::Fgm => quote!(y),
+        Method::Gradient => quote!(u),
+    };
     let (kernels, prepare, gradient_call) = match p.emission {
         Emission::Unrolled => (
             unrolled(p, num),
             quote!(let f = linear_term(x0, #d_arg xref);),
-            quote!(gradient(&y, &f)),
+            quote!(gradient(&#point, &f, &mut g)),
         ),
         Emission::Table | Emission::Lanes => {
             let product = if p.emission == Emission::Table {
                 table(p)
             } else {
-                lanes_product(p, num)
+                super::lanes::emit(p, num)
             };
             let sweep = adjoint_gradient(p, num, lanes);
             (
                 quote!(#sweep #product),
                 quote! {
                     // f = ∇J(0): the same sweeps as the matrix-free form, O(N) instead of the O(N²) Fr·Xref.
-                    let f = adjoint_gradient(&[[0.0; LANES]; N], x0, #d_arg xref);
+                    let mut f: Plan = [[0.0; LANES]; N];
+                    adjoint_gradient(&[[0.0; LANES]; N], x0, #d_arg xref, &mut f);
                 },
-                quote!(gradient(&y, &f)),
+                quote!(gradient(&#point, &f, &mut g)),
             )
         }
         Emission::MatrixFree | Emission::Auto => (
             adjoint_gradient(p, num, lanes),
             quote!(),
-            quote!(adjoint_gradient(&y, x0, #d_arg xref)),
+            quote!(adjoint_gradient(&#point, x0, #d_arg xref, &mut g)),
         ),
     };
     // Warm start: the previous plan shifted by one block, the rest input appended (Algorithm 1, line 8).
@@ -60,21 +66,22 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
         let k = Literal::usize_unsuffixed(k);
         quote!(self.plan[#k])
     });
-    let iterations = match qp.method {
-        Method::Gradient => quote! {
+    let iterations = match (p.emission, qp.method) {
+        (Emission::Lanes, _) => super::lanes::iterations(p),
+        (_, Method::Gradient) => quote! {
+            // Every kernel works in place: no plan is copied inside the loop.
+            let mut g: Plan = [[0.0; LANES]; N];
             for _ in 0..ITERATIONS {
-                let y = u;
-                let g = #gradient_call;
-                u = projected_step(&u, &g);
+                #gradient_call;
+                gradient_step(&mut u, &g);
             }
         },
-        Method::Fgm => quote! {
+        (_, Method::Fgm) => quote! {
             let mut y = u;
+            let mut g: Plan = [[0.0; LANES]; N];
             for _ in 0..ITERATIONS {
-                let g = #gradient_call;
-                let next = projected_step(&y, &g);
-                y = extrapolate(&next, &u);
-                u = next;
+                #gradient_call;
+                fast_gradient_step(&mut u, &mut y, &g);
             }
         },
     };
@@ -131,6 +138,11 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
     );
 
     let emission = p.emission.name();
+    let steps = if p.emission == Emission::Lanes {
+        quote!()
+    } else {
+        steps()
+    };
     quote! {
         #[doc = #emission_doc]
         pub const EMISSION: &str = #emission;
@@ -157,30 +169,7 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
             out
         }
 
-        /// proj(y − STEP·g) onto the input box (Algorithm 1, lines 4-5).
-        #[inline(always)]
-        fn projected_step(y: &Plan, g: &Plan) -> Plan {
-            let mut out = *y;
-            for (out_k, g_k) in out.iter_mut().zip(g.iter()) {
-                for (((u, g), lo), hi) in out_k.iter_mut().zip(g_k.iter()).zip(LO.iter()).zip(HI.iter()) {
-                    *u = project(*u - STEP * *g, *lo, *hi);
-                }
-            }
-            out
-        }
-
-        /// The momentum step of the fast gradient method: next + MOMENTUM·(next − previous).
-        #[allow(dead_code)]
-        #[inline(always)]
-        fn extrapolate(next: &Plan, previous: &Plan) -> Plan {
-            let mut out = *next;
-            for (out_k, prev_k) in out.iter_mut().zip(previous.iter()) {
-                for (y, prev) in out_k.iter_mut().zip(prev_k.iter()) {
-                    *y = *y + MOMENTUM * (*y - *prev);
-                }
-            }
-            out
-        }
+        #steps
 
         /// Fixed-iteration, warm-started MPC over the condensed QP (paper Section 2.4, Algorithm 1).
         #[derive(Clone, Debug, PartialEq)]
@@ -244,7 +233,11 @@ fn unrolled(p: &Problem, num: Num) -> TokenStream {
         .collect();
     let f_rows = blocks(&f_entries, nu);
     let g_rows = blocks(&g_entries, nu);
-    let d_param = if nd > 0 { quote!(d: &[Real; ND],) } else { quote!() };
+    let d_param = if nd > 0 {
+        quote!(d: &[Real; ND],)
+    } else {
+        quote!()
+    };
     let nonzeros = |M: &nalgebra::DMatrix<f64>| M.iter().filter(|v| num.round(**v) != 0.0).count();
     let gradient_doc = format!(
         " ∇J(y) = H·y + f (eq. 11), unrolled over the {} nonzeros of H.",
@@ -263,8 +256,8 @@ fn unrolled(p: &Problem, num: Num) -> TokenStream {
 
         #[doc = #gradient_doc]
         #[inline(always)]
-        fn gradient(y: &Plan, f: &Plan) -> Plan {
-            [#(#g_rows),*]
+        fn gradient(y: &Plan, f: &Plan, g: &mut Plan) {
+            *g = [#(#g_rows),*];
         }
     }
 }
@@ -277,93 +270,14 @@ fn table(p: &Problem) -> TokenStream {
     quote! {
         #[doc = #doc]
         #[inline(always)]
-        fn gradient(y: &Plan, f: &Plan) -> Plan {
-            let mut g = *f;
+        fn gradient(y: &Plan, f: &Plan, g: &mut Plan) {
+            *g = *f;
             for (h_j, y_j) in H.iter().zip(y.as_flattened().iter()) {
                 for (g_i, h_ij) in g.as_flattened_mut().iter_mut().zip(h_j.iter()) {
                     *g_i += *h_ij * *y_j;
                 }
             }
-            g
         }
-    }
-}
-
-/// `lanes`: ∇J = (H_AXIS ⊗ I)·y + f. Each plan step is a vector of lanes; the product is N² lane-wise
-/// multiply-adds by scalars of H_AXIS, column by column. On an ARMv7 with NEON (`--cfg mpc_neon`, nightly)
-/// the same loop is written with intrinsics: LLVM does not vectorize f32 for NEON by itself, because
-/// NEON flushes subnormals and is not IEEE-exact there.
-fn lanes_product(p: &Problem, num: Num) -> TokenStream {
-    let N = p.qp.N;
-    let H_axis = p
-        .qp
-        .H_axis
-        .as_ref()
-        .expect("lower() chooses `lanes` only with H = H_axis ⊗ I");
-    let table = num.matrix(H_axis);
-    let table_doc = format!(
-        " H_axis with H = H_axis ⊗ I_NU ({N}×{N}): every input's share of the Hessian, one table for all lanes."
-    );
-    let doc = format!(
-        " ∇J(y) = (H_AXIS ⊗ I)·y + f (eq. 11): {} lane-wise multiply-adds of {} lanes.",
-        N * N,
-        lane_count(p.nu)
-    );
-    let neon = (p.scalar == mpc_spec::Scalar::F32 && lane_count(p.nu) == 4).then(|| {
-        quote! {
-            #[doc = #doc]
-            /// NEON: one `vmla.f32 q, q, d[x]` per entry of H_AXIS.
-            #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
-            #[inline(always)]
-            fn gradient(y: &Plan, f: &Plan) -> Plan {
-                use core::arch::arm::{float32x4_t, vld1q_f32, vmlaq_n_f32, vst1q_f32};
-                let mut g = *f;
-                // SAFETY: NEON is enabled at compile time (the cfg above), and every pointer is to a
-                // live `[f32; 4]`, which is what the 4-lane loads and stores read and write.
-                unsafe {
-                    let mut acc: [float32x4_t; N] = core::array::from_fn(|_| vld1q_f32(REST.as_ptr()));
-                    for (a, f_i) in acc.iter_mut().zip(f.iter()) {
-                        *a = vld1q_f32(f_i.as_ptr());
-                    }
-                    for (h_j, y_j) in H_AXIS.iter().zip(y.iter()) {
-                        let y_j = vld1q_f32(y_j.as_ptr());
-                        for (a, h_ij) in acc.iter_mut().zip(h_j.iter()) {
-                            *a = vmlaq_n_f32(*a, y_j, *h_ij);
-                        }
-                    }
-                    for (g_i, a) in g.iter_mut().zip(acc.iter()) {
-                        vst1q_f32(g_i.as_mut_ptr(), *a);
-                    }
-                }
-                g
-            }
-        }
-    });
-    let portable_cfg = if neon.is_some() {
-        quote!(#[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))])
-    } else {
-        quote!()
-    };
-    quote! {
-        #[doc = #table_doc]
-        pub const H_AXIS: [[Real; N]; N] = #table;
-
-        #[doc = #doc]
-        #portable_cfg
-        #[inline(always)]
-        fn gradient(y: &Plan, f: &Plan) -> Plan {
-            let mut g = *f;
-            for (h_j, y_j) in H_AXIS.iter().zip(y.iter()) {
-                for (g_i, h_ij) in g.iter_mut().zip(h_j.iter()) {
-                    for (g, y) in g_i.iter_mut().zip(y_j.iter()) {
-                        *g += *h_ij * *y;
-                    }
-                }
-            }
-            g
-        }
-
-        #neon
     }
 }
 
@@ -423,12 +337,16 @@ fn adjoint_gradient(p: &Problem, num: Num, lanes: usize) -> TokenStream {
             num.sum(None, from_lambda.chain(from_u))
         })
         .collect();
-    let d_param = if nd > 0 { quote!(d: &[Real; ND],) } else { quote!() };
+    let d_param = if nd > 0 {
+        quote!(d: &[Real; ND],)
+    } else {
+        quote!()
+    };
     quote! {
         /// ∇J(v) without H: a forward sweep of the dynamics, then a backward adjoint sweep (O(N)).
         /// λ_k = 2W_k(x_k − r_k) + Fᵀλ_{k+1}, g_k = Gᵀλ_{k+1} + 2R·u_k, W_k = Q, and Qf at the last step.
         #[inline(always)]
-        fn adjoint_gradient(v: &Plan, x0: &[Real; NX], #d_param xref: &[[Real; NX]; N]) -> Plan {
+        fn adjoint_gradient(v: &Plan, x0: &[Real; NX], #d_param xref: &[[Real; NX]; N], g: &mut Plan) {
             // The predicted states x_1 … x_N.
             let mut x = [[0.0; NX]; N];
             let mut prev = *x0;
@@ -437,7 +355,6 @@ fn adjoint_gradient(p: &Problem, num: Num, lanes: usize) -> TokenStream {
                 *x_k = [#(#forward),*];
                 prev = *x_k;
             }
-            let mut g = [[0.0; LANES]; N];
             let mut lambda = [0.0; NX];
             let steps = g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()));
             for (k, ((g_k, x_k), (r_k, v_k))) in steps.enumerate().rev() {
@@ -447,11 +364,41 @@ fn adjoint_gradient(p: &Problem, num: Num, lanes: usize) -> TokenStream {
                 lambda = [#(#adjoint),*];
                 *g_k = [#(#grad),*];
             }
-            g
         }
     }
 }
 /// `[[e0, e1], [e2, e3]]` from a flat list, `width` per block.
 pub fn blocks(entries: &[TokenStream], width: usize) -> Vec<TokenStream> {
     entries.chunks(width).map(|c| quote!([#(#c),*])).collect()
+}
+
+/// The projected step proj(y − STEP·g) onto the input box (Algorithm 1, lines 4-5), fused with FGM's
+/// momentum, in place (the `lanes` emission fuses it into its own iteration instead).
+fn steps() -> TokenStream {
+    quote! {
+        /// u ← proj(u − STEP·g) (Algorithm 1, lines 4-5).
+        #[allow(dead_code)]
+        #[inline(always)]
+        fn gradient_step(u: &mut Plan, g: &Plan) {
+            for (u_k, g_k) in u.iter_mut().zip(g.iter()) {
+                for (((u, g), lo), hi) in u_k.iter_mut().zip(g_k.iter()).zip(LO.iter()).zip(HI.iter()) {
+                    *u = project(*u - STEP * *g, *lo, *hi);
+                }
+            }
+        }
+
+        /// The fast gradient step: next = proj(y − STEP·g), y ← next + MOMENTUM·(next − u), u ← next.
+        #[allow(dead_code)]
+        #[inline(always)]
+        fn fast_gradient_step(u: &mut Plan, y: &mut Plan, g: &Plan) {
+            for ((u_k, y_k), g_k) in u.iter_mut().zip(y.iter_mut()).zip(g.iter()) {
+                let lanes = u_k.iter_mut().zip(y_k.iter_mut()).zip(g_k.iter()).zip(LO.iter().zip(HI.iter()));
+                for (((u, y), g), (lo, hi)) in lanes {
+                    let next = project(*y - STEP * *g, *lo, *hi);
+                    *y = next + MOMENTUM * (next - *u);
+                    *u = next;
+                }
+            }
+        }
+    }
 }

@@ -1,0 +1,26 @@
+// `emission = "lanes"` on a plant whose two inputs are weighted differently: H is not H_axis ⊗ I.
+mpc_macros::mpc!(mod controller {
+    r#"
+    [model]
+    type = "double_integrator"
+    axes = 2
+    dt = 0.1
+
+    [mpc]
+    horizon = 5
+    iterations = 20
+    q = [1, 1, 0.1, 0.1]
+    r = [0.1, 0.2]
+    u_min = [-1, -1]
+    u_max = [1, 1]
+
+    [kalman]
+    sigma_a = 0.5
+    sigma_meas = [0.2, 0.2]
+
+    [codegen]
+    emission = "lanes"
+    "#
+});
+
+fn main() {}
