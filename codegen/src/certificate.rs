@@ -447,10 +447,6 @@ fn resources(p: &Problem) -> Resources {
         }
     };
     let (F, G, C) = (&f.Fa, &f.Ga, &f.Ca);
-    let nnz_F_rows: Vec<usize> = F
-        .row_iter()
-        .map(|r| r.iter().filter(|v| num.round(**v) != 0.0).count())
-        .collect();
     let predict_state = nnz(&F.rows(0, p.nx).into_owned()) + nnz(G);
     let mut filter_constants = coefficients(F) + coefficients(G) + coefficients(C);
     let filter = match f.kind {
@@ -460,25 +456,41 @@ fn resources(p: &Problem) -> Resources {
         }
         FilterKind::TimeVarying => {
             filter_constants += coefficients(&f.Qn) + coefficients(&f.Rn);
-            // F·P and (F·P)·Fᵀ (upper triangle), P·Cᵀ, C·P·Cᵀ, the ny × ny inverse, K = P·Cᵀ·S⁻¹,
-            // the state correction, I − K·C, (I − KC)·P·(I − KC)ᵀ and K·R·Kᵀ.
-            let fp = nnz(F) * na;
-            let fpf: usize = (0..na).map(|i| nnz_F_rows[i..].iter().sum::<usize>()).sum();
-            let pct = na * nnz(C);
-            let s = ny * nnz(C);
-            let inverse = ny * ny * ny;
+            // Every product over the entries that can be nonzero (the covariance's structural pattern),
+            // as the emitter unrolls them: F·P·Fᵀ; P·Cᵀ, C·P·Cᵀ, the ny × ny inverse, K, the
+            // correction, I − K·C, (I − KC)·P·(I − KC)ᵀ and K·R·Kᵀ.
+            use crate::structure::{pattern, pattern_inverse, pattern_product as times};
+            let macs = |A: &DMatrix<bool>, B: &DMatrix<bool>| {
+                (0..A.nrows())
+                    .map(|i| {
+                        (0..B.ncols())
+                            .map(|j| (0..A.ncols()).filter(|k| A[(i, *k)] && B[(*k, j)]).count())
+                            .sum::<usize>()
+                    })
+                    .sum::<usize>()
+            };
+            let (P, Fp, Cp, Rp) = (&f.P_pattern, pattern(F), pattern(C), pattern(&f.Rn));
+            let FP = times(&Fp, P);
+            let PCt = times(P, &Cp.transpose());
+            let S = times(&Cp, &PCt);
+            let K = times(&PCt, &pattern_inverse(&S));
+            let A = times(&K, &Cp);
+            let AP = times(&A, P);
+            let KR = times(&K, &Rp);
+            let innovation = DMatrix::from_element(ny, 1, true);
             predict_state
-                + fp
-                + fpf
-                + pct
-                + s
-                + inverse
-                + na * ny * ny
-                + na * ny
+                + macs(&Fp, P)
+                + macs(&FP, &Fp.transpose())
+                + macs(P, &Cp.transpose())
+                + macs(&Cp, &PCt)
+                + ny * ny * ny
+                + macs(&PCt, &pattern_inverse(&S))
+                + macs(&K, &innovation)
                 + na * nnz(C)
-                + 2 * na * na * na
-                + na * ny * ny
-                + na * na * ny
+                + macs(&A, P)
+                + macs(&AP, &A.transpose())
+                + macs(&K, &Rp)
+                + macs(&KR, &K.transpose())
         }
     };
     let size = match p.scalar {

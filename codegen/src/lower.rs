@@ -95,6 +95,9 @@ pub struct Filter {
     pub P_inf: DMatrix<f64>,
     /// The steady-state gain K∞ = P∞ Cᵀ (C P∞ Cᵀ + R)⁻¹ (na × ny).
     pub K_inf: DMatrix<f64>,
+    /// The entries of the time-varying filter's covariance that can be nonzero
+    /// ([`crate::structure::covariance_pattern`]); the emitted filter computes only those.
+    pub P_pattern: DMatrix<bool>,
 }
 
 /// Everything `mpc!` computes from a spec.
@@ -301,6 +304,7 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         return Err(diags.sorted());
     }
     let H_axis = crate::structure::kronecker_identity(&H, nu);
+    let P_pattern = crate::structure::covariance_pattern(&Fa, &Ca, &Qn, &Rn, &P0);
     let mut problem = Problem {
         nx,
         nu,
@@ -339,6 +343,7 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
             kind: spec.kalman.filter,
             P_inf,
             K_inf,
+            P_pattern,
         },
         F,
         G,

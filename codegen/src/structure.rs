@@ -48,6 +48,78 @@ pub fn kronecker_identity(M: &DMatrix<f64>, p: usize) -> Result<DMatrix<f64>, No
     Ok(A)
 }
 
+/// Which entries of a matrix can be nonzero: `true` where the value is not exactly zero.
+pub fn pattern(M: &DMatrix<f64>) -> DMatrix<bool> {
+    M.map(|v| v != 0.0)
+}
+
+/// The structural pattern of A·B: (i, j) can be nonzero when some k has both A(i, k) and B(k, j).
+pub fn pattern_product(A: &DMatrix<bool>, B: &DMatrix<bool>) -> DMatrix<bool> {
+    DMatrix::from_fn(A.nrows(), B.ncols(), |i, j| {
+        (0..A.ncols()).any(|k| A[(i, k)] && B[(k, j)])
+    })
+}
+
+/// The pattern of the inverse of a symmetric positive definite matrix with pattern `S`: its connected
+/// components, each full. An LDLᵀ factorization creates no fill between components, so every entry
+/// outside them is exactly zero in any precision.
+pub fn pattern_inverse(S: &DMatrix<bool>) -> DMatrix<bool> {
+    let n = S.nrows();
+    let mut reach = S.clone();
+    for i in 0..n {
+        reach[(i, i)] = true;
+    }
+    // Transitive closure (Warshall): n is the measurement dimension, small.
+    for k in 0..n {
+        for i in 0..n {
+            for j in 0..n {
+                if reach[(i, k)] && reach[(k, j)] {
+                    reach[(i, j)] = true;
+                }
+            }
+        }
+    }
+    reach
+}
+
+/// The entries of the time-varying filter's covariance that can ever be nonzero: the smallest pattern
+/// that holds P0 and is closed under the prediction F·P·Fᵀ + Q and the Joseph update
+/// (I − KC)·P·(I − KC)ᵀ + K·R·Kᵀ with K = P·Cᵀ·(C·P·Cᵀ + R)⁻¹. For the double integrator with
+/// independent axes it is one 2 × 2 block per axis: 12 of 36 entries for three axes.
+pub fn covariance_pattern(
+    F: &DMatrix<f64>,
+    C: &DMatrix<f64>,
+    Q: &DMatrix<f64>,
+    R: &DMatrix<f64>,
+    P0: &DMatrix<f64>,
+) -> DMatrix<bool> {
+    let (F, C, Q, R) = (pattern(F), pattern(C), pattern(Q), pattern(R));
+    let or = |A: &DMatrix<bool>, B: &DMatrix<bool>| A.zip_map(B, |a, b| a || b);
+    let n = F.nrows();
+    let identity = DMatrix::from_fn(n, n, |i, j| i == j);
+    let mut P = or(&pattern(P0), &Q);
+    loop {
+        let prior = or(
+            &pattern_product(&pattern_product(&F, &P), &F.transpose()),
+            &Q,
+        );
+        let PCt = pattern_product(&prior, &C.transpose());
+        let S = or(&pattern_product(&C, &PCt), &R);
+        let K = pattern_product(&PCt, &pattern_inverse(&S));
+        let A = or(&identity, &pattern_product(&K, &C));
+        let joseph = pattern_product(&pattern_product(&A, &prior), &A.transpose());
+        let posterior = or(
+            &joseph,
+            &pattern_product(&pattern_product(&K, &R), &K.transpose()),
+        );
+        let next = or(&or(&P, &prior), &posterior);
+        if next == P {
+            return P;
+        }
+        P = next;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -77,6 +149,38 @@ mod tests {
         M[(3, 3)] = 3.5;
         let e = kronecker_identity(&M, 2).unwrap_err();
         assert_eq!((e.entry, e.value, e.expected), ((3, 3), 3.5, 3.0));
+    }
+
+    #[test]
+    fn the_double_integrators_covariance_stays_one_block_per_axis() {
+        let (F, _, C) =
+            crate::lower::plant(&mpc_spec::ModelKind::DoubleIntegrator { axes: 3 }, 0.01);
+        let Q = crate::lower::white_acceleration_noise(3, 0.01, 0.5);
+        let R = DMatrix::identity(3, 3) * 0.09;
+        let P = covariance_pattern(&F, &C, &Q, &R, &DMatrix::identity(6, 6));
+        // x = [positions; velocities]: axis a owns states a and 3 + a.
+        let same_axis = DMatrix::from_fn(6, 6, |i, j| i % 3 == j % 3);
+        assert_eq!(P, same_axis);
+        assert_eq!(P.iter().filter(|b| **b).count(), 12);
+        // A full P0 couples everything.
+        let full = covariance_pattern(&F, &C, &Q, &R, &DMatrix::from_element(6, 6, 0.1));
+        assert!(full.iter().all(|b| *b));
+    }
+
+    #[test]
+    fn the_inverse_of_a_block_pattern_keeps_its_blocks() {
+        let S = DMatrix::from_row_slice(
+            3,
+            3,
+            &[true, false, true, false, true, false, true, false, true],
+        );
+        assert_eq!(pattern_inverse(&S), S);
+        let chain = DMatrix::from_row_slice(
+            3,
+            3,
+            &[true, true, false, true, true, true, false, true, true],
+        );
+        assert!(pattern_inverse(&chain).iter().all(|b| *b));
     }
 
     #[test]

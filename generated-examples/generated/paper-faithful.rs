@@ -7369,31 +7369,31 @@ pub mod paper_faithful {
         [
             [
                 P[0][0] + 0.0128f32 * P[3][0],
-                P[0][1] + 0.0128f32 * P[3][1],
-                P[0][2] + 0.0128f32 * P[3][2],
+                0f32,
+                0f32,
                 P[0][3] + 0.0128f32 * P[3][3],
-                P[0][4] + 0.0128f32 * P[3][4],
-                P[0][5] + 0.0128f32 * P[3][5],
+                0f32,
+                0f32,
             ],
             [
-                P[1][0] + 0.0128f32 * P[4][0],
+                0f32,
                 P[1][1] + 0.0128f32 * P[4][1],
-                P[1][2] + 0.0128f32 * P[4][2],
-                P[1][3] + 0.0128f32 * P[4][3],
+                0f32,
+                0f32,
                 P[1][4] + 0.0128f32 * P[4][4],
-                P[1][5] + 0.0128f32 * P[4][5],
+                0f32,
             ],
             [
-                P[2][0] + 0.0128f32 * P[5][0],
-                P[2][1] + 0.0128f32 * P[5][1],
+                0f32,
+                0f32,
                 P[2][2] + 0.0128f32 * P[5][2],
-                P[2][3] + 0.0128f32 * P[5][3],
-                P[2][4] + 0.0128f32 * P[5][4],
+                0f32,
+                0f32,
                 P[2][5] + 0.0128f32 * P[5][5],
             ],
-            [P[3][0], P[3][1], P[3][2], P[3][3], P[3][4], P[3][5]],
-            [P[4][0], P[4][1], P[4][2], P[4][3], P[4][4], P[4][5]],
-            [P[5][0], P[5][1], P[5][2], P[5][3], P[5][4], P[5][5]],
+            [P[3][0], 0f32, 0f32, P[3][3], 0f32, 0f32],
+            [0f32, P[4][1], 0f32, 0f32, P[4][4], 0f32],
+            [0f32, 0f32, P[5][2], 0f32, 0f32, P[5][5]],
         ]
     }
     /// F·P·Fᵀ + Q, symmetric by construction.
@@ -7402,75 +7402,42 @@ pub mod paper_faithful {
         let FP = f_times(P);
         let mut out = [[0.0; NX]; NX];
         out[0][0] = FP[0][0] + 0.0128f32 * FP[0][3] + 0.00000000015099494f32;
-        out[0][1] = FP[0][1] + 0.0128f32 * FP[0][4];
+        out[0][1] = 0f32;
         out[1][0] = out[0][1];
-        out[0][2] = FP[0][2] + 0.0128f32 * FP[0][5];
+        out[0][2] = 0f32;
         out[2][0] = out[0][2];
         out[0][3] = FP[0][3] + 0.00000002359296f32;
         out[3][0] = out[0][3];
-        out[0][4] = FP[0][4];
+        out[0][4] = 0f32;
         out[4][0] = out[0][4];
-        out[0][5] = FP[0][5];
+        out[0][5] = 0f32;
         out[5][0] = out[0][5];
         out[1][1] = FP[1][1] + 0.0128f32 * FP[1][4] + 0.00000000015099494f32;
-        out[1][2] = FP[1][2] + 0.0128f32 * FP[1][5];
+        out[1][2] = 0f32;
         out[2][1] = out[1][2];
-        out[1][3] = FP[1][3];
+        out[1][3] = 0f32;
         out[3][1] = out[1][3];
         out[1][4] = FP[1][4] + 0.00000002359296f32;
         out[4][1] = out[1][4];
-        out[1][5] = FP[1][5];
+        out[1][5] = 0f32;
         out[5][1] = out[1][5];
         out[2][2] = FP[2][2] + 0.0128f32 * FP[2][5] + 0.00000000015099494f32;
-        out[2][3] = FP[2][3];
+        out[2][3] = 0f32;
         out[3][2] = out[2][3];
-        out[2][4] = FP[2][4];
+        out[2][4] = 0f32;
         out[4][2] = out[2][4];
         out[2][5] = FP[2][5] + 0.00000002359296f32;
         out[5][2] = out[2][5];
         out[3][3] = FP[3][3] + 0.0000036864f32;
-        out[3][4] = FP[3][4];
+        out[3][4] = 0f32;
         out[4][3] = out[3][4];
-        out[3][5] = FP[3][5];
+        out[3][5] = 0f32;
         out[5][3] = out[3][5];
         out[4][4] = FP[4][4] + 0.0000036864f32;
-        out[4][5] = FP[4][5];
+        out[4][5] = 0f32;
         out[5][4] = out[4][5];
         out[5][5] = FP[5][5] + 0.0000036864f32;
         out
-    }
-    /// P·Cᵀ, unrolled over the nonzeros of C.
-    #[inline(always)]
-    fn times_c_transpose(P: &[[Real; NX]; NX]) -> [[Real; NY]; NX] {
-        [
-            [P[0][0], P[0][1], P[0][2]],
-            [P[1][0], P[1][1], P[1][2]],
-            [P[2][0], P[2][1], P[2][2]],
-            [P[3][0], P[3][1], P[3][2]],
-            [P[4][0], P[4][1], P[4][2]],
-            [P[5][0], P[5][1], P[5][2]],
-        ]
-    }
-    /// The innovation covariance C·P·Cᵀ + R from P·Cᵀ.
-    #[inline(always)]
-    fn innovation_covariance(PCt: &[[Real; NY]; NX]) -> [[Real; NY]; NY] {
-        [
-            [PCt[0][0] + 0.09f32, PCt[0][1], PCt[0][2]],
-            [PCt[1][0], PCt[1][1] + 0.09f32, PCt[1][2]],
-            [PCt[2][0], PCt[2][1], PCt[2][2] + 0.09f32],
-        ]
-    }
-    /// I − K·C.
-    #[inline(always)]
-    fn i_minus_kc(K: &[[Real; NY]; NX]) -> [[Real; NX]; NX] {
-        [
-            [1f32 - K[0][0], -K[0][1], -K[0][2], 0f32, 0f32, 0f32],
-            [-K[1][0], 1f32 - K[1][1], -K[1][2], 0f32, 0f32, 0f32],
-            [-K[2][0], -K[2][1], 1f32 - K[2][2], 0f32, 0f32, 0f32],
-            [-K[3][0], -K[3][1], -K[3][2], 1f32, 0f32, 0f32],
-            [-K[4][0], -K[4][1], -K[4][2], 0f32, 1f32, 0f32],
-            [-K[5][0], -K[5][1], -K[5][2], 0f32, 0f32, 1f32],
-        ]
     }
     /// S⁻¹ for a symmetric positive definite S, by an unrolled LDLᵀ factorization.
     #[inline(always)]
@@ -7541,28 +7508,109 @@ pub mod paper_faithful {
             if !all_finite(z) {
                 return false;
             }
-            let PCt = times_c_transpose(&self.P);
-            let Some(S_inv) = spd_inverse(&innovation_covariance(&PCt)) else {
+            let pct_0_0: Real = self.P[0][0];
+            let pct_1_1: Real = self.P[1][1];
+            let pct_2_2: Real = self.P[2][2];
+            let pct_3_0: Real = self.P[3][0];
+            let pct_4_1: Real = self.P[4][1];
+            let pct_5_2: Real = self.P[5][2];
+            let s_0_0: Real = 0.09f32 + pct_0_0;
+            let s_1_1: Real = 0.09f32 + pct_1_1;
+            let s_2_2: Real = 0.09f32 + pct_2_2;
+            let S: [[Real; NY]; NY] = [
+                [s_0_0, 0f32, 0f32],
+                [0f32, s_1_1, 0f32],
+                [0f32, 0f32, s_2_2],
+            ];
+            let Some(S_inv) = spd_inverse(&S) else {
                 return false;
             };
-            let K = mat_mul(&PCt, &S_inv);
+            let k_0_0: Real = (pct_0_0 * S_inv[0][0]);
+            let k_1_1: Real = (pct_1_1 * S_inv[1][1]);
+            let k_2_2: Real = (pct_2_2 * S_inv[2][2]);
+            let k_3_0: Real = (pct_3_0 * S_inv[0][0]);
+            let k_4_1: Real = (pct_4_1 * S_inv[1][1]);
+            let k_5_2: Real = (pct_5_2 * S_inv[2][2]);
             let predicted = measure(&self.x);
-            let mut x = self.x;
-            for (x_i, K_i) in x.iter_mut().zip(K.iter()) {
-                for ((k, z), zp) in K_i.iter().zip(z.iter()).zip(predicted.iter()) {
-                    *x_i += *k * (*z - *zp);
-                }
+            let mut innovation = *z;
+            for (e, zp) in innovation.iter_mut().zip(predicted.iter()) {
+                *e -= *zp;
             }
-            let A = i_minus_kc(&K);
-            let KR = mat_mul(&K, &R_NOISE);
-            let mut P = mat_mul_transposed(&mat_mul(&A, &self.P), &A);
-            let KRKt = mat_mul_transposed(&KR, &K);
-            for (P_i, KRK_i) in P.iter_mut().zip(KRKt.iter()) {
-                for (p, k) in P_i.iter_mut().zip(KRK_i.iter()) {
-                    *p += *k;
-                }
-            }
-            let P = symmetrized(&P);
+            let xn_0_0: Real = (k_0_0 * innovation[0]) + self.x[0];
+            let xn_1_0: Real = (k_1_1 * innovation[1]) + self.x[1];
+            let xn_2_0: Real = (k_2_2 * innovation[2]) + self.x[2];
+            let xn_3_0: Real = (k_3_0 * innovation[0]) + self.x[3];
+            let xn_4_0: Real = (k_4_1 * innovation[1]) + self.x[4];
+            let xn_5_0: Real = (k_5_2 * innovation[2]) + self.x[5];
+            let x: [Real; NX] = [xn_0_0, xn_1_0, xn_2_0, xn_3_0, xn_4_0, xn_5_0];
+            let a_0_0: Real = 1f32 - k_0_0;
+            let a_1_1: Real = 1f32 - k_1_1;
+            let a_2_2: Real = 1f32 - k_2_2;
+            let a_3_0: Real = -k_3_0;
+            let a_4_1: Real = -k_4_1;
+            let a_5_2: Real = -k_5_2;
+            let ap_0_0: Real = (a_0_0 * self.P[0][0]);
+            let ap_0_3: Real = (a_0_0 * self.P[0][3]);
+            let ap_1_1: Real = (a_1_1 * self.P[1][1]);
+            let ap_1_4: Real = (a_1_1 * self.P[1][4]);
+            let ap_2_2: Real = (a_2_2 * self.P[2][2]);
+            let ap_2_5: Real = (a_2_2 * self.P[2][5]);
+            let ap_3_0: Real = (a_3_0 * self.P[0][0]) + self.P[3][0];
+            let ap_3_3: Real = (a_3_0 * self.P[0][3]) + self.P[3][3];
+            let ap_4_1: Real = (a_4_1 * self.P[1][1]) + self.P[4][1];
+            let ap_4_4: Real = (a_4_1 * self.P[1][4]) + self.P[4][4];
+            let ap_5_2: Real = (a_5_2 * self.P[2][2]) + self.P[5][2];
+            let ap_5_5: Real = (a_5_2 * self.P[2][5]) + self.P[5][5];
+            let apa_0_0: Real = (ap_0_0 * a_0_0);
+            let apa_0_3: Real = (ap_0_0 * a_3_0) + ap_0_3;
+            let apa_1_1: Real = (ap_1_1 * a_1_1);
+            let apa_1_4: Real = (ap_1_1 * a_4_1) + ap_1_4;
+            let apa_2_2: Real = (ap_2_2 * a_2_2);
+            let apa_2_5: Real = (ap_2_2 * a_5_2) + ap_2_5;
+            let apa_3_0: Real = (ap_3_0 * a_0_0);
+            let apa_3_3: Real = (ap_3_0 * a_3_0) + ap_3_3;
+            let apa_4_1: Real = (ap_4_1 * a_1_1);
+            let apa_4_4: Real = (ap_4_1 * a_4_1) + ap_4_4;
+            let apa_5_2: Real = (ap_5_2 * a_2_2);
+            let apa_5_5: Real = (ap_5_2 * a_5_2) + ap_5_5;
+            let kr_0_0: Real = 0.09f32 * k_0_0;
+            let kr_1_1: Real = 0.09f32 * k_1_1;
+            let kr_2_2: Real = 0.09f32 * k_2_2;
+            let kr_3_0: Real = 0.09f32 * k_3_0;
+            let kr_4_1: Real = 0.09f32 * k_4_1;
+            let kr_5_2: Real = 0.09f32 * k_5_2;
+            let pj_0_0: Real = (kr_0_0 * k_0_0) + apa_0_0;
+            let pj_0_3: Real = (kr_0_0 * k_3_0) + apa_0_3;
+            let pj_1_1: Real = (kr_1_1 * k_1_1) + apa_1_1;
+            let pj_1_4: Real = (kr_1_1 * k_4_1) + apa_1_4;
+            let pj_2_2: Real = (kr_2_2 * k_2_2) + apa_2_2;
+            let pj_2_5: Real = (kr_2_2 * k_5_2) + apa_2_5;
+            let pj_3_0: Real = (kr_3_0 * k_0_0) + apa_3_0;
+            let pj_3_3: Real = (kr_3_0 * k_3_0) + apa_3_3;
+            let pj_4_1: Real = (kr_4_1 * k_1_1) + apa_4_1;
+            let pj_4_4: Real = (kr_4_1 * k_4_1) + apa_4_4;
+            let pj_5_2: Real = (kr_5_2 * k_2_2) + apa_5_2;
+            let pj_5_5: Real = (kr_5_2 * k_5_2) + apa_5_5;
+            let pn_0_0: Real = 0.5f32 * pj_0_0 + 0.5f32 * pj_0_0;
+            let pn_0_3: Real = 0.5f32 * pj_0_3 + 0.5f32 * pj_3_0;
+            let pn_1_1: Real = 0.5f32 * pj_1_1 + 0.5f32 * pj_1_1;
+            let pn_1_4: Real = 0.5f32 * pj_1_4 + 0.5f32 * pj_4_1;
+            let pn_2_2: Real = 0.5f32 * pj_2_2 + 0.5f32 * pj_2_2;
+            let pn_2_5: Real = 0.5f32 * pj_2_5 + 0.5f32 * pj_5_2;
+            let pn_3_0: Real = 0.5f32 * pj_3_0 + 0.5f32 * pj_0_3;
+            let pn_3_3: Real = 0.5f32 * pj_3_3 + 0.5f32 * pj_3_3;
+            let pn_4_1: Real = 0.5f32 * pj_4_1 + 0.5f32 * pj_1_4;
+            let pn_4_4: Real = 0.5f32 * pj_4_4 + 0.5f32 * pj_4_4;
+            let pn_5_2: Real = 0.5f32 * pj_5_2 + 0.5f32 * pj_2_5;
+            let pn_5_5: Real = 0.5f32 * pj_5_5 + 0.5f32 * pj_5_5;
+            let P = [
+                [pn_0_0, 0f32, 0f32, pn_0_3, 0f32, 0f32],
+                [0f32, pn_1_1, 0f32, 0f32, pn_1_4, 0f32],
+                [0f32, 0f32, pn_2_2, 0f32, 0f32, pn_2_5],
+                [pn_3_0, 0f32, 0f32, pn_3_3, 0f32, 0f32],
+                [0f32, pn_4_1, 0f32, 0f32, pn_4_4, 0f32],
+                [0f32, 0f32, pn_5_2, 0f32, 0f32, pn_5_5],
+            ];
             if !(all_finite(&x) && P.iter().all(|row| all_finite(row))) {
                 return false;
             }
@@ -7668,7 +7716,7 @@ pub mod paper_faithful {
         /// Multiply-adds of one solver iteration.
         pub const MACS_PER_ITERATION: usize = 960;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
-        pub const MACS_PER_CYCLE: usize = 30309;
+        pub const MACS_PER_CYCLE: usize = 29634;
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 1092;
         /// Bytes of `Mpc`.

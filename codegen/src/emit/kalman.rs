@@ -5,6 +5,7 @@
 use super::tokens::{at1, Num};
 use crate::lower::Problem;
 use mpc_spec::FilterKind;
+use nalgebra::DMatrix;
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
@@ -199,41 +200,37 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
     let (ny, nd) = (p.ny, p.filter.nd);
     // The covariance is over the filter's state (x, d): na = nx + nd entries.
     let na = p.nx + nd;
-    let (Fa, Ca) = (&p.filter.Fa, &p.filter.Ca);
+    let Fa = &p.filter.Fa;
     let ns = if nd > 0 { quote!(NA) } else { quote!(NX) };
     let (_, state_args) = state_signature(p);
     let (d_field, d_init, d_accessor) = disturbance_parts(p);
-    let (d_correct, d_commit, d_check) = if nd > 0 {
-        (
-            quote! {
-                let mut d = self.d;
-                for (d_i, K_i) in d.iter_mut().zip(K.iter().skip(NX)) {
-                    for ((k, z), zp) in K_i.iter().zip(z.iter()).zip(predicted.iter()) {
-                        *d_i += *k * (*z - *zp);
-                    }
-                }
-            },
-            quote!(self.d = d;),
-            quote!(&&all_finite(&d)),
-        )
+    let (d_commit, d_check) = if nd > 0 {
+        (quote!(self.d = d;), quote!(&&all_finite(&d)))
     } else {
-        (quote!(), quote!(), quote!())
+        (quote!(), quote!())
     };
-    let (P, FP, PCt, K) = (quote!(P), quote!(FP), quote!(PCt), quote!(K));
+    let (P, FP) = (quote!(P), quote!(FP));
     let ix = |i: usize| Literal::usize_unsuffixed(i);
     let m = |name: &TokenStream, i: usize, j: usize| {
         let (i, j) = (ix(i), ix(j));
         quote!(#name[#i][#j])
     };
-    // F·P, then (F·P)·Fᵀ + Q, upper triangle computed and mirrored so P stays symmetric.
+    // F·P, then (F·P)·Fᵀ + Q, upper triangle computed and mirrored so P stays symmetric. Entries of P
+    // that are structurally zero (`Filter::P_pattern`) are skipped, and so are those of F·P.
+    let pattern = &p.filter.P_pattern;
+    let fp_pattern = crate::structure::pattern_product(&crate::structure::pattern(Fa), pattern);
     let fp_rows = (0..na).map(|i| {
-        let row = (0..na).map(|j| num.sum(None, (0..na).map(|k| (Fa[(i, k)], m(&P, k, j)))));
+        let row = (0..na).map(|j| {
+            let terms = (0..na).filter(|k| pattern[(*k, j)]);
+            num.sum(None, terms.map(|k| (Fa[(i, k)], m(&P, k, j))))
+        });
         quote!([#(#row),*])
     });
     let mut propagate = Vec::new();
     for i in 0..na {
         for j in i..na {
-            let e = num.sum(None, (0..na).map(|k| (Fa[(j, k)], m(&FP, i, k))));
+            let terms = (0..na).filter(|k| fp_pattern[(i, *k)]);
+            let e = num.sum(None, terms.map(|k| (Fa[(j, k)], m(&FP, i, k))));
             let q = num.lit(p.filter.Qn[(i, j)]);
             let (ii, jj) = (ix(i), ix(j));
             let value = if num.round(p.filter.Qn[(i, j)]) == 0.0 {
@@ -247,31 +244,7 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
             }
         }
     }
-    // P·Cᵀ (na × ny) and C·(P·Cᵀ) + R (ny × ny).
-    let pct_rows = (0..na).map(|i| {
-        let row = (0..ny).map(|j| num.sum(None, (0..na).map(|k| (Ca[(j, k)], m(&P, i, k)))));
-        quote!([#(#row),*])
-    });
-    let s_rows = (0..ny).map(|i| {
-        let row = (0..ny).map(|j| {
-            let e = num.sum(None, (0..na).map(|k| (Ca[(i, k)], m(&PCt, k, j))));
-            let r = num.lit(p.filter.Rn[(i, j)]);
-            if num.round(p.filter.Rn[(i, j)]) == 0.0 {
-                e
-            } else {
-                quote!(#e + #r)
-            }
-        });
-        quote!([#(#row),*])
-    });
-    // I − K·C.
-    let ikc_rows = (0..na).map(|i| {
-        let row = (0..na).map(|j| {
-            let one = if i == j { Some(num.lit(1.0)) } else { None };
-            num.sum(one, (0..ny).map(|l| (-Ca[(l, j)], m(&K, i, l))))
-        });
-        quote!([#(#row),*])
-    });
+    let update = update_covariance(p, num);
     let inverse = spd_inverse(ny);
     quote! {
         #kernels
@@ -289,24 +262,6 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
             let mut out = [[0.0; #ns]; #ns];
             #(#propagate)*
             out
-        }
-
-        /// P·Cᵀ, unrolled over the nonzeros of C.
-        #[inline(always)]
-        fn times_c_transpose(P: &[[Real; #ns]; #ns]) -> [[Real; NY]; #ns] {
-            [#(#pct_rows),*]
-        }
-
-        /// The innovation covariance C·P·Cᵀ + R from P·Cᵀ.
-        #[inline(always)]
-        fn innovation_covariance(PCt: &[[Real; NY]; #ns]) -> [[Real; NY]; NY] {
-            [#(#s_rows),*]
-        }
-
-        /// I − K·C.
-        #[inline(always)]
-        fn i_minus_kc(K: &[[Real; NY]; #ns]) -> [[Real; #ns]; #ns] {
-            [#(#ikc_rows),*]
         }
 
         #inverse
@@ -346,29 +301,7 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
                 if !all_finite(z) {
                     return false;
                 }
-                let PCt = times_c_transpose(&self.P);
-                let Some(S_inv) = spd_inverse(&innovation_covariance(&PCt)) else {
-                    return false;
-                };
-                let K = mat_mul(&PCt, &S_inv);
-                let predicted = measure(&self.x);
-                let mut x = self.x;
-                for (x_i, K_i) in x.iter_mut().zip(K.iter()) {
-                    for ((k, z), zp) in K_i.iter().zip(z.iter()).zip(predicted.iter()) {
-                        *x_i += *k * (*z - *zp);
-                    }
-                }
-                #d_correct
-                let A = i_minus_kc(&K);
-                let KR = mat_mul(&K, &R_NOISE);
-                let mut P = mat_mul_transposed(&mat_mul(&A, &self.P), &A);
-                let KRKt = mat_mul_transposed(&KR, &K);
-                for (P_i, KRK_i) in P.iter_mut().zip(KRKt.iter()) {
-                    for (p, k) in P_i.iter_mut().zip(KRK_i.iter()) {
-                        *p += *k;
-                    }
-                }
-                let P = symmetrized(&P);
+                #update
                 if !(all_finite(&x) #d_check && P.iter().all(|row| all_finite(row))) {
                     return false;
                 }
@@ -454,5 +387,80 @@ fn spd_inverse(ny: usize) -> TokenStream {
             #(#columns)*
             Some([#(#rows),*])
         }
+    }
+}
+
+/// The measurement update's arithmetic over the entries that can be nonzero: K = P·Cᵀ·S⁻¹ with
+/// S = C·P·Cᵀ + R, the corrected estimate, and the Joseph form (I − KC)·P·(I − KC)ᵀ + K·R·Kᵀ,
+/// symmetrized. Binds `x` (and `d`) and `P`; returns false from `update` when S is not positive definite.
+fn update_covariance(p: &Problem, num: Num) -> TokenStream {
+    use super::sparse::{product, symmetrized, Sym};
+    use crate::structure::pattern_inverse;
+    let f = &p.filter;
+    let (nx, nd, ny) = (p.nx, f.nd, p.ny);
+    let na = nx + nd;
+    let P = Sym::place(&quote!(self.P), &f.P_pattern);
+    let C = Sym::constant(&f.Ca, num);
+    let R = Sym::constant(&f.Rn, num);
+    let (pct, PCt) = product(num, "pct", &P, &C.transpose(), None);
+    let (s, S) = product(num, "s", &C, &PCt, Some(&R));
+    let S_array = S.array(num);
+    let S_inv = Sym::place(&quote!(S_inv), &pattern_inverse(&S.pattern()));
+    let (k, K) = product(num, "k", &PCt, &S_inv, None);
+    // x⁺ = x + K·(z − C x), over the filter's state (x, d).
+    let innovation = Sym::column(
+        (0..ny)
+            .map(|j| {
+                let j = Literal::usize_unsuffixed(j);
+                quote!(innovation[#j])
+            })
+            .collect(),
+    );
+    let state = Sym::column(
+        (0..na)
+            .map(|i| element(p, i))
+            .map(|e| quote!(self.#e))
+            .collect(),
+    );
+    let (corrected, X) = product(num, "xn", &K, &innovation, Some(&state));
+    let x_rows = (0..nx).map(|i| X.element(i, num));
+    let d_rows = (nx..na).map(|i| X.element(i, num));
+    let d_binding = if nd > 0 {
+        quote!(let d: [Real; ND] = [#(#d_rows),*];)
+    } else {
+        quote!()
+    };
+    let identity = Sym::constant(&DMatrix::identity(na, na), num);
+    let minus_C = Sym::constant(&(-&f.Ca), num);
+    let (a, A) = product(num, "a", &K, &minus_C, Some(&identity));
+    let (ap, AP) = product(num, "ap", &A, &P, None);
+    let (apa, APA) = product(num, "apa", &AP, &A.transpose(), None);
+    let (kr, KR) = product(num, "kr", &K, &R, None);
+    let (joseph, J) = product(num, "pj", &KR, &K.transpose(), Some(&APA));
+    let (sym, Pn) = symmetrized(num, "pn", &J);
+    let P_array = Pn.array(num);
+    quote! {
+        #(#pct)*
+        #(#s)*
+        let S: [[Real; NY]; NY] = #S_array;
+        let Some(S_inv) = spd_inverse(&S) else {
+            return false;
+        };
+        #(#k)*
+        let predicted = measure(&self.x);
+        let mut innovation = *z;
+        for (e, zp) in innovation.iter_mut().zip(predicted.iter()) {
+            *e -= *zp;
+        }
+        #(#corrected)*
+        let x: [Real; NX] = [#(#x_rows),*];
+        #d_binding
+        #(#a)*
+        #(#ap)*
+        #(#apa)*
+        #(#kr)*
+        #(#joseph)*
+        #(#sym)*
+        let P = #P_array;
     }
 }

@@ -4,6 +4,7 @@ mod kalman;
 mod lanes;
 mod mpc;
 mod report;
+mod sparse;
 mod support;
 pub(crate) mod tokens;
 
