@@ -416,13 +416,12 @@ fn resources(p: &Problem) -> Resources {
     let f = &p.filter;
     // The filter works on (x, d): na = nx + nd states.
     let (na, ny) = (p.nx + f.nd, p.ny);
-    let nz = qp.N * p.nu;
     let estimates = crate::cost::estimates(p);
     let chosen = estimates
         .iter()
         .find(|e| e.emission == p.emission)
         .expect("the problem's emission is one of the estimated choices");
-    let per_iteration = chosen.macs + crate::cost::update_macs(p, p.emission);
+    let per_iteration = chosen.macs + crate::cost::update_macs(p);
     // f: unrolled over Fx, Fr and Fd, or one pass of the matrix-free sweeps (f = ∇J(0)).
     let (gradient_map, gradient_map_constants) = match p.emission {
         Emission::Unrolled => (
@@ -497,10 +496,7 @@ fn resources(p: &Problem) -> Resources {
         mpc_spec::Scalar::F32 => 4,
         mpc_spec::Scalar::F64 => 8,
     };
-    let bytes_state_mpc = match p.emission {
-        Emission::Lanes => qp.N * crate::cost::lane_count(p.nu) * size,
-        _ => nz * size,
-    };
+    let bytes_state_mpc = qp.N * crate::cost::plan_lanes(p) * size;
     let bytes_state_kalman = match f.kind {
         FilterKind::SteadyState => na * size,
         FilterKind::TimeVarying => (na + na * na) * size,

@@ -11,8 +11,8 @@
 //!   iteration, but a recursion from step to step whose latency the hardware cannot hide.
 //!
 //! The score is the expected time of one iteration in vector multiply-adds of four lanes: a scalar
-//! multiply-add counts one, a 4-lane one counts one, and the matrix-free sweep's multiply-adds count 1.5
-//! for the latency of its recursion. `auto` takes the lowest score among the choices whose code fits
+//! multiply-add counts one, a 4-lane one counts one, and the matrix-free sweeps' operations count
+//! [`SWEEP`] (scalar) or [`SWEEP_IN_LANES`] (lane vectors) for the latency of their recursion. `auto` takes the lowest score among the choices whose code fits
 //! [`CODE_BUDGET`].
 #![allow(non_snake_case)]
 
@@ -26,6 +26,13 @@ use nalgebra::DMatrix;
 pub const CODE_BUDGET: usize = 16 * 1024;
 /// The SIMD width the score assumes (NEON's q registers and SSE hold four f32).
 pub const VECTOR_WIDTH: usize = 4;
+/// The weight of a scalar multiply-add of the matrix-free sweeps: a recursion from step to step whose
+/// latency the hardware cannot hide.
+const SWEEP: f64 = 1.5;
+/// The weight of a lane-vector operation of the sweeps in lanes, measured on the emulated A9: 86
+/// instructions per step for 15 vector operations, against 14 per 8 vector multiply-adds in the
+/// `lanes` product (the sweeps load and store their vectors, the product keeps its accumulators).
+const SWEEP_IN_LANES: f64 = 3.0;
 /// Bytes of A32 code per inlined multiply-add: a literal-pool load (4), its literal (4), the multiply-add (4).
 const BYTES_PER_INLINED_MAC: usize = 12;
 /// Bytes of a loop over a constant table: the loop, its address arithmetic, the lane loads and stores.
@@ -59,6 +66,16 @@ impl Estimate {
 /// one 4-lane register.
 pub fn lane_count(nu: usize) -> usize {
     nu.next_power_of_two()
+}
+
+/// Entries per plan step in the emitted code: padded lanes for `lanes`, and for `matrix_free` when its
+/// sweeps run in lanes (the model has the lane structure); the NU inputs otherwise.
+pub fn plan_lanes(p: &Problem) -> usize {
+    match p.emission {
+        Emission::Lanes => lane_count(p.nu),
+        Emission::MatrixFree if p.model_lanes.is_some() => lane_count(p.nu),
+        _ => p.nu,
+    }
 }
 
 /// Every choice's estimate, in the order of [`Emission`].
@@ -99,16 +116,33 @@ pub fn estimates(p: &Problem) -> Vec<Estimate> {
         table_bytes: N * N * size,
     };
     // Per step: x⁺ = F x + G u forward; λ = 2W e + Fᵀ λ⁺ and g = Gᵀ λ⁺ + 2R u backward, e = x − r.
-    let (F, G) = (nnz(&p.F), nnz(&p.G));
-    let W = nnz(&qp.Q).max(nnz(&qp.Qf));
-    let step = 2 * F + 2 * G + W + nnz(&qp.R) + p.nx;
-    let matrix_free = Estimate {
-        emission: Emission::MatrixFree,
-        unavailable: None,
-        macs: N * step,
-        score: 1.5 * (N * step) as f64,
-        code_bytes: (step + nnz(&qp.Qf)) * BYTES_PER_INLINED_MAC + BYTES_OF_A_LOOP,
-        table_bytes: 0,
+    // With the model in lanes ([`crate::lower::ModelLanes`]) every operation is one lane vector.
+    let matrix_free = match &p.model_lanes {
+        Some(m) => {
+            let W = nnz(&m.Q).max(nnz(&m.Qf));
+            let step = 2 * nnz(&m.F) + 2 * nnz(&m.G) + W + nnz(&m.R) + m.F.nrows();
+            let lanes = lane_count(nu);
+            Estimate {
+                emission: Emission::MatrixFree,
+                unavailable: None,
+                macs: N * step * lanes,
+                score: SWEEP_IN_LANES * (N * step * lanes.div_ceil(VECTOR_WIDTH)) as f64,
+                code_bytes: (step + W) * BYTES_PER_INLINED_MAC + BYTES_OF_A_LOOP,
+                table_bytes: 0,
+            }
+        }
+        None => {
+            let W = nnz(&qp.Q).max(nnz(&qp.Qf));
+            let step = 2 * nnz(&p.F) + 2 * nnz(&p.G) + W + nnz(&qp.R) + p.nx;
+            Estimate {
+                emission: Emission::MatrixFree,
+                unavailable: None,
+                macs: N * step,
+                score: SWEEP * (N * step) as f64,
+                code_bytes: (step + nnz(&qp.Qf)) * BYTES_PER_INLINED_MAC + BYTES_OF_A_LOOP,
+                table_bytes: 0,
+            }
+        }
     };
     vec![unrolled, table, lanes, matrix_free]
 }
@@ -123,11 +157,8 @@ pub fn choose(estimates: &[Estimate]) -> Emission {
 }
 
 /// Multiply-adds of one iteration besides the gradient: the projected step, and the momentum of FGM.
-pub fn update_macs(p: &Problem, emission: Emission) -> usize {
-    let width = match emission {
-        Emission::Lanes => lane_count(p.nu),
-        _ => p.nu,
-    };
+pub fn update_macs(p: &Problem) -> usize {
+    let width = plan_lanes(p);
     let n = p.qp.N * width;
     n + if p.qp.method == Method::Fgm { n } else { 0 }
 }

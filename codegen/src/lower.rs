@@ -125,6 +125,47 @@ pub struct Problem {
     pub scalar: Scalar,
     /// How the gradient is emitted: the spec's forced choice, or the cost model's ([`crate::cost`]).
     pub emission: Emission,
+    /// The model per input lane, when F, G, Q, Qf and R are all `A ⊗ I_nu` ([`ModelLanes`]).
+    pub model_lanes: Option<ModelLanes>,
+}
+
+/// The model of one input lane: with x ordered component-major (x[s·nu + a] is component s of lane
+/// a, as the double integrator's [positions; velocities]), F = F_axis ⊗ I_nu, G = G_axis ⊗ I_nu and the
+/// weights likewise, so the matrix-free sweeps run all lanes at once with one set of constants.
+#[derive(Clone, Debug)]
+pub struct ModelLanes {
+    /// F_axis, nx/nu × nx/nu.
+    pub F: DMatrix<f64>,
+    /// G_axis, nx/nu × 1.
+    pub G: DMatrix<f64>,
+    /// Q_axis.
+    pub Q: DMatrix<f64>,
+    /// Qf_axis.
+    pub Qf: DMatrix<f64>,
+    /// R_axis, 1 × 1.
+    pub R: DMatrix<f64>,
+}
+
+/// The model's lane structure, if F, G, Q, Qf and R all have it.
+fn model_lanes(
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+    Q: &DMatrix<f64>,
+    Qf: &DMatrix<f64>,
+    R: &DMatrix<f64>,
+) -> Option<ModelLanes> {
+    let nu = G.ncols();
+    if nu < 2 || !F.nrows().is_multiple_of(nu) {
+        return None;
+    }
+    let k = |M: &DMatrix<f64>| crate::structure::kronecker_identity(M, nu).ok();
+    Some(ModelLanes {
+        F: k(F)?,
+        G: k(G)?,
+        Q: k(Q)?,
+        Qf: k(Qf)?,
+        R: k(R)?,
+    })
 }
 
 /// Computes the QP and the filter of `spec`. Fails, with located diagnostics, when a weight or
@@ -350,7 +391,15 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         C,
         scalar: spec.codegen.scalar,
         emission: Emission::Table,
+        model_lanes: None,
     };
+    problem.model_lanes = model_lanes(
+        &problem.F,
+        &problem.G,
+        &problem.qp.Q,
+        &problem.qp.Qf,
+        &problem.qp.R,
+    );
     let estimates = crate::cost::estimates(&problem);
     problem.emission = match (spec.codegen.emission, H_axis) {
         (Emission::Auto, _) => crate::cost::choose(&estimates),

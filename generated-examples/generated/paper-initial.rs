@@ -928,7 +928,92 @@ pub mod paper_initial {
     const HI: [Real; LANES] = [10f32, 10f32, 10f32, 0f32];
     /// U_REST over the lanes.
     const REST: [Real; LANES] = [0f32, 0f32, 0f32, 0f32];
-    /// ∇J(v) without H: a forward sweep of the dynamics, then a backward adjoint sweep (O(N)).
+    /// a + b, lane by lane.
+    #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
+    #[inline(always)]
+    fn lane_add(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
+        let mut out = a;
+        for (o, b) in out.iter_mut().zip(b.iter()) {
+            *o += *b;
+        }
+        out
+    }
+    /// a − b, lane by lane.
+    #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
+    #[inline(always)]
+    fn lane_sub(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
+        let mut out = a;
+        for (o, b) in out.iter_mut().zip(b.iter()) {
+            *o -= *b;
+        }
+        out
+    }
+    /// c·a, lane by lane.
+    #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
+    #[allow(dead_code)]
+    #[inline(always)]
+    fn lane_scale(c: Real, a: [Real; LANES]) -> [Real; LANES] {
+        let mut out = a;
+        for o in out.iter_mut() {
+            *o = c * *o;
+        }
+        out
+    }
+    /// acc + c·a, lane by lane.
+    #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
+    #[allow(dead_code)]
+    #[inline(always)]
+    fn lane_mul_add(acc: [Real; LANES], c: Real, a: [Real; LANES]) -> [Real; LANES] {
+        let mut out = acc;
+        for (o, a) in out.iter_mut().zip(a.iter()) {
+            *o += c * *a;
+        }
+        out
+    }
+    /// NEON: one 4-lane operation, through a register.
+    #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
+    #[inline(always)]
+    fn lane_op(
+        f: impl FnOnce(core::arch::arm::float32x4_t) -> core::arch::arm::float32x4_t,
+        a: [Real; LANES],
+    ) -> [Real; LANES] {
+        use core::arch::arm::{vld1q_f32, vst1q_f32};
+        let mut out = [0.0; LANES];
+        unsafe { vst1q_f32(out.as_mut_ptr(), f(vld1q_f32(a.as_ptr()))) };
+        out
+    }
+    /// NEON: a + b.
+    #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
+    #[inline(always)]
+    fn lane_add(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
+        use core::arch::arm::{vaddq_f32, vld1q_f32};
+        lane_op(|a| unsafe { vaddq_f32(a, vld1q_f32(b.as_ptr())) }, a)
+    }
+    /// NEON: a − b.
+    #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
+    #[inline(always)]
+    fn lane_sub(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
+        use core::arch::arm::{vld1q_f32, vsubq_f32};
+        lane_op(|a| unsafe { vsubq_f32(a, vld1q_f32(b.as_ptr())) }, a)
+    }
+    /// NEON: c·a.
+    #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
+    #[allow(dead_code)]
+    #[inline(always)]
+    fn lane_scale(c: Real, a: [Real; LANES]) -> [Real; LANES] {
+        use core::arch::arm::vmulq_n_f32;
+        lane_op(|a| unsafe { vmulq_n_f32(a, c) }, a)
+    }
+    /// NEON: acc + c·a.
+    #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
+    #[allow(dead_code)]
+    #[inline(always)]
+    fn lane_mul_add(acc: [Real; LANES], c: Real, a: [Real; LANES]) -> [Real; LANES] {
+        use core::arch::arm::{vld1q_f32, vmlaq_n_f32};
+        lane_op(|acc| unsafe { vmlaq_n_f32(acc, vld1q_f32(a.as_ptr()), c) }, acc)
+    }
+    /// ∇J(v) without H, every lane at once: a forward sweep of the dynamics, then a backward adjoint
+    /// sweep (O(N)), on vectors of one state component across the lanes (F = F_axis ⊗ I).
     /// λ_k = 2W_k(x_k − r_k) + Fᵀλ_{k+1}, g_k = Gᵀλ_{k+1} + 2R·u_k, W_k = Q, and Qf at the last step.
     #[inline(always)]
     fn adjoint_gradient(
@@ -937,65 +1022,45 @@ pub mod paper_initial {
         xref: &[[Real; NX]; N],
         g: &mut Plan,
     ) {
-        let mut x = [[0.0; NX]; N];
-        let mut prev = *x0;
+        let mut x = [[[0.0; LANES]; 2]; N];
+        let mut prev: [[Real; LANES]; 2] = [
+            [x0[0], x0[1], x0[2], 0f32],
+            [x0[3], x0[4], x0[5], 0f32],
+        ];
         for (x_k, v_k) in x.iter_mut().zip(v.iter()) {
-            let u: [Real; NU] = [v_k[0], v_k[1], v_k[2]];
+            let u = *v_k;
             *x_k = [
-                prev[0] + 0.0128f32 * prev[3] + 0.00008192f32 * u[0],
-                prev[1] + 0.0128f32 * prev[4] + 0.00008192f32 * u[1],
-                prev[2] + 0.0128f32 * prev[5] + 0.00008192f32 * u[2],
-                prev[3] + 0.0128f32 * u[0],
-                prev[4] + 0.0128f32 * u[1],
-                prev[5] + 0.0128f32 * u[2],
+                lane_mul_add(
+                    lane_mul_add(prev[0], 0.0128f32, prev[1]),
+                    0.00008192f32,
+                    u,
+                ),
+                lane_mul_add(prev[1], 0.0128f32, u),
             ];
             prev = *x_k;
         }
-        let mut lambda = [0.0; NX];
+        let mut lambda = [[0.0; LANES]; 2];
         let steps = g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()));
         for (k, ((g_k, x_k), (r_k, v_k))) in steps.enumerate().rev() {
-            let u: [Real; NU] = [v_k[0], v_k[1], v_k[2]];
-            let e: [Real; NX] = [
-                x_k[0] - r_k[0],
-                x_k[1] - r_k[1],
-                x_k[2] - r_k[2],
-                x_k[3] - r_k[3],
-                x_k[4] - r_k[4],
-                x_k[5] - r_k[5],
+            let u = *v_k;
+            let e: [[Real; LANES]; 2] = [
+                lane_sub(x_k[0], [r_k[0], r_k[1], r_k[2], 0f32]),
+                lane_sub(x_k[1], [r_k[3], r_k[4], r_k[5], 0f32]),
             ];
-            let we: [Real; NX] = if k + 1 == N {
-                [
-                    4000f32 * e[0],
-                    4000f32 * e[1],
-                    4000f32 * e[2],
-                    400f32 * e[3],
-                    400f32 * e[4],
-                    400f32 * e[5],
-                ]
+            let we: [[Real; LANES]; 2] = if k + 1 == N {
+                [lane_scale(4000f32, e[0]), lane_scale(400f32, e[1])]
             } else {
-                [
-                    400f32 * e[0],
-                    400f32 * e[1],
-                    400f32 * e[2],
-                    40f32 * e[3],
-                    40f32 * e[4],
-                    40f32 * e[5],
-                ]
+                [lane_scale(400f32, e[0]), lane_scale(40f32, e[1])]
             };
             lambda = [
-                we[0] + lambda[0],
-                we[1] + lambda[1],
-                we[2] + lambda[2],
-                we[3] + 0.0128f32 * lambda[0] + lambda[3],
-                we[4] + 0.0128f32 * lambda[1] + lambda[4],
-                we[5] + 0.0128f32 * lambda[2] + lambda[5],
+                lane_add(we[0], lambda[0]),
+                lane_add(lane_mul_add(we[1], 0.0128f32, lambda[0]), lambda[1]),
             ];
-            *g_k = [
-                0.00008192f32 * lambda[0] + 0.0128f32 * lambda[3] + 0.02f32 * u[0],
-                0.00008192f32 * lambda[1] + 0.0128f32 * lambda[4] + 0.02f32 * u[1],
-                0.00008192f32 * lambda[2] + 0.0128f32 * lambda[5] + 0.02f32 * u[2],
-                0f32,
-            ];
+            *g_k = lane_mul_add(
+                lane_mul_add(lane_scale(0.00008192f32, lambda[0]), 0.0128f32, lambda[1]),
+                0.02f32,
+                u,
+            );
         }
     }
     /// H_axis with H = H_axis ⊗ I_NU (5×5): every input's share of the Hessian, one table for all lanes.
@@ -1670,7 +1735,7 @@ pub mod paper_initial {
         /// Multiply-adds of one solver iteration.
         pub const MACS_PER_ITERATION: usize = 120;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
-        pub const MACS_PER_CYCLE: usize = 12384;
+        pub const MACS_PER_CYCLE: usize = 12459;
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 292;
         /// Bytes of `Mpc`.

@@ -6,6 +6,7 @@ mod mpc;
 mod report;
 mod sparse;
 mod support;
+mod sweep;
 pub(crate) mod tokens;
 
 use crate::certificate::Certificate;

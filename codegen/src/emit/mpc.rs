@@ -2,7 +2,6 @@
 #![allow(non_snake_case)]
 
 use super::tokens::{at1, at2, Num};
-use crate::cost::lane_count;
 use crate::lower::Problem;
 use mpc_spec::{Emission, Method};
 use proc_macro2::{Literal, TokenStream};
@@ -13,10 +12,7 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
     let qp = &p.qp;
     let (nu, N) = (p.nu, qp.N);
     let nd = p.filter.nd;
-    let lanes = match p.emission {
-        Emission::Lanes => lane_count(nu),
-        _ => nu,
-    };
+    let lanes = crate::cost::plan_lanes(p);
     let lanes_lit = Literal::usize_unsuffixed(lanes);
     let padded = |v: &nalgebra::DVector<f64>| {
         num.vector((0..lanes).map(|a| if a < nu { v[a] } else { 0.0 }))
@@ -44,7 +40,7 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
             } else {
                 super::lanes::emit(p, num)
             };
-            let sweep = adjoint_gradient(p, num, lanes);
+            let sweep = super::sweep::emit(p, num, lanes);
             (
                 quote!(#sweep #product),
                 quote! {
@@ -56,7 +52,7 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
             )
         }
         Emission::MatrixFree | Emission::Auto => (
-            adjoint_gradient(p, num, lanes),
+            super::sweep::emit(p, num, lanes),
             quote!(),
             quote!(adjoint_gradient(&#point, x0, #d_arg xref, &mut g)),
         ),
@@ -281,92 +277,6 @@ fn table(p: &Problem) -> TokenStream {
     }
 }
 
-/// The matrix-free gradient ∇J(v) = 2 Suᵀ Q_blk (Sx·x0 + Su·v − Xref) + 2 R_blk·v without Su: a forward
-/// sweep x_{k+1} = F x_k + G u_k, then a backward adjoint sweep λ_k = 2W_k (x_k − r_k) + Fᵀ λ_{k+1},
-/// g_k = Gᵀ λ_{k+1} + 2R u_k. With a disturbance, u = v + d (the offset-free problem is the plain one in
-/// v + d, see [`crate::lower::Qp::Fd`]).
-fn adjoint_gradient(p: &Problem, num: Num, lanes: usize) -> TokenStream {
-    let qp = &p.qp;
-    let (nx, nu, nd) = (p.nx, p.nu, p.filter.nd);
-    let (prev, u, e, lambda) = (quote!(prev), quote!(u), quote!(e), quote!(lambda));
-    let inputs: Vec<TokenStream> = (0..nu)
-        .map(|a| {
-            let a = Literal::usize_unsuffixed(a);
-            if nd > 0 {
-                quote!(v_k[#a] + d[#a])
-            } else {
-                quote!(v_k[#a])
-            }
-        })
-        .collect();
-    let forward: Vec<TokenStream> = (0..nx)
-        .map(|i| {
-            let from_x = (0..nx).map(|j| (p.F[(i, j)], at1(&prev, j)));
-            let from_u = (0..nu).map(|b| (p.G[(i, b)], at1(&u, b)));
-            num.sum(None, from_x.chain(from_u))
-        })
-        .collect();
-    let error: Vec<TokenStream> = (0..nx)
-        .map(|i| {
-            let i = Literal::usize_unsuffixed(i);
-            quote!(x_k[#i] - r_k[#i])
-        })
-        .collect();
-    let weighted = |W: &nalgebra::DMatrix<f64>| -> Vec<TokenStream> {
-        (0..nx)
-            .map(|i| num.sum(None, (0..nx).map(|j| (2.0 * W[(i, j)], at1(&e, j)))))
-            .collect()
-    };
-    let (stage, terminal) = (weighted(&qp.Q), weighted(&qp.Qf));
-    let we = quote!(we);
-    let adjoint: Vec<TokenStream> = (0..nx)
-        .map(|i| {
-            num.sum(
-                Some(at1(&we, i)),
-                (0..nx).map(|j| (p.F[(j, i)], at1(&lambda, j))),
-            )
-        })
-        .collect();
-    let grad: Vec<TokenStream> = (0..lanes)
-        .map(|a| {
-            if a >= nu {
-                return num.lit(0.0);
-            }
-            let from_lambda = (0..nx).map(|i| (p.G[(i, a)], at1(&lambda, i)));
-            let from_u = (0..nu).map(|b| (2.0 * qp.R[(a, b)], at1(&u, b)));
-            num.sum(None, from_lambda.chain(from_u))
-        })
-        .collect();
-    let d_param = if nd > 0 {
-        quote!(d: &[Real; ND],)
-    } else {
-        quote!()
-    };
-    quote! {
-        /// ∇J(v) without H: a forward sweep of the dynamics, then a backward adjoint sweep (O(N)).
-        /// λ_k = 2W_k(x_k − r_k) + Fᵀλ_{k+1}, g_k = Gᵀλ_{k+1} + 2R·u_k, W_k = Q, and Qf at the last step.
-        #[inline(always)]
-        fn adjoint_gradient(v: &Plan, x0: &[Real; NX], #d_param xref: &[[Real; NX]; N], g: &mut Plan) {
-            // The predicted states x_1 … x_N.
-            let mut x = [[0.0; NX]; N];
-            let mut prev = *x0;
-            for (x_k, v_k) in x.iter_mut().zip(v.iter()) {
-                let u: [Real; NU] = [#(#inputs),*];
-                *x_k = [#(#forward),*];
-                prev = *x_k;
-            }
-            let mut lambda = [0.0; NX];
-            let steps = g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()));
-            for (k, ((g_k, x_k), (r_k, v_k))) in steps.enumerate().rev() {
-                let u: [Real; NU] = [#(#inputs),*];
-                let e: [Real; NX] = [#(#error),*];
-                let we: [Real; NX] = if k + 1 == N { [#(#terminal),*] } else { [#(#stage),*] };
-                lambda = [#(#adjoint),*];
-                *g_k = [#(#grad),*];
-            }
-        }
-    }
-}
 /// `[[e0, e1], [e2, e3]]` from a flat list, `width` per block.
 pub fn blocks(entries: &[TokenStream], width: usize) -> Vec<TokenStream> {
     entries.chunks(width).map(|c| quote!([#(#c),*])).collect()

@@ -1,0 +1,354 @@
+//! The matrix-free gradient ∇J(v) = 2 Suᵀ Q_blk (Sx·x0 + Su·v − Xref) + 2 R_blk·v, without Su or H: a
+//! forward sweep of the dynamics and a backward adjoint sweep, O(N). It is the `matrix_free` emission's
+//! gradient, and f = ∇J(0) for the table forms. When the model has lanes ([`crate::lower::ModelLanes`])
+//! the sweeps run every lane at once with one set of constants (NEON on the A9); otherwise they are
+//! unrolled over the model's nonzeros.
+#![allow(non_snake_case)]
+
+use super::tokens::{at1, Num};
+use crate::cost::lane_count;
+use crate::lower::{ModelLanes, Problem};
+use mpc_spec::Scalar;
+use nalgebra::DMatrix;
+use proc_macro2::{Literal, TokenStream};
+use quote::quote;
+
+/// `fn adjoint_gradient(v, x0, [d,] xref, g)`, in lanes when the model and the plan have them.
+pub fn emit(p: &Problem, num: Num, lanes: usize) -> TokenStream {
+    match &p.model_lanes {
+        Some(m) if lanes == lane_count(p.nu) => in_lanes(p, m, num),
+        _ => scalar(p, num, lanes),
+    }
+}
+
+/// The matrix-free gradient ∇J(v) = 2 Suᵀ Q_blk (Sx·x0 + Su·v − Xref) + 2 R_blk·v without Su: a forward
+/// sweep x_{k+1} = F x_k + G u_k, then a backward adjoint sweep λ_k = 2W_k (x_k − r_k) + Fᵀ λ_{k+1},
+/// g_k = Gᵀ λ_{k+1} + 2R u_k. With a disturbance, u = v + d (the offset-free problem is the plain one in
+/// v + d, see [`crate::lower::Qp::Fd`]).
+fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
+    let qp = &p.qp;
+    let (nx, nu, nd) = (p.nx, p.nu, p.filter.nd);
+    let (prev, u, e, lambda) = (quote!(prev), quote!(u), quote!(e), quote!(lambda));
+    let inputs: Vec<TokenStream> = (0..nu)
+        .map(|a| {
+            let a = Literal::usize_unsuffixed(a);
+            if nd > 0 {
+                quote!(v_k[#a] + d[#a])
+            } else {
+                quote!(v_k[#a])
+            }
+        })
+        .collect();
+    let forward: Vec<TokenStream> = (0..nx)
+        .map(|i| {
+            let from_x = (0..nx).map(|j| (p.F[(i, j)], at1(&prev, j)));
+            let from_u = (0..nu).map(|b| (p.G[(i, b)], at1(&u, b)));
+            num.sum(None, from_x.chain(from_u))
+        })
+        .collect();
+    let error: Vec<TokenStream> = (0..nx)
+        .map(|i| {
+            let i = Literal::usize_unsuffixed(i);
+            quote!(x_k[#i] - r_k[#i])
+        })
+        .collect();
+    let weighted = |W: &nalgebra::DMatrix<f64>| -> Vec<TokenStream> {
+        (0..nx)
+            .map(|i| num.sum(None, (0..nx).map(|j| (2.0 * W[(i, j)], at1(&e, j)))))
+            .collect()
+    };
+    let (stage, terminal) = (weighted(&qp.Q), weighted(&qp.Qf));
+    let we = quote!(we);
+    let adjoint: Vec<TokenStream> = (0..nx)
+        .map(|i| {
+            num.sum(
+                Some(at1(&we, i)),
+                (0..nx).map(|j| (p.F[(j, i)], at1(&lambda, j))),
+            )
+        })
+        .collect();
+    let grad: Vec<TokenStream> = (0..lanes)
+        .map(|a| {
+            if a >= nu {
+                return num.lit(0.0);
+            }
+            let from_lambda = (0..nx).map(|i| (p.G[(i, a)], at1(&lambda, i)));
+            let from_u = (0..nu).map(|b| (2.0 * qp.R[(a, b)], at1(&u, b)));
+            num.sum(None, from_lambda.chain(from_u))
+        })
+        .collect();
+    let d_param = if nd > 0 {
+        quote!(d: &[Real; ND],)
+    } else {
+        quote!()
+    };
+    quote! {
+        /// ∇J(v) without H: a forward sweep of the dynamics, then a backward adjoint sweep (O(N)).
+        /// λ_k = 2W_k(x_k − r_k) + Fᵀλ_{k+1}, g_k = Gᵀλ_{k+1} + 2R·u_k, W_k = Q, and Qf at the last step.
+        #[inline(always)]
+        fn adjoint_gradient(v: &Plan, x0: &[Real; NX], #d_param xref: &[[Real; NX]; N], g: &mut Plan) {
+            // The predicted states x_1 … x_N.
+            let mut x = [[0.0; NX]; N];
+            let mut prev = *x0;
+            for (x_k, v_k) in x.iter_mut().zip(v.iter()) {
+                let u: [Real; NU] = [#(#inputs),*];
+                *x_k = [#(#forward),*];
+                prev = *x_k;
+            }
+            let mut lambda = [0.0; NX];
+            let steps = g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()));
+            for (k, ((g_k, x_k), (r_k, v_k))) in steps.enumerate().rev() {
+                let u: [Real; NU] = [#(#inputs),*];
+                let e: [Real; NX] = [#(#error),*];
+                let we: [Real; NX] = if k + 1 == N { [#(#terminal),*] } else { [#(#stage),*] };
+                lambda = [#(#adjoint),*];
+                *g_k = [#(#grad),*];
+            }
+        }
+    }
+}
+
+/// `acc ± c·x …` over lane vectors through the `lane_*` helpers, ±1 as plain additions, zeros skipped.
+fn lane_sum(num: Num, base: Option<TokenStream>, terms: Vec<(f64, TokenStream)>) -> TokenStream {
+    let mut out = base;
+    for (c, x) in terms {
+        let c = num.round(c);
+        if c == 0.0 {
+            continue;
+        }
+        out = Some(match (out, c) {
+            (None, 1.0) => x,
+            (Some(acc), 1.0) => quote!(lane_add(#acc, #x)),
+            (Some(acc), -1.0) => quote!(lane_sub(#acc, #x)),
+            (None, c) => {
+                let c = num.lit(c);
+                quote!(lane_scale(#c, #x))
+            }
+            (Some(acc), c) => {
+                let c = num.lit(c);
+                quote!(lane_mul_add(#acc, #c, #x))
+            }
+        });
+    }
+    out.unwrap_or_else(|| quote!([0.0; LANES]))
+}
+
+/// The sweeps with component s of every lane in one vector: x[s·NU + a] is lane a's component s.
+fn in_lanes(p: &Problem, m: &ModelLanes, num: Num) -> TokenStream {
+    let (nu, nd) = (p.nu, p.filter.nd);
+    let lanes = lane_count(nu);
+    let S = m.F.nrows();
+    let s_lit = Literal::usize_unsuffixed(S);
+    let ix = |i: usize| Literal::usize_unsuffixed(i);
+    // Lane vector of component s of a state array: [x[s·NU], …, x[s·NU + NU − 1], 0, …].
+    let gather = |name: TokenStream, s: usize| {
+        let items = (0..lanes).map(|a| {
+            if a < nu {
+                let i = ix(s * nu + a);
+                quote!(#name[#i])
+            } else {
+                num.lit(0.0)
+            }
+        });
+        quote!([#(#items),*])
+    };
+    let vec_at = |name: &str, s: usize| {
+        let name = quote::format_ident!("{}", name);
+        let s = ix(s);
+        quote!(#name[#s])
+    };
+    let x0 = (0..S).map(|s| gather(quote!(x0), s));
+    let input = if nd > 0 {
+        let d = (0..lanes).map(|a| {
+            if a < nu {
+                let a = ix(a);
+                quote!(d[#a])
+            } else {
+                num.lit(0.0)
+            }
+        });
+        (
+            quote!(let disturbance: [Real; LANES] = [#(#d),*];),
+            quote!(lane_add(*v_k, disturbance)),
+        )
+    } else {
+        (quote!(), quote!(*v_k))
+    };
+    let (d_lanes, u_k) = input;
+    let forward = (0..S).map(|s| {
+        let from_x = (0..S).map(|t| (m.F[(s, t)], vec_at("prev", t)));
+        let from_u = std::iter::once((m.G[(s, 0)], quote!(u)));
+        lane_sum(num, None, from_x.chain(from_u).collect())
+    });
+    let error = (0..S).map(|s| {
+        let r = gather(quote!(r_k), s);
+        let x = vec_at("x_k", s);
+        quote!(lane_sub(#x, #r))
+    });
+    let weighted = |W: &DMatrix<f64>| -> Vec<TokenStream> {
+        (0..S)
+            .map(|s| {
+                let terms = (0..S).map(|t| (2.0 * W[(s, t)], vec_at("e", t))).collect();
+                lane_sum(num, None, terms)
+            })
+            .collect()
+    };
+    let (stage, terminal) = (weighted(&m.Q), weighted(&m.Qf));
+    let adjoint = (0..S).map(|s| {
+        let terms = (0..S).map(|t| (m.F[(t, s)], vec_at("lambda", t))).collect();
+        lane_sum(num, Some(vec_at("we", s)), terms)
+    });
+    let gradient = {
+        let from_lambda = (0..S).map(|s| (m.G[(s, 0)], vec_at("lambda", s)));
+        let from_u = std::iter::once((2.0 * m.R[(0, 0)], quote!(u)));
+        lane_sum(num, None, from_lambda.chain(from_u).collect())
+    };
+    let d_param = if nd > 0 {
+        quote!(d: &[Real; ND],)
+    } else {
+        quote!()
+    };
+    let helpers = lane_helpers(p.scalar == Scalar::F32 && lanes == 4);
+    quote! {
+        #helpers
+
+        /// ∇J(v) without H, every lane at once: a forward sweep of the dynamics, then a backward adjoint
+        /// sweep (O(N)), on vectors of one state component across the lanes (F = F_axis ⊗ I).
+        /// λ_k = 2W_k(x_k − r_k) + Fᵀλ_{k+1}, g_k = Gᵀλ_{k+1} + 2R·u_k, W_k = Q, and Qf at the last step.
+        #[inline(always)]
+        fn adjoint_gradient(v: &Plan, x0: &[Real; NX], #d_param xref: &[[Real; NX]; N], g: &mut Plan) {
+            #d_lanes
+            // The predicted states x_1 … x_N, component by component.
+            let mut x = [[[0.0; LANES]; #s_lit]; N];
+            let mut prev: [[Real; LANES]; #s_lit] = [#(#x0),*];
+            for (x_k, v_k) in x.iter_mut().zip(v.iter()) {
+                let u = #u_k;
+                *x_k = [#(#forward),*];
+                prev = *x_k;
+            }
+            let mut lambda = [[0.0; LANES]; #s_lit];
+            let steps = g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()));
+            for (k, ((g_k, x_k), (r_k, v_k))) in steps.enumerate().rev() {
+                let u = #u_k;
+                let e: [[Real; LANES]; #s_lit] = [#(#error),*];
+                let we: [[Real; LANES]; #s_lit] = if k + 1 == N { [#(#terminal),*] } else { [#(#stage),*] };
+                lambda = [#(#adjoint),*];
+                *g_k = #gradient;
+            }
+        }
+    }
+}
+
+/// Lane-wise a + b, a − b, c·a and acc + c·a: loops over the lanes, and NEON intrinsics on the A9.
+fn lane_helpers(neon: bool) -> TokenStream {
+    let (neon_cfg, portable_cfg) = if neon {
+        (
+            quote!(#[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]),
+            quote!(#[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]),
+        )
+    } else {
+        (quote!(), quote!())
+    };
+    let portable = quote! {
+        /// a + b, lane by lane.
+        #portable_cfg
+        #[inline(always)]
+        fn lane_add(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
+            let mut out = a;
+            for (o, b) in out.iter_mut().zip(b.iter()) {
+                *o += *b;
+            }
+            out
+        }
+
+        /// a − b, lane by lane.
+        #portable_cfg
+        #[inline(always)]
+        fn lane_sub(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
+            let mut out = a;
+            for (o, b) in out.iter_mut().zip(b.iter()) {
+                *o -= *b;
+            }
+            out
+        }
+
+        /// c·a, lane by lane.
+        #portable_cfg
+        #[allow(dead_code)]
+        #[inline(always)]
+        fn lane_scale(c: Real, a: [Real; LANES]) -> [Real; LANES] {
+            let mut out = a;
+            for o in out.iter_mut() {
+                *o = c * *o;
+            }
+            out
+        }
+
+        /// acc + c·a, lane by lane.
+        #portable_cfg
+        #[allow(dead_code)]
+        #[inline(always)]
+        fn lane_mul_add(acc: [Real; LANES], c: Real, a: [Real; LANES]) -> [Real; LANES] {
+            let mut out = acc;
+            for (o, a) in out.iter_mut().zip(a.iter()) {
+                *o += c * *a;
+            }
+            out
+        }
+    };
+    if !neon {
+        return portable;
+    }
+    quote! {
+        #portable
+
+        /// NEON: one 4-lane operation, through a register.
+        #neon_cfg
+        #[inline(always)]
+        fn lane_op(f: impl FnOnce(core::arch::arm::float32x4_t) -> core::arch::arm::float32x4_t, a: [Real; LANES]) -> [Real; LANES] {
+            use core::arch::arm::{vld1q_f32, vst1q_f32};
+            let mut out = [0.0; LANES];
+            // SAFETY: NEON is enabled at compile time (the cfg above); both pointers are to live [f32; 4].
+            unsafe { vst1q_f32(out.as_mut_ptr(), f(vld1q_f32(a.as_ptr()))) };
+            out
+        }
+
+        /// NEON: a + b.
+        #neon_cfg
+        #[inline(always)]
+        fn lane_add(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
+            use core::arch::arm::{vaddq_f32, vld1q_f32};
+            // SAFETY: as in `lane_op`.
+            lane_op(|a| unsafe { vaddq_f32(a, vld1q_f32(b.as_ptr())) }, a)
+        }
+
+        /// NEON: a − b.
+        #neon_cfg
+        #[inline(always)]
+        fn lane_sub(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
+            use core::arch::arm::{vld1q_f32, vsubq_f32};
+            // SAFETY: as in `lane_op`.
+            lane_op(|a| unsafe { vsubq_f32(a, vld1q_f32(b.as_ptr())) }, a)
+        }
+
+        /// NEON: c·a.
+        #neon_cfg
+        #[allow(dead_code)]
+        #[inline(always)]
+        fn lane_scale(c: Real, a: [Real; LANES]) -> [Real; LANES] {
+            use core::arch::arm::vmulq_n_f32;
+            // SAFETY: as in `lane_op`.
+            lane_op(|a| unsafe { vmulq_n_f32(a, c) }, a)
+        }
+
+        /// NEON: acc + c·a.
+        #neon_cfg
+        #[allow(dead_code)]
+        #[inline(always)]
+        fn lane_mul_add(acc: [Real; LANES], c: Real, a: [Real; LANES]) -> [Real; LANES] {
+            use core::arch::arm::{vld1q_f32, vmlaq_n_f32};
+            // SAFETY: as in `lane_op`.
+            lane_op(|acc| unsafe { vmlaq_n_f32(acc, vld1q_f32(a.as_ptr()), c) }, acc)
+        }
+    }
+}
