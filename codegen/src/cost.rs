@@ -8,7 +8,8 @@
 //! - `lanes`: with H = H_axis ⊗ I (see [`crate::structure`]) the input's components run side by side in
 //!   SIMD lanes and share the N × N table H_axis: N² vector multiply-adds per iteration.
 //! - `matrix_free`: no H. A forward sweep of the dynamics and a backward adjoint sweep, O(N) per
-//!   iteration, but a recursion from step to step whose latency the hardware cannot hide.
+//!   iteration, but a recursion from step to step whose latency the hardware cannot hide, and vectors
+//!   that go through memory between operations.
 //!
 //! The score is the expected time of one iteration in vector multiply-adds of four lanes: a scalar
 //! multiply-add counts one, a 4-lane one counts one, and the matrix-free sweeps' operations count
@@ -29,10 +30,12 @@ pub const VECTOR_WIDTH: usize = 4;
 /// The weight of a scalar multiply-add of the matrix-free sweeps: a recursion from step to step whose
 /// latency the hardware cannot hide.
 const SWEEP: f64 = 1.5;
-/// The weight of a lane-vector operation of the sweeps in lanes, measured on the emulated A9: 86
-/// instructions per step for 15 vector operations, against 14 per 8 vector multiply-adds in the
-/// `lanes` product (the sweeps load and store their vectors, the product keeps its accumulators).
-const SWEEP_IN_LANES: f64 = 3.0;
+/// The weight of a lane-vector operation of the sweeps in lanes, from the emulated A9 (BENCHMARKS.md):
+/// `matrix_free` costs about 180 instructions per step and iteration (15 vector operations, each loading
+/// and storing its vectors, and the separate projected step), the `lanes` product about 1.75 per vector
+/// multiply-add. The measured crossover lies between N = 60 (`lanes` 236,230 instructions per cycle,
+/// `matrix_free` 336,260) and N = 100 (604,050 against 559,810); this weight puts it at N ≈ 82.
+const SWEEP_IN_LANES: f64 = 5.5;
 /// Bytes of A32 code per inlined multiply-add: a literal-pool load (4), its literal (4), the multiply-add (4).
 const BYTES_PER_INLINED_MAC: usize = 12;
 /// Bytes of a loop over a constant table: the loop, its address arithmetic, the lane loads and stores.

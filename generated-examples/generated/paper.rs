@@ -6871,59 +6871,8 @@ pub mod paper {
             0.38202065f32,
         ],
     ];
-    /// g_i = f_i + Σ_j H_AXIS[i][j]·y_j: every lane of row i accumulates the same weights.
-    #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
-    #[inline(always)]
-    fn gradient_row(h_i: &[Real; N], f_i: &[Real; LANES], y: &Plan) -> [Real; LANES] {
-        let mut g_i = *f_i;
-        for (h_ij, y_j) in h_i.iter().zip(y.iter()) {
-            for (g, y) in g_i.iter_mut().zip(y_j.iter()) {
-                *g += *h_ij * *y;
-            }
-        }
-        g_i
-    }
-    /// One FGM iteration, row by row: g_i = f_i + Σ_j H_AXIS[i][j]·y_j (225 lane-wise multiply-adds of 4 lanes), next = proj(y_i − STEP·g_i), y_next_i = next + MOMENTUM·(next − u_i), u_i = next.
-    #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
-    #[allow(dead_code)]
-    #[inline]
-    fn fast_gradient_iteration(u: &mut Plan, y: &Plan, y_next: &mut Plan, f: &Plan) {
-        let rows = u
-            .iter_mut()
-            .zip(y_next.iter_mut())
-            .zip(y.iter().zip(f.iter()))
-            .zip(H_AXIS.iter());
-        for (((u_i, y_next_i), (y_i, f_i)), h_i) in rows {
-            let g_i = gradient_row(h_i, f_i, y);
-            let lanes = u_i
-                .iter_mut()
-                .zip(y_next_i.iter_mut())
-                .zip(y_i.iter().zip(g_i.iter()));
-            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
-            {
-                let next = project(*y - STEP * *g, *lo, *hi);
-                *y_next = next + MOMENTUM * (next - *u);
-                *u = next;
-            }
-        }
-    }
-    /// One projected gradient iteration (Algorithm 1, lines 3-5), row by row: g_i = f_i + Σ_j H_AXIS[i][j]·u_j (225 lane-wise multiply-adds of 4 lanes), next_i = proj(u_i − STEP·g_i).
-    #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
-    #[allow(dead_code)]
-    #[inline]
-    fn gradient_iteration(u: &Plan, next: &mut Plan, f: &Plan) {
-        let rows = next.iter_mut().zip(u.iter().zip(f.iter())).zip(H_AXIS.iter());
-        for ((next_i, (u_i, f_i)), h_i) in rows {
-            let g_i = gradient_row(h_i, f_i, u);
-            let lanes = next_i.iter_mut().zip(u_i.iter().zip(g_i.iter()));
-            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
-                *next = project(*u - STEP * *g, *lo, *hi);
-            }
-        }
-    }
-    /// H_AXIS in blocks of four rows, column by column (zero rows pad the last block): the four
-    /// multipliers of one NEON step are one 128-bit load.
-    #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
+    /// H_AXIS in blocks of four rows, column by column (zero rows pad the last block): the rows of a
+    /// block accumulate side by side, and on NEON their four multipliers are one load.
     const H_BLOCKS: [[[Real; 4]; N]; 4] = [
         [
             [0.49687192f32, 0.18860784f32, 0.18035184f32, 0.17211194f32],
@@ -6994,6 +6943,380 @@ pub mod paper {
             [0.082423314f32, 0.08222199f32, 0.38202065f32, 0f32],
         ],
     ];
+    /// One FGM iteration, row by row: g_i = f_i + Σ_j H_AXIS[i][j]·y_j (225 lane-wise multiply-adds of 4 lanes), next = proj(y_i − STEP·g_i), y_next_i = next + MOMENTUM·(next − u_i), u_i = next.
+    #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
+    #[allow(dead_code)]
+    #[inline]
+    fn fast_gradient_iteration(u: &mut Plan, y: &Plan, y_next: &mut Plan, f: &Plan) {
+        {
+            let mut acc0_0: [Real; LANES] = f[0];
+            let mut acc0_1: [Real; LANES] = f[1];
+            let mut acc0_2: [Real; LANES] = f[2];
+            let mut acc0_3: [Real; LANES] = f[3];
+            let mut acc1_0: [Real; LANES] = f[4];
+            let mut acc1_1: [Real; LANES] = f[5];
+            let mut acc1_2: [Real; LANES] = f[6];
+            let mut acc1_3: [Real; LANES] = f[7];
+            for ((y_j, h0), h1) in y
+                .iter()
+                .zip(H_BLOCKS[0].iter())
+                .zip(H_BLOCKS[1].iter())
+            {
+                for (a, y) in acc0_0.iter_mut().zip(y_j.iter()) {
+                    *a += h0[0] * *y;
+                }
+                for (a, y) in acc0_1.iter_mut().zip(y_j.iter()) {
+                    *a += h0[1] * *y;
+                }
+                for (a, y) in acc0_2.iter_mut().zip(y_j.iter()) {
+                    *a += h0[2] * *y;
+                }
+                for (a, y) in acc0_3.iter_mut().zip(y_j.iter()) {
+                    *a += h0[3] * *y;
+                }
+                for (a, y) in acc1_0.iter_mut().zip(y_j.iter()) {
+                    *a += h1[0] * *y;
+                }
+                for (a, y) in acc1_1.iter_mut().zip(y_j.iter()) {
+                    *a += h1[1] * *y;
+                }
+                for (a, y) in acc1_2.iter_mut().zip(y_j.iter()) {
+                    *a += h1[2] * *y;
+                }
+                for (a, y) in acc1_3.iter_mut().zip(y_j.iter()) {
+                    *a += h1[3] * *y;
+                }
+            }
+            let lanes = u[0]
+                .iter_mut()
+                .zip(y_next[0].iter_mut())
+                .zip(y[0].iter().zip(acc0_0.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[1]
+                .iter_mut()
+                .zip(y_next[1].iter_mut())
+                .zip(y[1].iter().zip(acc0_1.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[2]
+                .iter_mut()
+                .zip(y_next[2].iter_mut())
+                .zip(y[2].iter().zip(acc0_2.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[3]
+                .iter_mut()
+                .zip(y_next[3].iter_mut())
+                .zip(y[3].iter().zip(acc0_3.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[4]
+                .iter_mut()
+                .zip(y_next[4].iter_mut())
+                .zip(y[4].iter().zip(acc1_0.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[5]
+                .iter_mut()
+                .zip(y_next[5].iter_mut())
+                .zip(y[5].iter().zip(acc1_1.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[6]
+                .iter_mut()
+                .zip(y_next[6].iter_mut())
+                .zip(y[6].iter().zip(acc1_2.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[7]
+                .iter_mut()
+                .zip(y_next[7].iter_mut())
+                .zip(y[7].iter().zip(acc1_3.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+        }
+        {
+            let mut acc0_0: [Real; LANES] = f[8];
+            let mut acc0_1: [Real; LANES] = f[9];
+            let mut acc0_2: [Real; LANES] = f[10];
+            let mut acc0_3: [Real; LANES] = f[11];
+            let mut acc1_0: [Real; LANES] = f[12];
+            let mut acc1_1: [Real; LANES] = f[13];
+            let mut acc1_2: [Real; LANES] = f[14];
+            for ((y_j, h0), h1) in y
+                .iter()
+                .zip(H_BLOCKS[2].iter())
+                .zip(H_BLOCKS[3].iter())
+            {
+                for (a, y) in acc0_0.iter_mut().zip(y_j.iter()) {
+                    *a += h0[0] * *y;
+                }
+                for (a, y) in acc0_1.iter_mut().zip(y_j.iter()) {
+                    *a += h0[1] * *y;
+                }
+                for (a, y) in acc0_2.iter_mut().zip(y_j.iter()) {
+                    *a += h0[2] * *y;
+                }
+                for (a, y) in acc0_3.iter_mut().zip(y_j.iter()) {
+                    *a += h0[3] * *y;
+                }
+                for (a, y) in acc1_0.iter_mut().zip(y_j.iter()) {
+                    *a += h1[0] * *y;
+                }
+                for (a, y) in acc1_1.iter_mut().zip(y_j.iter()) {
+                    *a += h1[1] * *y;
+                }
+                for (a, y) in acc1_2.iter_mut().zip(y_j.iter()) {
+                    *a += h1[2] * *y;
+                }
+            }
+            let lanes = u[8]
+                .iter_mut()
+                .zip(y_next[8].iter_mut())
+                .zip(y[8].iter().zip(acc0_0.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[9]
+                .iter_mut()
+                .zip(y_next[9].iter_mut())
+                .zip(y[9].iter().zip(acc0_1.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[10]
+                .iter_mut()
+                .zip(y_next[10].iter_mut())
+                .zip(y[10].iter().zip(acc0_2.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[11]
+                .iter_mut()
+                .zip(y_next[11].iter_mut())
+                .zip(y[11].iter().zip(acc0_3.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[12]
+                .iter_mut()
+                .zip(y_next[12].iter_mut())
+                .zip(y[12].iter().zip(acc1_0.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[13]
+                .iter_mut()
+                .zip(y_next[13].iter_mut())
+                .zip(y[13].iter().zip(acc1_1.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+            let lanes = u[14]
+                .iter_mut()
+                .zip(y_next[14].iter_mut())
+                .zip(y[14].iter().zip(acc1_2.iter()));
+            for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter()))
+            {
+                let next = project(*y - STEP * *g, *lo, *hi);
+                *y_next = next + MOMENTUM * (next - *u);
+                *u = next;
+            }
+        }
+    }
+    /// One projected gradient iteration (Algorithm 1, lines 3-5), row by row: g_i = f_i + Σ_j H_AXIS[i][j]·u_j (225 lane-wise multiply-adds of 4 lanes), next_i = proj(u_i − STEP·g_i).
+    #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
+    #[allow(dead_code)]
+    #[inline]
+    fn gradient_iteration(u: &Plan, next: &mut Plan, f: &Plan) {
+        {
+            let mut acc0_0: [Real; LANES] = f[0];
+            let mut acc0_1: [Real; LANES] = f[1];
+            let mut acc0_2: [Real; LANES] = f[2];
+            let mut acc0_3: [Real; LANES] = f[3];
+            let mut acc1_0: [Real; LANES] = f[4];
+            let mut acc1_1: [Real; LANES] = f[5];
+            let mut acc1_2: [Real; LANES] = f[6];
+            let mut acc1_3: [Real; LANES] = f[7];
+            for ((y_j, h0), h1) in u
+                .iter()
+                .zip(H_BLOCKS[0].iter())
+                .zip(H_BLOCKS[1].iter())
+            {
+                for (a, y) in acc0_0.iter_mut().zip(y_j.iter()) {
+                    *a += h0[0] * *y;
+                }
+                for (a, y) in acc0_1.iter_mut().zip(y_j.iter()) {
+                    *a += h0[1] * *y;
+                }
+                for (a, y) in acc0_2.iter_mut().zip(y_j.iter()) {
+                    *a += h0[2] * *y;
+                }
+                for (a, y) in acc0_3.iter_mut().zip(y_j.iter()) {
+                    *a += h0[3] * *y;
+                }
+                for (a, y) in acc1_0.iter_mut().zip(y_j.iter()) {
+                    *a += h1[0] * *y;
+                }
+                for (a, y) in acc1_1.iter_mut().zip(y_j.iter()) {
+                    *a += h1[1] * *y;
+                }
+                for (a, y) in acc1_2.iter_mut().zip(y_j.iter()) {
+                    *a += h1[2] * *y;
+                }
+                for (a, y) in acc1_3.iter_mut().zip(y_j.iter()) {
+                    *a += h1[3] * *y;
+                }
+            }
+            let lanes = next[0].iter_mut().zip(u[0].iter().zip(acc0_0.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[1].iter_mut().zip(u[1].iter().zip(acc0_1.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[2].iter_mut().zip(u[2].iter().zip(acc0_2.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[3].iter_mut().zip(u[3].iter().zip(acc0_3.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[4].iter_mut().zip(u[4].iter().zip(acc1_0.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[5].iter_mut().zip(u[5].iter().zip(acc1_1.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[6].iter_mut().zip(u[6].iter().zip(acc1_2.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[7].iter_mut().zip(u[7].iter().zip(acc1_3.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+        }
+        {
+            let mut acc0_0: [Real; LANES] = f[8];
+            let mut acc0_1: [Real; LANES] = f[9];
+            let mut acc0_2: [Real; LANES] = f[10];
+            let mut acc0_3: [Real; LANES] = f[11];
+            let mut acc1_0: [Real; LANES] = f[12];
+            let mut acc1_1: [Real; LANES] = f[13];
+            let mut acc1_2: [Real; LANES] = f[14];
+            for ((y_j, h0), h1) in u
+                .iter()
+                .zip(H_BLOCKS[2].iter())
+                .zip(H_BLOCKS[3].iter())
+            {
+                for (a, y) in acc0_0.iter_mut().zip(y_j.iter()) {
+                    *a += h0[0] * *y;
+                }
+                for (a, y) in acc0_1.iter_mut().zip(y_j.iter()) {
+                    *a += h0[1] * *y;
+                }
+                for (a, y) in acc0_2.iter_mut().zip(y_j.iter()) {
+                    *a += h0[2] * *y;
+                }
+                for (a, y) in acc0_3.iter_mut().zip(y_j.iter()) {
+                    *a += h0[3] * *y;
+                }
+                for (a, y) in acc1_0.iter_mut().zip(y_j.iter()) {
+                    *a += h1[0] * *y;
+                }
+                for (a, y) in acc1_1.iter_mut().zip(y_j.iter()) {
+                    *a += h1[1] * *y;
+                }
+                for (a, y) in acc1_2.iter_mut().zip(y_j.iter()) {
+                    *a += h1[2] * *y;
+                }
+            }
+            let lanes = next[8].iter_mut().zip(u[8].iter().zip(acc0_0.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[9].iter_mut().zip(u[9].iter().zip(acc0_1.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[10].iter_mut().zip(u[10].iter().zip(acc0_2.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[11].iter_mut().zip(u[11].iter().zip(acc0_3.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[12].iter_mut().zip(u[12].iter().zip(acc1_0.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[13].iter_mut().zip(u[13].iter().zip(acc1_1.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+            let lanes = next[14].iter_mut().zip(u[14].iter().zip(acc1_2.iter()));
+            for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                *next = project(*u - STEP * *g, *lo, *hi);
+            }
+        }
+    }
     /// NEON: proj(v) as two compare-and-selects, exactly `project` (NaN → lower bound).
     #[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]
     #[inline(always)]

@@ -22,6 +22,13 @@ mpc_macros::mpc!(mod n15_f64 = "benches/specs/paper-f64.toml");
 mpc_macros::mpc!(mod n30 = "benches/specs/paper-n30.toml");
 mpc_macros::mpc!(mod n60 = "benches/specs/paper-n60.toml");
 mpc_macros::mpc!(mod n100 = "benches/specs/paper-n100.toml");
+// The emissions side by side (`auto` chooses lanes up to N = 60 and matrix_free at N = 100).
+mpc_macros::mpc!(mod n15_unrolled = "specs/emission/paper-unrolled.toml");
+mpc_macros::mpc!(mod n15_table = "specs/emission/paper-table.toml");
+mpc_macros::mpc!(mod n15_matrix_free = "specs/emission/paper-matrix-free.toml");
+mpc_macros::mpc!(mod n30_matrix_free = "benches/specs/paper-n30-matrix-free.toml");
+mpc_macros::mpc!(mod n60_matrix_free = "benches/specs/paper-n60-matrix-free.toml");
+mpc_macros::mpc!(mod n100_lanes = "benches/specs/paper-n100-lanes.toml");
 
 /// 64 hover-like situations: offsets up to 2 m and 1 m/s, references drifting around the origin.
 fn situations(n: usize) -> Vec<([f64; 6], Vec<[f64; 6]>)> {
@@ -379,6 +386,40 @@ fn solve(c: &mut Criterion) {
     bench_generated!(group, table, h30, n30, "generated f32", f32);
     bench_generated!(group, table, h60, n60, "generated f32", f32);
     bench_generated!(group, table, h100, n100, "generated f32", f32);
+    bench_generated!(
+        group,
+        table,
+        h15,
+        n15_unrolled,
+        "generated f32 unrolled",
+        f32
+    );
+    bench_generated!(group, table, h15, n15_table, "generated f32 table", f32);
+    bench_generated!(
+        group,
+        table,
+        h15,
+        n15_matrix_free,
+        "generated f32 matrix_free",
+        f32
+    );
+    bench_generated!(
+        group,
+        table,
+        h30,
+        n30_matrix_free,
+        "generated f32 matrix_free",
+        f32
+    );
+    bench_generated!(
+        group,
+        table,
+        h60,
+        n60_matrix_free,
+        "generated f32 matrix_free",
+        f32
+    );
+    bench_generated!(group, table, h100, n100_lanes, "generated f32 lanes", f32);
     for h in &horizons {
         bench_oracle(&mut group, &mut table, h);
         bench_clarabel(&mut group, &mut table, h);

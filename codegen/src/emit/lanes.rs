@@ -68,7 +68,7 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
     let table_doc = format!(
         " H_axis with H = H_axis ⊗ I_NU ({N}×{N}): every input's share of the Hessian, one table for all lanes."
     );
-    let neon = has_neon(p).then(|| neon(p, num));
+    let neon = has_neon(p).then(|| neon(p));
     let (_, portable_cfg) = neon_cfg();
     let portable_cfg = if neon.is_some() {
         portable_cfg
@@ -83,38 +83,23 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
     let gradient_doc = format!(
         " One projected gradient iteration (Algorithm 1, lines 3-5), row by row: g_i = f_i + Σ_j H_AXIS[i][j]·u_j ({macs} lane-wise multiply-adds of {lanes} lanes), next_i = proj(u_i − STEP·g_i)."
     );
+    let (portable_fgm, portable_gradient) = (
+        portable_passes(N, Method::Fgm),
+        portable_passes(N, Method::Gradient),
+    );
+    let h_blocks = h_blocks(p, num);
     quote! {
         #[doc = #table_doc]
         pub const H_AXIS: [[Real; N]; N] = #table;
 
-        /// g_i = f_i + Σ_j H_AXIS[i][j]·y_j: every lane of row i accumulates the same weights.
-        #portable_cfg
-        #[inline(always)]
-        fn gradient_row(h_i: &[Real; N], f_i: &[Real; LANES], y: &Plan) -> [Real; LANES] {
-            let mut g_i = *f_i;
-            for (h_ij, y_j) in h_i.iter().zip(y.iter()) {
-                for (g, y) in g_i.iter_mut().zip(y_j.iter()) {
-                    *g += *h_ij * *y;
-                }
-            }
-            g_i
-        }
+        #h_blocks
 
         #[doc = #fgm_doc]
         #portable_cfg
         #[allow(dead_code)]
         #[inline]
         fn fast_gradient_iteration(u: &mut Plan, y: &Plan, y_next: &mut Plan, f: &Plan) {
-            let rows = u.iter_mut().zip(y_next.iter_mut()).zip(y.iter().zip(f.iter())).zip(H_AXIS.iter());
-            for (((u_i, y_next_i), (y_i, f_i)), h_i) in rows {
-                let g_i = gradient_row(h_i, f_i, y);
-                let lanes = u_i.iter_mut().zip(y_next_i.iter_mut()).zip(y_i.iter().zip(g_i.iter()));
-                for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
-                    let next = project(*y - STEP * *g, *lo, *hi);
-                    *y_next = next + MOMENTUM * (next - *u);
-                    *u = next;
-                }
-            }
+            #portable_fgm
         }
 
         #[doc = #gradient_doc]
@@ -122,33 +107,18 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
         #[allow(dead_code)]
         #[inline]
         fn gradient_iteration(u: &Plan, next: &mut Plan, f: &Plan) {
-            let rows = next.iter_mut().zip(u.iter().zip(f.iter())).zip(H_AXIS.iter());
-            for ((next_i, (u_i, f_i)), h_i) in rows {
-                let g_i = gradient_row(h_i, f_i, u);
-                let lanes = next_i.iter_mut().zip(u_i.iter().zip(g_i.iter()));
-                for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
-                    *next = project(*u - STEP * *g, *lo, *hi);
-                }
-            }
+            #portable_gradient
         }
 
         #neon
     }
 }
 
-/// Blocks of four rows per pass over j: eight accumulators, y_j and one multiplier block fit the sixteen
-/// q registers. Measured on the emulated A9 for `specs/paper.toml`: 27,140 instructions per control cycle
-/// with two blocks per pass, 30,050 with one, 27,140 with three. Unrolling the loop over j makes LLVM
-/// split every `vmla` into `vmul` + `vadd` (with `target-cpu=cortex-a9` it splits a VMLA whose
-/// accumulator comes straight from another VMLA, a real A9 hazard), which costs more than the loop.
-const PASS: usize = 2;
-
-/// The NEON kernels: H_BLOCKS, and both iterations in blocks of four rows, two blocks per pass over j.
-fn neon(p: &Problem, num: Num) -> TokenStream {
+/// `H_BLOCKS[b][j] = H_AXIS[4b..4b + 4][j]`: the four multipliers of block b at step j, zero rows padding
+/// the last block; one 128-bit load on NEON.
+fn h_blocks(p: &Problem, num: Num) -> TokenStream {
     let N = p.qp.N;
     let H_axis = p.qp.H_axis.as_ref().expect("checked by the caller");
-    let (neon_cfg, _) = neon_cfg();
-    // H_BLOCKS[b][j] = H_AXIS[4b..4b + 4][j]: the four multipliers of block b at step j, zero-padded.
     let blocks = N.div_ceil(4);
     let h_blocks = (0..blocks).map(|b| {
         let columns = (0..N).map(|j| {
@@ -163,6 +133,26 @@ fn neon(p: &Problem, num: Num) -> TokenStream {
         });
         quote!([#(#columns),*])
     });
+    let blocks = Literal::usize_unsuffixed(blocks);
+    quote! {
+        /// H_AXIS in blocks of four rows, column by column (zero rows pad the last block): the rows of a
+        /// block accumulate side by side, and on NEON their four multipliers are one load.
+        const H_BLOCKS: [[[Real; 4]; N]; #blocks] = [#(#h_blocks),*];
+    }
+}
+
+/// Blocks of four rows per pass over j: eight accumulators, y_j and one multiplier block fit the sixteen
+/// q registers. Measured on the emulated A9 for `specs/paper.toml`: 27,140 instructions per control cycle
+/// with two blocks per pass, 30,050 with one, 27,140 with three. Unrolling the loop over j makes LLVM
+/// split every `vmla` into `vmul` + `vadd` (with `target-cpu=cortex-a9` it splits a VMLA whose
+/// accumulator comes straight from another VMLA, a real A9 hazard), which costs more than the loop.
+const PASS: usize = 2;
+
+/// The NEON kernels: H_BLOCKS, and both iterations in blocks of four rows, two blocks per pass over j.
+fn neon(p: &Problem) -> TokenStream {
+    let N = p.qp.N;
+    let (neon_cfg, _) = neon_cfg();
+    let blocks = N.div_ceil(4);
     let blocks_lit = Literal::usize_unsuffixed(blocks);
     let fgm = passes(N, Method::Fgm);
     let gradient = passes(N, Method::Gradient);
@@ -182,11 +172,6 @@ fn neon(p: &Problem, num: Num) -> TokenStream {
         let (lo, hi) = (vld1q_f32(LO.as_ptr()), vld1q_f32(HI.as_ptr()));
     };
     quote! {
-        /// H_AXIS in blocks of four rows, column by column (zero rows pad the last block): the four
-        /// multipliers of one NEON step are one 128-bit load.
-        #neon_cfg
-        const H_BLOCKS: [[[Real; 4]; N]; #blocks_lit] = [#(#h_blocks),*];
-
         /// NEON: proj(v) as two compare-and-selects, exactly `project` (NaN → lower bound).
         #neon_cfg
         #[inline(always)]
@@ -300,6 +285,77 @@ fn passes(N: usize, method: Method) -> TokenStream {
                 let steps = #point.iter() #(#chunks)*;
                 for #pattern in steps.take(rounds) {
                     #body
+                }
+                #(#step)*
+            }
+        }
+    });
+    quote!(#(#passes)*)
+}
+
+/// The portable passes: the same blocks of four rows as the NEON kernel, each row's accumulator a lane
+/// array, so that the rows' multiply-add chains are independent and interleaved (a single row's chain
+/// over j is latency-bound). Each row still sums f_i + Σ_j H_AXIS[i][j]·y_j in the order of j.
+fn portable_passes(N: usize, method: Method) -> TokenStream {
+    let blocks = N.div_ceil(4);
+    let point = match method {
+        Method::Fgm => quote!(y),
+        Method::Gradient => quote!(u),
+    };
+    let passes = (0..blocks).step_by(PASS).map(|first| {
+        let pass: Vec<usize> = (first..(first + PASS).min(blocks)).collect();
+        let acc = |b: usize, l: usize| format_ident!("acc{}_{}", b - first, l);
+        let rows = |b: usize| (0..4).filter(move |l| 4 * b + l < N);
+        let init = pass.iter().flat_map(|&b| {
+            rows(b).map(move |l| {
+                let (a, i) = (acc(b, l), Literal::usize_unsuffixed(4 * b + l));
+                quote!(let mut #a: [Real; LANES] = f[#i];)
+            })
+        });
+        let tables: Vec<_> = pass.iter().map(|&b| format_ident!("h{}", b - first)).collect();
+        let chunks = pass.iter().map(|&b| {
+            let b = Literal::usize_unsuffixed(b);
+            quote!(.zip(H_BLOCKS[#b].iter()))
+        });
+        let pattern = tables.iter().fold(quote!(y_j), |acc, h| quote!((#acc, #h)));
+        let body = pass.iter().flat_map(|&b| {
+            let h = format_ident!("h{}", b - first);
+            rows(b).map(move |l| {
+                let (a, l) = (acc(b, l), Literal::usize_unsuffixed(l));
+                quote! {
+                    for (a, y) in #a.iter_mut().zip(y_j.iter()) {
+                        *a += #h[#l] * *y;
+                    }
+                }
+            })
+        });
+        let step = pass.iter().flat_map(|&b| {
+            rows(b).map(move |l| {
+                let a = acc(b, l);
+                let i = Literal::usize_unsuffixed(4 * b + l);
+                match method {
+                    Method::Fgm => quote! {
+                        let lanes = u[#i].iter_mut().zip(y_next[#i].iter_mut()).zip(y[#i].iter().zip(#a.iter()));
+                        for (((u, y_next), (y, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                            let next = project(*y - STEP * *g, *lo, *hi);
+                            *y_next = next + MOMENTUM * (next - *u);
+                            *u = next;
+                        }
+                    },
+                    Method::Gradient => quote! {
+                        let lanes = next[#i].iter_mut().zip(u[#i].iter().zip(#a.iter()));
+                        for ((next, (u, g)), (lo, hi)) in lanes.zip(LO.iter().zip(HI.iter())) {
+                            *next = project(*u - STEP * *g, *lo, *hi);
+                        }
+                    },
+                }
+            })
+        });
+        quote! {
+            {
+                #(#init)*
+                for #pattern in #point.iter() #(#chunks)* {
+                    #(#body)*
                 }
                 #(#step)*
             }
