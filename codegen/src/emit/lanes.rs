@@ -214,16 +214,27 @@ fn neon(p: &Problem) -> TokenStream {
     }
 }
 
-/// The passes of one iteration: blocks in pairs, each pass N steps of up to eight multiply-adds, then
-/// the step for the pass's rows. `point` is the buffer the gradient reads.
-fn passes(N: usize, method: Method) -> TokenStream {
+/// The buffer the gradient reads (y for FGM, u for the projected gradient method), and the blocks of
+/// four rows of each pass.
+fn layout(N: usize, method: Method) -> (TokenStream, Vec<Vec<usize>>) {
     let blocks = N.div_ceil(4);
     let point = match method {
         Method::Fgm => quote!(y),
         Method::Gradient => quote!(u),
     };
-    let passes = (0..blocks).step_by(PASS).map(|first| {
-        let pass: Vec<usize> = (first..(first + PASS).min(blocks)).collect();
+    let passes = (0..blocks)
+        .step_by(PASS)
+        .map(|first| (first..(first + PASS).min(blocks)).collect())
+        .collect();
+    (point, passes)
+}
+
+/// The passes of one iteration: blocks in pairs, each pass N steps of up to eight multiply-adds, then
+/// the step for the pass's rows. `point` is the buffer the gradient reads.
+fn passes(N: usize, method: Method) -> TokenStream {
+    let (point, passes) = layout(N, method);
+    let passes = passes.into_iter().map(|pass| {
+        let first = pass[0];
         let acc = |b: usize, l: usize| format_ident!("acc{}_{}", b - first, l);
         let init = pass.iter().flat_map(|&b| {
             (0..4).map(move |l| {
@@ -297,13 +308,9 @@ fn passes(N: usize, method: Method) -> TokenStream {
 /// array, so that the rows' multiply-add chains are independent and interleaved (a single row's chain
 /// over j is latency-bound). Each row still sums f_i + Σ_j H_AXIS[i][j]·y_j in the order of j.
 fn portable_passes(N: usize, method: Method) -> TokenStream {
-    let blocks = N.div_ceil(4);
-    let point = match method {
-        Method::Fgm => quote!(y),
-        Method::Gradient => quote!(u),
-    };
-    let passes = (0..blocks).step_by(PASS).map(|first| {
-        let pass: Vec<usize> = (first..(first + PASS).min(blocks)).collect();
+    let (point, passes) = layout(N, method);
+    let passes = passes.into_iter().map(|pass| {
+        let first = pass[0];
         let acc = |b: usize, l: usize| format_ident!("acc{}_{}", b - first, l);
         let rows = |b: usize| (0..4).filter(move |l| 4 * b + l < N);
         let init = pass.iter().flat_map(|&b| {
