@@ -221,6 +221,7 @@ pub fn certify(p: &Problem) -> Certificate {
     let qp = &p.qp;
     let rate = a_priori_rate(qp.method, qp.step, qp.mu, qp.L);
     let tolerance = qp.tolerance.unwrap_or(DEFAULT_TOLERANCE);
+    let estimates = crate::cost::estimates(p);
     Certificate {
         lipschitz: qp.L,
         strong_convexity: qp.mu,
@@ -235,9 +236,9 @@ pub fn certify(p: &Problem) -> Certificate {
         guaranteed_gap: rate.map(|r| r.guaranteed(qp.iterations)),
         lqr: lqr(p),
         mpc: mpc_loop(p),
-        resources: resources(p),
+        resources: resources(p, &estimates),
         emission: p.emission,
-        estimates: crate::cost::estimates(p),
+        estimates,
         disturbance_time_constant: (p.filter.nd > 0).then(|| {
             let f = &p.filter;
             let na = p.nx + f.nd;
@@ -404,9 +405,9 @@ fn mpc_loop(p: &Problem) -> MpcLoop {
     }
 }
 
-fn resources(p: &Problem) -> Resources {
+fn resources(p: &Problem, estimates: &[crate::cost::Estimate]) -> Resources {
     let num = Num(p.scalar);
-    let nnz = |M: &DMatrix<f64>| M.iter().filter(|v| num.round(**v) != 0.0).count();
+    let nnz = |M: &DMatrix<f64>| num.nonzeros(M);
     let coefficients = |M: &DMatrix<f64>| {
         M.iter()
             .filter(|v| num.round(**v) != 0.0 && num.round(v.abs()) != 1.0)
@@ -416,7 +417,6 @@ fn resources(p: &Problem) -> Resources {
     let f = &p.filter;
     // The filter works on (x, d): na = nx + nd states.
     let (na, ny) = (p.nx + f.nd, p.ny);
-    let estimates = crate::cost::estimates(p);
     let chosen = estimates
         .iter()
         .find(|e| e.emission == p.emission)
@@ -458,21 +458,14 @@ fn resources(p: &Problem) -> Resources {
             // Every product over the entries that can be nonzero (the covariance's structural pattern),
             // as the emitter unrolls them: F·P·Fᵀ; P·Cᵀ, C·P·Cᵀ, the ny × ny inverse, K, the
             // correction, I − K·C, (I − KC)·P·(I − KC)ᵀ and K·R·Kᵀ.
-            use crate::structure::{pattern, pattern_inverse, pattern_product as times};
-            let macs = |A: &DMatrix<bool>, B: &DMatrix<bool>| {
-                (0..A.nrows())
-                    .map(|i| {
-                        (0..B.ncols())
-                            .map(|j| (0..A.ncols()).filter(|k| A[(i, *k)] && B[(*k, j)]).count())
-                            .sum::<usize>()
-                    })
-                    .sum::<usize>()
+            use crate::structure::{
+                pattern, pattern_inverse, pattern_product as times, pattern_product_macs as macs,
             };
             let (P, Fp, Cp, Rp) = (&f.P_pattern, pattern(F), pattern(C), pattern(&f.Rn));
             let FP = times(&Fp, P);
             let PCt = times(P, &Cp.transpose());
-            let S = times(&Cp, &PCt);
-            let K = times(&PCt, &pattern_inverse(&S));
+            let S_inv = pattern_inverse(&times(&Cp, &PCt));
+            let K = times(&PCt, &S_inv);
             let A = times(&K, &Cp);
             let AP = times(&A, P);
             let KR = times(&K, &Rp);
@@ -483,7 +476,7 @@ fn resources(p: &Problem) -> Resources {
                 + macs(P, &Cp.transpose())
                 + macs(&Cp, &PCt)
                 + ny * ny * ny
-                + macs(&PCt, &pattern_inverse(&S))
+                + macs(&PCt, &S_inv)
                 + macs(&K, &innovation)
                 + na * nnz(C)
                 + macs(&A, P)
@@ -492,10 +485,7 @@ fn resources(p: &Problem) -> Resources {
                 + macs(&KR, &K.transpose())
         }
     };
-    let size = match p.scalar {
-        mpc_spec::Scalar::F32 => 4,
-        mpc_spec::Scalar::F64 => 8,
-    };
+    let size = num.bytes();
     let bytes_state_mpc = qp.N * crate::cost::plan_lanes(p) * size;
     let bytes_state_kalman = match f.kind {
         FilterKind::SteadyState => na * size,

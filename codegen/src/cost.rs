@@ -84,7 +84,7 @@ pub fn plan_lanes(p: &Problem) -> usize {
 /// Every choice's estimate, in the order of [`Emission`].
 pub fn estimates(p: &Problem) -> Vec<Estimate> {
     let num = Num(p.scalar);
-    let nnz = |M: &DMatrix<f64>| M.iter().filter(|v| num.round(**v) != 0.0).count();
+    let nnz = |M: &DMatrix<f64>| num.nonzeros(M);
     let qp = &p.qp;
     let (N, nu) = (qp.N, p.nu);
     let nz = N * nu;
@@ -116,36 +116,28 @@ pub fn estimates(p: &Problem) -> Vec<Estimate> {
         macs: N * N * lanes,
         score: (N * N * lanes.div_ceil(VECTOR_WIDTH)) as f64,
         code_bytes: BYTES_OF_A_LOOP,
-        table_bytes: N * N * size,
+        // H_BLOCKS: H_axis in blocks of four rows, the last one zero-padded.
+        table_bytes: 4 * N.div_ceil(4) * N * size,
     };
     // Per step: x⁺ = F x + G u forward; λ = 2W e + Fᵀ λ⁺ and g = Gᵀ λ⁺ + 2R u backward, e = x − r.
     // With the model in lanes ([`crate::lower::ModelLanes`]) every operation is one lane vector.
-    let matrix_free = match &p.model_lanes {
-        Some(m) => {
-            let W = nnz(&m.Q).max(nnz(&m.Qf));
-            let step = 2 * nnz(&m.F) + 2 * nnz(&m.G) + W + nnz(&m.R) + m.F.nrows();
-            let lanes = lane_count(nu);
-            Estimate {
-                emission: Emission::MatrixFree,
-                unavailable: None,
-                macs: N * step * lanes,
-                score: SWEEP_IN_LANES * (N * step * lanes.div_ceil(VECTOR_WIDTH)) as f64,
-                code_bytes: (step + W) * BYTES_PER_INLINED_MAC + BYTES_OF_A_LOOP,
-                table_bytes: 0,
-            }
-        }
-        None => {
-            let W = nnz(&qp.Q).max(nnz(&qp.Qf));
-            let step = 2 * nnz(&p.F) + 2 * nnz(&p.G) + W + nnz(&qp.R) + p.nx;
-            Estimate {
-                emission: Emission::MatrixFree,
-                unavailable: None,
-                macs: N * step,
-                score: SWEEP * (N * step) as f64,
-                code_bytes: (step + nnz(&qp.Qf)) * BYTES_PER_INLINED_MAC + BYTES_OF_A_LOOP,
-                table_bytes: 0,
-            }
-        }
+    let ([F, G, Q, Qf, R], width, weight) = match &p.model_lanes {
+        Some(m) => (
+            [&m.F, &m.G, &m.Q, &m.Qf, &m.R],
+            lane_count(nu),
+            SWEEP_IN_LANES,
+        ),
+        None => ([&p.F, &p.G, &qp.Q, &qp.Qf, &qp.R], 1, SWEEP),
+    };
+    let step = 2 * nnz(F) + 2 * nnz(G) + nnz(Q).max(nnz(Qf)) + nnz(R) + F.nrows();
+    let matrix_free = Estimate {
+        emission: Emission::MatrixFree,
+        unavailable: None,
+        macs: N * step * width,
+        score: weight * (N * step * width.div_ceil(VECTOR_WIDTH)) as f64,
+        // The body of one step, with both weightings (stage and terminal) unrolled.
+        code_bytes: (step + nnz(Qf)) * BYTES_PER_INLINED_MAC + BYTES_OF_A_LOOP,
+        table_bytes: 0,
     };
     vec![unrolled, table, lanes, matrix_free]
 }

@@ -345,6 +345,7 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         return Err(diags.sorted());
     }
     let H_axis = crate::structure::kronecker_identity(&H, nu);
+    let model_lanes = model_lanes(&F, &G, &Q, &Qf, &R);
     let P_pattern = crate::structure::covariance_pattern(&Fa, &Ca, &Qn, &Rn, &P0);
     let mut problem = Problem {
         nx,
@@ -391,49 +392,50 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         C,
         scalar: spec.codegen.scalar,
         emission: Emission::Table,
-        model_lanes: None,
+        model_lanes,
     };
-    problem.model_lanes = model_lanes(
-        &problem.F,
-        &problem.G,
-        &problem.qp.Q,
-        &problem.qp.Qf,
-        &problem.qp.R,
-    );
+    // The cost model reads the lowered problem; every estimate is independent of the choice.
     let estimates = crate::cost::estimates(&problem);
     problem.emission = match (spec.codegen.emission, H_axis) {
         (Emission::Auto, _) => crate::cost::choose(&estimates),
-        (Emission::Lanes, Err(e)) => {
-            let (r, c) = e.entry;
-            return Err(Diagnostic::new(
-                format!("`emission = \"lanes\"` needs H = H_axis ⊗ I_{nu}, and this H is not one"),
-                span("codegen.emission"),
-            )
-            .label(if r % nu == c % nu {
-                format!(
-                    "H[{r}][{c}] = {:.6e}: input {}'s weight between steps {} and {} differs from input 0's ({:.6e})",
-                    e.value,
-                    r % nu,
-                    r / nu,
-                    c / nu,
-                    e.expected
-                )
-            } else {
-                format!(
-                    "H[{r}][{c}] = {:.6e} couples input {} at step {} with input {} at step {}",
-                    e.value,
-                    r % nu,
-                    r / nu,
-                    c % nu,
-                    c / nu
-                )
-            })
-            .note("hint: the lanes need independent inputs with equal weights and dynamics; write `emission = \"auto\"` to let the compiler choose")
-            .into());
-        }
+        (Emission::Lanes, Err(e)) => return Err(no_lanes(&e, nu, span("codegen.emission")).into()),
         (forced, _) => forced,
     };
     Ok(problem)
+}
+
+/// The located error for `emission = "lanes"` on an H without the lane structure, naming the entry.
+fn no_lanes(
+    e: &crate::structure::NotKronecker,
+    nu: usize,
+    span: Option<mpc_spec::Span>,
+) -> Diagnostic {
+    let (r, c) = e.entry;
+    let label = if r % nu == c % nu {
+        format!(
+            "H[{r}][{c}] = {:.6e}: input {}'s weight between steps {} and {} differs from input 0's ({:.6e})",
+            e.value,
+            r % nu,
+            r / nu,
+            c / nu,
+            e.expected
+        )
+    } else {
+        format!(
+            "H[{r}][{c}] = {:.6e} couples input {} at step {} with input {} at step {}",
+            e.value,
+            r % nu,
+            r / nu,
+            c % nu,
+            c / nu
+        )
+    };
+    Diagnostic::new(
+        format!("`emission = \"lanes\"` needs H = H_axis ⊗ I_{nu}, and this H is not one"),
+        span,
+    )
+    .label(label)
+    .note("hint: the lanes need independent inputs with equal weights and dynamics; write `emission = \"auto\"` to let the compiler choose")
 }
 
 fn scalar_name(s: Scalar) -> &'static str {

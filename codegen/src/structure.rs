@@ -60,6 +60,14 @@ pub fn pattern_product(A: &DMatrix<bool>, B: &DMatrix<bool>) -> DMatrix<bool> {
     })
 }
 
+/// The multiply-adds of A·B over the structural nonzeros: the triples (i, k, j) with A(i, k) and B(k, j).
+pub fn pattern_product_macs(A: &DMatrix<bool>, B: &DMatrix<bool>) -> usize {
+    (0..A.nrows())
+        .flat_map(|i| (0..B.ncols()).map(move |j| (i, j)))
+        .map(|(i, j)| (0..A.ncols()).filter(|k| A[(i, *k)] && B[(*k, j)]).count())
+        .sum()
+}
+
 /// The pattern of the inverse of a symmetric positive definite matrix with pattern `S`: its connected
 /// components, each full. An LDLᵀ factorization creates no fill between components, so every entry
 /// outside them is exactly zero in any precision.

@@ -8106,7 +8106,7 @@ pub mod paper_faithful {
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
         pub const MACS_PER_CYCLE: usize = 29859;
         /// Bytes of coefficients inlined into the code.
-        pub const BYTES_CONSTANTS: usize = 1092;
+        pub const BYTES_CONSTANTS: usize = 1152;
         /// Bytes of `Mpc`.
         pub const BYTES_STATE_MPC: usize = 240;
         /// Bytes of `Kalman`.

@@ -1824,7 +1824,7 @@ pub mod paper_initial {
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
         pub const MACS_PER_CYCLE: usize = 12459;
         /// Bytes of coefficients inlined into the code.
-        pub const BYTES_CONSTANTS: usize = 292;
+        pub const BYTES_CONSTANTS: usize = 352;
         /// Bytes of `Mpc`.
         pub const BYTES_STATE_MPC: usize = 80;
         /// Bytes of `Kalman`.

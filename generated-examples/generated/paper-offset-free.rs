@@ -8489,7 +8489,7 @@ pub mod paper_offset_free {
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
         pub const MACS_PER_CYCLE: usize = 31803;
         /// Bytes of coefficients inlined into the code.
-        pub const BYTES_CONSTANTS: usize = 1128;
+        pub const BYTES_CONSTANTS: usize = 1188;
         /// Bytes of `Mpc`.
         pub const BYTES_STATE_MPC: usize = 240;
         /// Bytes of `Kalman`.

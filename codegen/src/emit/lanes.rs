@@ -17,7 +17,7 @@ use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
 /// The cfg of the NEON kernels, and its negation for the portable ones.
-fn neon_cfg() -> (TokenStream, TokenStream) {
+pub(super) fn neon_cfg() -> (TokenStream, TokenStream) {
     (
         quote!(#[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]),
         quote!(#[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]),
@@ -25,7 +25,7 @@ fn neon_cfg() -> (TokenStream, TokenStream) {
 }
 
 /// Whether the NEON kernels are emitted: f32 in exactly one 4-lane q register per step.
-fn has_neon(p: &Problem) -> bool {
+pub(super) fn has_neon(p: &Problem) -> bool {
     p.scalar == Scalar::F32 && lane_count(p.nu) == 4
 }
 
@@ -148,7 +148,7 @@ fn h_blocks(p: &Problem, num: Num) -> TokenStream {
 /// accumulator comes straight from another VMLA, a real A9 hazard), which costs more than the loop.
 const PASS: usize = 2;
 
-/// The NEON kernels: H_BLOCKS, and both iterations in blocks of four rows, two blocks per pass over j.
+/// The NEON kernels: both iterations in blocks of four rows, two blocks per pass over j.
 fn neon(p: &Problem) -> TokenStream {
     let N = p.qp.N;
     let (neon_cfg, _) = neon_cfg();
@@ -218,10 +218,7 @@ fn neon(p: &Problem) -> TokenStream {
 /// four rows of each pass.
 fn layout(N: usize, method: Method) -> (TokenStream, Vec<Vec<usize>>) {
     let blocks = N.div_ceil(4);
-    let point = match method {
-        Method::Fgm => quote!(y),
-        Method::Gradient => quote!(u),
-    };
+    let point = super::mpc::point(method);
     let passes = (0..blocks)
         .step_by(PASS)
         .map(|first| (first..(first + PASS).min(blocks)).collect())

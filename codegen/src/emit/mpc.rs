@@ -1,4 +1,5 @@
-//! The fixed-iteration MPC: the gradient map, the unrolled Hessian product and `Mpc`.
+//! The fixed-iteration MPC: `Mpc`, its solver loop, and the `unrolled` and `table` gradients (`lanes` and the
+//! matrix-free sweeps have modules of their own).
 #![allow(non_snake_case)]
 
 use super::tokens::{at1, at2, Num};
@@ -23,11 +24,7 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
         padded(&qp.rest_input()),
     );
     let d_arg = if nd > 0 { quote!(d,) } else { quote!() };
-    // Where the gradient is taken: the extrapolated point y (FGM) or the iterate u itself.
-    let point = match qp.method {
-        Method::Fgm => quote!(y),
-        Method::Gradient => quote!(u),
-    };
+    let point = point(qp.method);
     let (kernels, prepare, gradient_call) = match p.emission {
         Emission::Unrolled => (
             unrolled(p, num),
@@ -203,6 +200,14 @@ pub fn emit(p: &Problem, num: Num) -> TokenStream {
     }
 }
 
+/// Where the gradient is taken: the extrapolated point `y` (FGM) or the iterate `u` itself.
+pub(super) fn point(method: Method) -> TokenStream {
+    match method {
+        Method::Fgm => quote!(y),
+        Method::Gradient => quote!(u),
+    }
+}
+
 /// `unrolled`: f = Fx·x0 − Fr·Xref (+ Fd·d) and ∇J = H·y + f, one statement per row, exact zeros skipped.
 fn unrolled(p: &Problem, num: Num) -> TokenStream {
     let qp = &p.qp;
@@ -234,14 +239,13 @@ fn unrolled(p: &Problem, num: Num) -> TokenStream {
     } else {
         quote!()
     };
-    let nonzeros = |M: &nalgebra::DMatrix<f64>| M.iter().filter(|v| num.round(**v) != 0.0).count();
     let gradient_doc = format!(
         " ∇J(y) = H·y + f (eq. 11), unrolled over the {} nonzeros of H.",
-        nonzeros(&qp.H)
+        num.nonzeros(&qp.H)
     );
     let linear_doc = format!(
         " f = Fx·x0 − Fr·Xref (eq. 10), unrolled over the {} nonzeros of Fx and Fr.",
-        nonzeros(&qp.Fx) + nonzeros(&qp.Fr)
+        num.nonzeros(&qp.Fx) + num.nonzeros(&qp.Fr)
     );
     quote! {
         #[doc = #linear_doc]

@@ -8,7 +8,6 @@
 use super::tokens::{at1, Num};
 use crate::cost::lane_count;
 use crate::lower::{ModelLanes, Problem};
-use mpc_spec::Scalar;
 use nalgebra::DMatrix;
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
@@ -208,7 +207,7 @@ fn in_lanes(p: &Problem, m: &ModelLanes, num: Num) -> TokenStream {
     } else {
         quote!()
     };
-    let helpers = lane_helpers(p.scalar == Scalar::F32 && lanes == 4);
+    let helpers = lane_helpers(super::lanes::has_neon(p));
     quote! {
         #helpers
 
@@ -242,10 +241,7 @@ fn in_lanes(p: &Problem, m: &ModelLanes, num: Num) -> TokenStream {
 /// Lane-wise a + b, a − b, c·a and acc + c·a: loops over the lanes, and NEON intrinsics on the A9.
 fn lane_helpers(neon: bool) -> TokenStream {
     let (neon_cfg, portable_cfg) = if neon {
-        (
-            quote!(#[cfg(all(mpc_neon, target_arch = "arm", target_feature = "neon"))]),
-            quote!(#[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]),
-        )
+        super::lanes::neon_cfg()
     } else {
         (quote!(), quote!())
     };

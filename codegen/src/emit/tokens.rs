@@ -27,6 +27,11 @@ impl Num {
         }
     }
 
+    /// Entries of `M` that are not zero in the emitted type: the multiply-adds an unrolled product keeps.
+    pub fn nonzeros(self, m: &DMatrix<f64>) -> usize {
+        m.iter().filter(|v| self.round(**v) != 0.0).count()
+    }
+
     /// `v` rounded to the emitted type.
     pub fn round(self, v: f64) -> f64 {
         match self.0 {
