@@ -3,20 +3,19 @@
 //! the paper (Section 2.4.3) and of the MPC itself, and the emitted code's resources.
 //!
 //! # The a priori bound
-//! With the gap Δ_k = J(U_k) − J* of the box-constrained QP and a step α ≤ 1/L:
-//! - projected gradient (Algorithm 1): Δ_k ≤ (1 − αμ)^k · Δ_0 (the proximal-PL rate of Karimi, Nutini and
-//!   Schmidt 2016, with 1/α ≥ L as the smoothness constant);
-//! - fast gradient with constant momentum β = (1 − √(αμ))/(1 + √(αμ)): Δ_k ≤ 2(1 − √(αμ))^k · Δ_0
-//!   (Nesterov's constant step scheme, Δ_k ≤ (1 − √(αμ))^k (Δ_0 + μ/2‖U_0 − U*‖²), and μ/2‖U_0 − U*‖² ≤ Δ_0
-//!   by strong convexity at the constrained optimum).
-//!
-//! Both hold for any start inside the box, warm or cold. Steps above 1/L have no such bound (they may still
+//! Each algorithm states its own bound on the gap Δ_k = J(U_k) − J* of the box-constrained QP
+//! ([`crate::solver::Algorithm::rate`]; the proofs' sources are in `solver/gradient.rs` and `solver/fgm.rs`).
+//! They hold for any start inside the box, warm or cold. Steps above 1/L have no such bound (they may still
 //! converge: see [`Certificate::contraction`]).
 #![allow(non_snake_case)]
 
-use crate::emit::tokens::Num;
-use crate::lower::{extreme_eigenvalues, Problem};
-use mpc_spec::{Diagnostic, Diagnostics, Emission, FilterKind, Iterations, Method, Spec};
+use crate::cost::Estimate;
+use crate::linalg::{extreme_eigenvalues, lqr_gain, lyapunov_identity, spectral_radius};
+use crate::lower::Problem;
+use crate::numeric::Numeric;
+use crate::plan::Plan;
+pub use crate::solver::Rate;
+use mpc_spec::{Diagnostic, Diagnostics, Emission, FilterKind, Iterations, Spec};
 use nalgebra::DMatrix;
 
 /// The tolerance the report uses when the spec gives none.
@@ -25,54 +24,6 @@ pub const DEFAULT_TOLERANCE: f64 = 1e-4;
 /// Above this many decision variables the solver's closed loop (an (nx + N·nu)-dimensional linear system
 /// built by unrolling every iteration) is not formed at compile time.
 pub const MAX_SOLVER_ANALYSIS_SIZE: usize = 300;
-
-/// A bound Δ_k ≤ constant · factor^k · Δ_0.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Rate {
-    /// The constant in front (1 for the gradient method, 2 for the fast gradient method).
-    pub constant: f64,
-    /// The factor per iteration.
-    pub factor: f64,
-}
-
-impl Rate {
-    /// The smallest k ≥ 1 with constant · factor^k ≤ tol.
-    pub fn iterations_for(&self, tol: f64) -> usize {
-        if self.factor <= 0.0 {
-            return 1;
-        }
-        let k = ((tol / self.constant).ln() / self.factor.ln()).ceil();
-        if k.is_finite() {
-            k.max(1.0) as usize
-        } else {
-            usize::MAX
-        }
-    }
-
-    /// What k iterations guarantee: Δ_k / Δ_0 ≤ this (capped at 1: no iteration makes the gap worse
-    /// in these bounds' sense).
-    pub fn guaranteed(&self, k: usize) -> f64 {
-        (self.constant * self.factor.powf(k as f64)).min(1.0)
-    }
-}
-
-/// The a priori rate of `method` with step α on a QP with Hessian eigenvalues in [μ, L]; `None` for α > 1/L.
-pub fn a_priori_rate(method: Method, step: f64, mu: f64, L: f64) -> Option<Rate> {
-    if step > (1.0 / L) * (1.0 + 1e-12) {
-        return None;
-    }
-    let am = (step * mu).min(1.0);
-    Some(match method {
-        Method::Gradient => Rate {
-            constant: 1.0,
-            factor: 1.0 - am,
-        },
-        Method::Fgm => Rate {
-            constant: 2.0,
-            factor: 1.0 - am.sqrt(),
-        },
-    })
-}
 
 /// The paper's nominal stability check: an LQR gain from the stage weights and its closed loop.
 #[derive(Clone, Debug)]
@@ -152,7 +103,7 @@ pub struct Certificate {
     /// How the gradient is emitted.
     pub emission: Emission,
     /// The cost model's estimate of every emission choice ([`crate::cost`]).
-    pub estimates: Vec<crate::cost::Estimate>,
+    pub estimates: Vec<Estimate>,
     /// The disturbance estimate's time constant in seconds, with `[kalman] disturbance`: −Δt / ln ρ of the
     /// steady-state estimation error dynamics F_a(I − K∞C_a), whose slowest mode is the disturbance's.
     pub disturbance_time_constant: Option<f64>,
@@ -216,29 +167,28 @@ pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> 
     }
 }
 
-/// Computes the certificate of a lowered problem.
-pub fn certify(p: &Problem) -> Certificate {
+/// Computes the certificate of a lowered and planned problem.
+pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
     let qp = &p.qp;
-    let rate = a_priori_rate(qp.method, qp.step, qp.mu, qp.L);
+    let rate = plan.algorithm.rate(&qp.parameters());
     let tolerance = qp.tolerance.unwrap_or(DEFAULT_TOLERANCE);
-    let estimates = crate::cost::estimates(p);
     Certificate {
         lipschitz: qp.L,
         strong_convexity: qp.mu,
         condition_number: qp.L / qp.mu,
         step: qp.step,
         momentum: qp.momentum,
-        contraction: contraction(p),
+        contraction: contraction(p, plan),
         iterations: qp.iterations,
         tolerance,
         rate,
         iterations_bound: rate.map(|r| r.iterations_for(tolerance)),
         guaranteed_gap: rate.map(|r| r.guaranteed(qp.iterations)),
         lqr: lqr(p),
-        mpc: mpc_loop(p),
-        resources: resources(p, &estimates),
-        emission: p.emission,
-        estimates,
+        mpc: mpc_loop(p, plan),
+        resources: resources(p, plan),
+        emission: plan.emission(),
+        estimates: plan.estimates.clone(),
         disturbance_time_constant: (p.filter.nd > 0).then(|| {
             let f = &p.filter;
             let na = p.nx + f.nd;
@@ -248,93 +198,12 @@ pub fn certify(p: &Problem) -> Certificate {
     }
 }
 
-fn contraction(p: &Problem) -> f64 {
+fn contraction(p: &Problem, plan: &Plan) -> f64 {
     let qp = &p.qp;
     let eig = nalgebra::SymmetricEigen::new(qp.H.clone()).eigenvalues;
     eig.iter()
-        .map(|lambda| {
-            let a = 1.0 - qp.step * lambda;
-            match qp.method {
-                Method::Gradient => a.abs(),
-                Method::Fgm => {
-                    let b = qp.momentum;
-                    let M = DMatrix::from_row_slice(2, 2, &[(1.0 + b) * a, -b * a, 1.0, 0.0]);
-                    spectral_radius(&M)
-                }
-            }
-        })
+        .map(|lambda| plan.algorithm.contraction_at(&qp.parameters(), *lambda))
         .fold(0.0, f64::max)
-}
-
-/// The largest modulus of the eigenvalues of a square matrix: from the real Schur form when its QR
-/// iteration converges (nalgebra's unbounded `complex_eigenvalues` can loop forever on some matrices),
-/// else by Gelfand's formula ρ = lim ‖Aᵏ‖^(1/k) with k = 2⁶⁰, squaring and rescaling.
-pub fn spectral_radius(M: &DMatrix<f64>) -> f64 {
-    if let Some(schur) = nalgebra::Schur::try_new(M.clone(), f64::EPSILON, 100_000) {
-        return schur
-            .complex_eigenvalues()
-            .iter()
-            .map(|c| c.norm())
-            .fold(0.0, f64::max);
-    }
-    let mut A = M.clone();
-    let mut log_scale = 0.0;
-    for j in 0..60 {
-        let norm = A.amax();
-        if norm == 0.0 {
-            return 0.0;
-        }
-        A /= norm;
-        log_scale += norm.ln() / f64::powi(2.0, j);
-        A = &A * &A;
-    }
-    (log_scale + A.amax().ln() / f64::powi(2.0, 60)).exp()
-}
-
-/// The LQR gain of the discrete algebraic Riccati equation, by iterating the Riccati difference equation.
-pub fn lqr_gain(
-    F: &DMatrix<f64>,
-    G: &DMatrix<f64>,
-    Q: &DMatrix<f64>,
-    R: &DMatrix<f64>,
-) -> Option<DMatrix<f64>> {
-    let mut P = Q.clone();
-    for _ in 0..1_000_000 {
-        let GtP = G.transpose() * &P;
-        let K = (R + &GtP * G).cholesky()?.solve(&(GtP * F));
-        let next = Q + F.transpose() * &P * (F - G * &K);
-        let next = (&next + next.transpose()) * 0.5;
-        let change = (&next - &P).amax();
-        P = next;
-        if !P.iter().all(|v| v.is_finite()) {
-            return None;
-        }
-        if change <= 1e-14 * P.amax() {
-            let GtP = G.transpose() * &P;
-            return (R + &GtP * G).cholesky().map(|c| c.solve(&(GtP * F)));
-        }
-    }
-    None
-}
-
-/// P with Aᵀ P A − P = −I, by doubling (P ← P + Aᵀ P A, A ← A²); `None` unless ρ(A) < 1.
-pub fn lyapunov_identity(A: &DMatrix<f64>) -> Option<DMatrix<f64>> {
-    if spectral_radius(A) >= 1.0 {
-        return None;
-    }
-    let n = A.nrows();
-    let mut P = DMatrix::identity(n, n);
-    let mut Ak = A.clone();
-    for _ in 0..64 {
-        let next = &P + Ak.transpose() * &P * &Ak;
-        let done = (&next - &P).amax() <= 1e-15 * next.amax();
-        P = next;
-        Ak = &Ak * &Ak;
-        if done {
-            break;
-        }
-    }
-    Some((&P + P.transpose()) * 0.5)
 }
 
 fn lqr(p: &Problem) -> Lqr {
@@ -359,7 +228,7 @@ fn lqr(p: &Problem) -> Lqr {
     }
 }
 
-fn mpc_loop(p: &Problem) -> MpcLoop {
+fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
     let qp = &p.qp;
     let (nx, nu) = (p.nx, p.nu);
     let nz = qp.N * nu;
@@ -380,16 +249,10 @@ fn mpc_loop(p: &Problem) -> MpcLoop {
         }
         let mut f = DMatrix::zeros(nz, dim);
         f.view_mut((0, 0), (nz, nx)).copy_from(&qp.Fx);
-        let mut U = shift.clone();
-        let mut Y = shift;
-        for _ in 0..qp.iterations {
-            let next = &Y - (&qp.H * &Y + &f) * qp.step;
-            Y = match qp.method {
-                Method::Gradient => next.clone(),
-                Method::Fgm => &next + (&next - &U) * qp.momentum,
-            };
-            U = next;
-        }
+        let step = |Y: &DMatrix<f64>| Y - (&qp.H * Y + &f) * qp.step;
+        let U = plan
+            .algorithm
+            .reference_linear(&qp.parameters(), shift, qp.iterations, &step);
         let mut A = DMatrix::zeros(dim, dim);
         let x_next = &p.G * U.rows(0, nu);
         A.view_mut((0, 0), (nx, dim)).copy_from(&x_next);
@@ -405,46 +268,19 @@ fn mpc_loop(p: &Problem) -> MpcLoop {
     }
 }
 
-fn resources(p: &Problem, estimates: &[crate::cost::Estimate]) -> Resources {
-    let num = Num(p.scalar);
+fn resources(p: &Problem, plan: &Plan) -> Resources {
+    let num = Numeric(p.scalar);
     let nnz = |M: &DMatrix<f64>| num.nonzeros(M);
-    let coefficients = |M: &DMatrix<f64>| {
-        M.iter()
-            .filter(|v| num.round(**v) != 0.0 && num.round(v.abs()) != 1.0)
-            .count()
-    };
+    let coefficients = |M: &DMatrix<f64>| num.coefficients(M);
     let qp = &p.qp;
     let f = &p.filter;
     // The filter works on (x, d): na = nx + nd states.
     let (na, ny) = (p.nx + f.nd, p.ny);
-    let chosen = estimates
-        .iter()
-        .find(|e| e.emission == p.emission)
-        .expect("the problem's emission is one of the estimated choices");
-    let per_iteration = chosen.macs + crate::cost::update_macs(p);
+    let plan_entries = qp.N * plan.plan_lanes(p);
+    let per_iteration = plan.estimate().macs + plan.algorithm.update_macs(plan_entries);
     // f: unrolled over Fx, Fr and Fd, or one pass of the matrix-free sweeps (f = ∇J(0)).
-    let (gradient_map, gradient_map_constants) = match p.emission {
-        Emission::Unrolled => (
-            nnz(&qp.Fx) + nnz(&qp.Fr) + nnz(&qp.Fd),
-            coefficients(&qp.H)
-                + coefficients(&qp.Fx)
-                + coefficients(&qp.Fr)
-                + coefficients(&qp.Fd),
-        ),
-        _ => {
-            let sweep = estimates
-                .iter()
-                .find(|e| e.emission == Emission::MatrixFree)
-                .map_or(0, |e| e.macs);
-            let tables = chosen.table_bytes / num.bytes();
-            let model = coefficients(&p.F)
-                + coefficients(&p.G)
-                + coefficients(&qp.Q)
-                + coefficients(&qp.Qf)
-                + coefficients(&qp.R);
-            (sweep, tables + model)
-        }
-    };
+    let (gradient_map, gradient_map_constants) =
+        plan.form.gradient().gradient_map(p, &plan.estimates);
     let (F, G, C) = (&f.Fa, &f.Ga, &f.Ca);
     let predict_state = nnz(&F.rows(0, p.nx).into_owned()) + nnz(G);
     let mut filter_constants = coefficients(F) + coefficients(G) + coefficients(C);
@@ -486,7 +322,7 @@ fn resources(p: &Problem, estimates: &[crate::cost::Estimate]) -> Resources {
         }
     };
     let size = num.bytes();
-    let bytes_state_mpc = qp.N * crate::cost::plan_lanes(p) * size;
+    let bytes_state_mpc = plan_entries * size;
     let bytes_state_kalman = match f.kind {
         FilterKind::SteadyState => na * size,
         FilterKind::TimeVarying => (na + na * na) * size,

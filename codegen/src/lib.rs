@@ -15,15 +15,21 @@
 pub mod certificate;
 pub mod cost;
 pub mod emit;
+pub mod form;
+pub mod linalg;
 pub mod lower;
+pub mod numeric;
 pub mod oracle;
+pub mod plan;
 pub mod render;
+pub mod solver;
 pub mod structure;
 
 pub use certificate::{certify, Certificate};
 pub use emit::Origin;
 pub use lower::{lower, Problem};
 pub use mpc_spec::{Diagnostic, Diagnostics, Spec};
+pub use plan::{plan, Plan};
 
 use proc_macro2::{Ident, Span, TokenStream};
 
@@ -67,6 +73,8 @@ pub struct Generated {
     pub tokens: TokenStream,
     /// What was computed at compile time.
     pub problem: Problem,
+    /// The algorithm and gradient form the module is made of.
+    pub plan: Plan,
     /// What the compiler proved and counted.
     pub certificate: Certificate,
     /// Findings that do not stop the build (e.g. fewer iterations than the spec's `tolerance` needs).
@@ -86,10 +94,11 @@ impl Generated {
     }
 }
 
-/// Lowers `spec`, certifies it and emits its module.
+/// Lowers `spec`, plans its solver, certifies it and emits its module.
 pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
     let problem = lower(spec)?;
-    let certificate = certify(&problem);
+    let plan = plan(spec, &problem)?;
+    let certificate = certify(&problem, &plan);
     let warnings = certificate::review(spec, &certificate)?;
     let vis: TokenStream = opt.visibility.parse().map_err(|_| {
         Diagnostics::from(Diagnostic::new(
@@ -98,10 +107,11 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
         ))
     })?;
     let name = Ident::new(&opt.name, Span::call_site());
-    let tokens = emit::module(&problem, &certificate, &vis, &name, &opt.origin);
+    let tokens = emit::module(&problem, &plan, &certificate, &vis, &name, &opt.origin);
     Ok(Generated {
         tokens,
         problem,
+        plan,
         certificate,
         warnings,
     })

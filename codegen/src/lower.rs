@@ -4,11 +4,14 @@
 //! `cargo build` time and bakes into the emitted module, and what the generic solver runs with.
 #![allow(non_snake_case)]
 
+use crate::linalg::{dense, extreme_eigenvalues, project, steady_state_filter, symmetrize};
+use crate::numeric::Numeric;
+use crate::solver::Parameters;
 use mpc_spec::{
-    Diagnostic, Diagnostics, Emission, FilterKind, Iterations, KalmanNoise, Matrix, Method,
-    ModelKind, Scalar, Spec, Step,
+    Diagnostic, Diagnostics, FilterKind, Iterations, KalmanNoise, Method, ModelKind, Scalar, Spec,
+    Step,
 };
-use nalgebra::{DMatrix, DVector, SymmetricEigen};
+use nalgebra::{DMatrix, DVector};
 
 /// The condensed MPC problem and its solver parameters.
 #[derive(Clone, Debug)]
@@ -19,7 +22,7 @@ pub struct Qp {
     pub iterations: usize,
     /// The suboptimality the iterations must guarantee, if the spec gives one.
     pub tolerance: Option<f64>,
-    /// The solver.
+    /// The solver algorithm ([`crate::solver`]).
     pub method: Method,
     /// Stage state weight Q (nx × nx).
     pub Q: DMatrix<f64>,
@@ -37,8 +40,6 @@ pub struct Qp {
     pub Fx: DMatrix<f64>,
     /// Fr = 2 Suᵀ Q_blk, (N·nu) × (N·nx): the gradient's dependence on Xref (eq. 10).
     pub Fr: DMatrix<f64>,
-    /// H_axis with H = H_axis ⊗ I_nu (N × N), when H has that structure ([`crate::structure`]).
-    pub H_axis: Option<DMatrix<f64>>,
     /// Fd = H·(1_N ⊗ I), (N·nu) × nd: the gradient's dependence on the estimated input disturbance d.
     /// With V = U + (1_N ⊗ d) the offset-free problem (prediction with u + d, input cost on u − u_ss,
     /// u_ss = −d) is the plain one in V, so f gains exactly H·(1_N ⊗ d). Zero columns without disturbance.
@@ -58,6 +59,16 @@ pub struct Qp {
 }
 
 impl Qp {
+    /// What the algorithm runs with.
+    pub fn parameters(&self) -> Parameters {
+        Parameters {
+            step: self.step,
+            momentum: self.momentum,
+            mu: self.mu,
+            L: self.L,
+        }
+    }
+
     /// The input block that warm starts append and cold starts use: zero, projected onto the box
     /// (the paper's zero block whenever the box contains zero).
     pub fn rest_input(&self) -> DVector<f64> {
@@ -123,8 +134,6 @@ pub struct Problem {
     pub filter: Filter,
     /// The scalar type to emit.
     pub scalar: Scalar,
-    /// How the gradient is emitted: the spec's forced choice, or the cost model's ([`crate::cost`]).
-    pub emission: Emission,
     /// The model per input lane, when F, G, Q, Qf and R are all `A ⊗ I_nu` ([`ModelLanes`]).
     pub model_lanes: Option<ModelLanes>,
 }
@@ -168,61 +177,153 @@ fn model_lanes(
     })
 }
 
-/// Computes the QP and the filter of `spec`. Fails, with located diagnostics, when a weight or
-/// covariance is not (semi)definite, the step makes the iteration diverge, or the filter has no steady state.
+/// Computes the QP, its solver's parameters and the filter of `spec`. Fails, with located diagnostics,
+/// when a weight or covariance is not (semi)definite, the step makes the iteration diverge, the filter has
+/// no steady state, or a number does not exist in the emitted scalar type.
 pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     let mut diags = Diagnostics::default();
-    let span = |key: &str| spec.spans.get(key);
     let dt = spec.model.dt;
     let (F, G, C) = plant(&spec.model.kind, dt);
     let (nx, nu, ny) = (F.nrows(), G.ncols(), C.nrows());
     let m = &spec.mpc;
-    let Q = dense(&m.q);
-    let R = dense(&m.r);
-    let Qf = dense(&m.qf);
-    let qf_key = if span("mpc.qf").is_some() {
-        "mpc.qf"
-    } else {
-        "mpc.q"
-    };
-    check_definite(&mut diags, &Q, false, "`mpc.q`", span("mpc.q"));
-    // Qf = k·Q or Q is definite exactly when Q is: check it only when it is written.
-    if qf_key == "mpc.qf" {
-        check_definite(&mut diags, &Qf, false, "`mpc.qf`", span(qf_key));
-    }
-    check_definite(&mut diags, &R, true, "`mpc.r`", span("mpc.r"));
-
+    let (Q, R, Qf) = (dense(&m.q), dense(&m.r), dense(&m.qf));
+    check_weights(spec, &Q, &R, &Qf, &mut diags);
     let N = m.horizon;
-    let (Sx, Su) = prediction_matrices(&F, &G, N);
+    let (Sx, Su, H, Fx, Fr) = condense(&F, &G, &Q, &R, &Qf, N);
+    let (mu, L) = extreme_eigenvalues(&H);
+    let (step, momentum, iterations) = solver_parameters(spec, mu, L, &mut diags);
+    let filter = filter(spec, &F, &G, &C, &mut diags);
+    if !diags.is_empty() {
+        return Err(diags.sorted());
+    }
+    let filter = filter.ok_or_else(|| {
+        Diagnostics::from(
+            Diagnostic::new("the Kalman filter has no steady state: the Riccati recursion does not converge", spec.spans.get("kalman"))
+                .note("hint: the measured outputs must make the model detectable, and the process noise must reach every unstable mode"),
+        )
+    })?;
+    let Fd = &H
+        * DMatrix::from_fn(
+            N * nu,
+            filter.nd,
+            |i, j| if i % nu == j { 1.0 } else { 0.0 },
+        );
+    let qp = Qp {
+        N,
+        iterations,
+        tolerance: m.tolerance,
+        method: m.method,
+        Q,
+        R,
+        Qf,
+        Sx,
+        Su,
+        H,
+        Fd,
+        Fx,
+        Fr,
+        L,
+        mu,
+        step,
+        momentum,
+        u_min: DVector::from_column_slice(&m.u_min),
+        u_max: DVector::from_column_slice(&m.u_max),
+    };
+    check_ranges(spec, &qp, &filter, &F, &G)?;
+    let model_lanes = model_lanes(&F, &G, &qp.Q, &qp.Qf, &qp.R);
+    Ok(Problem {
+        nx,
+        nu,
+        ny,
+        dt,
+        qp,
+        filter,
+        F,
+        G,
+        C,
+        scalar: spec.codegen.scalar,
+        model_lanes,
+    })
+}
+
+/// Q and Qf must be positive semidefinite, R positive definite.
+fn check_weights(
+    spec: &Spec,
+    Q: &DMatrix<f64>,
+    R: &DMatrix<f64>,
+    Qf: &DMatrix<f64>,
+    diags: &mut Diagnostics,
+) {
+    let span = |key: &str| spec.spans.get(key);
+    check_definite(diags, Q, false, "`mpc.q`", span("mpc.q"));
+    // Qf = k·Q or Q is definite exactly when Q is: check it only when it is written.
+    if span("mpc.qf").is_some() {
+        check_definite(diags, Qf, false, "`mpc.qf`", span("mpc.qf"));
+    }
+    check_definite(diags, R, true, "`mpc.r`", span("mpc.r"));
+}
+
+/// The condensed QP of eqs. 9-13: Sx, Su, H = 2(Suᵀ Q_blk Su + R_blk), Fx = 2 Suᵀ Q_blk Sx, Fr = 2 Suᵀ Q_blk.
+#[allow(clippy::type_complexity)]
+fn condense(
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+    Q: &DMatrix<f64>,
+    R: &DMatrix<f64>,
+    Qf: &DMatrix<f64>,
+    N: usize,
+) -> (
+    DMatrix<f64>,
+    DMatrix<f64>,
+    DMatrix<f64>,
+    DMatrix<f64>,
+    DMatrix<f64>,
+) {
+    let (nx, nu) = (F.nrows(), G.ncols());
+    let (Sx, Su) = prediction_matrices(F, G, N);
     let mut Q_blk = DMatrix::zeros(N * nx, N * nx);
     for k in 0..N {
-        let w = if k + 1 == N { &Qf } else { &Q };
+        let w = if k + 1 == N { Qf } else { Q };
         Q_blk.view_mut((k * nx, k * nx), (nx, nx)).copy_from(w);
     }
     let mut R_blk = DMatrix::zeros(N * nu, N * nu);
     for k in 0..N {
-        R_blk.view_mut((k * nu, k * nu), (nu, nu)).copy_from(&R);
+        R_blk.view_mut((k * nu, k * nu), (nu, nu)).copy_from(R);
     }
     let SuT_Q = Su.transpose() * &Q_blk;
     let H = symmetrize(&((&SuT_Q * &Su + &R_blk) * 2.0));
     let Fx = &SuT_Q * &Sx * 2.0;
     let Fr = SuT_Q * 2.0;
-    let (mu, L) = extreme_eigenvalues(&H);
+    (Sx, Su, H, Fx, Fr)
+}
 
+/// The algorithm's step α, momentum β and iteration count for Hessian eigenvalues in [μ, L]; a step the
+/// algorithm diverges with, or `iterations = "auto"` without a bound, is reported.
+fn solver_parameters(spec: &Spec, mu: f64, L: f64, diags: &mut Diagnostics) -> (f64, f64, usize) {
+    let m = &spec.mpc;
+    let span = |key: &str| spec.spans.get(key);
+    let algorithm = crate::solver::algorithm(m.method);
     let step = match m.step {
         Step::Auto => 1.0 / L,
         Step::Fixed(alpha) => alpha,
     };
-    let momentum = match m.method {
-        Method::Gradient => 0.0,
-        Method::Fgm => {
-            let r = (step * mu).min(1.0).sqrt();
-            (1.0 - r) / (1.0 + r)
-        }
+    let parameters = Parameters {
+        step,
+        momentum: algorithm.momentum(step, mu),
+        mu,
+        L,
     };
-    check_step(&mut diags, m.method, step, momentum, L, span("mpc.step"));
-    let bound = crate::certificate::a_priori_rate(m.method, step, mu, L);
-    let iterations = match (m.iterations, m.tolerance, bound) {
+    if let Some(why) = algorithm.step_too_large(&parameters) {
+        diags.push(
+            Diagnostic::new(
+                format!("`mpc.step` = {step} is too large: it must be {why}"),
+                span("mpc.step"),
+            )
+            .label("step too large")
+            .note("hint: write `step = \"auto\"` for 1/L"),
+        );
+    }
+    let iterations = match (m.iterations, m.tolerance, algorithm.rate(&parameters)) {
         (Iterations::Fixed(n), _, _) => n,
         (Iterations::Auto, Some(tol), Some(bound)) => bound.iterations_for(tol),
         (Iterations::Auto, _, None) => {
@@ -242,13 +343,26 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         // `auto` without `tolerance` was reported by mpc-spec.
         (Iterations::Auto, None, _) => 0,
     };
+    (step, parameters.momentum, iterations)
+}
 
+/// The filter of `[kalman]`, its covariances checked; `None` when its Riccati recursion has no steady
+/// state (reported by the caller once the other findings are in).
+fn filter(
+    spec: &Spec,
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+    C: &DMatrix<f64>,
+    diags: &mut Diagnostics,
+) -> Option<Filter> {
+    let span = |key: &str| spec.spans.get(key);
+    let (nx, nu, ny) = (F.nrows(), G.ncols(), C.nrows());
     let (Qn, Rn) = match &spec.kalman.noise {
         KalmanNoise::WhiteAcceleration {
             sigma_a,
             sigma_meas,
         } => (
-            white_acceleration_noise(nx / 2, dt, *sigma_a),
+            white_acceleration_noise(nx / 2, spec.model.dt, *sigma_a),
             DMatrix::from_diagonal(&DVector::from_iterator(
                 ny,
                 sigma_meas.iter().map(|s| s * s),
@@ -258,8 +372,8 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     };
     let P0 = dense(&spec.kalman.p0);
     let nd = spec.kalman.disturbance.as_ref().map_or(0, |_| nu);
-    let (Fa, Ga, Ca, Qn, P0) = augment(&F, &G, &C, &Qn, &P0, spec.kalman.disturbance.as_deref());
-    if nd > 0 && !disturbance_detectable(&F, &G, &C) {
+    let (Fa, Ga, Ca, Qn, P0) = augment(F, G, C, &Qn, &P0, spec.kalman.disturbance.as_deref());
+    if nd > 0 && !disturbance_detectable(F, G, C) {
         diags.push(
             Diagnostic::new(
                 "the disturbance is not detectable: rank [I − F, −G; C, 0] is below nx + nd",
@@ -270,69 +384,82 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         );
     }
     check_definite(
-        &mut diags,
+        diags,
         &Qn,
         false,
         "the process noise covariance (`kalman.q`)",
         span("kalman.q").or(span("kalman.sigma_a")),
     );
     check_definite(
-        &mut diags,
+        diags,
         &Rn,
         true,
         "the measurement noise covariance (`kalman.r`)",
         span("kalman.r").or(span("kalman.sigma_meas")),
     );
     check_definite(
-        &mut diags,
+        diags,
         &P0,
         true,
         "`kalman.p0`",
         span("kalman.p0").or(span("kalman")),
     );
     if !diags.is_empty() {
-        return Err(diags.sorted());
+        return None;
     }
-    let (P_inf, K_inf) = match steady_state_filter(&Fa, &Ca, &Qn, &Rn, &P0) {
-        Some(pk) => pk,
-        None => {
-            return Err(Diagnostic::new("the Kalman filter has no steady state: the Riccati recursion does not converge", span("kalman"))
-                .note("hint: the measured outputs must make the model detectable, and the process noise must reach every unstable mode")
-                .into())
-        }
-    };
+    let (P_inf, K_inf) = steady_state_filter(&Fa, &Ca, &Qn, &Rn, &P0)?;
+    let P_pattern = crate::structure::covariance_pattern(&Fa, &Ca, &Qn, &Rn, &P0);
+    Some(Filter {
+        nd,
+        Fa,
+        Ga,
+        Ca,
+        Qn,
+        Rn,
+        P0,
+        kind: spec.kalman.filter,
+        P_inf,
+        K_inf,
+        P_pattern,
+    })
+}
 
-    let Fd = &H * DMatrix::from_fn(N * nu, nd, |i, j| if i % nu == j { 1.0 } else { 0.0 });
-    // Every number the emitter writes must exist in the emitted scalar type.
-    let bounds = DMatrix::from_iterator(2, nu, m.u_min.iter().chain(m.u_max.iter()).copied());
-    let step_matrix = DMatrix::from_element(1, 1, step);
+/// Every number the emitter writes must exist in the emitted scalar type.
+fn check_ranges(
+    spec: &Spec,
+    qp: &Qp,
+    filter: &Filter,
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+) -> Result<(), Diagnostics> {
+    let span = |key: &str| spec.spans.get(key);
+    let nu = G.ncols();
+    let bounds = DMatrix::from_iterator(2, nu, qp.u_min.iter().chain(qp.u_max.iter()).copied());
+    let step_matrix = DMatrix::from_element(1, 1, qp.step);
     let emitted: [(&str, &str, &DMatrix<f64>); 13] = [
         ("the input bounds", "mpc.u_max", &bounds),
         ("the step", "mpc.step", &step_matrix),
-        ("the Hessian H", "mpc.q", &H),
-        ("the gradient map Fx", "mpc.q", &Fx),
-        ("the gradient map Fr", "mpc.q", &Fr),
-        ("the disturbance map Fd", "mpc.q", &Fd),
-        ("the model F", "model", &F),
-        ("the model G", "model", &G),
-        ("the process noise Q", "kalman", &Qn),
-        ("the measurement noise R", "kalman", &Rn),
-        ("the initial covariance P0", "kalman", &P0),
-        ("the steady-state covariance P∞", "kalman", &P_inf),
-        ("the steady-state gain K∞", "kalman", &K_inf),
+        ("the Hessian H", "mpc.q", &qp.H),
+        ("the gradient map Fx", "mpc.q", &qp.Fx),
+        ("the gradient map Fr", "mpc.q", &qp.Fr),
+        ("the disturbance map Fd", "mpc.q", &qp.Fd),
+        ("the model F", "model", F),
+        ("the model G", "model", G),
+        ("the process noise Q", "kalman", &filter.Qn),
+        ("the measurement noise R", "kalman", &filter.Rn),
+        ("the initial covariance P0", "kalman", &filter.P0),
+        ("the steady-state covariance P∞", "kalman", &filter.P_inf),
+        ("the steady-state gain K∞", "kalman", &filter.K_inf),
     ];
-    let scalar = spec.codegen.scalar;
-    let limit = match scalar {
-        Scalar::F32 => f32::MAX as f64,
-        Scalar::F64 => f64::MAX,
-    };
+    let scalar = Numeric(spec.codegen.scalar);
+    let mut diags = Diagnostics::default();
     for (what, key, M) in emitted {
         let worst = M.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
-        if !worst.is_finite() || worst > limit {
+        if !worst.is_finite() || worst > scalar.max() {
             let d = Diagnostic::new(
                 format!(
                     "{what} would overflow {}: its largest magnitude is {worst:e}",
-                    scalar_name(scalar)
+                    scalar.name()
                 ),
                 span(key).or(span("codegen.scalar")),
             )
@@ -341,107 +468,10 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
             diags.push(d);
         }
     }
-    if !diags.is_empty() {
-        return Err(diags.sorted());
-    }
-    let H_axis = crate::structure::kronecker_identity(&H, nu);
-    let model_lanes = model_lanes(&F, &G, &Q, &Qf, &R);
-    let P_pattern = crate::structure::covariance_pattern(&Fa, &Ca, &Qn, &Rn, &P0);
-    let mut problem = Problem {
-        nx,
-        nu,
-        ny,
-        dt,
-        qp: Qp {
-            N,
-            iterations,
-            tolerance: m.tolerance,
-            method: m.method,
-            Q,
-            R,
-            Qf,
-            Sx,
-            Su,
-            H_axis: H_axis.as_ref().ok().cloned(),
-            H,
-            Fd,
-            Fx,
-            Fr,
-            L,
-            mu,
-            step,
-            momentum,
-            u_min: DVector::from_column_slice(&m.u_min),
-            u_max: DVector::from_column_slice(&m.u_max),
-        },
-        filter: Filter {
-            nd,
-            Fa,
-            Ga,
-            Ca,
-            Qn,
-            Rn,
-            P0,
-            kind: spec.kalman.filter,
-            P_inf,
-            K_inf,
-            P_pattern,
-        },
-        F,
-        G,
-        C,
-        scalar: spec.codegen.scalar,
-        emission: Emission::Table,
-        model_lanes,
-    };
-    // The cost model reads the lowered problem; every estimate is independent of the choice.
-    let estimates = crate::cost::estimates(&problem);
-    problem.emission = match (spec.codegen.emission, H_axis) {
-        (Emission::Auto, _) => crate::cost::choose(&estimates),
-        (Emission::Lanes, Err(e)) => return Err(no_lanes(&e, nu, span("codegen.emission")).into()),
-        (forced, _) => forced,
-    };
-    Ok(problem)
-}
-
-/// The located error for `emission = "lanes"` on an H without the lane structure, naming the entry.
-fn no_lanes(
-    e: &crate::structure::NotKronecker,
-    nu: usize,
-    span: Option<mpc_spec::Span>,
-) -> Diagnostic {
-    let (r, c) = e.entry;
-    let label = if r % nu == c % nu {
-        format!(
-            "H[{r}][{c}] = {:.6e}: input {}'s weight between steps {} and {} differs from input 0's ({:.6e})",
-            e.value,
-            r % nu,
-            r / nu,
-            c / nu,
-            e.expected
-        )
+    if diags.is_empty() {
+        Ok(())
     } else {
-        format!(
-            "H[{r}][{c}] = {:.6e} couples input {} at step {} with input {} at step {}",
-            e.value,
-            r % nu,
-            r / nu,
-            c % nu,
-            c / nu
-        )
-    };
-    Diagnostic::new(
-        format!("`emission = \"lanes\"` needs H = H_axis ⊗ I_{nu}, and this H is not one"),
-        span,
-    )
-    .label(label)
-    .note("hint: the lanes need independent inputs with equal weights and dynamics; write `emission = \"auto\"` to let the compiler choose")
-}
-
-fn scalar_name(s: Scalar) -> &'static str {
-    match s {
-        Scalar::F32 => "f32",
-        Scalar::F64 => "f64",
+        Err(diags.sorted())
     }
 }
 
@@ -560,73 +590,6 @@ pub fn prediction_matrices(
     (Sx, Su)
 }
 
-/// (λmin, λmax) of a symmetric matrix.
-pub fn extreme_eigenvalues(M: &DMatrix<f64>) -> (f64, f64) {
-    let eig = SymmetricEigen::new(M.clone()).eigenvalues;
-    (eig.min(), eig.max())
-}
-
-/// The steady-state prior covariance and gain, by iterating the Riccati recursion from P0.
-pub fn steady_state_filter(
-    F: &DMatrix<f64>,
-    C: &DMatrix<f64>,
-    Qn: &DMatrix<f64>,
-    Rn: &DMatrix<f64>,
-    P0: &DMatrix<f64>,
-) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
-    let mut P = P0.clone();
-    for _ in 0..1_000_000 {
-        let (_, P_post) = kalman_gain_and_posterior(&P, C, Rn)?;
-        let next = symmetrize(&(F * P_post * F.transpose() + Qn));
-        let change = (&next - &P).amax();
-        P = next;
-        if !P.iter().all(|v| v.is_finite()) {
-            return None;
-        }
-        if change <= 1e-15 * P.amax() {
-            let (K, _) = kalman_gain_and_posterior(&P, C, Rn)?;
-            return Some((P, K));
-        }
-    }
-    None
-}
-
-/// The gain K = P Cᵀ (C P Cᵀ + R)⁻¹ and the Joseph-form posterior (I − KC) P (I − KC)ᵀ + K R Kᵀ.
-pub fn kalman_gain_and_posterior(
-    P: &DMatrix<f64>,
-    C: &DMatrix<f64>,
-    Rn: &DMatrix<f64>,
-) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
-    let PCt = P * C.transpose();
-    let S = C * &PCt + Rn;
-    let S_inv = S.cholesky()?.inverse();
-    let K = PCt * S_inv;
-    let I_KC = DMatrix::identity(P.nrows(), P.nrows()) - &K * C;
-    let post = &I_KC * P * I_KC.transpose() + &K * Rn * K.transpose();
-    Some((K, symmetrize(&post)))
-}
-
-/// (M + Mᵀ)/2: removes the rounding asymmetry of products that are symmetric in exact arithmetic.
-pub fn symmetrize(M: &DMatrix<f64>) -> DMatrix<f64> {
-    (M + M.transpose()) * 0.5
-}
-
-/// The projection onto [lo, hi] used everywhere, generated code and oracle alike: NaN maps to `lo`,
-/// so the result is always finite and inside the box.
-pub fn project(v: f64, lo: f64, hi: f64) -> f64 {
-    let v = if v > lo { v } else { lo };
-    if v < hi {
-        v
-    } else {
-        hi
-    }
-}
-
-/// A spec matrix as nalgebra's.
-pub fn dense(m: &Matrix) -> DMatrix<f64> {
-    DMatrix::from_row_slice(m.rows, m.cols, &m.data)
-}
-
 /// Q, Qf and the noise covariances must be positive semidefinite, R and P0 positive definite.
 fn check_definite(
     diags: &mut Diagnostics,
@@ -650,46 +613,6 @@ fn check_definite(
                 span,
             )
             .label(format!("not {what}")),
-        );
-    }
-}
-
-/// Projected gradient diverges for α ≥ 2/L. The fast gradient method with constant momentum β iterates
-/// e⁺ = (1+β)(1−αλ)e − β(1−αλ)e⁻ along each eigenvalue λ of H, which is stable exactly when
-/// α < (2+2β)/((1+2β)λ): at λ = L that is the limit (about 1.53/L for the paper's spec).
-fn check_step(
-    diags: &mut Diagnostics,
-    method: Method,
-    step: f64,
-    momentum: f64,
-    L: f64,
-    span: Option<mpc_spec::Span>,
-) {
-    let (limit, why) = match method {
-        Method::Gradient => (
-            2.0 / L,
-            format!(
-                "below 2/L = {:.6} (L = {L:.6}), or the projected gradient iteration diverges",
-                2.0 / L
-            ),
-        ),
-        Method::Fgm => {
-            let limit = (2.0 + 2.0 * momentum) / ((1.0 + 2.0 * momentum) * L);
-            (
-                limit,
-                format!("below (2+2β)/((1+2β)L) = {limit:.6} (β = {momentum:.4}, L = {L:.6}), or the fast gradient iteration diverges"),
-            )
-        }
-    };
-    let ok = step < limit;
-    if !ok {
-        diags.push(
-            Diagnostic::new(
-                format!("`mpc.step` = {step} is too large: it must be {why}"),
-                span,
-            )
-            .label("step too large")
-            .note("hint: write `step = \"auto\"` for 1/L"),
         );
     }
 }

@@ -3,7 +3,9 @@
 //! and the baseline the benchmarks compare with.
 #![allow(non_snake_case)]
 
-use crate::lower::{kalman_gain_and_posterior, project, symmetrize, Problem, Qp};
+use crate::linalg::{kalman_gain_and_posterior, project, symmetrize};
+use crate::lower::{Problem, Qp};
+use crate::solver::{algorithm, Algorithm, Fgm};
 use mpc_spec::{FilterKind, Method};
 use nalgebra::{DMatrix, DVector};
 
@@ -82,20 +84,11 @@ impl Mpc {
     }
 }
 
-/// `iterations` steps of the spec's method from `start`, projecting onto the box after each.
+/// `iterations` steps of the spec's method from `start`, projecting onto the box after each: the
+/// algorithm's reference iteration ([`crate::solver::Algorithm::reference`]).
 pub fn iterate(qp: &Qp, f: &DVector<f64>, start: DVector<f64>, iterations: usize) -> DVector<f64> {
-    let mut u = start;
-    let mut y = u.clone();
-    for _ in 0..iterations {
-        let g = &qp.H * &y + f;
-        let next = project_box(qp, &(&y - g * qp.step));
-        y = match qp.method {
-            Method::Gradient => next.clone(),
-            Method::Fgm => &next + (&next - &u) * qp.momentum,
-        };
-        u = next;
-    }
-    u
+    let step = |y: &DVector<f64>| project_box(qp, &(y - (&qp.H * y + f) * qp.step));
+    algorithm(qp.method).reference(&qp.parameters(), start, iterations, &step)
 }
 
 /// The exact minimiser of the box-constrained QP ½UᵀHU + fᵀU, by projected gradient with step 1/L run
@@ -104,8 +97,7 @@ pub fn exact_solution(qp: &Qp, f: &DVector<f64>, tol: f64, max_iterations: usize
     let mut fast = qp.clone();
     fast.method = Method::Fgm;
     fast.step = 1.0 / qp.L;
-    let r = (fast.step * qp.mu).sqrt();
-    fast.momentum = (1.0 - r) / (1.0 + r);
+    fast.momentum = Fgm.momentum(fast.step, qp.mu);
     let mut u = rest_plan(qp);
     for _ in 0..max_iterations / 100 {
         u = iterate(&fast, f, u, 100);

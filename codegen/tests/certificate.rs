@@ -2,14 +2,22 @@
 //! `iterations = "auto"`, warnings and the unstable-loop error.
 #![allow(non_snake_case)]
 
-use codegen::certificate::{a_priori_rate, certify, review};
+use codegen::certificate::{certify, review};
 use codegen::oracle::{exact_solution, iterate};
-use codegen::{generate_from_source, lower, Opt};
+use codegen::solver::algorithm;
+use codegen::{generate_from_source, lower, plan, Opt};
 use mpc_spec::load;
 use nalgebra::DVector;
 
 const PAPER: &str = include_str!("../../specs/paper.toml");
 const FAITHFUL: &str = include_str!("../../specs/paper-faithful.toml");
+
+/// The certificate of a spec's text.
+fn certificate(src: &str) -> codegen::Certificate {
+    let spec = load(src).unwrap();
+    let p = lower(&spec).unwrap();
+    certify(&p, &plan(&spec, &p).unwrap())
+}
 
 fn round(v: f64, digits: i32) -> f64 {
     let k = 10f64.powi(digits);
@@ -19,7 +27,7 @@ fn round(v: f64, digits: i32) -> f64 {
 /// Section 2.4.3: ρ(F − G·K) = 0.939, λmin(P) = 4.61, λmax(P) = 142.44.
 #[test]
 fn paper_stability_figures() {
-    let c = certify(&lower(&load(PAPER).unwrap()).unwrap());
+    let c = certificate(PAPER);
     assert_eq!(round(c.lqr.spectral_radius, 3), 0.939);
     assert_eq!(round(c.lqr.lyapunov_min, 2), 4.61);
     assert_eq!(round(c.lqr.lyapunov_max, 2), 142.44);
@@ -36,7 +44,7 @@ fn paper_stability_figures() {
 /// Algorithm 1 with α = 0.04 and 30 warm-started iterations is a different dynamic controller.
 #[test]
 fn paper_faithful_solver_loop_differs_from_the_mpc_gain() {
-    let c = certify(&lower(&load(FAITHFUL).unwrap()).unwrap());
+    let c = certificate(FAITHFUL);
     let solver = c.mpc.solver_spectral_radius.unwrap();
     assert!(
         (solver - c.mpc.spectral_radius).abs() > 1e-4,
@@ -51,7 +59,7 @@ fn paper_faithful_solver_loop_differs_from_the_mpc_gain() {
 
 #[test]
 fn paper_conditioning_and_rates() {
-    let c = certify(&lower(&load(PAPER).unwrap()).unwrap());
+    let c = certificate(PAPER);
     assert_eq!(c.step, 1.0 / c.lipschitz);
     let kappa = c.condition_number;
     assert!((c.rate.unwrap().factor - (1.0 - (1.0 / kappa).sqrt())).abs() < 1e-15);
@@ -75,7 +83,7 @@ fn a_priori_bound_holds_along_real_iterations() {
     ] {
         let p = lower(&load(src).unwrap()).unwrap();
         let qp = &p.qp;
-        let rate = a_priori_rate(qp.method, qp.step, qp.mu, qp.L).unwrap();
+        let rate = algorithm(qp.method).rate(&qp.parameters()).unwrap();
         let nz = qp.N * p.nu;
         let J = |U: &DVector<f64>, f: &DVector<f64>| 0.5 * U.dot(&(&qp.H * U)) + f.dot(U);
         let mut seed = 1u64;
@@ -131,7 +139,8 @@ fn auto_iterations_are_the_bound() {
 fn too_few_iterations_warn_or_fail_when_strict() {
     let src = FAITHFUL.replace("iterations = 30", "iterations = 30\ntolerance = 1e-4");
     let spec = load(&src).unwrap();
-    let c = certify(&lower(&spec).unwrap());
+    let p = lower(&spec).unwrap();
+    let c = certify(&p, &plan(&spec, &p).unwrap());
     let warnings = review(&spec, &c).unwrap();
     let w = warnings.iter().next().unwrap();
     assert!(

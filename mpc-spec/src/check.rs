@@ -15,17 +15,9 @@ pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
         .as_ref()
         .filter(|_| raw.has("kalman"))
         .and_then(|m| check_kalman(&raw, m, diags));
-    let scalar = match raw.scalar.as_ref().map(|s| s.value.as_str()) {
-        Some("f64") => Scalar::F64,
-        _ => Scalar::F32,
-    };
-    let emission = match raw.emission.as_ref().map(|s| s.value.as_str()) {
-        Some("unrolled") => Emission::Unrolled,
-        Some("table") => Emission::Table,
-        Some("lanes") => Emission::Lanes,
-        Some("matrix_free") => Emission::MatrixFree,
-        _ => Emission::Auto,
-    };
+    // parse.rs accepted only the spellings in `keys`, which are the enums' own.
+    let scalar = spelled(&raw.scalar, Scalar::F32, Scalar::from_name);
+    let emission = spelled(&raw.emission, Emission::Auto, Emission::from_name);
     if !diags.is_empty() {
         return None;
     }
@@ -36,6 +28,14 @@ pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
         codegen: Codegen { scalar, emission },
         spans: Spans(raw.spans),
     })
+}
+
+/// The value of a spelled key, or `default` when it is absent.
+fn spelled<T>(value: &Option<Located<String>>, default: T, from_name: fn(&str) -> Option<T>) -> T {
+    value
+        .as_ref()
+        .and_then(|v| from_name(&v.value))
+        .unwrap_or(default)
 }
 
 /// `double_integrator` takes `axes` and no matrices; `linear` takes `a` (nx × nx), `b` (nx × nu) and
@@ -177,10 +177,7 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
             );
         }
     }
-    let method = match raw.method.as_ref().map(|m| m.value.as_str()) {
-        Some("gradient") => Method::Gradient,
-        _ => Method::Fgm,
-    };
+    let method = spelled(&raw.method, Method::Fgm, Method::from_name);
     let step = match raw.step.as_ref().and_then(|s| s.value) {
         Some(alpha) => Step::Fixed(alpha),
         None => Step::Auto,
@@ -292,10 +289,7 @@ fn check_kalman(raw: &Raw, model: &Model, diags: &mut Diagnostics) -> Option<Kal
         Some(_) => square(diags, "kalman.p0", raw.p0.as_ref(), nx, "nx"),
         None => Some(Matrix::diagonal(&vec![1.0; nx])),
     };
-    let filter = match raw.filter.as_ref().map(|f| f.value.as_str()) {
-        Some("steady_state") => FilterKind::SteadyState,
-        _ => FilterKind::TimeVarying,
-    };
+    let filter = spelled(&raw.filter, FilterKind::TimeVarying, FilterKind::from_name);
     let nu = model.kind.nu();
     let disturbance = match raw.disturbance.as_ref() {
         None => None,

@@ -46,10 +46,10 @@ pub const CODEGEN_KEYS: &[&str] = &["scalar", "emission"];
 /// Values of `[model] type`.
 pub const MODEL_TYPES: &[&str] = &["double_integrator", "linear"];
 /// Values of `[mpc] method`.
-pub const METHODS: &[&str] = &["fgm", "gradient"];
+pub const METHODS: &[&str] = crate::Method::NAMES;
 /// Values of `[kalman] filter`.
-pub const FILTERS: &[&str] = &["time_varying", "steady_state"];
+pub const FILTERS: &[&str] = crate::FilterKind::NAMES;
 /// Values of `[codegen] scalar`.
-pub const SCALARS: &[&str] = &["f32", "f64"];
+pub const SCALARS: &[&str] = crate::Scalar::NAMES;
 /// Values of `[codegen] emission`.
-pub const EMISSIONS: &[&str] = &["auto", "unrolled", "table", "lanes", "matrix_free"];
+pub const EMISSIONS: &[&str] = crate::Emission::NAMES;

@@ -3,6 +3,36 @@
 use std::collections::BTreeMap;
 use std::ops::Range;
 
+/// An enum whose variants are spelled in a spec: the one place each spelling is written. Gives `ALL`,
+/// `NAMES` (in the same order), `name()` and `from_name()`.
+macro_rules! spelled {
+    ($(#[$meta:meta])* pub enum $name:ident { $($(#[$vmeta:meta])* $variant:ident = $spelling:literal,)* }) => {
+        $(#[$meta])*
+        pub enum $name {
+            $($(#[$vmeta])* $variant,)*
+        }
+
+        impl $name {
+            /// Every variant, in declaration order.
+            pub const ALL: &'static [$name] = &[$($name::$variant),*];
+            /// The spellings of [`Self::ALL`], in the same order.
+            pub const NAMES: &'static [&'static str] = &[$($spelling),*];
+
+            /// The spelling in a spec.
+            pub const fn name(self) -> &'static str {
+                match self {
+                    $($name::$variant => $spelling,)*
+                }
+            }
+
+            /// The variant spelled `s`.
+            pub fn from_name(s: &str) -> Option<Self> {
+                Self::ALL.iter().copied().find(|v| v.name() == s)
+            }
+        }
+    };
+}
+
 /// A byte range into the spec's source text.
 pub type Span = Range<usize>;
 
@@ -103,13 +133,15 @@ pub enum Iterations {
     Auto,
 }
 
-/// How the QP is solved, `[mpc] method`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    /// Nesterov's fast gradient method with constant momentum.
-    Fgm,
-    /// Projected gradient, the paper's Algorithm 1.
-    Gradient,
+spelled! {
+    /// How the QP is solved, `[mpc] method`.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub enum Method {
+        /// Nesterov's fast gradient method with constant momentum.
+        Fgm = "fgm",
+        /// Projected gradient, the paper's Algorithm 1.
+        Gradient = "gradient",
+    }
 }
 
 /// The solver's step size, `[mpc] step`.
@@ -170,13 +202,15 @@ pub enum KalmanNoise {
     },
 }
 
-/// Which Kalman filter is emitted, `[kalman] filter`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FilterKind {
-    /// The covariance is propagated at run time.
-    TimeVarying,
-    /// The gain is the limit of the time-varying one, solved at compile time.
-    SteadyState,
+spelled! {
+    /// Which Kalman filter is emitted, `[kalman] filter`.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum FilterKind {
+        /// The covariance is propagated at run time.
+        TimeVarying = "time_varying",
+        /// The gain is the limit of the time-varying one, solved at compile time.
+        SteadyState = "steady_state",
+    }
 }
 
 /// The state estimator, `[kalman]`.
@@ -193,13 +227,15 @@ pub struct Kalman {
     pub disturbance: Option<Vec<f64>>,
 }
 
-/// The floating-point type of the emitted code, `[codegen] scalar`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Scalar {
-    /// `f32`.
-    F32,
-    /// `f64`.
-    F64,
+spelled! {
+    /// The floating-point type of the emitted code, `[codegen] scalar`.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Scalar {
+        /// `f32`.
+        F32 = "f32",
+        /// `f64`.
+        F64 = "f64",
+    }
 }
 
 /// Code generation options, `[codegen]`.
@@ -211,31 +247,20 @@ pub struct Codegen {
     pub emission: Emission,
 }
 
-/// How the gradient ∇J = H·U + f is emitted, `[codegen] emission`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Emission {
-    /// The compiler's cost model chooses (`mpcc check` prints it).
-    Auto,
-    /// Every nonzero of H inlined as a constant, one statement per row.
-    Unrolled,
-    /// A loop over H stored as a constant table: code size independent of the horizon.
-    Table,
-    /// H = H_axis ⊗ I: the inputs' components run side by side in SIMD lanes and share one table.
-    Lanes,
-    /// No H at all: a forward sweep of the dynamics and a backward adjoint sweep, O(N) per iteration.
-    MatrixFree,
-}
-
-impl Emission {
-    /// The spelling in a spec.
-    pub fn name(self) -> &'static str {
-        match self {
-            Emission::Auto => "auto",
-            Emission::Unrolled => "unrolled",
-            Emission::Table => "table",
-            Emission::Lanes => "lanes",
-            Emission::MatrixFree => "matrix_free",
-        }
+spelled! {
+    /// How the gradient ∇J = H·U + f is emitted, `[codegen] emission`.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub enum Emission {
+        /// The compiler's cost model chooses (`mpcc check` prints it).
+        Auto = "auto",
+        /// Every nonzero of H inlined as a constant, one statement per row.
+        Unrolled = "unrolled",
+        /// A loop over H stored as a constant table: code size independent of the horizon.
+        Table = "table",
+        /// H = H_axis ⊗ I: the inputs' components run side by side in SIMD lanes and share one table.
+        Lanes = "lanes",
+        /// No H at all: a forward sweep of the dynamics and a backward adjoint sweep, O(N) per iteration.
+        MatrixFree = "matrix_free",
     }
 }
 

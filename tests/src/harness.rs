@@ -40,9 +40,13 @@ pub trait Generated {
 
     /// The spec, parsed and lowered by the library (the oracle's view of the same file).
     fn problem() -> Problem {
+        lower(&Self::spec()).expect("lowerable spec")
+    }
+
+    /// The spec.
+    fn spec() -> mpc_spec::Spec {
         let source = std::fs::read_to_string(Self::SPEC).expect("spec file");
-        let spec = mpc_spec::load(&source).expect("valid spec");
-        lower(&spec).expect("lowerable spec")
+        mpc_spec::load(&source).expect("valid spec")
     }
 }
 

@@ -83,7 +83,7 @@ fn compare_offset_free_filter<G: OffsetFree>(seed: u64) -> f64 {
     let (nx, nu, ny, nd) = (p.nx, p.nu, p.ny, p.filter.nd);
     let na = nx + nd;
     let f = &p.filter;
-    let rho = codegen::certificate::spectral_radius(
+    let rho = codegen::linalg::spectral_radius(
         &(&f.Fa * (nalgebra::DMatrix::identity(na, na) - &f.K_inf * &f.Ca)),
     );
     let mut rng = rng(seed);

@@ -30,7 +30,8 @@ fn state_bytes_are_the_types_sizes() {
 
 #[test]
 fn report_constants_are_the_certificate() {
-    let c = codegen::certify(&paper::problem());
+    let (spec, p) = (paper::spec(), paper::problem());
+    let c = codegen::certify(&p, &codegen::plan(&spec, &p).unwrap());
     use mpc_tests::paper::report;
     assert_eq!(report::LIPSCHITZ, c.lipschitz);
     assert_eq!(report::CONDITION_NUMBER, c.condition_number);

@@ -1,17 +1,15 @@
 //! The emitter: `quote!` only, no math. It turns a lowered [`Problem`] into the generated module.
 
 mod kalman;
-mod lanes;
 mod mpc;
 mod report;
 mod sparse;
 mod support;
-mod sweep;
 pub(crate) mod tokens;
 
 use crate::certificate::Certificate;
 use crate::lower::Problem;
-use mpc_spec::Method;
+use crate::plan::Plan;
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
 use tokens::Num;
@@ -36,13 +34,14 @@ pub enum Origin {
 /// The generated module `vis mod name { ... }`.
 pub fn module(
     p: &Problem,
+    plan: &Plan,
     certificate: &Certificate,
     vis: &TokenStream,
     name: &Ident,
     origin: &Origin,
 ) -> TokenStream {
     let num = Num(p.scalar);
-    let items = items(p, num);
+    let items = items(p, plan, num);
     let report = report::emit(certificate);
     let (doc, track) = match origin {
         Origin::File { written, absolute } => (
@@ -84,7 +83,7 @@ pub fn module(
 }
 
 /// The module's items without the `mod` wrapper.
-pub fn items(p: &Problem, num: Num) -> TokenStream {
+pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     let qp = &p.qp;
     let real = num.ty();
     let (nx, nu, ny, n, iterations) = (p.nx, p.nu, p.ny, qp.N, qp.iterations);
@@ -131,25 +130,13 @@ pub fn items(p: &Problem, num: Num) -> TokenStream {
     } else {
         quote!(self.mpc.solve(self.kalman.state(), xref))
     };
-    let step_doc = match qp.method {
-        Method::Fgm => format!(" The step α = {} (1/L = {:.6e}).", qp.step, 1.0 / qp.L),
-        Method::Gradient => format!(
-            " The step α of Algorithm 1, line 4 (1/L = {:.6e}).",
-            1.0 / qp.L
-        ),
-    };
-    let momentum_doc = match qp.method {
-        Method::Fgm => format!(
-            " Nesterov momentum β = (1 − √(αμ)) / (1 + √(αμ)), μ = {:.6e}.",
-            qp.mu
-        ),
-        Method::Gradient => " Zero: the projected gradient method has no momentum.".to_string(),
-    };
+    let step_doc = plan.algorithm.step_doc(&qp.parameters());
+    let momentum_doc = plan.algorithm.momentum_doc(&qp.parameters());
     let h_doc = format!(
         " Hessian H = 2(Suᵀ Q_blk Su + R_blk), eq. 9; (N·NU)×(N·NU), L = {:.6e}, μ = {:.6e}.",
         qp.L, qp.mu
     );
-    let mpc = mpc::emit(p, num);
+    let mpc = mpc::emit(p, plan, num);
     let kalman = kalman::emit(p, num);
     let support = support::emit();
     quote! {

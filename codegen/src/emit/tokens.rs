@@ -1,12 +1,14 @@
 //! Small token builders shared by the emitters: literals of the emitted scalar type, matrix constants,
-//! and unrolled sums with exact zeros skipped.
+//! and unrolled sums with exact zeros skipped. The numbers themselves (rounding, sizes) are
+//! [`Numeric`]'s.
 
+use crate::numeric::Numeric;
 use mpc_spec::Scalar;
 use nalgebra::DMatrix;
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
-/// Emits numbers of one scalar type.
+/// Writes numbers of one scalar type as tokens.
 #[derive(Clone, Copy, Debug)]
 pub struct Num(pub Scalar);
 
@@ -19,25 +21,14 @@ impl Num {
         }
     }
 
-    /// Bytes of one number.
-    pub fn bytes(self) -> usize {
-        match self.0 {
-            Scalar::F32 => 4,
-            Scalar::F64 => 8,
-        }
-    }
-
-    /// Entries of `M` that are not zero in the emitted type: the multiply-adds an unrolled product keeps.
-    pub fn nonzeros(self, m: &DMatrix<f64>) -> usize {
-        m.iter().filter(|v| self.round(**v) != 0.0).count()
+    /// The numbers of this type: rounding, sizes, nonzeros.
+    pub fn numeric(self) -> Numeric {
+        Numeric(self.0)
     }
 
     /// `v` rounded to the emitted type.
     pub fn round(self, v: f64) -> f64 {
-        match self.0 {
-            Scalar::F32 => v as f32 as f64,
-            Scalar::F64 => v,
-        }
+        self.numeric().round(v)
     }
 
     /// A suffixed literal of `v`, with its sign as a separate token.
@@ -113,4 +104,9 @@ pub fn at2(name: &TokenStream, i: usize, cols: usize) -> TokenStream {
 pub fn at1(name: &TokenStream, i: usize) -> TokenStream {
     let i = Literal::usize_unsuffixed(i);
     quote!(#name[#i])
+}
+
+/// `[[e0, e1], [e2, e3]]` from a flat list, `width` per block.
+pub fn blocks(entries: &[TokenStream], width: usize) -> Vec<TokenStream> {
+    entries.chunks(width).map(|c| quote!([#(#c),*])).collect()
 }

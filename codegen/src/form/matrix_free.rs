@@ -1,19 +1,94 @@
-//! The matrix-free gradient ∇J(v) = 2 Suᵀ Q_blk (Sx·x0 + Su·v − Xref) + 2 R_blk·v, without Su or H: a
-//! forward sweep of the dynamics and a backward adjoint sweep, O(N). It is the `matrix_free` emission's
-//! gradient, and f = ∇J(0) for the table forms. When the model has lanes ([`crate::lower::ModelLanes`])
-//! the sweeps run every lane at once with one set of constants (NEON on the A9); otherwise they are
-//! unrolled over the model's nonzeros.
+//! `matrix_free`: the gradient ∇J(v) = 2 Suᵀ Q_blk (Sx·x0 + Su·v − Xref) + 2 R_blk·v without Su or H: a
+//! forward sweep of the dynamics and a backward adjoint sweep, O(N) per iteration, but a recursion from
+//! step to step whose latency the hardware cannot hide. The same sweeps give f = ∇J(0) for the table
+//! forms. When the model has lanes ([`crate::lower::ModelLanes`]) the sweeps run every lane at once with
+//! one set of constants (NEON on the A9); otherwise they are unrolled over the model's nonzeros.
 #![allow(non_snake_case)]
 
-use super::tokens::{at1, Num};
-use crate::cost::lane_count;
+use super::{disturbance_arg, disturbance_param, lane_count, neon, GradientForm};
+use crate::cost::{
+    Estimate, BYTES_OF_A_LOOP, BYTES_PER_INLINED_MAC, SWEEP, SWEEP_IN_LANES, VECTOR_WIDTH,
+};
+use crate::emit::tokens::{at1, Num};
 use crate::lower::{ModelLanes, Problem};
+use crate::numeric::Numeric;
+use crate::solver::Algorithm;
+use mpc_spec::Emission;
 use nalgebra::DMatrix;
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
+/// The matrix-free form.
+#[derive(Clone, Copy, Debug)]
+pub struct MatrixFree;
+
+/// Per step: x⁺ = F x + G u forward; λ = 2W e + Fᵀ λ⁺ and g = Gᵀ λ⁺ + 2R u backward, e = x − r. With the
+/// model in lanes ([`crate::lower::ModelLanes`]) every operation is one lane vector.
+pub fn estimate(p: &Problem) -> Estimate {
+    let num = Numeric(p.scalar);
+    let nnz = |M: &DMatrix<f64>| num.nonzeros(M);
+    let (N, nu) = (p.qp.N, p.nu);
+    let ([F, G, Q, Qf, R], width, weight) = match &p.model_lanes {
+        Some(m) => (
+            [&m.F, &m.G, &m.Q, &m.Qf, &m.R],
+            lane_count(nu),
+            SWEEP_IN_LANES,
+        ),
+        None => ([&p.F, &p.G, &p.qp.Q, &p.qp.Qf, &p.qp.R], 1, SWEEP),
+    };
+    let step = 2 * nnz(F) + 2 * nnz(G) + nnz(Q).max(nnz(Qf)) + nnz(R) + F.nrows();
+    Estimate {
+        emission: Emission::MatrixFree,
+        unavailable: None,
+        macs: N * step * width,
+        score: weight * (N * step * width.div_ceil(VECTOR_WIDTH)) as f64,
+        // The body of one step, with both weightings (stage and terminal) unrolled.
+        code_bytes: (step + nnz(Qf)) * BYTES_PER_INLINED_MAC + BYTES_OF_A_LOOP,
+        table_bytes: 0,
+    }
+}
+
+impl GradientForm for MatrixFree {
+    fn emission(&self) -> Emission {
+        Emission::MatrixFree
+    }
+
+    /// The sweeps run in lanes when the model has them.
+    fn plan_lanes(&self, p: &Problem) -> usize {
+        if p.model_lanes.is_some() {
+            lane_count(p.nu)
+        } else {
+            p.nu
+        }
+    }
+
+    fn kernels(&self, p: &Problem, _algorithm: &dyn Algorithm, num: Num) -> TokenStream {
+        emit(p, num, self.plan_lanes(p))
+    }
+
+    fn prepare(&self, _p: &Problem) -> TokenStream {
+        quote!()
+    }
+
+    fn gradient_call(&self, p: &Problem, algorithm: &dyn Algorithm) -> TokenStream {
+        let (point, d_arg) = (algorithm.point(), disturbance_arg(p));
+        quote!(adjoint_gradient(&#point, x0, #d_arg xref, &mut g))
+    }
+}
+
+/// The statements computing f = ∇J(0) by the sweeps, for the table forms: O(N) instead of the O(N²)
+/// Fr·Xref.
+pub fn linear_term(p: &Problem) -> TokenStream {
+    let d_arg = disturbance_arg(p);
+    quote! {
+        // f = ∇J(0): the same sweeps as the matrix-free form, O(N) instead of the O(N²) Fr·Xref.
+        let mut f: Plan = [[0.0; LANES]; N];
+        adjoint_gradient(&[[0.0; LANES]; N], x0, #d_arg xref, &mut f);
+    }
+}
+
 /// `fn adjoint_gradient(v, x0, [d,] xref, g)`, in lanes when the model and the plan have them.
-pub fn emit(p: &Problem, num: Num, lanes: usize) -> TokenStream {
+pub(crate) fn emit(p: &Problem, num: Num, lanes: usize) -> TokenStream {
     match &p.model_lanes {
         Some(m) if lanes == lane_count(p.nu) => in_lanes(p, m, num),
         _ => scalar(p, num, lanes),
@@ -76,11 +151,7 @@ fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
             num.sum(None, from_lambda.chain(from_u))
         })
         .collect();
-    let d_param = if nd > 0 {
-        quote!(d: &[Real; ND],)
-    } else {
-        quote!()
-    };
+    let d_param = disturbance_param(p);
     quote! {
         /// ∇J(v) without H: a forward sweep of the dynamics, then a backward adjoint sweep (O(N)).
         /// λ_k = 2W_k(x_k − r_k) + Fᵀλ_{k+1}, g_k = Gᵀλ_{k+1} + 2R·u_k, W_k = Q, and Qf at the last step.
@@ -202,12 +273,8 @@ fn in_lanes(p: &Problem, m: &ModelLanes, num: Num) -> TokenStream {
         let from_u = std::iter::once((2.0 * m.R[(0, 0)], quote!(u)));
         lane_sum(num, None, from_lambda.chain(from_u).collect())
     };
-    let d_param = if nd > 0 {
-        quote!(d: &[Real; ND],)
-    } else {
-        quote!()
-    };
-    let helpers = lane_helpers(super::lanes::has_neon(p));
+    let d_param = disturbance_param(p);
+    let helpers = lane_helpers(neon::applies(p));
     quote! {
         #helpers
 
@@ -240,11 +307,7 @@ fn in_lanes(p: &Problem, m: &ModelLanes, num: Num) -> TokenStream {
 
 /// Lane-wise a + b, a − b, c·a and acc + c·a: loops over the lanes, and NEON intrinsics on the A9.
 fn lane_helpers(neon: bool) -> TokenStream {
-    let (neon_cfg, portable_cfg) = if neon {
-        super::lanes::neon_cfg()
-    } else {
-        (quote!(), quote!())
-    };
+    let portable_cfg = if neon { neon::portable_cfg() } else { quote!() };
     let portable = quote! {
         /// a + b, lane by lane.
         #portable_cfg
@@ -295,56 +358,9 @@ fn lane_helpers(neon: bool) -> TokenStream {
     if !neon {
         return portable;
     }
+    let neon = neon::lane_helpers();
     quote! {
         #portable
-
-        /// NEON: one 4-lane operation, through a register.
-        #neon_cfg
-        #[inline(always)]
-        fn lane_op(f: impl FnOnce(core::arch::arm::float32x4_t) -> core::arch::arm::float32x4_t, a: [Real; LANES]) -> [Real; LANES] {
-            use core::arch::arm::{vld1q_f32, vst1q_f32};
-            let mut out = [0.0; LANES];
-            // SAFETY: NEON is enabled at compile time (the cfg above); both pointers are to live [f32; 4].
-            unsafe { vst1q_f32(out.as_mut_ptr(), f(vld1q_f32(a.as_ptr()))) };
-            out
-        }
-
-        /// NEON: a + b.
-        #neon_cfg
-        #[inline(always)]
-        fn lane_add(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
-            use core::arch::arm::{vaddq_f32, vld1q_f32};
-            // SAFETY: as in `lane_op`.
-            lane_op(|a| unsafe { vaddq_f32(a, vld1q_f32(b.as_ptr())) }, a)
-        }
-
-        /// NEON: a − b.
-        #neon_cfg
-        #[inline(always)]
-        fn lane_sub(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
-            use core::arch::arm::{vld1q_f32, vsubq_f32};
-            // SAFETY: as in `lane_op`.
-            lane_op(|a| unsafe { vsubq_f32(a, vld1q_f32(b.as_ptr())) }, a)
-        }
-
-        /// NEON: c·a.
-        #neon_cfg
-        #[allow(dead_code)]
-        #[inline(always)]
-        fn lane_scale(c: Real, a: [Real; LANES]) -> [Real; LANES] {
-            use core::arch::arm::vmulq_n_f32;
-            // SAFETY: as in `lane_op`.
-            lane_op(|a| unsafe { vmulq_n_f32(a, c) }, a)
-        }
-
-        /// NEON: acc + c·a.
-        #neon_cfg
-        #[allow(dead_code)]
-        #[inline(always)]
-        fn lane_mul_add(acc: [Real; LANES], c: Real, a: [Real; LANES]) -> [Real; LANES] {
-            use core::arch::arm::{vld1q_f32, vmlaq_n_f32};
-            // SAFETY: as in `lane_op`.
-            lane_op(|acc| unsafe { vmlaq_n_f32(acc, vld1q_f32(a.as_ptr()), c) }, acc)
-        }
+        #neon
     }
 }

@@ -1,0 +1,144 @@
+//! Build-time linear algebra in f64 shared by the lowering, the certificate and the oracle: spectra,
+//! Riccati and Lyapunov iterations, the Kalman gain, and the box projection every solver uses.
+#![allow(non_snake_case)]
+
+use mpc_spec::Matrix;
+use nalgebra::{DMatrix, SymmetricEigen};
+
+/// (λmin, λmax) of a symmetric matrix.
+pub fn extreme_eigenvalues(M: &DMatrix<f64>) -> (f64, f64) {
+    let eig = SymmetricEigen::new(M.clone()).eigenvalues;
+    (eig.min(), eig.max())
+}
+
+/// The steady-state prior covariance and gain, by iterating the Riccati recursion from P0.
+pub fn steady_state_filter(
+    F: &DMatrix<f64>,
+    C: &DMatrix<f64>,
+    Qn: &DMatrix<f64>,
+    Rn: &DMatrix<f64>,
+    P0: &DMatrix<f64>,
+) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+    let mut P = P0.clone();
+    for _ in 0..1_000_000 {
+        let (_, P_post) = kalman_gain_and_posterior(&P, C, Rn)?;
+        let next = symmetrize(&(F * P_post * F.transpose() + Qn));
+        let change = (&next - &P).amax();
+        P = next;
+        if !P.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        if change <= 1e-15 * P.amax() {
+            let (K, _) = kalman_gain_and_posterior(&P, C, Rn)?;
+            return Some((P, K));
+        }
+    }
+    None
+}
+
+/// The gain K = P Cᵀ (C P Cᵀ + R)⁻¹ and the Joseph-form posterior (I − KC) P (I − KC)ᵀ + K R Kᵀ.
+pub fn kalman_gain_and_posterior(
+    P: &DMatrix<f64>,
+    C: &DMatrix<f64>,
+    Rn: &DMatrix<f64>,
+) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+    let PCt = P * C.transpose();
+    let S = C * &PCt + Rn;
+    let S_inv = S.cholesky()?.inverse();
+    let K = PCt * S_inv;
+    let I_KC = DMatrix::identity(P.nrows(), P.nrows()) - &K * C;
+    let post = &I_KC * P * I_KC.transpose() + &K * Rn * K.transpose();
+    Some((K, symmetrize(&post)))
+}
+
+/// (M + Mᵀ)/2: removes the rounding asymmetry of products that are symmetric in exact arithmetic.
+pub fn symmetrize(M: &DMatrix<f64>) -> DMatrix<f64> {
+    (M + M.transpose()) * 0.5
+}
+
+/// The projection onto [lo, hi] used everywhere, generated code and oracle alike: NaN maps to `lo`,
+/// so the result is always finite and inside the box.
+pub fn project(v: f64, lo: f64, hi: f64) -> f64 {
+    let v = if v > lo { v } else { lo };
+    if v < hi {
+        v
+    } else {
+        hi
+    }
+}
+
+/// A spec matrix as nalgebra's.
+pub fn dense(m: &Matrix) -> DMatrix<f64> {
+    DMatrix::from_row_slice(m.rows, m.cols, &m.data)
+}
+
+/// The largest modulus of the eigenvalues of a square matrix: from the real Schur form when its QR
+/// iteration converges (nalgebra's unbounded `complex_eigenvalues` can loop forever on some matrices),
+/// else by Gelfand's formula ρ = lim ‖Aᵏ‖^(1/k) with k = 2⁶⁰, squaring and rescaling.
+pub fn spectral_radius(M: &DMatrix<f64>) -> f64 {
+    if let Some(schur) = nalgebra::Schur::try_new(M.clone(), f64::EPSILON, 100_000) {
+        return schur
+            .complex_eigenvalues()
+            .iter()
+            .map(|c| c.norm())
+            .fold(0.0, f64::max);
+    }
+    let mut A = M.clone();
+    let mut log_scale = 0.0;
+    for j in 0..60 {
+        let norm = A.amax();
+        if norm == 0.0 {
+            return 0.0;
+        }
+        A /= norm;
+        log_scale += norm.ln() / f64::powi(2.0, j);
+        A = &A * &A;
+    }
+    (log_scale + A.amax().ln() / f64::powi(2.0, 60)).exp()
+}
+
+/// The LQR gain of the discrete algebraic Riccati equation, by iterating the Riccati difference equation.
+pub fn lqr_gain(
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+    Q: &DMatrix<f64>,
+    R: &DMatrix<f64>,
+) -> Option<DMatrix<f64>> {
+    let mut P = Q.clone();
+    for _ in 0..1_000_000 {
+        let GtP = G.transpose() * &P;
+        let K = (R + &GtP * G).cholesky()?.solve(&(GtP * F));
+        let next = Q + F.transpose() * &P * (F - G * &K);
+        let next = (&next + next.transpose()) * 0.5;
+        let change = (&next - &P).amax();
+        P = next;
+        if !P.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        if change <= 1e-14 * P.amax() {
+            let GtP = G.transpose() * &P;
+            return (R + &GtP * G).cholesky().map(|c| c.solve(&(GtP * F)));
+        }
+    }
+    None
+}
+
+/// P with Aᵀ P A − P = −I, by doubling (P ← P + Aᵀ P A, A ← A²); `None` unless ρ(A) < 1.
+pub fn lyapunov_identity(A: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    if spectral_radius(A) >= 1.0 {
+        return None;
+    }
+    let n = A.nrows();
+    let mut P = DMatrix::identity(n, n);
+    let mut Ak = A.clone();
+    for _ in 0..64 {
+        let next = &P + Ak.transpose() * &P * &Ak;
+        let done = (&next - &P).amax() <= 1e-15 * next.amax();
+        P = next;
+        Ak = &Ak * &Ak;
+        if done {
+            break;
+        }
+    }
+    Some((&P + P.transpose()) * 0.5)
+}
