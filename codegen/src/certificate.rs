@@ -17,6 +17,7 @@ use crate::plan::Plan;
 pub use crate::solver::Rate;
 use mpc_spec::{Diagnostic, Diagnostics, Emission, FilterKind, Iterations, Spec};
 use nalgebra::DMatrix;
+use serde::Serialize;
 
 /// The tolerance the report uses when the spec gives none.
 pub const DEFAULT_TOLERANCE: f64 = 1e-4;
@@ -26,9 +27,10 @@ pub const DEFAULT_TOLERANCE: f64 = 1e-4;
 pub const MAX_SOLVER_ANALYSIS_SIZE: usize = 300;
 
 /// The paper's nominal stability check: an LQR gain from the stage weights and its closed loop.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize)]
 pub struct Lqr {
     /// K of the discrete algebraic Riccati equation with Q and R (nu × nx).
+    #[serde(skip)]
     pub gain: DMatrix<f64>,
     /// ρ(F − G·K).
     pub spectral_radius: f64,
@@ -39,9 +41,10 @@ pub struct Lqr {
 }
 
 /// The MPC's own closed loops, constraints inactive and references zero.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize)]
 pub struct MpcLoop {
     /// The unconstrained receding-horizon gain: the first block of H⁻¹·Fx, so u = −K·x (nu × nx).
+    #[serde(skip)]
     pub gain: DMatrix<f64>,
     /// ρ(F − G·K) for that gain: the loop an exactly solved MPC closes.
     pub spectral_radius: f64,
@@ -51,7 +54,7 @@ pub struct MpcLoop {
 }
 
 /// The emitted code's cost.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct Resources {
     /// Multiply-adds of one solver iteration.
     pub macs_per_iteration: usize,
@@ -67,8 +70,10 @@ pub struct Resources {
     pub bytes_state: usize,
 }
 
-/// Everything the compiler proves and counts about one controller.
-#[derive(Clone, Debug)]
+/// Everything the compiler proves and counts about one controller. Its JSON (`mpcc check --json`) is this
+/// struct through serde, under the field names; the `report` module and the text of `mpcc check` come from
+/// [`Certificate::fields`].
+#[derive(Clone, Debug, Serialize)]
 pub struct Certificate {
     /// L = λmax(H).
     pub lipschitz: f64,
@@ -99,14 +104,131 @@ pub struct Certificate {
     /// The MPC's own loops.
     pub mpc: MpcLoop,
     /// Costs.
+    #[serde(flatten)]
     pub resources: Resources,
     /// How the gradient is emitted.
     pub emission: Emission,
     /// The cost model's estimate of every emission choice ([`crate::cost`]).
+    #[serde(rename = "emission_estimates")]
     pub estimates: Vec<Estimate>,
     /// The disturbance estimate's time constant in seconds, with `[kalman] disturbance`: −Δt / ln ρ of the
     /// steady-state estimation error dynamics F_a(I − K∞C_a), whose slowest mode is the disturbance's.
     pub disturbance_time_constant: Option<f64>,
+}
+
+/// A number of the certificate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Value {
+    /// A real number (NaN where it does not exist, as the Lyapunov solution of an unstable loop).
+    Real(f64),
+    /// A count.
+    Count(usize),
+    /// A real number that may be absent (the bound of a step above 1/L).
+    MaybeReal(Option<f64>),
+    /// A count that may be absent.
+    MaybeCount(Option<usize>),
+}
+
+/// How `mpcc check` shows a number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shown {
+    /// The number.
+    Plain,
+    /// A spectral radius with its verdict, stable or not.
+    Stability,
+    /// A contraction with its verdict, converges or not.
+    Convergence,
+    /// The step and its multiple of 1/L.
+    Step,
+    /// The tolerance and where it came from.
+    Tolerance,
+    /// The guaranteed gap ratio after the iterations.
+    Gap,
+    /// The number, and its section only when it is present.
+    IfPresent,
+}
+
+/// One number of the certificate under the names of its outputs: the `report` module's constant and the
+/// line of `mpcc check` (the JSON is the [`Certificate`] itself).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Field {
+    /// Its key in the JSON (dotted for a nested object): the serde name of the certificate's field.
+    pub json: &'static str,
+    /// The `report` constant.
+    pub constant: &'static str,
+    /// Its doc.
+    pub doc: &'static str,
+    /// The section of `mpcc check`.
+    pub section: &'static str,
+    /// The line's label.
+    pub label: String,
+    /// How the line shows it.
+    pub shown: Shown,
+    /// The number.
+    pub value: Value,
+}
+
+/// The sections of `mpcc check`, in order.
+pub mod section {
+    /// The QP's conditioning.
+    pub const QP: &str = "QP (condensed Hessian H)";
+    /// The algorithm's parameters.
+    pub const SOLVER: &str = "solver";
+    /// The a priori bound.
+    pub const BOUND: &str = "a priori bound (any start inside the box)";
+    /// The paper's LQR check.
+    pub const LQR: &str = "nominal stability: LQR of Q and R (paper, 2.4.3)";
+    /// The MPC's loops.
+    pub const LOOPS: &str = "MPC closed loops (constraints inactive)";
+    /// The disturbance estimate.
+    pub const OFFSET_FREE: &str = "offset-free: the input disturbance estimate";
+    /// The code's cost.
+    pub const RESOURCES: &str = "resources";
+}
+
+impl Certificate {
+    /// Every scalar of the certificate in the order `mpcc check` prints them; the `report` module emits
+    /// each as a constant (with `RATE`, `LQR_GAIN` and `MPC_GAIN` beside them).
+    pub fn fields(&self) -> Vec<Field> {
+        use section::*;
+        use Shown::*;
+        use Value::*;
+        let field = |json, constant, doc, section, label: &str, shown, value| Field {
+            json,
+            constant,
+            doc,
+            section,
+            label: label.to_string(),
+            shown,
+            value,
+        };
+        let r = &self.resources;
+        vec![
+            field("lipschitz", "LIPSCHITZ", "L, the largest eigenvalue of the Hessian H.", QP, "L = λmax(H)", Plain, Real(self.lipschitz)),
+            field("strong_convexity", "STRONG_CONVEXITY", "μ, the smallest eigenvalue of H.", QP, "μ = λmin(H)", Plain, Real(self.strong_convexity)),
+            field("condition_number", "CONDITION_NUMBER", "L/μ.", QP, "condition number L/μ", Plain, Real(self.condition_number)),
+            field("step", "STEP", "The step α.", SOLVER, "step α", Step, Real(self.step)),
+            field("momentum", "MOMENTUM", "The momentum β (0 for the projected gradient method).", SOLVER, "momentum β", Plain, Real(self.momentum)),
+            field("contraction", "CONTRACTION", "The asymptotic contraction of the solver's error per iteration, constraints inactive.", SOLVER, "contraction per iteration", Convergence, Real(self.contraction)),
+            field("iterations", "ITERATIONS", "Iterations per control step.", SOLVER, "iterations per control step", Plain, Count(self.iterations)),
+            field("rate.factor", "RATE_FACTOR", "The a priori bound's factor per iteration ρ (see `RATE`).", BOUND, "factor per iteration", Plain, MaybeReal(self.rate.map(|r| r.factor))),
+            field("tolerance", "TOLERANCE", "The relative suboptimality the bound is stated for: J(U_k) − J* ≤ TOLERANCE·(J(U_0) − J*).", BOUND, "tolerance on Δ_k/Δ_0", Tolerance, Real(self.tolerance)),
+            field("iterations_bound", "ITERATIONS_BOUND", "The iterations the bound needs for TOLERANCE from any start in the box.", BOUND, "iterations the bound needs", Plain, MaybeCount(self.iterations_bound)),
+            field("guaranteed_gap", "GUARANTEED_GAP", "What ITERATIONS guarantee: (J(U_m) − J*)/(J(U_0) − J*) is at most this.", BOUND, &format!("what {} iterations guarantee", self.iterations), Gap, MaybeReal(self.guaranteed_gap)),
+            field("lqr.spectral_radius", "LQR_SPECTRAL_RADIUS", "ρ(F − G·K_LQR).", LQR, "ρ(F − G·K_LQR)", Stability, Real(self.lqr.spectral_radius)),
+            field("lqr.lyapunov_min", "LQR_LYAPUNOV_MIN", "λmin of P solving (F − GK)ᵀP(F − GK) − P = −I.", LQR, "λmin(P), P from (F − GK)ᵀP(F − GK) − P = −I", Plain, Real(self.lqr.lyapunov_min)),
+            field("lqr.lyapunov_max", "LQR_LYAPUNOV_MAX", "λmax of that P.", LQR, "λmax(P)", Plain, Real(self.lqr.lyapunov_max)),
+            field("mpc.spectral_radius", "MPC_SPECTRAL_RADIUS", "ρ(F − G·K_MPC): the loop an exactly solved, unconstrained MPC closes.", LOOPS, "ρ(F − G·K_MPC), QP solved exactly", Stability, Real(self.mpc.spectral_radius)),
+            field("mpc.solver_spectral_radius", "MPC_SOLVER_SPECTRAL_RADIUS", "ρ of the loop the fixed-iteration, warm-started solver closes, in (x, previous plan).", LOOPS, "ρ of the fixed-iteration warm-started solver", Stability, MaybeReal(self.mpc.solver_spectral_radius)),
+            field("disturbance_time_constant", "DISTURBANCE_TIME_CONSTANT", "The disturbance estimate's time constant, s (with `[kalman] disturbance`).", OFFSET_FREE, "time constant, s", IfPresent, MaybeReal(self.disturbance_time_constant)),
+            field("macs_per_iteration", "MACS_PER_ITERATION", "Multiply-adds of one solver iteration.", RESOURCES, "multiply-adds per iteration", Plain, Count(r.macs_per_iteration)),
+            field("macs_per_cycle", "MACS_PER_CYCLE", "Multiply-adds of one control cycle (filter, gradient map, every iteration).", RESOURCES, "multiply-adds per control cycle", Plain, Count(r.macs_per_cycle)),
+            field("bytes_constants", "BYTES_CONSTANTS", "Bytes of coefficients inlined into the code.", RESOURCES, "bytes of constants", Plain, Count(r.bytes_constants)),
+            field("bytes_state_mpc", "BYTES_STATE_MPC", "Bytes of `Mpc`.", RESOURCES, "bytes of state: Mpc", Plain, Count(r.bytes_state_mpc)),
+            field("bytes_state_kalman", "BYTES_STATE_KALMAN", "Bytes of `Kalman`.", RESOURCES, "bytes of state: Kalman", Plain, Count(r.bytes_state_kalman)),
+            field("bytes_state", "BYTES_STATE", "Bytes of `Controller`, all the state carried between cycles.", RESOURCES, "bytes of state: Controller", Plain, Count(r.bytes_state)),
+        ]
+    }
 }
 
 /// The rules that need the certificate: an unstable closed loop is an error unless the spec sets

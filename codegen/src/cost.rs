@@ -39,13 +39,14 @@ pub const BYTES_PER_INLINED_MAC: usize = 12;
 pub const BYTES_OF_A_LOOP: usize = 256;
 
 /// What one emission choice costs.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Estimate {
     /// The choice.
     pub emission: Emission,
     /// Why it cannot be used for this problem, if it cannot.
     pub unavailable: Option<String>,
     /// Scalar multiply-adds of one iteration's gradient (padding lanes included).
+    #[serde(rename = "macs_per_iteration")]
     pub macs: usize,
     /// The score: one iteration's gradient in 4-lane vector multiply-adds (lower is faster).
     pub score: f64,

@@ -81,7 +81,9 @@ fn zeros_of_the_hessian_are_skipped() {
     let code = emitted(include_str!(
         "../../tests/specs/emission/paper-unrolled.toml"
     ));
-    let gradient = &code[code.find("fn gradient").unwrap()..code.find("fn inputs").unwrap()];
+    let start = code.find("fn gradient(").unwrap();
+    let end = start + code[start..].find("\n    }\n").unwrap();
+    let gradient = &code[start..end];
     // 675 nonzeros of H: one product each (none of them is exactly ±1).
     assert_eq!(gradient.matches(" * y[").count(), 675);
     assert!(code.contains("unrolled over the 675 nonzeros of H"));

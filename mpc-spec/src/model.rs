@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 use std::ops::Range;
 
 /// An enum whose variants are spelled in a spec: the one place each spelling is written. Gives `ALL`,
-/// `NAMES` (in the same order), `name()` and `from_name()`.
+/// `NAMES` (in the same order), `name()`, `from_name()`, and a `serde::Serialize` as the spelling.
 macro_rules! spelled {
     ($(#[$meta:meta])* pub enum $name:ident { $($(#[$vmeta:meta])* $variant:ident = $spelling:literal,)* }) => {
         $(#[$meta])*
@@ -28,6 +28,12 @@ macro_rules! spelled {
             /// The variant spelled `s`.
             pub fn from_name(s: &str) -> Option<Self> {
                 Self::ALL.iter().copied().find(|v| v.name() == s)
+            }
+        }
+
+        impl serde::Serialize for $name {
+            fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                s.serialize_str(self.name())
             }
         }
     };

@@ -4,200 +4,117 @@
 //! documentation (`lqr.spectral_radius`) is a nested object. A number that does not exist (the Lyapunov
 //! solution of an unstable loop, the bound of a step above 1/L) is `null`.
 
-use codegen::certificate::{Certificate, DEFAULT_TOLERANCE};
+use codegen::certificate::{Certificate, Shown, Value, DEFAULT_TOLERANCE};
 use codegen::Generated;
-use mpc_spec::Method;
-use serde_json::{json, Value};
+use serde::Serialize;
 use std::fmt::Write;
+
+/// The JSON document: the spec's name and shape, the certificate's fields (flattened), the warnings.
+#[derive(Serialize)]
+struct Check<'a> {
+    spec: &'a str,
+    method: mpc_spec::Method,
+    horizon: usize,
+    nx: usize,
+    nu: usize,
+    ny: usize,
+    #[serde(flatten)]
+    certificate: &'a Certificate,
+    warnings: Vec<&'a str>,
+}
 
 /// The certificate as JSON, pretty-printed, with a final newline.
 pub(crate) fn json(shown: &str, g: &Generated) -> String {
-    let c = &g.certificate;
-    let r = &c.resources;
     let p = &g.problem;
-    let value = json!({
-        "spec": shown,
-        "method": method_name(p.qp.method),
-        "horizon": p.qp.N,
-        "nx": p.nx,
-        "nu": p.nu,
-        "ny": p.ny,
-        "lipschitz": c.lipschitz,
-        "strong_convexity": c.strong_convexity,
-        "condition_number": c.condition_number,
-        "step": c.step,
-        "momentum": c.momentum,
-        "contraction": c.contraction,
-        "iterations": c.iterations,
-        "iterations_bound": c.iterations_bound,
-        "tolerance": c.tolerance,
-        "guaranteed_gap": c.guaranteed_gap,
-        "rate": c.rate.map(|rate| json!({ "constant": rate.constant, "factor": rate.factor })),
-        "lqr": {
-            "spectral_radius": c.lqr.spectral_radius,
-            "lyapunov_min": c.lqr.lyapunov_min,
-            "lyapunov_max": c.lqr.lyapunov_max,
-        },
-        "mpc": {
-            "spectral_radius": c.mpc.spectral_radius,
-            "solver_spectral_radius": c.mpc.solver_spectral_radius,
-        },
-        "disturbance_time_constant": c.disturbance_time_constant,
-        "macs_per_iteration": r.macs_per_iteration,
-        "macs_per_cycle": r.macs_per_cycle,
-        "bytes_constants": r.bytes_constants,
-        "bytes_state": r.bytes_state,
-        "bytes_state_mpc": r.bytes_state_mpc,
-        "bytes_state_kalman": r.bytes_state_kalman,
-        "emission": c.emission.name(),
-        "emission_estimates": c.estimates.iter().map(|e| json!({
-            "emission": e.emission.name(),
-            "unavailable": e.unavailable,
-            "score": e.score,
-            "macs_per_iteration": e.macs,
-            "code_bytes": e.code_bytes,
-            "table_bytes": e.table_bytes,
-        })).collect::<Vec<_>>(),
-        "warnings": g.warnings.iter().map(|w| Value::from(w.message.clone())).collect::<Vec<_>>(),
-    });
-    let mut out = serde_json::to_string_pretty(&value).expect("a JSON value serializes");
+    let check = Check {
+        spec: shown,
+        method: p.qp.method,
+        horizon: p.qp.N,
+        nx: p.nx,
+        nu: p.nu,
+        ny: p.ny,
+        certificate: &g.certificate,
+        warnings: g.warnings.iter().map(|w| w.message.as_str()).collect(),
+    };
+    let mut out = serde_json::to_string_pretty(&check).expect("the certificate serializes");
     out.push('\n');
     out
 }
 
-/// The certificate for people: sections of one quantity a line, its symbol and its value.
+/// The certificate for people: sections of one quantity a line, its symbol and its value, in the order of
+/// [`Certificate::fields`] (the `report` module's constants).
 pub(crate) fn text(shown: &str, g: &Generated) -> String {
     let c = &g.certificate;
     let p = &g.problem;
-    let r = &c.resources;
-    let method = method_name(p.qp.method);
-    let bound = match c.rate {
-        Some(rate) => {
-            let form = match p.qp.method {
-                Method::Gradient => "≤ (1 − αμ)^k · Δ_0",
-                Method::Fgm => "≤ 2·(1 − √(αμ))^k · Δ_0",
-            };
-            let tolerance = if p.qp.tolerance.is_some() {
-                "(spec)"
-            } else if c.tolerance == DEFAULT_TOLERANCE {
-                "(default)"
-            } else {
-                ""
-            };
-            vec![
-                ("gap Δ_k = J(U_k) − J*".to_string(), form.to_string()),
-                ("factor per iteration".into(), num(rate.factor)),
-                (
-                    "tolerance on Δ_k/Δ_0".into(),
-                    format!("{:e} {tolerance}", c.tolerance),
-                ),
-                (
-                    "iterations the bound needs".into(),
-                    c.iterations_bound.map_or("-".into(), |k| k.to_string()),
-                ),
-                (
-                    format!("what {} iterations guarantee", c.iterations),
-                    c.guaranteed_gap.map_or("-".into(), |gap| {
-                        format!("Δ_{}/Δ_0 ≤ {}", c.iterations, num(gap))
-                    }),
-                ),
-            ]
+    let mut sections: Vec<(&str, Vec<(String, String)>)> = Vec::new();
+    for field in c.fields() {
+        let absent = matches!(
+            field.value,
+            Value::MaybeReal(None) | Value::MaybeCount(None)
+        );
+        if field.shown == Shown::IfPresent && absent {
+            continue;
         }
-        None => vec![(
-            "bound".to_string(),
-            "none: the step is above 1/L (see the contraction)".to_string(),
-        )],
+        if sections
+            .last()
+            .is_none_or(|(title, _)| *title != field.section)
+        {
+            sections.push((field.section, Vec::new()));
+        }
+        let value = match (field.shown, field.value) {
+            (Shown::Step, Value::Real(step)) => {
+                format!("{} (= {}/L)", num(step), num(step * c.lipschitz))
+            }
+            (Shown::Convergence, Value::Real(v)) => contraction(v),
+            (Shown::Stability, Value::Real(rho) | Value::MaybeReal(Some(rho))) => stability(rho),
+            (Shown::Stability, _) => "not computed (problem too large)".into(),
+            (Shown::Tolerance, Value::Real(tol)) => {
+                let source = if p.qp.tolerance.is_some() {
+                    " (spec)"
+                } else if tol == DEFAULT_TOLERANCE {
+                    " (default)"
+                } else {
+                    ""
+                };
+                format!("{tol:e}{source}")
+            }
+            (Shown::Gap, Value::MaybeReal(Some(gap))) => {
+                format!("Δ_{m}/Δ_0 ≤ {}", num(gap), m = c.iterations)
+            }
+            (_, value) => plain(value),
+        };
+        if let Some((_, lines)) = sections.last_mut() {
+            lines.push((field.label, value));
+        }
+    }
+    // The bound's form opens its section.
+    let form = match c.rate {
+        Some(_) => g.plan.algorithm.bound_form().to_string(),
+        None => "none: the step is above 1/L (see the contraction)".to_string(),
     };
-    let mut sections: Vec<(&str, Vec<(String, String)>)> = vec![
-        (
-            "QP (condensed Hessian H)",
-            vec![
-                ("L = λmax(H)".into(), num(c.lipschitz)),
-                ("μ = λmin(H)".into(), num(c.strong_convexity)),
-                ("condition number L/μ".into(), num(c.condition_number)),
-            ],
-        ),
-        (
-            "solver",
-            vec![
-                (
-                    "step α".into(),
-                    format!("{} (= {}/L)", num(c.step), num(c.step * c.lipschitz)),
-                ),
-                ("momentum β".into(), num(c.momentum)),
-                ("contraction per iteration".into(), contraction(c)),
-            ],
-        ),
-        ("a priori bound (any start inside the box)", bound),
-        (
-            "nominal stability: LQR of Q and R (paper, 2.4.3)",
-            vec![
-                ("ρ(F − G·K_LQR)".into(), stability(c.lqr.spectral_radius)),
-                (
-                    "λmin(P), P from (F − GK)ᵀP(F − GK) − P = −I".into(),
-                    num(c.lqr.lyapunov_min),
-                ),
-                ("λmax(P)".into(), num(c.lqr.lyapunov_max)),
-            ],
-        ),
-        (
-            "MPC closed loops (constraints inactive)",
-            vec![
-                (
-                    "ρ(F − G·K_MPC), QP solved exactly".into(),
-                    stability(c.mpc.spectral_radius),
-                ),
-                (
-                    "ρ of the fixed-iteration warm-started solver".into(),
-                    c.mpc
-                        .solver_spectral_radius
-                        .map_or("not computed (problem too large)".into(), stability),
-                ),
-            ],
-        ),
-        (
-            "resources",
-            vec![
-                (
-                    "multiply-adds per iteration".into(),
-                    r.macs_per_iteration.to_string(),
-                ),
-                (
-                    "multiply-adds per control cycle".into(),
-                    r.macs_per_cycle.to_string(),
-                ),
-                ("bytes of constants".into(), r.bytes_constants.to_string()),
-                (
-                    "bytes of state (Controller)".into(),
-                    format!(
-                        "{} (Mpc {}, Kalman {})",
-                        r.bytes_state, r.bytes_state_mpc, r.bytes_state_kalman
-                    ),
-                ),
-            ],
-        ),
-    ];
+    if let Some((_, lines)) = sections
+        .iter_mut()
+        .find(|(title, _)| *title == codegen::certificate::section::BOUND)
+    {
+        lines.insert(0, ("gap Δ_k = J(U_k) − J*".to_string(), form));
+    }
     sections.push((
         "emission of the gradient (cost model; force with [codegen] emission)",
         emission_lines(c),
     ));
-    if let Some(tau) = c.disturbance_time_constant {
-        sections.insert(
-            5,
-            (
-                "offset-free: the input disturbance estimate",
-                vec![("time constant, s".into(), num(tau))],
-            ),
-        );
-    }
     let width = sections
         .iter()
         .flat_map(|(_, lines)| lines.iter().map(|(what, _)| what.chars().count()))
         .max()
         .unwrap_or(0);
     let mut out = format!(
-        "{shown}: {method}, horizon {}, {} iterations, nx = {}, nu = {}, ny = {}\n",
-        p.qp.N, c.iterations, p.nx, p.nu, p.ny
+        "{shown}: {}, horizon {}, {} iterations, nx = {}, nu = {}, ny = {}\n",
+        p.qp.method.name(),
+        p.qp.N,
+        c.iterations,
+        p.nx,
+        p.nu,
+        p.ny
     );
     for (title, lines) in sections {
         let _ = write!(out, "\n{title}\n");
@@ -218,20 +135,22 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
     out
 }
 
-fn method_name(m: Method) -> &'static str {
-    match m {
-        Method::Fgm => "fgm",
-        Method::Gradient => "gradient",
+/// A value as a plain number, `-` where it is absent.
+fn plain(value: Value) -> String {
+    match value {
+        Value::Real(v) | Value::MaybeReal(Some(v)) => num(v),
+        Value::Count(n) | Value::MaybeCount(Some(n)) => n.to_string(),
+        Value::MaybeReal(None) | Value::MaybeCount(None) => "-".into(),
     }
 }
 
-fn contraction(c: &Certificate) -> String {
-    let verdict = if c.contraction < 1.0 {
+fn contraction(contraction: f64) -> String {
+    let verdict = if contraction < 1.0 {
         "converges"
     } else {
         "does not converge"
     };
-    format!("{} ({verdict})", num(c.contraction))
+    format!("{} ({verdict})", num(contraction))
 }
 
 fn stability(rho: f64) -> String {

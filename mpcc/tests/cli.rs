@@ -291,3 +291,48 @@ fn check_prints_warnings_and_succeeds() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["warnings"].as_array().unwrap().len(), 1);
 }
+
+/// The three outputs of the certificate name the same numbers: every entry of `Certificate::fields` is
+/// in the JSON under its key with its value, and on a line of `mpcc check` under its label (the `report`
+/// module's constants are emitted from the same list; `tests/tests/report.rs` compares them).
+#[test]
+fn json_text_and_report_come_from_one_list_of_fields() {
+    use codegen::certificate::Value;
+    for spec in [
+        "specs/paper.toml",
+        "specs/paper-offset-free.toml",
+        "specs/paper-initial.toml",
+    ] {
+        let source = std::fs::read_to_string(workspace().join(spec)).unwrap();
+        let generated = codegen::generate_from_source(&source, &codegen::Opt::default()).unwrap();
+        let json = mpcc(&["check", spec, "--json"]);
+        let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+        let text = String::from_utf8(mpcc(&["check", spec]).stdout).unwrap();
+        for field in generated.certificate.fields() {
+            let at = field.json.split('.').fold(&v, |v, key| &v[key]);
+            let expected = match field.value {
+                Value::Real(x) | Value::MaybeReal(Some(x)) => serde_json::json!(x),
+                Value::Count(n) | Value::MaybeCount(Some(n)) => serde_json::json!(n),
+                Value::MaybeReal(None) | Value::MaybeCount(None) => serde_json::Value::Null,
+            };
+
+            assert_eq!(
+                at, &expected,
+                "{spec}: `{}` ({})",
+                field.json, field.constant
+            );
+            let present = !matches!(
+                field.value,
+                Value::MaybeReal(None) | Value::MaybeCount(None)
+            );
+            if present || field.shown != codegen::certificate::Shown::IfPresent {
+                assert!(
+                    text.lines()
+                        .any(|l| l.trim_start().starts_with(&field.label)),
+                    "{spec}: no line `{}` in\n{text}",
+                    field.label
+                );
+            }
+        }
+    }
+}

@@ -3,6 +3,7 @@
 #![allow(non_snake_case)]
 
 use super::tokens::{at1, Num};
+use super::Sections;
 use crate::lower::Problem;
 use mpc_spec::FilterKind;
 use nalgebra::DMatrix;
@@ -10,7 +11,7 @@ use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
 /// The `Kalman` type and its unrolled kernels.
-pub fn emit(p: &Problem, num: Num) -> TokenStream {
+pub fn emit(p: &Problem, num: Num) -> Sections {
     let (nx, nu, ny) = (p.nx, p.nu, p.ny);
     let f = &p.filter;
     let u = quote!(u);
@@ -87,7 +88,7 @@ fn disturbance_parts(p: &Problem) -> (TokenStream, TokenStream, TokenStream) {
     )
 }
 
-fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
+fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
     let (nx, ny, nd) = (p.nx, p.ny, p.filter.nd);
     let K = &p.filter.K_inf;
     let (x, d, innovation) = (quote!(x), quote!(d), quote!(innovation));
@@ -126,7 +127,7 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
     } else {
         quote!([[Real; NX]; NX])
     };
-    quote! {
+    let kernels = quote! {
         #kernels
 
         /// x + K∞·innovation, unrolled over the steady-state gain.
@@ -137,6 +138,8 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
 
         #d_kernel
 
+    };
+    let api = quote! {
         /// The steady-state Kalman filter: the gain K∞ of the discrete Riccati equation, fixed at compile time.
         #[derive(Clone, Debug, PartialEq)]
         pub struct Kalman {
@@ -193,10 +196,15 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
                 &P_INF
             }
         }
+    };
+    Sections {
+        api,
+        kernels,
+        ..Sections::default()
     }
 }
 
-fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
+fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
     let (ny, nd) = (p.ny, p.filter.nd);
     // The covariance is over the filter's state (x, d): na = nx + nd entries.
     let na = p.nx + nd;
@@ -246,7 +254,7 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
     }
     let update = update_covariance(p, num);
     let inverse = spd_inverse(ny);
-    quote! {
+    let kernels = quote! {
         #kernels
 
         /// F·P, unrolled over the nonzeros of F.
@@ -266,6 +274,8 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
 
         #inverse
 
+    };
+    let api = quote! {
         /// The time-varying Kalman filter (paper eqs. 1-3), with a Joseph-form covariance update that keeps
         /// P symmetric positive definite in finite precision.
         #[derive(Clone, Debug, PartialEq)]
@@ -323,6 +333,11 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> TokenStream {
                 &self.P
             }
         }
+    };
+    Sections {
+        api,
+        kernels,
+        ..Sections::default()
     }
 }
 

@@ -3,14 +3,14 @@
 #![allow(non_snake_case)]
 
 use super::tokens::Num;
+use super::Sections;
 use crate::lower::Problem;
 use crate::plan::Plan;
-use mpc_spec::Emission;
-use proc_macro2::{Literal, TokenStream};
+use proc_macro2::Literal;
 use quote::quote;
 
-/// The `Mpc` type and its kernels.
-pub fn emit(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
+/// The `Mpc` type, its kernels and its tables.
+pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
     let qp = &p.qp;
     let (nu, N) = (p.nu, qp.N);
     let nd = p.filter.nd;
@@ -26,6 +26,7 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         padded(&qp.rest_input()),
     );
     let kernels = form.kernels(p, algorithm, num);
+    let tables = form.tables(p, num);
     let prepare = form.prepare(p);
     // Warm start: the previous plan shifted by one block, the rest input appended (Algorithm 1, line 8).
     let shifted = (1..N).map(|k| {
@@ -75,88 +76,83 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         }
     };
     let emission = plan.emission();
-    let lanes_doc = match emission {
-        Emission::Lanes => format!(
-            " Entries per plan step: the NU inputs padded to {lanes} SIMD lanes (H = H_AXIS ⊗ I); padding stays zero."
-        ),
-        _ => " Entries per plan step: the NU inputs.".to_string(),
+    let lanes_doc = if lanes > nu {
+        format!(" Entries per plan step: the NU inputs padded to {lanes} SIMD lanes; the padding stays zero.")
+    } else {
+        " Entries per plan step: the NU inputs.".to_string()
     };
     let emission_doc = format!(
         " How the gradient is emitted: `{}` ([codegen] emission; `mpcc check` prints the cost model).",
         emission.name()
     );
     let emission = emission.name();
-    // Step 1 of the restructuring keeps the emitted text: every algorithm's step kernel.
-    let steps = if form.separate_step() {
-        let kernels = crate::solver::all()
-            .collect::<Vec<_>>()
-            .into_iter()
-            .rev()
-            .map(|a| a.step_kernel());
-        quote!(#(#kernels)*)
-    } else {
-        quote!()
-    };
-    quote! {
-        #[doc = #emission_doc]
-        pub const EMISSION: &str = #emission;
-        #[doc = #lanes_doc]
-        pub const LANES: usize = #lanes_lit;
-        /// A plan: one row of LANES per predicted step.
-        type Plan = [[Real; LANES]; N];
-        /// U_MIN over the lanes.
-        const LO: [Real; LANES] = #lo;
-        /// U_MAX over the lanes.
-        const HI: [Real; LANES] = #hi;
-        /// U_REST over the lanes.
-        const REST: [Real; LANES] = #rest;
-
-        #kernels
-
-        /// The NU inputs of one plan step.
-        #[inline(always)]
-        fn inputs(step: &[Real; LANES]) -> [Real; NU] {
-            let mut out = [0.0; NU];
-            for (o, v) in out.iter_mut().zip(step.iter()) {
-                *o = *v;
-            }
-            out
-        }
-
-        #steps
-
-        /// Fixed-iteration, warm-started MPC over the condensed QP (paper Section 2.4, Algorithm 1).
-        #[derive(Clone, Debug, PartialEq)]
-        pub struct Mpc {
-            plan: Plan,
-        }
-
-        impl Mpc {
-            /// A cold controller: the first solve starts from the rest input (zero, projected onto the box).
-            pub const fn new() -> Self {
-                Mpc { plan: [REST; N] }
+    let step = form.separate_step().then(|| algorithm.step_kernel());
+    Sections {
+        constants: quote! {
+            #[doc = #emission_doc]
+            pub const EMISSION: &str = #emission;
+            #[doc = #lanes_doc]
+            pub const LANES: usize = #lanes_lit;
+            /// A plan: one row of LANES per predicted step.
+            type Plan = [[Real; LANES]; N];
+        },
+        api: quote! {
+            /// Fixed-iteration, warm-started MPC over the condensed QP (paper Section 2.4, Algorithm 1).
+            #[derive(Clone, Debug, PartialEq)]
+            pub struct Mpc {
+                plan: Plan,
             }
 
-            #solve_fns
-            /// The plan of the last solve, one input per predicted step.
-            pub fn plan(&self) -> [[Real; NU]; N] {
-                let mut out = [[0.0; NU]; N];
-                for (o, step) in out.iter_mut().zip(self.plan.iter()) {
-                    *o = inputs(step);
+            impl Mpc {
+                /// A cold controller: the first solve starts from the rest input (zero, projected onto the box).
+                pub const fn new() -> Self {
+                    Mpc { plan: [REST; N] }
+                }
+
+                #solve_fns
+                /// The plan of the last solve, one input per predicted step.
+                pub fn plan(&self) -> [[Real; NU]; N] {
+                    let mut out = [[0.0; NU]; N];
+                    for (o, step) in out.iter_mut().zip(self.plan.iter()) {
+                        *o = inputs(step);
+                    }
+                    out
+                }
+
+                /// Forgets the warm start.
+                pub fn reset(&mut self) {
+                    *self = Self::new();
+                }
+            }
+
+            impl Default for Mpc {
+                fn default() -> Self {
+                    Self::new()
+                }
+            }
+        },
+        kernels: quote! {
+            /// The NU inputs of one plan step.
+            #[inline(always)]
+            fn inputs(step: &[Real; LANES]) -> [Real; NU] {
+                let mut out = [0.0; NU];
+                for (o, v) in out.iter_mut().zip(step.iter()) {
+                    *o = *v;
                 }
                 out
             }
 
-            /// Forgets the warm start.
-            pub fn reset(&mut self) {
-                *self = Self::new();
-            }
-        }
-
-        impl Default for Mpc {
-            fn default() -> Self {
-                Self::new()
-            }
-        }
+            #step
+            #kernels
+        },
+        tables: quote! {
+            /// U_MIN over the lanes.
+            const LO: [Real; LANES] = #lo;
+            /// U_MAX over the lanes.
+            const HI: [Real; LANES] = #hi;
+            /// U_REST over the lanes.
+            const REST: [Real; LANES] = #rest;
+            #tables
+        },
     }
 }

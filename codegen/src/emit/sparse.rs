@@ -148,7 +148,8 @@ fn term(a: &Entry, b: &Entry) -> Option<Result<f64, (f64, TokenStream)>> {
         (Entry::Const(c), Entry::Var(v)) | (Entry::Var(v), Entry::Const(c)) => {
             Some(Err((*c, v.clone())))
         }
-        (Entry::Var(x), Entry::Var(y)) => Some(Err((1.0, quote!((#x * #y))))),
+        // Unparenthesized: `Num::sum` groups a product it scales, and adds or subtracts it as it is.
+        (Entry::Var(x), Entry::Var(y)) => Some(Err((1.0, quote!(#x * #y)))),
     }
 }
 

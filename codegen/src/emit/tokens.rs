@@ -76,6 +76,10 @@ impl Num {
             }
             let term = if c.abs() == 1.0 {
                 v
+            } else if is_product(&v) {
+                // c·(x·y), not (c·x)·y: the rounding of the product the caller wrote.
+                let m = self.unsigned(c.abs());
+                quote!(#m * (#v))
             } else {
                 let m = self.unsigned(c.abs());
                 quote!(#m * #v)
@@ -89,6 +93,14 @@ impl Num {
         }
         out.unwrap_or_else(|| self.unsigned(0.0))
     }
+}
+
+/// Whether `v` is a product `x * y` at its top level (a single value is one token tree, or a name and
+/// its indices).
+fn is_product(v: &TokenStream) -> bool {
+    v.clone()
+        .into_iter()
+        .any(|t| matches!(t, proc_macro2::TokenTree::Punct(p) if p.as_char() == '*'))
 }
 
 /// `name[i]` for a flat index into an `[[Real; cols]; rows]` array.

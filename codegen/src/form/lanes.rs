@@ -50,47 +50,39 @@ impl GradientForm for Lanes {
         lane_count(p.nu)
     }
 
-    fn kernels(&self, p: &Problem, _algorithm: &dyn Algorithm, num: Num) -> TokenStream {
+    fn kernels(&self, p: &Problem, algorithm: &dyn Algorithm, num: Num) -> TokenStream {
         let N = p.qp.N;
         let sweep = matrix_free::emit(p, num, self.plan_lanes(p));
+        let has_neon = neon::applies(p);
+        let portable_cfg = has_neon.then(neon::portable_cfg);
+        let (name, params) = (algorithm.fused_name(), algorithm.fused_params());
+        let doc = algorithm.fused_doc(N * N, lane_count(p.nu));
+        let body = portable_passes(N, algorithm);
+        let neon = has_neon.then(|| neon::lanes_kernels(N, algorithm));
+        quote! {
+            #[doc = #doc]
+            #portable_cfg
+            #[inline]
+            fn #name(#params) {
+                #body
+            }
+
+            #neon
+            #sweep
+        }
+    }
+
+    fn tables(&self, p: &Problem, num: Num) -> TokenStream {
+        let N = p.qp.N;
         let table = num.matrix(&self.H_axis);
         let table_doc = format!(
             " H_axis with H = H_axis ⊗ I_NU ({N}×{N}): every input's share of the Hessian, one table for all lanes."
         );
-        let has_neon = neon::applies(p);
-        let portable_cfg = if has_neon {
-            neon::portable_cfg()
-        } else {
-            quote!()
-        };
-        let (macs, lanes) = (N * N, lane_count(p.nu));
-        let algorithms: Vec<_> = crate::solver::all().collect();
-        let portable = algorithms.iter().map(|algorithm| {
-            let (name, params) = (algorithm.fused_name(), algorithm.fused_params());
-            let doc = algorithm.fused_doc(macs, lanes);
-            let body = portable_passes(N, *algorithm);
-            quote! {
-                #[doc = #doc]
-                #portable_cfg
-                #[allow(dead_code)]
-                #[inline]
-                fn #name(#params) {
-                    #body
-                }
-            }
-        });
-        let neon = has_neon.then(|| neon::lanes_kernels(N, &algorithms));
         let h_blocks = self.h_blocks(N, num);
         quote! {
-            #sweep
             #[doc = #table_doc]
             pub const H_AXIS: [[Real; N]; N] = #table;
-
             #h_blocks
-
-            #(#portable)*
-
-            #neon
         }
     }
 

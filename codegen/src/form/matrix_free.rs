@@ -17,6 +17,8 @@ use mpc_spec::Emission;
 use nalgebra::DMatrix;
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
+use std::cell::RefCell;
+use std::collections::BTreeSet;
 
 /// The matrix-free form.
 #[derive(Clone, Copy, Debug)]
@@ -131,7 +133,7 @@ fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
             .map(|i| num.sum(None, (0..nx).map(|j| (2.0 * W[(i, j)], at1(&e, j)))))
             .collect()
     };
-    let (stage, terminal) = (weighted(&qp.Q), weighted(&qp.Qf));
+    let (backward, weighted) = stage_or_terminal(&weighted(&qp.Q), &weighted(&qp.Qf));
     let we = quote!(we);
     let adjoint: Vec<TokenStream> = (0..nx)
         .map(|i| {
@@ -167,10 +169,10 @@ fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
             }
             let mut lambda = [0.0; NX];
             let steps = g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()));
-            for (k, ((g_k, x_k), (r_k, v_k))) in steps.enumerate().rev() {
+            for #backward {
                 let u: [Real; NU] = [#(#inputs),*];
                 let e: [Real; NX] = [#(#error),*];
-                let we: [Real; NX] = if k + 1 == N { [#(#terminal),*] } else { [#(#stage),*] };
+                let we: [Real; NX] = #weighted;
                 lambda = [#(#adjoint),*];
                 *g_k = [#(#grad),*];
             }
@@ -178,8 +180,50 @@ fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
     }
 }
 
+/// 2W_k·e_k: the terminal weighting at the last step, the stage weighting before; one expression when
+/// Qf = Q.
+/// Returns the backward loop's head and the weighting.
+fn stage_or_terminal(
+    stage: &[TokenStream],
+    terminal: &[TokenStream],
+) -> (TokenStream, TokenStream) {
+    let same = stage
+        .iter()
+        .zip(terminal)
+        .all(|(s, t)| s.to_string() == t.to_string());
+    if same {
+        (
+            quote!(((g_k, x_k), (r_k, v_k)) in steps.rev()),
+            quote!([#(#stage),*]),
+        )
+    } else {
+        (
+            quote!((k, ((g_k, x_k), (r_k, v_k))) in steps.enumerate().rev()),
+            quote!(if k + 1 == N { [#(#terminal),*] } else { [#(#stage),*] }),
+        )
+    }
+}
+
+/// The lane operations the sweeps call, so that only those are emitted.
+#[derive(Default)]
+struct LaneOps(RefCell<BTreeSet<&'static str>>);
+
+impl LaneOps {
+    /// `op(args)`, recorded.
+    fn call(&self, op: &'static str, args: TokenStream) -> TokenStream {
+        self.0.borrow_mut().insert(op);
+        let op = quote::format_ident!("{}", op);
+        quote!(#op(#args))
+    }
+}
+
 /// `acc ± c·x …` over lane vectors through the `lane_*` helpers, ±1 as plain additions, zeros skipped.
-fn lane_sum(num: Num, base: Option<TokenStream>, terms: Vec<(f64, TokenStream)>) -> TokenStream {
+fn lane_sum(
+    num: Num,
+    ops: &LaneOps,
+    base: Option<TokenStream>,
+    terms: Vec<(f64, TokenStream)>,
+) -> TokenStream {
     let mut out = base;
     for (c, x) in terms {
         let c = num.round(c);
@@ -188,15 +232,15 @@ fn lane_sum(num: Num, base: Option<TokenStream>, terms: Vec<(f64, TokenStream)>)
         }
         out = Some(match (out, c) {
             (None, 1.0) => x,
-            (Some(acc), 1.0) => quote!(lane_add(#acc, #x)),
-            (Some(acc), -1.0) => quote!(lane_sub(#acc, #x)),
+            (Some(acc), 1.0) => ops.call("lane_add", quote!(#acc, #x)),
+            (Some(acc), -1.0) => ops.call("lane_sub", quote!(#acc, #x)),
             (None, c) => {
                 let c = num.lit(c);
-                quote!(lane_scale(#c, #x))
+                ops.call("lane_scale", quote!(#c, #x))
             }
             (Some(acc), c) => {
                 let c = num.lit(c);
-                quote!(lane_mul_add(#acc, #c, #x))
+                ops.call("lane_mul_add", quote!(#acc, #c, #x))
             }
         });
     }
@@ -227,6 +271,7 @@ fn in_lanes(p: &Problem, m: &ModelLanes, num: Num) -> TokenStream {
         let s = ix(s);
         quote!(#name[#s])
     };
+    let ops = LaneOps::default();
     let x0 = (0..S).map(|s| gather(quote!(x0), s));
     let input = if nd > 0 {
         let d = (0..lanes).map(|a| {
@@ -239,42 +284,48 @@ fn in_lanes(p: &Problem, m: &ModelLanes, num: Num) -> TokenStream {
         });
         (
             quote!(let disturbance: [Real; LANES] = [#(#d),*];),
-            quote!(lane_add(*v_k, disturbance)),
+            ops.call("lane_add", quote!(*v_k, disturbance)),
         )
     } else {
         (quote!(), quote!(*v_k))
     };
     let (d_lanes, u_k) = input;
-    let forward = (0..S).map(|s| {
-        let from_x = (0..S).map(|t| (m.F[(s, t)], vec_at("prev", t)));
-        let from_u = std::iter::once((m.G[(s, 0)], quote!(u)));
-        lane_sum(num, None, from_x.chain(from_u).collect())
-    });
-    let error = (0..S).map(|s| {
-        let r = gather(quote!(r_k), s);
-        let x = vec_at("x_k", s);
-        quote!(lane_sub(#x, #r))
-    });
+    let forward = (0..S)
+        .map(|s| {
+            let from_x = (0..S).map(|t| (m.F[(s, t)], vec_at("prev", t)));
+            let from_u = std::iter::once((m.G[(s, 0)], quote!(u)));
+            lane_sum(num, &ops, None, from_x.chain(from_u).collect())
+        })
+        .collect::<Vec<_>>();
+    let error = (0..S)
+        .map(|s| {
+            let r = gather(quote!(r_k), s);
+            let x = vec_at("x_k", s);
+            ops.call("lane_sub", quote!(#x, #r))
+        })
+        .collect::<Vec<_>>();
     let weighted = |W: &DMatrix<f64>| -> Vec<TokenStream> {
         (0..S)
             .map(|s| {
                 let terms = (0..S).map(|t| (2.0 * W[(s, t)], vec_at("e", t))).collect();
-                lane_sum(num, None, terms)
+                lane_sum(num, &ops, None, terms)
             })
             .collect()
     };
-    let (stage, terminal) = (weighted(&m.Q), weighted(&m.Qf));
-    let adjoint = (0..S).map(|s| {
-        let terms = (0..S).map(|t| (m.F[(t, s)], vec_at("lambda", t))).collect();
-        lane_sum(num, Some(vec_at("we", s)), terms)
-    });
+    let (backward, weighted) = stage_or_terminal(&weighted(&m.Q), &weighted(&m.Qf));
+    let adjoint = (0..S)
+        .map(|s| {
+            let terms = (0..S).map(|t| (m.F[(t, s)], vec_at("lambda", t))).collect();
+            lane_sum(num, &ops, Some(vec_at("we", s)), terms)
+        })
+        .collect::<Vec<_>>();
     let gradient = {
         let from_lambda = (0..S).map(|s| (m.G[(s, 0)], vec_at("lambda", s)));
         let from_u = std::iter::once((2.0 * m.R[(0, 0)], quote!(u)));
-        lane_sum(num, None, from_lambda.chain(from_u).collect())
+        lane_sum(num, &ops, None, from_lambda.chain(from_u).collect())
     };
     let d_param = disturbance_param(p);
-    let helpers = lane_helpers(neon::applies(p));
+    let helpers = lane_helpers(neon::applies(p), &ops.0.borrow());
     quote! {
         #helpers
 
@@ -294,10 +345,10 @@ fn in_lanes(p: &Problem, m: &ModelLanes, num: Num) -> TokenStream {
             }
             let mut lambda = [[0.0; LANES]; #s_lit];
             let steps = g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()));
-            for (k, ((g_k, x_k), (r_k, v_k))) in steps.enumerate().rev() {
+            for #backward {
                 let u = #u_k;
                 let e: [[Real; LANES]; #s_lit] = [#(#error),*];
-                let we: [[Real; LANES]; #s_lit] = if k + 1 == N { [#(#terminal),*] } else { [#(#stage),*] };
+                let we: [[Real; LANES]; #s_lit] = #weighted;
                 lambda = [#(#adjoint),*];
                 *g_k = #gradient;
             }
@@ -305,62 +356,80 @@ fn in_lanes(p: &Problem, m: &ModelLanes, num: Num) -> TokenStream {
     }
 }
 
-/// Lane-wise a + b, a − b, c·a and acc + c·a: loops over the lanes, and NEON intrinsics on the A9.
-fn lane_helpers(neon: bool) -> TokenStream {
+/// The lane operations `used`, in a fixed order: loops over the lanes, and their NEON twins on the A9.
+fn lane_helpers(neon: bool, used: &BTreeSet<&'static str>) -> TokenStream {
     let portable_cfg = if neon { neon::portable_cfg() } else { quote!() };
-    let portable = quote! {
-        /// a + b, lane by lane.
-        #portable_cfg
-        #[inline(always)]
-        fn lane_add(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
-            let mut out = a;
-            for (o, b) in out.iter_mut().zip(b.iter()) {
-                *o += *b;
-            }
-            out
+    let ops = ["lane_add", "lane_sub", "lane_scale", "lane_mul_add"]
+        .into_iter()
+        .filter(|op| used.contains(op));
+    let helpers = ops.map(|op| {
+        let (doc, portable) = portable_lane_helper(op);
+        let twin = neon.then(|| neon::lane_helper(op));
+        quote! {
+            #[doc = #doc]
+            #portable_cfg
+            #[inline(always)]
+            #portable
+            #twin
         }
-
-        /// a − b, lane by lane.
-        #portable_cfg
-        #[inline(always)]
-        fn lane_sub(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
-            let mut out = a;
-            for (o, b) in out.iter_mut().zip(b.iter()) {
-                *o -= *b;
-            }
-            out
-        }
-
-        /// c·a, lane by lane.
-        #portable_cfg
-        #[allow(dead_code)]
-        #[inline(always)]
-        fn lane_scale(c: Real, a: [Real; LANES]) -> [Real; LANES] {
-            let mut out = a;
-            for o in out.iter_mut() {
-                *o = c * *o;
-            }
-            out
-        }
-
-        /// acc + c·a, lane by lane.
-        #portable_cfg
-        #[allow(dead_code)]
-        #[inline(always)]
-        fn lane_mul_add(acc: [Real; LANES], c: Real, a: [Real; LANES]) -> [Real; LANES] {
-            let mut out = acc;
-            for (o, a) in out.iter_mut().zip(a.iter()) {
-                *o += c * *a;
-            }
-            out
-        }
-    };
-    if !neon {
-        return portable;
-    }
-    let neon = neon::lane_helpers();
+    });
+    let lane_op = (neon && !used.is_empty()).then(neon::lane_op);
     quote! {
-        #portable
-        #neon
+        #lane_op
+        #(#helpers)*
+    }
+}
+
+/// The portable lane operation `op`.
+fn portable_lane_helper(op: &str) -> (&'static str, TokenStream) {
+    match op {
+        "lane_add" => (
+            " a + b, lane by lane.",
+            quote! {
+                fn lane_add(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
+                    let mut out = a;
+                    for (o, b) in out.iter_mut().zip(b.iter()) {
+                        *o += *b;
+                    }
+                    out
+                }
+            },
+        ),
+        "lane_sub" => (
+            " a − b, lane by lane.",
+            quote! {
+                fn lane_sub(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
+                    let mut out = a;
+                    for (o, b) in out.iter_mut().zip(b.iter()) {
+                        *o -= *b;
+                    }
+                    out
+                }
+            },
+        ),
+        "lane_scale" => (
+            " c·a, lane by lane.",
+            quote! {
+                fn lane_scale(c: Real, a: [Real; LANES]) -> [Real; LANES] {
+                    let mut out = a;
+                    for o in out.iter_mut() {
+                        *o *= c;
+                    }
+                    out
+                }
+            },
+        ),
+        _ => (
+            " acc + c·a, lane by lane.",
+            quote! {
+                fn lane_mul_add(acc: [Real; LANES], c: Real, a: [Real; LANES]) -> [Real; LANES] {
+                    let mut out = acc;
+                    for (o, a) in out.iter_mut().zip(a.iter()) {
+                        *o += c * *a;
+                    }
+                    out
+                }
+            },
+        ),
     }
 }

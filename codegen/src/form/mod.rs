@@ -66,8 +66,13 @@ pub trait GradientForm {
         p.nu
     }
 
-    /// The constant tables and kernels of the gradient (and of f).
+    /// The kernels of the gradient (and of f).
     fn kernels(&self, p: &Problem, algorithm: &dyn Algorithm, num: Num) -> TokenStream;
+
+    /// The constant tables the kernels read, besides the module's `H`.
+    fn tables(&self, _p: &Problem, _num: Num) -> TokenStream {
+        quote!()
+    }
 
     /// The statements before the iterations: f from `x0`, `xref` (and `d`).
     fn prepare(&self, p: &Problem) -> TokenStream;

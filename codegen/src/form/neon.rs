@@ -45,48 +45,47 @@ pub fn passes_layout(N: usize) -> Vec<Vec<usize>> {
 
 /// The NEON `lanes` kernels: proj as compare-and-selects, and the algorithm's fused iteration in blocks
 /// of four rows, two blocks per pass over j, with one `vmla.f32 q, q, d[x]` per entry of H_axis.
-pub fn lanes_kernels(N: usize, algorithms: &[&dyn Algorithm]) -> TokenStream {
+pub fn lanes_kernels(N: usize, algorithm: &dyn Algorithm) -> TokenStream {
     let neon_cfg = cfg();
     let blocks_lit = Literal::usize_unsuffixed(N.div_ceil(4));
-    let uses = quote! {
-        use core::arch::arm::{
-            vbslq_f32, vcgtq_f32, vcltq_f32, vget_high_f32, vget_low_f32, vld1q_f32, vmlaq_lane_f32,
-            vmlaq_n_f32, vmlsq_n_f32, vst1q_f32, vsubq_f32,
-        };
-    };
-    let prologue = quote! {
-        // Read the table through an opaque reference: with the constants in view, LLVM turns each lane
-        // multiplier into a 16-byte splat in a literal pool and spills them all.
-        let table: &[[[Real; 4]; N]; #blocks_lit] = core::hint::black_box(&H_BLOCKS);
-        // An opaque trip count keeps each pass a loop: fully unrolled, the scheduler orders the work
-        // accumulator by accumulator and spills every y_j and every multiplier.
-        let rounds = core::hint::black_box(N);
-        let (lo, hi) = (vld1q_f32(LO.as_ptr()), vld1q_f32(HI.as_ptr()));
-    };
-    let iterations = algorithms.iter().map(|algorithm| {
-        let (name, params, doc) = (
-            algorithm.fused_name(),
-            algorithm.fused_params(),
-            algorithm.fused_neon_doc(),
-        );
-        let body = passes(N, *algorithm);
-        quote! {
-            #[doc = #doc]
-            #neon_cfg
-            #[allow(dead_code, unused_imports)]
-            #[inline]
-            fn #name(#params) {
-                #uses
-                // SAFETY: NEON is enabled at compile time (the cfg above), and every pointer is to a live
-                // `[f32; 4]`, which is what the 4-lane loads and stores read and write.
-                unsafe {
-                    #prologue
-                    #body
-                }
+    let mut intrinsics: Vec<&str> = [
+        "vget_high_f32",
+        "vget_low_f32",
+        "vld1q_f32",
+        "vmlaq_lane_f32",
+    ]
+    .into_iter()
+    .chain(algorithm.fused_row_neon_intrinsics().iter().copied())
+    .collect();
+    intrinsics.sort_unstable();
+    intrinsics.dedup();
+    let intrinsics = intrinsics.into_iter().map(|i| format_ident!("{}", i));
+    let (name, params, doc) = (
+        algorithm.fused_name(),
+        algorithm.fused_params(),
+        algorithm.fused_neon_doc(),
+    );
+    let body = passes(N, algorithm);
+    quote! {
+        #[doc = #doc]
+        #neon_cfg
+        #[inline]
+        fn #name(#params) {
+            use core::arch::arm::{#(#intrinsics),*};
+            // SAFETY: NEON is enabled at compile time (the cfg above), and every pointer is to a live
+            // `[f32; 4]`, which is what the 4-lane loads and stores read and write.
+            unsafe {
+                // Read the table through an opaque reference: with the constants in view, LLVM turns each
+                // lane multiplier into a 16-byte splat in a literal pool and spills them all.
+                let table: &[[[Real; 4]; N]; #blocks_lit] = core::hint::black_box(&H_BLOCKS);
+                // An opaque trip count keeps each pass a loop: fully unrolled, the scheduler orders the
+                // work accumulator by accumulator and spills every y_j and every multiplier.
+                let rounds = core::hint::black_box(N);
+                let (lo, hi) = (vld1q_f32(LO.as_ptr()), vld1q_f32(HI.as_ptr()));
+                #body
             }
         }
-    });
-    quote! {
+
         /// NEON: proj(v) as two compare-and-selects, exactly `project` (NaN → lower bound).
         #neon_cfg
         #[inline(always)]
@@ -99,8 +98,6 @@ pub fn lanes_kernels(N: usize, algorithms: &[&dyn Algorithm]) -> TokenStream {
             let v = vbslq_f32(vcgtq_f32(v, lo), v, lo);
             vbslq_f32(vcltq_f32(v, hi), v, hi)
         }
-
-        #(#iterations)*
     }
 }
 
@@ -168,9 +165,8 @@ fn passes(N: usize, algorithm: &dyn Algorithm) -> TokenStream {
     quote!(#(#passes)*)
 }
 
-/// Lane-wise a + b, a − b, c·a and acc + c·a with NEON intrinsics (the portable twins are
-/// [`super::matrix_free`]'s).
-pub fn lane_helpers() -> TokenStream {
+/// NEON: one 4-lane operation through a register, for the lane helpers.
+pub fn lane_op() -> TokenStream {
     let neon_cfg = cfg();
     quote! {
         /// NEON: one 4-lane operation, through a register.
@@ -183,43 +179,58 @@ pub fn lane_helpers() -> TokenStream {
             unsafe { vst1q_f32(out.as_mut_ptr(), f(vld1q_f32(a.as_ptr()))) };
             out
         }
+    }
+}
 
-        /// NEON: a + b.
+/// The NEON twin of the lane operation `op` ([`super::matrix_free`] has the portable one).
+pub fn lane_helper(op: &str) -> TokenStream {
+    let neon_cfg = cfg();
+    let (doc, body) = match op {
+        "lane_add" => (
+            " NEON: a + b.",
+            quote! {
+                fn lane_add(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
+                    use core::arch::arm::{vaddq_f32, vld1q_f32};
+                    // SAFETY: as in `lane_op`.
+                    lane_op(|a| unsafe { vaddq_f32(a, vld1q_f32(b.as_ptr())) }, a)
+                }
+            },
+        ),
+        "lane_sub" => (
+            " NEON: a − b.",
+            quote! {
+                fn lane_sub(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
+                    use core::arch::arm::{vld1q_f32, vsubq_f32};
+                    // SAFETY: as in `lane_op`.
+                    lane_op(|a| unsafe { vsubq_f32(a, vld1q_f32(b.as_ptr())) }, a)
+                }
+            },
+        ),
+        "lane_scale" => (
+            " NEON: c·a.",
+            quote! {
+                fn lane_scale(c: Real, a: [Real; LANES]) -> [Real; LANES] {
+                    use core::arch::arm::vmulq_n_f32;
+                    // SAFETY: as in `lane_op`.
+                    lane_op(|a| unsafe { vmulq_n_f32(a, c) }, a)
+                }
+            },
+        ),
+        _ => (
+            " NEON: acc + c·a.",
+            quote! {
+                fn lane_mul_add(acc: [Real; LANES], c: Real, a: [Real; LANES]) -> [Real; LANES] {
+                    use core::arch::arm::{vld1q_f32, vmlaq_n_f32};
+                    // SAFETY: as in `lane_op`.
+                    lane_op(|acc| unsafe { vmlaq_n_f32(acc, vld1q_f32(a.as_ptr()), c) }, acc)
+                }
+            },
+        ),
+    };
+    quote! {
+        #[doc = #doc]
         #neon_cfg
         #[inline(always)]
-        fn lane_add(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
-            use core::arch::arm::{vaddq_f32, vld1q_f32};
-            // SAFETY: as in `lane_op`.
-            lane_op(|a| unsafe { vaddq_f32(a, vld1q_f32(b.as_ptr())) }, a)
-        }
-
-        /// NEON: a − b.
-        #neon_cfg
-        #[inline(always)]
-        fn lane_sub(a: [Real; LANES], b: [Real; LANES]) -> [Real; LANES] {
-            use core::arch::arm::{vld1q_f32, vsubq_f32};
-            // SAFETY: as in `lane_op`.
-            lane_op(|a| unsafe { vsubq_f32(a, vld1q_f32(b.as_ptr())) }, a)
-        }
-
-        /// NEON: c·a.
-        #neon_cfg
-        #[allow(dead_code)]
-        #[inline(always)]
-        fn lane_scale(c: Real, a: [Real; LANES]) -> [Real; LANES] {
-            use core::arch::arm::vmulq_n_f32;
-            // SAFETY: as in `lane_op`.
-            lane_op(|a| unsafe { vmulq_n_f32(a, c) }, a)
-        }
-
-        /// NEON: acc + c·a.
-        #neon_cfg
-        #[allow(dead_code)]
-        #[inline(always)]
-        fn lane_mul_add(acc: [Real; LANES], c: Real, a: [Real; LANES]) -> [Real; LANES] {
-            use core::arch::arm::{vld1q_f32, vmlaq_n_f32};
-            // SAFETY: as in `lane_op`.
-            lane_op(|acc| unsafe { vmlaq_n_f32(acc, vld1q_f32(a.as_ptr()), c) }, acc)
-        }
+        #body
     }
 }

@@ -39,7 +39,6 @@ impl GradientForm for Table {
         let nz = p.qp.N * p.nu;
         let doc = format!(" ∇J(y) = H·y + f (eq. 11), a loop over the {nz}×{nz} table H.");
         quote! {
-            #sweep
             #[doc = #doc]
             #[inline(always)]
             fn gradient(y: &Plan, f: &Plan, g: &mut Plan) {
@@ -50,6 +49,8 @@ impl GradientForm for Table {
                     }
                 }
             }
+
+            #sweep
         }
     }
 

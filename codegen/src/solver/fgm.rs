@@ -35,6 +35,10 @@ impl Algorithm for Fgm {
         Method::Fgm
     }
 
+    fn title(&self) -> &'static str {
+        "Nesterov's fast gradient method with constant momentum"
+    }
+
     fn momentum(&self, step: f64, mu: f64) -> f64 {
         let r = (step * mu).min(1.0).sqrt();
         (1.0 - r) / (1.0 + r)
@@ -124,7 +128,6 @@ impl Algorithm for Fgm {
     fn step_kernel(&self) -> TokenStream {
         quote! {
             /// The fast gradient step: next = proj(y − STEP·g), y ← next + MOMENTUM·(next − u), u ← next.
-            #[allow(dead_code)]
             #[inline(always)]
             fn fast_gradient_step(u: &mut Plan, y: &mut Plan, g: &Plan) {
                 for ((u_k, y_k), g_k) in u.iter_mut().zip(y.iter_mut()).zip(g.iter()) {
@@ -180,6 +183,16 @@ impl Algorithm for Fgm {
                 *u = next;
             }
         }
+    }
+
+    fn fused_row_neon_intrinsics(&self) -> &'static [&'static str] {
+        &[
+            "vld1q_f32",
+            "vmlaq_n_f32",
+            "vmlsq_n_f32",
+            "vst1q_f32",
+            "vsubq_f32",
+        ]
     }
 
     fn fused_row_neon(&self, i: &Literal, g: &Ident) -> TokenStream {

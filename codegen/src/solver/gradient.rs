@@ -29,6 +29,10 @@ impl Algorithm for Gradient {
         Method::Gradient
     }
 
+    fn title(&self) -> &'static str {
+        "Projected gradient (the paper's Algorithm 1)"
+    }
+
     fn momentum(&self, _step: f64, _mu: f64) -> f64 {
         0.0
     }
@@ -112,7 +116,6 @@ impl Algorithm for Gradient {
     fn step_kernel(&self) -> TokenStream {
         quote! {
             /// u ← proj(u − STEP·g) (Algorithm 1, lines 4-5).
-            #[allow(dead_code)]
             #[inline(always)]
             fn gradient_step(u: &mut Plan, g: &Plan) {
                 for (u_k, g_k) in u.iter_mut().zip(g.iter()) {
@@ -163,6 +166,10 @@ impl Algorithm for Gradient {
                 *next = project(*u - STEP * *g, *lo, *hi);
             }
         }
+    }
+
+    fn fused_row_neon_intrinsics(&self) -> &'static [&'static str] {
+        &["vld1q_f32", "vmlsq_n_f32", "vst1q_f32"]
     }
 
     fn fused_row_neon(&self, i: &Literal, g: &Ident) -> TokenStream {

@@ -36,7 +36,7 @@ pub fn all() -> impl Iterator<Item = &'static dyn Algorithm> {
 }
 
 /// A bound Δ_k ≤ constant · factor^k · Δ_0 on the gap Δ_k = J(U_k) − J* of the box-constrained QP.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Rate {
     /// The constant in front (1 for the gradient method, 2 for the fast gradient method).
     pub constant: f64,
@@ -111,6 +111,9 @@ pub trait Algorithm: Debug + Sync {
     /// The spec's `method`.
     fn method(&self) -> Method;
 
+    /// Its name in prose: "Nesterov's fast gradient method".
+    fn title(&self) -> &'static str;
+
     /// The momentum β for step α on a Hessian whose smallest eigenvalue is μ (zero without momentum).
     fn momentum(&self, step: f64, mu: f64) -> f64;
 
@@ -180,6 +183,9 @@ pub trait Algorithm: Debug + Sync {
 
     /// The step of row `i` of a fused pass, `g` its gradient (a `[Real; LANES]`).
     fn fused_row(&self, i: &Literal, g: &Ident) -> TokenStream;
+
+    /// The `core::arch::arm` intrinsics [`Self::fused_row_neon`] calls.
+    fn fused_row_neon_intrinsics(&self) -> &'static [&'static str];
 
     /// The same with NEON intrinsics, `g` a `float32x4_t`.
     fn fused_row_neon(&self, i: &Literal, g: &Ident) -> TokenStream;

@@ -1,0 +1,219 @@
+//! The emitted modules compiled as plain source, so that rustc and clippy see every line (clippy skips
+//! most of a macro's output): the checked-in `generated-examples/generated/*.rs` and one module per
+//! algorithm × gradient form that they do not cover. A scratch crate holds them with `#![deny(dead_code)]`
+//! and no allow of its own; `cargo clippy -- -D warnings` must pass on the host (the portable kernels) and
+//! for `armv7a-none-eabihf` with `--cfg mpc_neon` (the Zynq's NEON kernels, nightly with `-Zbuild-std`, as
+//! the firmware builds them).
+
+use codegen::{generate_from_source, Opt, Origin};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+/// A two-input linear plant whose inputs are weighted differently: no lane structure, nu = 2.
+const LINEAR: &str = r#"
+[model]
+type = "linear"
+dt = 0.1
+a = [[1, 0.1, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0.1], [0, 0, 0, 0.9]]
+b = [[0.005, 0], [0.1, 0], [0, 0.005], [0, 0.1]]
+c = [[1, 0, 0, 0], [0, 0, 1, 0]]
+[mpc]
+horizon = 8
+iterations = 20
+method = "fgm"
+q = [10, 1, 5, 1]
+r = [0.1, 0.3]
+u_min = [-1, -2]
+u_max = [1, 0.5]
+[kalman]
+q = [[0.01, 0, 0, 0], [0, 0.01, 0, 0], [0, 0, 0.01, 0], [0, 0, 0, 0.01]]
+r = [[0.04, 0], [0, 0.04]]
+filter = "time_varying"
+[codegen]
+scalar = "f32"
+"#;
+
+/// `spec` with its method, emission, filter and scalar replaced.
+fn variant(spec: &str, method: &str, emission: &str, filter: &str, scalar: &str) -> String {
+    spec.replace("method = \"fgm\"", &format!("method = \"{method}\""))
+        .replace(
+            "scalar = \"f32\"",
+            &format!("scalar = \"{scalar}\"\nemission = \"{emission}\""),
+        )
+        .replace(
+            "filter = \"time_varying\"",
+            &format!("filter = \"{filter}\""),
+        )
+}
+
+/// Module name and spec text of every variant the checked-in files leave out.
+fn variants() -> Vec<(String, String)> {
+    let read = |name: &str| std::fs::read_to_string(workspace().join("specs").join(name)).unwrap();
+    let (paper, offset_free) = (read("paper.toml"), read("paper-offset-free.toml"));
+    let mut out = Vec::new();
+    let mut add = |name: &str, spec: &str, method, emission, filter, scalar| {
+        let text = variant(spec, method, emission, filter, scalar);
+        assert_ne!(&text, spec, "{name}: the spec's lines were not found");
+        out.push((name.replace('-', "_"), text));
+    };
+    for emission in ["unrolled", "table", "matrix_free"] {
+        add(
+            &format!("paper_fgm_{emission}"),
+            &paper,
+            "fgm",
+            emission,
+            "time_varying",
+            "f32",
+        );
+        add(
+            &format!("offset_free_{emission}"),
+            &offset_free,
+            "fgm",
+            emission,
+            "time_varying",
+            "f32",
+        );
+    }
+    for emission in ["lanes", "matrix_free", "unrolled"] {
+        add(
+            &format!("paper_gradient_{emission}"),
+            &paper,
+            "gradient",
+            emission,
+            "time_varying",
+            "f32",
+        );
+    }
+    add(
+        "paper_steady_state_f64",
+        &paper,
+        "fgm",
+        "lanes",
+        "steady_state",
+        "f64",
+    );
+    for emission in ["unrolled", "table", "matrix_free"] {
+        add(
+            &format!("linear_fgm_{emission}"),
+            LINEAR,
+            "fgm",
+            emission,
+            "time_varying",
+            "f32",
+        );
+        add(
+            &format!("linear_gradient_{emission}"),
+            LINEAR,
+            "gradient",
+            emission,
+            "steady_state",
+            "f64",
+        );
+    }
+    out
+}
+
+/// Writes the scratch crate: the checked-in files by path, the variants emitted here.
+fn scratch_crate() -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("generated-lint");
+    let src = dir.join("src");
+    std::fs::create_dir_all(&src).unwrap();
+    std::fs::write(
+        dir.join("Cargo.toml"),
+        "[package]\nname = \"generated-lint\"\nversion = \"0.0.0\"\nedition = \"2021\"\npublish = false\n\n\
+         [lints.rust]\nunexpected_cfgs = { level = \"warn\", check-cfg = [\"cfg(mpc_neon)\"] }\n\n\
+         [lib]\npath = \"src/lib.rs\"\n\n# Not a member of the project's workspace.\n[workspace]\n",
+    )
+    .unwrap();
+    let mut lib = String::from(
+        "#![no_std]\n#![cfg_attr(mpc_neon, feature(stdarch_arm_neon_intrinsics))]\n#![deny(dead_code)]\n\n",
+    );
+    let generated = workspace().join("generated-examples/generated");
+    let mut files: Vec<_> = std::fs::read_dir(&generated)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "rs"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 4, "the checked-in modules: {files:?}");
+    for file in &files {
+        let stem = file
+            .file_stem()
+            .unwrap()
+            .to_str()
+            .unwrap()
+            .replace('-', "_");
+        lib += &format!(
+            "#[path = {:?}]\npub mod checked_in_{stem};\n",
+            file.display().to_string()
+        );
+    }
+    for (name, spec) in variants() {
+        let opt = Opt::new(&name, "pub", Origin::Named(format!("{name}.toml")));
+        let module = generate_from_source(&spec, &opt)
+            .unwrap_or_else(|e| panic!("{name}: {e:?}"))
+            .pretty();
+        // Rewritten only when changed, so that an unchanged module is not rebuilt.
+        let file = src.join(format!("{name}_rs.rs"));
+        if std::fs::read_to_string(&file).ok().as_deref() != Some(&module) {
+            std::fs::write(&file, module).unwrap();
+        }
+        lib += &format!("pub mod {name}_rs;\n");
+    }
+    if std::fs::read_to_string(src.join("lib.rs")).ok().as_deref() != Some(&lib) {
+        std::fs::write(src.join("lib.rs"), lib).unwrap();
+    }
+    dir
+}
+
+/// `cargo [+toolchain] clippy` on the scratch crate with every warning an error.
+fn clippy(dir: &Path, toolchain: Option<&str>, target_args: &[&str], rustflags: &str) {
+    let mut command = Command::new("cargo");
+    // The outer `cargo test`'s settings must not leak into the inner build.
+    for var in [
+        "RUSTUP_TOOLCHAIN",
+        "RUSTFLAGS",
+        "CARGO_TARGET_DIR",
+        "CARGO_BUILD_TARGET",
+        "CARGO_ENCODED_RUSTFLAGS",
+    ] {
+        command.env_remove(var);
+    }
+    if let Some(toolchain) = toolchain {
+        command.arg(format!("+{toolchain}"));
+    }
+    let o = command
+        .args(["clippy", "--quiet", "--lib"])
+        .args(target_args)
+        .args(["--", "-D", "warnings", "-D", "dead_code"])
+        .env("RUSTFLAGS", rustflags)
+        .current_dir(dir)
+        .output()
+        .expect("cargo runs");
+    assert!(
+        o.status.success(),
+        "cargo {} clippy {target_args:?} on {}:\n{}",
+        toolchain.unwrap_or(""),
+        dir.display(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+#[test]
+fn emitted_modules_have_no_dead_code_and_pass_clippy_on_the_host_and_the_a9() {
+    let dir = scratch_crate();
+    clippy(&dir, None, &[], "");
+    clippy(
+        &dir,
+        Some("nightly"),
+        &["--target", "armv7a-none-eabihf", "-Zbuild-std=core"],
+        "--cfg mpc_neon -C target-cpu=cortex-a9 -C target-feature=+neon,+vfp3",
+    );
+}
