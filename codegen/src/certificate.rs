@@ -49,7 +49,8 @@ pub struct MpcLoop {
     /// ρ(F − G·K) for that gain: the loop an exactly solved MPC closes.
     pub spectral_radius: f64,
     /// ρ of the loop the fixed-iteration, warm-started solver actually closes, a linear system in the
-    /// state and the previous plan; `None` for problems above [`MAX_SOLVER_ANALYSIS_SIZE`] decision variables.
+    /// state and the previous plan; `None` for problems above [`MAX_SOLVER_ANALYSIS_SIZE`] decision variables
+    /// and for algorithms whose iteration is not linear.
     pub solver_spectral_radius: Option<f64>,
 }
 
@@ -361,28 +362,30 @@ fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
             .inverse();
     let K = (&H_inv * &qp.Fx).rows(0, nu).into_owned();
     let spectral = spectral_radius(&(&p.F - &p.G * &K));
-    let solver = (nz <= MAX_SOLVER_ANALYSIS_SIZE).then(|| {
-        // The plan after m iterations is linear in z = [x; U_prev]: U_m = M·z. Build M by running the
-        // solver on matrices (columns = unit directions of z), references zero and bounds inactive.
-        let dim = nx + nz;
-        let mut shift = DMatrix::zeros(nz, dim);
-        for i in 0..nz - nu {
-            shift[(i, nx + nu + i)] = 1.0;
-        }
-        let mut f = DMatrix::zeros(nz, dim);
-        f.view_mut((0, 0), (nz, nx)).copy_from(&qp.Fx);
-        let step = |Y: &DMatrix<f64>| Y - (&qp.H * Y + &f) * qp.step;
-        let U = plan
-            .algorithm
-            .reference_linear(&qp.parameters(), shift, qp.iterations, &step);
-        let mut A = DMatrix::zeros(dim, dim);
-        let x_next = &p.G * U.rows(0, nu);
-        A.view_mut((0, 0), (nx, dim)).copy_from(&x_next);
-        let F_block = A.view((0, 0), (nx, nx)) + &p.F;
-        A.view_mut((0, 0), (nx, nx)).copy_from(&F_block);
-        A.view_mut((nx, 0), (nz, dim)).copy_from(&U);
-        spectral_radius(&A)
-    });
+    let solver = (nz <= MAX_SOLVER_ANALYSIS_SIZE)
+        .then_some(())
+        .and_then(|()| {
+            // The plan after m iterations is linear in z = [x; U_prev]: U_m = M·z. Build M by running the
+            // solver on matrices (columns = unit directions of z), references zero and bounds inactive.
+            let dim = nx + nz;
+            let mut shift = DMatrix::zeros(nz, dim);
+            for i in 0..nz - nu {
+                shift[(i, nx + nu + i)] = 1.0;
+            }
+            let mut f = DMatrix::zeros(nz, dim);
+            f.view_mut((0, 0), (nz, nx)).copy_from(&qp.Fx);
+            let step = |Y: &DMatrix<f64>| Y - (&qp.H * Y + &f) * qp.step;
+            let U =
+                plan.algorithm
+                    .reference_linear(&qp.parameters(), shift, qp.iterations, &step)?;
+            let mut A = DMatrix::zeros(dim, dim);
+            let x_next = &p.G * U.rows(0, nu);
+            A.view_mut((0, 0), (nx, dim)).copy_from(&x_next);
+            let F_block = A.view((0, 0), (nx, nx)) + &p.F;
+            A.view_mut((0, 0), (nx, nx)).copy_from(&F_block);
+            A.view_mut((nx, 0), (nz, dim)).copy_from(&U);
+            Some(spectral_radius(&A))
+        });
     MpcLoop {
         gain: K,
         spectral_radius: spectral,

@@ -1,9 +1,19 @@
 //! Code generation for `mpc!`, as a plain library that the proc macro and the `mpcc` command call.
 //!
-//! The phases are gated, as in cxx: [`mpc_spec::load`] parses and checks the spec, [`lower()`] computes the
-//! condensed QP and the filter in f64 with nalgebra, and the emitter turns them into a module with `quote!`.
-//! The [`oracle`] runs the same algorithms at run time over nalgebra matrices: the generic solver every
-//! generated controller is tested against.
+//! The phases are gated, as in cxx: [`mpc_spec::load`] parses and checks the spec; [`lower()`] computes the
+//! condensed QP, its solver's parameters and the filter in f64 with nalgebra; [`plan()`] resolves the
+//! algorithm and the gradient form once (no `auto` after it); [`certify`] proves and counts; the [`emit`]
+//! module turns it all into a module with `quote!`. The [`oracle`] runs the same algorithms at run time over
+//! nalgebra matrices: the generic solver every generated controller is tested against.
+//!
+//! One place per concept:
+//! - [`solver`]: one file per algorithm (`gradient.rs`, `fgm.rs`) behind [`solver::Algorithm`], which owns
+//!   the algorithm's parameters, step check, certificate terms, f64 reference iteration, cost and emitted
+//!   iteration;
+//! - [`form`]: one file per gradient form (`unrolled.rs`, `table.rs`, `lanes.rs`, `matrix_free.rs`) behind
+//!   [`form::GradientForm`], each with its cost estimate; the Cortex-A9's NEON kernels in `form/neon.rs`;
+//! - [`linalg`] the build-time linear algebra, [`numeric`] the emitted scalar's numbers, [`structure`] the
+//!   structure read off the matrices, [`cost`] the cost model's weights.
 //!
 //! ```
 //! let spec = mpc_spec::load(include_str!("../../specs/paper.toml")).unwrap();

@@ -315,7 +315,6 @@ fn json_text_and_report_come_from_one_list_of_fields() {
                 Value::Count(n) | Value::MaybeCount(Some(n)) => serde_json::json!(n),
                 Value::MaybeReal(None) | Value::MaybeCount(None) => serde_json::Value::Null,
             };
-
             assert_eq!(
                 at, &expected,
                 "{spec}: `{}` ({})",

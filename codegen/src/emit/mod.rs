@@ -76,9 +76,9 @@ pub fn module(
     let allow = quote!(#time_varying #neon_cfg #large_tables);
     let allow = (!allow.is_empty()).then(|| quote!(#![allow(#allow)]));
     let algorithm = plan.algorithm.title();
-    let summary = format!(
-        " {algorithm}, {} iterations per step over a horizon of {}; gradient form `{}`.",
-        p.qp.iterations,
+    let summary = format!(" {algorithm}: {} iterations per step,", p.qp.iterations);
+    let shape = format!(
+        " horizon {}, gradient form `{}` ([`EMISSION`]).",
         p.qp.N,
         plan.emission().name()
     );
@@ -103,6 +103,7 @@ pub fn module(
         #[doc = #doc]
         ///
         #[doc = #summary]
+        #[doc = #shape]
         /// [`Controller::step`] runs one control cycle; [`Mpc`] and [`Kalman`] are its two halves.
         /// Every constant was computed at compile time in f64 and rounded once to [`Real`].
         ///

@@ -1,6 +1,6 @@
 //! `lanes`: H = H_axis ⊗ I, each plan step a vector of lanes (the inputs, padded to a power of two), one
 //! N × N table for all of them. One solver iteration is one fused pass: for each row i,
-//! g_i = f_i + Σ_j H_axis[i][j]·y_j, then the algorithm's step for that row, so that the gradient is never
+//! g_i = f_i + Σ_j H_axis(i, j)·y_j, then the algorithm's step for that row, so that the gradient is never
 //! stored. The point y is read whole by every row, so the new point goes to a second buffer and the two
 //! swap roles from one iteration to the next. The NEON twin of the pass is [`super::neon`]'s.
 #![allow(non_snake_case)]

@@ -7,7 +7,7 @@
 //! - [`matrix_free`]: no H; a forward sweep of the dynamics and a backward adjoint sweep, O(N).
 //!
 //! The target's SIMD lives in [`neon`]. Each form also gives its estimate to the cost model
-//! ([`crate::cost`]); [`crate::plan`] chooses one.
+//! ([`crate::cost`]); [`crate::plan()`] chooses one.
 #![allow(non_snake_case)]
 
 pub mod lanes;

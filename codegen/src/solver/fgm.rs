@@ -90,8 +90,8 @@ impl Algorithm for Fgm {
         start: DMatrix<f64>,
         iterations: usize,
         step: StepFn<DMatrix<f64>>,
-    ) -> DMatrix<f64> {
-        run(p.momentum, start, iterations, step)
+    ) -> Option<DMatrix<f64>> {
+        Some(run(p.momentum, start, iterations, step))
     }
 
     fn update_macs(&self, entries: usize) -> usize {

@@ -79,8 +79,8 @@ impl Algorithm for Gradient {
         start: DMatrix<f64>,
         iterations: usize,
         step: StepFn<DMatrix<f64>>,
-    ) -> DMatrix<f64> {
-        run(start, iterations, step)
+    ) -> Option<DMatrix<f64>> {
+        Some(run(start, iterations, step))
     }
 
     fn update_macs(&self, entries: usize) -> usize {

@@ -138,14 +138,16 @@ pub trait Algorithm: Debug + Sync {
         step: StepFn<DVector<f64>>,
     ) -> DVector<f64>;
 
-    /// The same iterations on a matrix of plans with a linear step: the solver-loop analysis.
+    /// The same iterations on a matrix of plans with a linear step: the solver-loop analysis, which needs
+    /// the iteration to be linear in the data while no constraint is active. `None` for an algorithm whose
+    /// iteration is not (an interior-point method): its loop is then not certified this way.
     fn reference_linear(
         &self,
         p: &Parameters,
         start: DMatrix<f64>,
         iterations: usize,
         step: StepFn<DMatrix<f64>>,
-    ) -> DMatrix<f64>;
+    ) -> Option<DMatrix<f64>>;
 
     /// Multiply-adds of one iteration besides the gradient, for a plan of `entries` numbers.
     fn update_macs(&self, entries: usize) -> usize;
