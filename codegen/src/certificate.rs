@@ -237,6 +237,27 @@ impl Certificate {
 /// with `strict`. Returns the warnings.
 pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> {
     let (mut errors, mut warnings) = (Diagnostics::default(), Diagnostics::default());
+    // Matrices accepted as symmetric up to rounding (mpc_spec::SYMMETRY_TOLERANCE) are used as (A + Aᵀ)/2.
+    let mut written = vec![("mpc.q", &spec.mpc.q), ("mpc.r", &spec.mpc.r)];
+    if spec.spans.get("mpc.qf").is_some() {
+        written.push(("mpc.qf", &spec.mpc.qf));
+    }
+    if let mpc_spec::KalmanNoise::Covariances { q, r } = &spec.kalman.noise {
+        written.extend([("kalman.q", q), ("kalman.r", r)]);
+    }
+    written.push(("kalman.p0", &spec.kalman.p0));
+    for (key, m) in written {
+        let asymmetry = m.asymmetry();
+        if asymmetry > 1e-12 {
+            warnings.push(
+                Diagnostic::new(
+                    format!("`{key}` is not exactly symmetric: a_ij and a_ji differ by up to {asymmetry:.3e} of √(|a_ii·a_jj|); the compiler uses (A + Aᵀ)/2"),
+                    spec.spans.get(key),
+                )
+                .label("symmetrized"),
+            );
+        }
+    }
     // One finding per cause: the solver's loop is only reported when the exactly solved MPC is stable.
     let unstable = |rho: f64| rho.is_nan() || rho >= 1.0;
     let mut loops = vec![(
@@ -355,12 +376,11 @@ fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
     let qp = &p.qp;
     let (nx, nu) = (p.nx, p.nu);
     let nz = qp.N * nu;
-    let H_inv =
-        qp.H.clone()
-            .cholesky()
-            .expect("H is positive definite")
-            .inverse();
-    let K = (&H_inv * &qp.Fx).rows(0, nu).into_owned();
+    // `lower` refuses an H that does not factorize (check_hessian); NaN if it ever did.
+    let K = match qp.H.clone().cholesky() {
+        Some(H) => (H.inverse() * &qp.Fx).rows(0, nu).into_owned(),
+        None => DMatrix::from_element(nu, nx, f64::NAN),
+    };
     let spectral = spectral_radius(&(&p.F - &p.G * &K));
     let solver = (nz <= MAX_SOLVER_ANALYSIS_SIZE)
         .then_some(())

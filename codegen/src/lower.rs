@@ -8,8 +8,8 @@ use crate::linalg::{dense, extreme_eigenvalues, project, steady_state_filter, sy
 use crate::numeric::Numeric;
 use crate::solver::Parameters;
 use mpc_spec::{
-    Diagnostic, Diagnostics, FilterKind, Iterations, KalmanNoise, Method, ModelKind, Scalar, Spec,
-    Step,
+    Diagnostic, Diagnostics, FilterKind, Iterations, KalmanNoise, Matrix, Method, ModelKind,
+    Scalar, Spec, Step, MAX_ITERATIONS,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -186,11 +186,18 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     let (F, G, C) = plant(&spec.model.kind, dt);
     let (nx, nu, ny) = (F.nrows(), G.ncols(), C.nrows());
     let m = &spec.mpc;
-    let (Q, R, Qf) = (dense(&m.q), dense(&m.r), dense(&m.qf));
+    let (Q, R, Qf) = (symmetric(&m.q), symmetric(&m.r), symmetric(&m.qf));
     check_weights(spec, &Q, &R, &Qf, &mut diags);
+    if let ModelKind::Linear { .. } = spec.model.kind {
+        check_stabilizable(&F, &G, spec.spans.get("model.b"), &mut diags);
+    }
+    if !diags.is_empty() {
+        return Err(diags.sorted());
+    }
     let N = m.horizon;
     let (Sx, Su, H, Fx, Fr) = condense(&F, &G, &Q, &R, &Qf, N);
     let (mu, L) = extreme_eigenvalues(&H);
+    check_hessian(spec, &H, mu, L)?;
     let (step, momentum, iterations) = solver_parameters(spec, mu, L, &mut diags);
     let filter = filter(spec, &F, &G, &C, &mut diags);
     if !diags.is_empty() {
@@ -325,7 +332,20 @@ fn solver_parameters(spec: &Spec, mu: f64, L: f64, diags: &mut Diagnostics) -> (
     }
     let iterations = match (m.iterations, m.tolerance, algorithm.rate(&parameters)) {
         (Iterations::Fixed(n), _, _) => n,
-        (Iterations::Auto, Some(tol), Some(bound)) => bound.iterations_for(tol),
+        (Iterations::Auto, Some(tol), Some(bound)) => {
+            let needed = bound.iterations_for(tol);
+            if needed > MAX_ITERATIONS {
+                diags.push(
+                    Diagnostic::new(
+                        format!("`iterations = \"auto\"` would need {needed} iterations for `tolerance = {tol:e}`, above the limit of {MAX_ITERATIONS}"),
+                        span("mpc.iterations"),
+                    )
+                    .label(format!("the a priori bound's factor per iteration is {:.9}", bound.factor))
+                    .note("hint: the Hessian is ill-conditioned for this algorithm: loosen `tolerance`, shorten the horizon, raise R, or write a fixed count and accept a weaker guarantee"),
+                );
+            }
+            needed.min(MAX_ITERATIONS)
+        }
         (Iterations::Auto, _, None) => {
             diags.push(
                 Diagnostic::new(
@@ -368,9 +388,9 @@ fn filter(
                 sigma_meas.iter().map(|s| s * s),
             )),
         ),
-        KalmanNoise::Covariances { q, r } => (dense(q), dense(r)),
+        KalmanNoise::Covariances { q, r } => (symmetric(q), symmetric(r)),
     };
-    let P0 = dense(&spec.kalman.p0);
+    let P0 = symmetric(&spec.kalman.p0);
     let nd = spec.kalman.disturbance.as_ref().map_or(0, |_| nu);
     let (Fa, Ga, Ca, Qn, P0) = augment(F, G, C, &Qn, &P0, spec.kalman.disturbance.as_deref());
     if nd > 0 && !disturbance_detectable(F, G, C) {
@@ -590,7 +610,11 @@ pub fn prediction_matrices(
     (Sx, Su)
 }
 
-/// Q, Qf and the noise covariances must be positive semidefinite, R and P0 positive definite.
+/// Q, Qf and the noise covariances must be positive semidefinite, R and P0 positive definite. The test
+/// is on the matrix scaled to a unit diagonal, D^(-1/2)·M·D^(-1/2), so that no entry hides a negative
+/// eigenvalue of another's scale (entries 1e12 and 1 in one matrix): a negative or, for definiteness,
+/// zero diagonal fails at once, a zero diagonal needs a zero row, and the scaled eigenvalues are held to
+/// n·ε-sized rounding.
 fn check_definite(
     diags: &mut Diagnostics,
     M: &DMatrix<f64>,
@@ -598,21 +622,134 @@ fn check_definite(
     name: &str,
     span: Option<mpc_spec::Span>,
 ) {
-    let (lo, hi) = extreme_eigenvalues(M);
-    let tol = 1e-12 * hi.abs().max(1.0);
-    let bad = if strict { lo <= tol } else { lo < -tol };
-    if bad {
-        let what = if strict {
-            "positive definite"
-        } else {
-            "positive semidefinite"
-        };
+    let what = if strict {
+        "positive definite"
+    } else {
+        "positive semidefinite"
+    };
+    if let Some(why) = not_definite(M, strict) {
+        let (lo, _) = extreme_eigenvalues(M);
         diags.push(
             Diagnostic::new(
                 format!("{name} must be {what}; its smallest eigenvalue is {lo:.4}"),
                 span,
             )
-            .label(format!("not {what}")),
+            .label(format!("not {what}: {why}")),
         );
     }
+}
+
+/// Why `M` is not positive (semi)definite, if it is not.
+fn not_definite(M: &DMatrix<f64>, strict: bool) -> Option<String> {
+    let n = M.nrows();
+    let d = M.diagonal();
+    if let Some(i) = (0..n).find(|&i| d[i] < 0.0 || (strict && d[i] <= 0.0) || !d[i].is_finite()) {
+        return Some(format!("diagonal entry {i} is {}", d[i]));
+    }
+    for i in (0..n).filter(|&i| d[i] == 0.0) {
+        if let Some(j) = (0..n).find(|&j| M[(i, j)] != 0.0) {
+            return Some(format!(
+                "entry ({i}, {j}) is {} where diagonal entry {i} is zero",
+                M[(i, j)]
+            ));
+        }
+    }
+    let s = DVector::from_iterator(
+        n,
+        d.iter()
+            .map(|v| if *v > 0.0 { 1.0 / v.sqrt() } else { 0.0 }),
+    );
+    let scaled = DMatrix::from_fn(n, n, |i, j| M[(i, j)] * s[i] * s[j]);
+    let (lo, _) = extreme_eigenvalues(&scaled);
+    let tol = 1e-12 * (n as f64);
+    let bad = if strict { lo <= tol } else { lo < -tol };
+    bad.then(|| format!("scaled to a unit diagonal, its smallest eigenvalue is {lo:.3e}"))
+}
+
+/// The plant must be stabilizable: every mode with |λ| ≥ 1 reachable from the inputs (the
+/// Popov-Belevitch-Hautus test, rank [F − λI, G] = nx at each such eigenvalue λ).
+fn check_stabilizable(
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+    span: Option<mpc_spec::Span>,
+    diags: &mut Diagnostics,
+) {
+    use nalgebra::Complex;
+    let n = F.nrows();
+    let Some(schur) = nalgebra::Schur::try_new(F.clone(), f64::EPSILON, 100_000) else {
+        return;
+    };
+    let scale = F.amax().max(G.amax()).max(1.0);
+    for lambda in schur.complex_eigenvalues().iter() {
+        if lambda.norm() < 1.0 - 1e-9 {
+            continue;
+        }
+        let M = DMatrix::from_fn(n, n + G.ncols(), |i, j| {
+            if j < n {
+                Complex::new(F[(i, j)], 0.0)
+                    - if i == j {
+                        *lambda
+                    } else {
+                        Complex::new(0.0, 0.0)
+                    }
+            } else {
+                Complex::new(G[(i, j - n)], 0.0)
+            }
+        });
+        let sv = M.singular_values();
+        if sv.min() <= 1e-10 * scale {
+            diags.push(
+                Diagnostic::new(
+                    format!(
+                        "the plant is not stabilizable: its mode λ = {} (|λ| = {:.6}) cannot be moved by the inputs",
+                        complex(*lambda),
+                        lambda.norm()
+                    ),
+                    span.clone(),
+                )
+                .label("rank [F − λI, G] is below nx at this eigenvalue")
+                .note("hint: every unstable or marginally stable mode must be reachable from an input (check `b`, and that it is not all zero)"),
+            );
+            return;
+        }
+    }
+}
+
+/// `a`, or `a ± bi`.
+fn complex(z: nalgebra::Complex<f64>) -> String {
+    if z.im.abs() < 1e-12 {
+        format!("{:.6}", z.re)
+    } else {
+        format!(
+            "{:.6} {} {:.6}i",
+            z.re,
+            if z.im < 0.0 { "−" } else { "+" },
+            z.im.abs()
+        )
+    }
+}
+
+/// H must be positive definite in floating point: R > 0 makes it so in exact arithmetic, but a condition
+/// number near 1/ε leaves its smallest eigenvalue in the rounding, where no iteration count means anything.
+fn check_hessian(spec: &Spec, H: &DMatrix<f64>, mu: f64, L: f64) -> Result<(), Diagnostics> {
+    let kappa = L / mu;
+    let factorizes = H.clone().cholesky().is_some();
+    if mu > 0.0 && factorizes && kappa * f64::EPSILON < 1.0 && kappa.is_finite() {
+        return Ok(());
+    }
+    Err(Diagnostic::new(
+        format!(
+            "the Hessian H is numerically singular: λmin(H) = {mu:.3e}, λmax(H) = {L:.3e}, condition number {kappa:.3e} (at least 1/ε = {:.3e} in f64)",
+            1.0 / f64::EPSILON
+        ),
+        spec.spans.get("mpc.r"),
+    )
+    .label("the input weight is too small against the state weights to keep H invertible")
+    .note("hint: raise `r` or lower `q`/`qf`, or shorten the horizon")
+    .into())
+}
+
+/// A spec's symmetric matrix, exactly symmetric: (A + Aᵀ)/2 (the spec allows rounding-sized asymmetry).
+fn symmetric(m: &Matrix) -> DMatrix<f64> {
+    symmetrize(&dense(m))
 }

@@ -173,3 +173,146 @@ fn values_beyond_the_scalar_type_are_located_errors() {
     let f64_src = src.replace("scalar = \"f32\"", "scalar = \"f64\"");
     assert!(lower(&load(&f64_src).unwrap()).is_ok());
 }
+
+/// The first message of a spec's lowering errors, and the text its span covers.
+fn first_error(src: &str) -> (String, String) {
+    let Err(diags) = lower(&load(src).unwrap()) else {
+        panic!("the spec was accepted");
+    };
+    let d = diags.iter().next().unwrap();
+    let at = d.span.clone().map_or(String::new(), |s| src[s].to_string());
+    (d.message.clone(), at)
+}
+
+#[test]
+fn an_indefinite_weight_cannot_hide_behind_a_large_entry() {
+    // Eigenvalues ≈ 1e12 and −0.44 (the second row has 1 on the diagonal and 1.2e6 beside it): a tolerance
+    // relative to the largest eigenvalue (1e-12·1e12 = 1) used to accept it.
+    let src = include_str!("../../specs/paper.toml").replace(
+        "q = [150, 150, 150, 5, 5, 5]",
+        "q = [[1e12, 1.2e6, 0, 0, 0, 0], [1.2e6, 1, 0, 0, 0, 0], [0, 0, 150, 0, 0, 0], [0, 0, 0, 5, 0, 0], [0, 0, 0, 0, 5, 0], [0, 0, 0, 0, 0, 5]]",
+    );
+    let (message, at) = first_error(&src);
+    assert!(
+        message.starts_with("`mpc.q` must be positive semidefinite"),
+        "{message}"
+    );
+    assert!(at.starts_with("[[1e12"), "{at}");
+    // A zero weight is fine; a zero diagonal with an off-diagonal entry is not.
+    let zero = include_str!("../../specs/paper.toml").replace(
+        "q = [150, 150, 150, 5, 5, 5]",
+        "q = [150, 150, 150, 0, 5, 5]",
+    );
+    assert!(lower(&load(&zero).unwrap()).is_ok());
+}
+
+#[test]
+fn a_plant_the_inputs_cannot_move_is_not_stabilizable() {
+    let src = r#"
+[model]
+type = "linear"
+dt = 0.1
+a = [[1, 0.1], [0, 1]]
+b = [[0], [0]]
+c = [[1, 0]]
+[mpc]
+horizon = 10
+iterations = 20
+q = [1, 1]
+r = [1]
+u_min = [-1]
+u_max = [1]
+[kalman]
+q = [[0.01, 0], [0, 0.01]]
+r = [[0.01]]
+"#;
+    let (message, at) = first_error(src);
+    assert!(
+        message.starts_with("the plant is not stabilizable: its mode λ = 1"),
+        "{message}"
+    );
+    assert_eq!(at, "[[0], [0]]");
+    // Stabilizable with the input on the velocity.
+    assert!(lower(&load(&src.replace("b = [[0], [0]]", "b = [[0], [0.1]]")).unwrap()).is_ok());
+}
+
+#[test]
+fn auto_iterations_never_exceed_the_fixed_count_limit() {
+    // Algorithm 1 at α = 0.001 on the paper's H: (1 − αμ)^k ≤ 1e-12 needs about 9e4 / 0.3 iterations.
+    let src = include_str!("../../specs/paper-faithful.toml")
+        .replace(
+            "iterations = 30",
+            "iterations = \"auto\"\ntolerance = 1e-12",
+        )
+        .replace("step = 0.04", "step = 0.0001");
+    let (message, at) = first_error(&src);
+    assert!(
+        message.starts_with("`iterations = \"auto\"` would need "),
+        "{message}"
+    );
+    assert!(message.ends_with("above the limit of 100000"), "{message}");
+    assert_eq!(at, "\"auto\"");
+}
+
+#[test]
+fn a_numerically_singular_hessian_is_an_error_at_r() {
+    // Two inputs that act identically, weighted 1e-30: H = 2(SuᵀQSu + R) has eigenvalues of 2e-30 beside
+    // ones near 1, a condition number past 1/ε (this used to panic in the certificate).
+    let src = r#"
+[model]
+type = "linear"
+dt = 0.1
+a = [[1, 0.1], [0, 1]]
+b = [[0.005, 0.005], [0.1, 0.1]]
+c = [[1, 0]]
+[mpc]
+horizon = 5
+iterations = 20
+q = [1, 1]
+r = [1e-30, 1e-30]
+u_min = [-1, -1]
+u_max = [1, 1]
+[kalman]
+q = [[0.01, 0], [0, 0.01]]
+r = [[0.01]]
+"#;
+    let (message, at) = first_error(src);
+    assert!(
+        message.starts_with("the Hessian H is numerically singular"),
+        "{message}"
+    );
+    assert_eq!(at, "[1e-30, 1e-30]");
+    // The same plant with a reasonable input weight builds.
+    assert!(lower(&load(&src.replace("r = [1e-30, 1e-30]", "r = [0.1, 0.1]")).unwrap()).is_ok());
+}
+
+#[test]
+fn symmetry_up_to_rounding_is_accepted_and_symmetrized_with_a_warning() {
+    let paper = include_str!("../../specs/paper.toml");
+    let full = |off: &str| {
+        paper.replace(
+            "qf_scale = 50",
+            &format!("qf = [[7500, {off}, 0, 0, 0, 0], [0.5, 7500, 0, 0, 0, 0], [0, 0, 7500, 0, 0, 0], [0, 0, 0, 250, 0, 0], [0, 0, 0, 0, 250, 0], [0, 0, 0, 0, 0, 250]]"),
+        )
+    };
+    // A Riccati solution printed to ten digits: 0.5 against 0.5000000001 (asymmetry 1.3e-14 of 7500).
+    let g = codegen::generate_from_source(&full("0.5000000001"), &codegen::Opt::default()).unwrap();
+    assert_eq!(g.problem.qp.Qf, g.problem.qp.Qf.transpose());
+    assert!((g.problem.qp.Qf[(0, 1)] - 0.50000000005).abs() < 1e-15);
+    // 1e-6 of the pair's scale is a typo, not rounding.
+    let load = mpc_spec::load(&full("0.5075")).unwrap_err();
+    assert!(load
+        .iter()
+        .next()
+        .unwrap()
+        .message
+        .starts_with("`mpc.qf` must be symmetric"));
+    // Between 1e-12 and 1e-9 of the scale: accepted, with a warning naming the key.
+    let g = codegen::generate_from_source(&full("0.500005"), &codegen::Opt::default()).unwrap();
+    let w = g.warnings.iter().next().expect("a warning");
+    assert!(
+        w.message.starts_with("`mpc.qf` is not exactly symmetric"),
+        "{}",
+        w.message
+    );
+}

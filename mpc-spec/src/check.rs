@@ -348,10 +348,16 @@ fn square(
     let m = m?;
     match m.value.to_square(n) {
         Ok(mat) if mat.is_symmetric() => Some(mat),
-        Ok(_) => {
+        Ok(mat) => {
             diags.push(
                 Diagnostic::new(format!("`{path}` must be symmetric"), m.span.clone())
-                    .label("not equal to its transpose"),
+                    .label(format!(
+                        "a_ij and a_ji differ by {:.3e} of √(|a_ii·a_jj|)",
+                        mat.asymmetry()
+                    ))
+                    .note(format!(
+                        "hint: entries may differ by up to {SYMMETRY_TOLERANCE:e} of √(|a_ii·a_jj|) (rounding); the compiler then uses (A + Aᵀ)/2"
+                    )),
             );
             None
         }

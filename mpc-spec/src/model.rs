@@ -92,14 +92,38 @@ impl Matrix {
         }
     }
 
-    /// Whether the matrix is square and equal to its transpose up to a relative tolerance.
+    /// The largest asymmetry |a_ij − a_ji| relative to √(|a_ii·a_jj|), the scale of the pair (infinite when a
+    /// pair differs where that scale is zero); 0 for an exactly symmetric matrix, infinite for a non-square one.
+    pub fn asymmetry(&self) -> f64 {
+        if self.rows != self.cols {
+            return f64::INFINITY;
+        }
+        let mut worst = 0.0_f64;
+        for i in 0..self.rows {
+            for j in 0..i {
+                let difference = (self.get(i, j) - self.get(j, i)).abs();
+                if difference == 0.0 {
+                    continue;
+                }
+                let scale = (self.get(i, i) * self.get(j, j)).abs().sqrt();
+                worst = worst.max(difference / scale);
+            }
+        }
+        worst
+    }
+
+    /// Whether the matrix is square and symmetric up to [`SYMMETRY_TOLERANCE`] of each pair's scale
+    /// √(|a_ii·a_jj|): a Riccati solution printed to ten digits passes, a typo does not.
     pub fn is_symmetric(&self) -> bool {
-        let scale = self.data.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-        self.rows == self.cols
-            && (0..self.rows)
-                .all(|i| (0..i).all(|j| (self.get(i, j) - self.get(j, i)).abs() <= 1e-12 * scale))
+        self.asymmetry() <= SYMMETRY_TOLERANCE
     }
 }
+
+/// The most iterations a spec may ask for, written or chosen by `iterations = "auto"`.
+pub const MAX_ITERATIONS: usize = 100_000;
+
+/// The asymmetry a weight or covariance may have, relative to √(|a_ii·a_jj|); the compiler uses (A + Aᵀ)/2.
+pub const SYMMETRY_TOLERANCE: f64 = 1e-9;
 
 /// The plant model, `[model]`.
 #[derive(Clone, Debug, PartialEq)]

@@ -508,10 +508,12 @@ impl Parser<'_> {
                 );
                 None
             }
-            _ => self.count(v, "mpc.iterations", 1).map(|n| Located {
-                value: Some(n.value),
-                span: n.span,
-            }),
+            _ => self
+                .count_at_most(v, "mpc.iterations", 1, crate::MAX_ITERATIONS as i64, "")
+                .map(|n| Located {
+                    value: Some(n.value),
+                    span: n.span,
+                }),
         }
     }
 

@@ -19,7 +19,7 @@ pub(crate) enum Command {
     /// Check a spec and print what the compiler proves about it: conditioning, rates, iteration bound,
     /// closed-loop stability, resources.
     Check {
-        /// The TOML controller spec.
+        /// The TOML controller spec: a regular file of at most 1 MiB, or `-` for standard input.
         #[arg(value_name = "SPEC")]
         spec: PathBuf,
         /// Print the certificate as JSON, under stable names.
@@ -28,10 +28,12 @@ pub(crate) enum Command {
     },
     /// Print the module `mpc!` generates from a spec, formatted as a person would read it.
     Emit {
-        /// The TOML controller spec; the module is named after its file stem.
+        /// The TOML controller spec: a regular file of at most 1 MiB, or `-` for standard input; the module
+        /// is named after its file stem (`controller` for `-`).
         #[arg(value_name = "SPEC")]
         spec: PathBuf,
-        /// Write the module to FILE (only if its content changed) instead of printing it.
+        /// Write the module to FILE instead of printing it: a regular file only if its content changed,
+        /// never the SPEC itself.
         #[arg(short, long, value_name = "FILE")]
         output: Option<PathBuf>,
     },

@@ -1,6 +1,8 @@
-//! `mpcc emit`: the module's name, and writing only what changed.
+//! `mpcc emit`: the module's name, and writing it: never over the spec, only what changed to a regular
+//! file, straight through to anything else (`/dev/stdout`).
 
-use std::io;
+use std::fs;
+use std::io::{self, Read, Write};
 use std::path::Path;
 
 /// A module name from the spec's file stem: `specs/paper-faithful.toml` gives `paper_faithful`.
@@ -36,16 +38,72 @@ const KEYWORDS: &[&str] = &[
     "override", "priv", "try", "typeof", "unsized", "virtual", "yield",
 ];
 
-/// Writes `content` to `path` unless the file already holds exactly that, so that a build that depends
-/// on the file is not redone for nothing (prost-build's `write_file_if_changed`). Returns whether it wrote.
-pub(crate) fn write_file_if_changed(path: &Path, content: &str) -> io::Result<bool> {
-    if let Ok(old) = std::fs::read(path) {
-        if old == content.as_bytes() {
-            return Ok(false);
+/// Whether `output` is the file `spec` (the same path, or another name of it: `./`, `..`, a symbolic or
+/// hard link), so that `mpcc emit SPEC -o SPEC` is refused before it overwrites the spec. On unix the
+/// device and inode numbers decide; elsewhere the canonical paths. A path that does not exist is not the
+/// spec.
+pub(crate) fn same_file(spec: &Path, output: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (fs::metadata(spec), fs::metadata(output)) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
         }
     }
-    std::fs::write(path, content)?;
+    #[cfg(not(unix))]
+    {
+        match (fs::canonicalize(spec), fs::canonicalize(output)) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        }
+    }
+}
+
+/// Writes the module to `-o path`. A regular file (or a new one) is written only if its content changed
+/// ([`write_file_if_changed`]); anything else, such as `/dev/stdout`, a terminal or a FIFO, is written
+/// straight through, without reading it first: reading `/dev/stdout` waits for input that never comes
+/// and reading `/dev/full` never ends. As on standard output, a reader that went away (`-o /dev/stdout |
+/// head`) ends the output quietly.
+pub(crate) fn write(path: &Path, content: &str) -> io::Result<()> {
+    match fs::metadata(path) {
+        Ok(meta) if !meta.is_file() => {
+            let mut file = fs::OpenOptions::new().write(true).open(path)?;
+            match file.write_all(content.as_bytes()) {
+                Err(e) if e.kind() == io::ErrorKind::BrokenPipe => Ok(()),
+                result => result,
+            }
+        }
+        _ => write_file_if_changed(path, content).map(|_| ()),
+    }
+}
+
+/// Writes `content` to `path` unless the file already holds exactly that, so that a build that depends
+/// on the file is not redone for nothing (prost-build's `write_file_if_changed`). Returns whether it wrote.
+/// The old content is read only when its length is the new one's, and then no further.
+pub(crate) fn write_file_if_changed(path: &Path, content: &str) -> io::Result<bool> {
+    if unchanged(path, content.as_bytes()) {
+        return Ok(false);
+    }
+    fs::write(path, content)?;
     Ok(true)
+}
+
+/// Whether the regular file `path` holds exactly `content`; any failure to tell means no.
+fn unchanged(path: &Path, content: &[u8]) -> bool {
+    let Ok(file) = fs::File::open(path) else {
+        return false;
+    };
+    if !file
+        .metadata()
+        .is_ok_and(|m| m.is_file() && m.len() == content.len() as u64)
+    {
+        return false;
+    }
+    let mut old = Vec::with_capacity(content.len());
+    file.take(content.len() as u64 + 1)
+        .read_to_end(&mut old)
+        .is_ok_and(|_| old == content)
 }
 
 #[cfg(test)]

@@ -2,8 +2,13 @@
 //!
 //! - `mpcc check SPEC [--json]` prints what the compiler proves about a controller spec (the certificate
 //!   that `mpc!` emits as the `report` submodule) and its warnings;
-//! - `mpcc emit SPEC [-o FILE]` prints the module `mpc!` would emit, formatted, or writes it to `FILE`
-//!   when its content changed.
+//! - `mpcc emit SPEC [-o FILE]` prints the module `mpc!` would emit, formatted, or writes it to `FILE`:
+//!   a regular file only when its content changed, anything else (`/dev/stdout`, a FIFO) straight
+//!   through; `FILE` may not be the spec itself.
+//!
+//! SPEC is a regular file or `-` for standard input, of at most 1 MiB (`input::SPEC_SIZE_LIMIT`); a
+//! FIFO, a device or a directory is refused before it is opened, so that `mpcc` never blocks on or reads
+//! without bound from its input.
 //!
 //! A bad spec prints the same rendered diagnostics as the macro (`codegen::render`) and exits 1. As in
 //! cxxbridge, `main` calls `try_main` and reports an error as `mpcc: {error}` with its `Caused by:` chain.
@@ -12,6 +17,7 @@ mod app;
 mod check;
 mod emit;
 mod error;
+mod input;
 #[cfg(test)]
 mod test;
 
@@ -46,14 +52,20 @@ fn try_main() -> Result<()> {
         }
         Command::Emit { spec, output } => {
             let loaded = Loaded::read(&spec)?;
+            if let Some(output) = &output {
+                if !input::is_stdin(&spec) && emit::same_file(&spec, output) {
+                    return Err(Error::SameFile {
+                        spec,
+                        output: output.clone(),
+                    });
+                }
+            }
             let generated = loaded.generate(&emit::module_name(&spec))?;
             loaded.print_warnings(&generated.warnings);
             let text = generated.pretty();
             match output {
                 None => print(&text),
-                Some(path) => emit::write_file_if_changed(&path, &text)
-                    .map(|_| ())
-                    .map_err(|e| Error::Write(path, e)),
+                Some(path) => emit::write(&path, &text).map_err(|e| Error::Write(path, e)),
             }
         }
     }
@@ -69,17 +81,23 @@ fn print(text: &str) -> Result<()> {
     }
 }
 
-/// A spec file read from disk.
+/// A spec read from a file or from standard input.
 struct Loaded {
-    /// The path as given on the command line, which is how diagnostics and the emitted docs name it.
+    /// The path as given on the command line, or `<stdin>`: how diagnostics and the emitted docs name it.
     shown: String,
     source: String,
 }
 
 impl Loaded {
+    /// Reads the spec at `path`, or standard input for `-` (see `input` for the limits).
     fn read(path: &Path) -> Result<Self> {
-        let source =
-            std::fs::read_to_string(path).map_err(|e| Error::Read(path.to_path_buf(), e))?;
+        if input::is_stdin(path) {
+            return Ok(Loaded {
+                shown: "<stdin>".into(),
+                source: input::read_stdin().map_err(Error::ReadStdin)?,
+            });
+        }
+        let source = input::read_file(path).map_err(|e| Error::Read(path.to_path_buf(), e))?;
         Ok(Loaded {
             shown: path.display().to_string(),
             source,

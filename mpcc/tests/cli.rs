@@ -64,7 +64,7 @@ Check a spec and print what the compiler proves about it: conditioning, rates, i
 Usage: mpcc check [OPTIONS] <SPEC>
 
 Arguments:
-  <SPEC>  The TOML controller spec
+  <SPEC>  The TOML controller spec: a regular file of at most 1 MiB, or `-` for standard input
 
 Options:
       --json  Print the certificate as JSON, under stable names
@@ -85,10 +85,10 @@ Print the module `mpc!` generates from a spec, formatted as a person would read 
 Usage: mpcc emit [OPTIONS] <SPEC>
 
 Arguments:
-  <SPEC>  The TOML controller spec; the module is named after its file stem
+  <SPEC>  The TOML controller spec: a regular file of at most 1 MiB, or `-` for standard input; the module is named after its file stem (`controller` for `-`)
 
 Options:
-  -o, --output <FILE>  Write the module to FILE (only if its content changed) instead of printing it
+  -o, --output <FILE>  Write the module to FILE instead of printing it: a regular file only if its content changed, never the SPEC itself
   -h, --help           Print help
 "
     );
@@ -334,4 +334,293 @@ fn json_text_and_report_come_from_one_list_of_fields() {
             }
         }
     }
+}
+
+// What `mpcc` reads and writes besides a plain spec and a plain output file: the spec as its own output,
+// FIFOs, devices, standard input, and the size limit on a spec. Every run is watched, so that a
+// regression to hanging fails the test instead of hanging CI.
+
+use std::process::Stdio;
+use std::time::{Duration, Instant};
+
+/// How long a watched `mpcc` may run before it counts as hung (a run takes well under a second).
+const WATCHDOG: Duration = Duration::from_secs(20);
+
+/// The limit on a spec's size that `mpcc` states in `--help` and in its error.
+const SPEC_SIZE_LIMIT: usize = 1 << 20;
+
+/// Runs `mpcc args` from the workspace root with `stdin`, as `mpcc` does, but under a watchdog: after
+/// `WATCHDOG` the process is killed and the test fails. Standard output and error are drained while it
+/// runs, so that a full pipe cannot stall it.
+fn mpcc_watched(args: &[&str], stdin: Stdio) -> Output {
+    fn drain(mut pipe: impl std::io::Read + Send + 'static) -> std::thread::JoinHandle<Vec<u8>> {
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            pipe.read_to_end(&mut bytes).unwrap();
+            bytes
+        })
+    }
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mpcc"))
+        .args(args)
+        .current_dir(workspace())
+        .stdin(stdin)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("mpcc runs");
+    let out = drain(child.stdout.take().unwrap());
+    let err = drain(child.stderr.take().unwrap());
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > WATCHDOG {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("`mpcc {}` still ran after {WATCHDOG:?}", args.join(" "));
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    Output {
+        status,
+        stdout: out.join().unwrap(),
+        stderr: err.join().unwrap(),
+    }
+}
+
+/// Standard input from the file at `path`.
+fn stdin_from(path: impl AsRef<Path>) -> Stdio {
+    std::fs::File::open(path).unwrap().into()
+}
+
+/// Makes a FIFO at `path`, replacing what is there.
+#[cfg(unix)]
+fn mkfifo(path: &Path) {
+    let _ = std::fs::remove_file(path);
+    let status = Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .expect("mkfifo runs");
+    assert!(status.success(), "mkfifo {}: {status}", path.display());
+}
+
+#[test]
+fn emit_refuses_to_write_over_its_spec() {
+    let dir = scratch("same-file");
+    let spec = dir.join("paper.toml");
+    let paper = std::fs::read(workspace().join("specs/paper.toml")).unwrap();
+    std::fs::write(&spec, &paper).unwrap();
+    let hard_link = dir.join("hard-link.toml");
+    let _ = std::fs::remove_file(&hard_link);
+    std::fs::hard_link(&spec, &hard_link).unwrap();
+    let mut outputs = vec![spec.clone(), dir.join(".").join("paper.toml"), hard_link];
+    #[cfg(unix)]
+    {
+        let symlink = dir.join("symlink.toml");
+        let _ = std::fs::remove_file(&symlink);
+        std::os::unix::fs::symlink(&spec, &symlink).unwrap();
+        outputs.push(symlink);
+    }
+    let shown = spec.to_str().unwrap();
+    for output in &outputs {
+        let output = output.to_str().unwrap();
+        let o = mpcc_watched(&["emit", shown, "-o", output], Stdio::null());
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        assert_eq!(stdout(&o), "");
+        assert_eq!(
+            stderr(&o),
+            format!(
+                "mpcc: refusing to write `{output}`: it is the same file as the spec `{shown}`\n"
+            )
+        );
+        assert!(
+            std::fs::read(&spec).unwrap() == paper,
+            "`-o {output}` changed the spec"
+        );
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn a_fifo_as_the_spec_is_refused_without_opening_it() {
+    let fifo = scratch("fifo-spec").join("pipe.toml");
+    mkfifo(&fifo);
+    let shown = fifo.to_str().unwrap();
+    for command in ["check", "emit"] {
+        let o = mpcc_watched(&[command, shown], Stdio::null());
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        assert_eq!(stdout(&o), "");
+        assert_eq!(
+            stderr(&o),
+            format!(
+                "mpcc: cannot read the spec `{shown}`\n\nCaused by:\n    it is a FIFO, not a regular file\n"
+            )
+        );
+    }
+}
+
+/// `/dev/zero` never ends: as SPEC it is refused as a device, before it is read; as standard input it is
+/// read up to the size limit and refused there.
+#[cfg(unix)]
+#[test]
+fn dev_zero_is_refused_as_the_spec_and_on_standard_input() {
+    let o = mpcc_watched(&["check", "/dev/zero"], Stdio::null());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o),
+        "mpcc: cannot read the spec `/dev/zero`\n\nCaused by:\n    it is a character device, not a regular file\n"
+    );
+    let o = mpcc_watched(&["check", "-"], stdin_from("/dev/zero"));
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(stdout(&o), "");
+    assert_eq!(
+        stderr(&o),
+        "mpcc: cannot read the spec from standard input\n\nCaused by:\n    it is larger than the limit of 1 MiB (1048576 bytes)\n"
+    );
+}
+
+#[test]
+fn a_spec_over_the_size_limit_is_refused() {
+    let dir = scratch("size-limit");
+    // The paper's spec and a comment, to exactly the limit: accepted.
+    let mut padded = std::fs::read(workspace().join("specs/paper.toml")).unwrap();
+    padded.extend_from_slice(b"\n# ");
+    padded.resize(SPEC_SIZE_LIMIT - 1, b'x');
+    padded.push(b'\n');
+    assert_eq!(padded.len(), SPEC_SIZE_LIMIT);
+    let at = dir.join("at-the-limit.toml");
+    std::fs::write(&at, &padded).unwrap();
+    let at = at.to_str().unwrap();
+    let o = mpcc_watched(&["check", at], Stdio::null());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).starts_with(&format!("{at}: fgm")),
+        "{}",
+        stdout(&o)
+    );
+
+    // One byte more: refused, from a file and from standard input.
+    padded.push(b'\n');
+    let over = dir.join("over-the-limit.toml");
+    std::fs::write(&over, &padded).unwrap();
+    let shown = over.to_str().unwrap();
+    let o = mpcc_watched(&["check", shown], Stdio::null());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(stdout(&o), "");
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "mpcc: cannot read the spec `{shown}`\n\nCaused by:\n    it is larger than the limit of 1 MiB (1048576 bytes)\n"
+        )
+    );
+    let o = mpcc_watched(&["emit", "-"], stdin_from(&over));
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o),
+        "mpcc: cannot read the spec from standard input\n\nCaused by:\n    it is larger than the limit of 1 MiB (1048576 bytes)\n"
+    );
+}
+
+#[test]
+fn a_directory_or_a_spec_that_is_not_utf8_is_refused() {
+    let dir = scratch("not-a-spec");
+    let shown = dir.to_str().unwrap();
+    let o = mpcc_watched(&["check", shown], Stdio::null());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "mpcc: cannot read the spec `{shown}`\n\nCaused by:\n    it is a directory, not a regular file\n"
+        )
+    );
+    let latin1 = dir.join("latin1.toml");
+    std::fs::write(&latin1, b"name = \"caf\xe9\"\n").unwrap();
+    let shown = latin1.to_str().unwrap();
+    let o = mpcc_watched(&["check", shown], Stdio::null());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "mpcc: cannot read the spec `{shown}`\n\nCaused by:\n    it is not UTF-8 text: invalid utf-8 sequence of 1 bytes from index 11\n"
+        )
+    );
+}
+
+#[test]
+fn a_dash_reads_the_spec_from_standard_input() {
+    let paper = workspace().join("specs/paper.toml");
+    let o = mpcc_watched(&["check", "-"], stdin_from(&paper));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).starts_with("<stdin>: fgm, horizon 15, 30 iterations"),
+        "{}",
+        stdout(&o)
+    );
+    let o = mpcc_watched(&["emit", "-"], stdin_from(&paper));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(text.contains("pub mod controller {"), "{text}");
+    assert!(text.contains("from `<stdin>`"), "{text}");
+    syn::parse_file(&text).expect("a valid Rust file");
+    // Diagnostics name standard input as `<stdin>`.
+    let typo = scratch("stdin").join("typo.toml");
+    let source = std::fs::read_to_string(&paper).unwrap();
+    std::fs::write(&typo, source.replace("horizon = 15", "horizion = 15")).unwrap();
+    let o = mpcc_watched(&["check", "-"], stdin_from(&typo));
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("--> <stdin>:"), "{err}");
+    assert!(
+        err.ends_with("mpcc: invalid controller spec `<stdin>`: 1 error\n"),
+        "{err}"
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn emit_to_dev_stdout_prints_the_module() {
+    let printed = mpcc(&["emit", "specs/paper.toml"]);
+    assert!(printed.status.success(), "{}", stderr(&printed));
+    let o = mpcc_watched(
+        &["emit", "specs/paper.toml", "-o", "/dev/stdout"],
+        Stdio::null(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stderr(&o), "");
+    assert!(o.stdout == printed.stdout, "{}", stdout(&o));
+}
+
+#[cfg(unix)]
+#[test]
+fn emit_writes_through_a_fifo() {
+    let fifo = scratch("fifo-output").join("module.rs");
+    mkfifo(&fifo);
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::read(fifo).unwrap())
+    };
+    let o = mpcc_watched(
+        &["emit", "specs/paper.toml", "-o", fifo.to_str().unwrap()],
+        Stdio::null(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o), "");
+    let printed = mpcc(&["emit", "specs/paper.toml"]);
+    assert!(reader.join().unwrap() == printed.stdout);
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn emit_to_dev_full_fails_with_no_space_left() {
+    let o = mpcc_watched(
+        &["emit", "specs/paper.toml", "-o", "/dev/full"],
+        Stdio::null(),
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(stdout(&o), "");
+    assert_eq!(
+        stderr(&o),
+        "mpcc: cannot write `/dev/full`\n\nCaused by:\n    No space left on device (os error 28)\n"
+    );
 }
