@@ -9,6 +9,7 @@
 //! converge: see [`Certificate::contraction`]).
 #![allow(non_snake_case)]
 
+use crate::budget::{self, BuildCost};
 use crate::cost::Estimate;
 use crate::linalg::{extreme_eigenvalues, lqr_gain, lyapunov_identity, spectral_radius};
 use crate::lower::Problem;
@@ -50,7 +51,7 @@ pub struct MpcLoop {
     pub spectral_radius: f64,
     /// ρ of the loop the fixed-iteration, warm-started solver actually closes, a linear system in the
     /// state and the previous plan; `None` for problems above [`MAX_SOLVER_ANALYSIS_SIZE`] decision variables
-    /// and for algorithms whose iteration is not linear.
+    /// or [`budget::SOLVER_ANALYSIS_MACS`] multiply-adds, and for algorithms whose iteration is not linear.
     pub solver_spectral_radius: Option<f64>,
 }
 
@@ -69,6 +70,8 @@ pub struct Resources {
     pub bytes_state_kalman: usize,
     /// Bytes of `Controller`: everything carried between control cycles.
     pub bytes_state: usize,
+    /// Multiply-adds of the filter's update and predict, unrolled in the emitted code.
+    pub macs_filter: usize,
 }
 
 /// Everything the compiler proves and counts about one controller. Its JSON (`mpcc check --json`) is this
@@ -112,6 +115,8 @@ pub struct Certificate {
     /// The cost model's estimate of every emission choice ([`crate::cost`]).
     #[serde(rename = "emission_estimates")]
     pub estimates: Vec<Estimate>,
+    /// What building the module is predicted to cost ([`crate::budget`]).
+    pub build_cost: BuildCost,
     /// The disturbance estimate's time constant in seconds, with `[kalman] disturbance`: −Δt / ln ρ of the
     /// steady-state estimation error dynamics F_a(I − K∞C_a), whose slowest mode is the disturbance's.
     pub disturbance_time_constant: Option<f64>,
@@ -147,6 +152,10 @@ pub enum Shown {
     Gap,
     /// The number, and its section only when it is present.
     IfPresent,
+    /// A size in bytes ("840 MB").
+    Bytes,
+    /// A time in seconds.
+    Seconds,
 }
 
 /// One number of the certificate under the names of its outputs: the `report` module's constant and the
@@ -155,7 +164,7 @@ pub enum Shown {
 pub struct Field {
     /// Its key in the JSON (dotted for a nested object): the serde name of the certificate's field.
     pub json: &'static str,
-    /// The `report` constant.
+    /// The `report` constant; empty for a number the report does not carry (the build's cost).
     pub constant: &'static str,
     /// Its doc.
     pub doc: &'static str,
@@ -185,6 +194,8 @@ pub mod section {
     pub const OFFSET_FREE: &str = "offset-free: the input disturbance estimate";
     /// The code's cost.
     pub const RESOURCES: &str = "resources";
+    /// The build's predicted cost ([`crate::budget`]); not in the `report` module.
+    pub const BUILD: &str = "build cost (predicted; limits in codegen::budget)";
 }
 
 impl Certificate {
@@ -203,7 +214,7 @@ impl Certificate {
             shown,
             value,
         };
-        let r = &self.resources;
+        let (r, b) = (&self.resources, &self.build_cost);
         vec![
             field("lipschitz", "LIPSCHITZ", "L, the largest eigenvalue of the Hessian H.", QP, "L = λmax(H)", Plain, Real(self.lipschitz)),
             field("strong_convexity", "STRONG_CONVEXITY", "μ, the smallest eigenvalue of H.", QP, "μ = λmin(H)", Plain, Real(self.strong_convexity)),
@@ -228,6 +239,14 @@ impl Certificate {
             field("bytes_state_mpc", "BYTES_STATE_MPC", "Bytes of `Mpc`.", RESOURCES, "bytes of state: Mpc", Plain, Count(r.bytes_state_mpc)),
             field("bytes_state_kalman", "BYTES_STATE_KALMAN", "Bytes of `Kalman`.", RESOURCES, "bytes of state: Kalman", Plain, Count(r.bytes_state_kalman)),
             field("bytes_state", "BYTES_STATE", "Bytes of `Controller`, all the state carried between cycles.", RESOURCES, "bytes of state: Controller", Plain, Count(r.bytes_state)),
+            field("macs_filter", "MACS_FILTER", "Multiply-adds of the filter's update and predict, unrolled in the code.", RESOURCES, "multiply-adds of the filter", Plain, Count(r.macs_filter)),
+            field("build_cost.lowering_bytes", "", "", BUILD, "lowering: matrices formed", Bytes, Real(b.lowering_bytes)),
+            field("build_cost.lowering_macs", "", "", BUILD, "lowering: multiply-adds", Plain, Real(b.lowering_macs)),
+            field("build_cost.emitted_numbers", "", "", BUILD, "emitted: numbers in tables", Plain, Count(b.emitted_numbers)),
+            field("build_cost.emitted_unrolled", "", "", BUILD, "emitted: unrolled multiply-adds", Plain, Count(b.emitted_unrolled)),
+            field("build_cost.source_bytes", "", "", BUILD, "emitted: source", Bytes, Real(b.source_bytes)),
+            field("build_cost.rustc_seconds", "", "", BUILD, "rustc on the module: time", Seconds, Real(b.rustc_seconds)),
+            field("build_cost.rustc_bytes", "", "", BUILD, "rustc on the module: memory", Bytes, Real(b.rustc_bytes)),
         ]
     }
 }
@@ -316,6 +335,8 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
     let qp = &p.qp;
     let rate = plan.algorithm.rate(&qp.parameters());
     let tolerance = qp.tolerance.unwrap_or(DEFAULT_TOLERANCE);
+    let resources = resources(p, plan);
+    let (tables, unrolled) = emitted_terms(p, plan, &resources);
     Certificate {
         lipschitz: qp.L,
         strong_convexity: qp.mu,
@@ -330,7 +351,8 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
         guaranteed_gap: rate.map(|r| r.guaranteed(qp.iterations)),
         lqr: lqr(p),
         mpc: mpc_loop(p, plan),
-        resources: resources(p, plan),
+        resources,
+        build_cost: budget::predict(p, tables, unrolled),
         emission: plan.emission(),
         estimates: plan.estimates.clone(),
         disturbance_time_constant: (p.filter.nd > 0).then(|| {
@@ -382,35 +404,63 @@ fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
         None => DMatrix::from_element(nu, nx, f64::NAN),
     };
     let spectral = spectral_radius(&(&p.F - &p.G * &K));
-    let solver = (nz <= MAX_SOLVER_ANALYSIS_SIZE)
-        .then_some(())
-        .and_then(|()| {
-            // The plan after m iterations is linear in z = [x; U_prev]: U_m = M·z. Build M by running the
-            // solver on matrices (columns = unit directions of z), references zero and bounds inactive.
-            let dim = nx + nz;
-            let mut shift = DMatrix::zeros(nz, dim);
-            for i in 0..nz - nu {
-                shift[(i, nx + nu + i)] = 1.0;
-            }
-            let mut f = DMatrix::zeros(nz, dim);
-            f.view_mut((0, 0), (nz, nx)).copy_from(&qp.Fx);
-            let step = |Y: &DMatrix<f64>| Y - (&qp.H * Y + &f) * qp.step;
-            let U =
-                plan.algorithm
-                    .reference_linear(&qp.parameters(), shift, qp.iterations, &step)?;
-            let mut A = DMatrix::zeros(dim, dim);
-            let x_next = &p.G * U.rows(0, nu);
-            A.view_mut((0, 0), (nx, dim)).copy_from(&x_next);
-            let F_block = A.view((0, 0), (nx, nx)) + &p.F;
-            A.view_mut((0, 0), (nx, nx)).copy_from(&F_block);
-            A.view_mut((nx, 0), (nz, dim)).copy_from(&U);
-            Some(spectral_radius(&A))
-        });
+    let affordable = nz <= MAX_SOLVER_ANALYSIS_SIZE
+        && budget::solver_analysis_macs(nx, nz, qp.iterations) <= budget::SOLVER_ANALYSIS_MACS;
+    let solver = affordable.then_some(()).and_then(|()| {
+        // The plan after m iterations is linear in z = [x; U_prev]: U_m = M·z. Build M by running the
+        // solver on matrices (columns = unit directions of z), references zero and bounds inactive.
+        let dim = nx + nz;
+        let mut shift = DMatrix::zeros(nz, dim);
+        for i in 0..nz - nu {
+            shift[(i, nx + nu + i)] = 1.0;
+        }
+        let mut f = DMatrix::zeros(nz, dim);
+        f.view_mut((0, 0), (nz, nx)).copy_from(&qp.Fx);
+        let step = |Y: &DMatrix<f64>| Y - (&qp.H * Y + &f) * qp.step;
+        let U = plan
+            .algorithm
+            .reference_linear(&qp.parameters(), shift, qp.iterations, &step)?;
+        let mut A = DMatrix::zeros(dim, dim);
+        let x_next = &p.G * U.rows(0, nu);
+        A.view_mut((0, 0), (nx, dim)).copy_from(&x_next);
+        let F_block = A.view((0, 0), (nx, nx)) + &p.F;
+        A.view_mut((0, 0), (nx, nx)).copy_from(&F_block);
+        A.view_mut((nx, 0), (nz, dim)).copy_from(&U);
+        Some(spectral_radius(&A))
+    });
     MpcLoop {
         gain: K,
         spectral_radius: spectral,
         solver_spectral_radius: solver,
     }
+}
+
+/// The numbers the module writes in tables and the multiply-adds it unrolls: the public matrices, the
+/// form's tables, the filter, and an unrolled gradient or the body of the sweeps.
+fn emitted_terms(p: &Problem, plan: &Plan, r: &Resources) -> (usize, usize) {
+    let qp = &p.qp;
+    let (nx, nu, ny, na) = (p.nx, p.nu, p.ny, p.nx + p.filter.nd);
+    let nz = qp.N * nu;
+    let form_tables = plan.estimate().table_bytes / Numeric(p.scalar).bytes();
+    let tables = nz * (nz + nx + qp.N * nx + p.filter.nd)
+        + nx * (nx + nu)
+        + ny * nx
+        + na * (3 * na + ny)
+        + ny * ny
+        + form_tables;
+    let estimate = |form: Emission| {
+        plan.estimates
+            .iter()
+            .find(|e| e.emission == form)
+            .map_or(0, |e| e.macs)
+    };
+    let form = match plan.emission() {
+        Emission::Unrolled => {
+            estimate(Emission::Unrolled) + qp.Fx.len() + qp.Fr.len() + qp.Fd.len()
+        }
+        _ => estimate(Emission::MatrixFree) / qp.N.max(1),
+    };
+    (tables, r.macs_filter + form)
 }
 
 fn resources(p: &Problem, plan: &Plan) -> Resources {
@@ -475,6 +525,7 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
     Resources {
         macs_per_iteration: per_iteration,
         macs_per_cycle: qp.iterations * per_iteration + gradient_map + filter,
+        macs_filter: filter,
         bytes_constants: (gradient_map_constants + filter_constants) * size,
         bytes_state_mpc,
         bytes_state_kalman,

@@ -22,6 +22,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod budget;
 pub mod certificate;
 pub mod cost;
 pub mod emit;
@@ -110,6 +111,7 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
     let plan = plan(spec, &problem)?;
     let certificate = certify(&problem, &plan);
     let warnings = certificate::review(spec, &certificate)?;
+    budget::before_emission(spec, &certificate.build_cost, &certificate.resources)?;
     let vis: TokenStream = opt.visibility.parse().map_err(|_| {
         Diagnostics::from(Diagnostic::new(
             format!("invalid visibility `{}`", opt.visibility),

@@ -181,6 +181,7 @@ fn model_lanes(
 /// when a weight or covariance is not (semi)definite, the step makes the iteration diverge, the filter has
 /// no steady state, or a number does not exist in the emitted scalar type.
 pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
+    crate::budget::before_lowering(spec)?;
     let mut diags = Diagnostics::default();
     let dt = spec.model.dt;
     let (F, G, C) = plant(&spec.model.kind, dt);
@@ -189,7 +190,9 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     let (Q, R, Qf) = (symmetric(&m.q), symmetric(&m.r), symmetric(&m.qf));
     check_weights(spec, &Q, &R, &Qf, &mut diags);
     if let ModelKind::Linear { .. } = spec.model.kind {
+        check_inputs_act(&G, spec.spans.get("model.b"), &mut diags);
         check_stabilizable(&F, &G, spec.spans.get("model.b"), &mut diags);
+        check_detectable(&F, &C, spec.spans.get("model.c"), &mut diags);
     }
     if !diags.is_empty() {
         return Err(diags.sorted());
@@ -332,6 +335,17 @@ fn solver_parameters(spec: &Spec, mu: f64, L: f64, diags: &mut Diagnostics) -> (
     }
     let iterations = match (m.iterations, m.tolerance, algorithm.rate(&parameters)) {
         (Iterations::Fixed(n), _, _) => n,
+        (Iterations::Auto, Some(_), Some(bound)) if bound.factor >= 1.0 => {
+            diags.push(
+                Diagnostic::new(
+                    format!("`mpc.step` = {step:e} is too small: 1 − αμ rounds to 1, so no count of iterations guarantees a decrease"),
+                    span("mpc.step"),
+                )
+                .label("step too small")
+                .note(format!("hint: write `step = \"auto\"` for 1/L = {:.6}", 1.0 / L)),
+            );
+            0
+        }
         (Iterations::Auto, Some(tol), Some(bound)) => {
             let needed = bound.iterations_for(tol);
             if needed > MAX_ITERATIONS {
@@ -454,10 +468,24 @@ fn check_ranges(
 ) -> Result<(), Diagnostics> {
     let span = |key: &str| spec.spans.get(key);
     let nu = G.ncols();
-    let bounds = DMatrix::from_iterator(2, nu, qp.u_min.iter().chain(qp.u_max.iter()).copied());
+    let (u_min, u_max) = (
+        DMatrix::from_iterator(1, nu, qp.u_min.iter().copied()),
+        DMatrix::from_iterator(1, nu, qp.u_max.iter().copied()),
+    );
     let step_matrix = DMatrix::from_element(1, 1, qp.step);
-    let emitted: [(&str, &str, &DMatrix<f64>); 13] = [
-        ("the input bounds", "mpc.u_max", &bounds),
+    let process = if spec.spans.get("kalman.q").is_some() {
+        "kalman.q"
+    } else {
+        "kalman.sigma_a"
+    };
+    let measurement = if spec.spans.get("kalman.r").is_some() {
+        "kalman.r"
+    } else {
+        "kalman.sigma_meas"
+    };
+    let emitted: [(&str, &str, &DMatrix<f64>); 14] = [
+        ("the lower input bounds", "mpc.u_min", &u_min),
+        ("the upper input bounds", "mpc.u_max", &u_max),
         ("the step", "mpc.step", &step_matrix),
         ("the Hessian H", "mpc.q", &qp.H),
         ("the gradient map Fx", "mpc.q", &qp.Fx),
@@ -465,9 +493,9 @@ fn check_ranges(
         ("the disturbance map Fd", "mpc.q", &qp.Fd),
         ("the model F", "model", F),
         ("the model G", "model", G),
-        ("the process noise Q", "kalman", &filter.Qn),
-        ("the measurement noise R", "kalman", &filter.Rn),
-        ("the initial covariance P0", "kalman", &filter.P0),
+        ("the process noise Q", process, &filter.Qn),
+        ("the measurement noise R", measurement, &filter.Rn),
+        ("the initial covariance P0", "kalman.p0", &filter.P0),
         ("the steady-state covariance P∞", "kalman", &filter.P_inf),
         ("the steady-state gain K∞", "kalman", &filter.K_inf),
     ];
@@ -486,6 +514,25 @@ fn check_ranges(
             .label("out of range for the emitted scalar type")
             .note("hint: rescale the weights or units, or write `scalar = \"f64\"` in `[codegen]`");
             diags.push(d);
+        }
+    }
+    // Bounds apart in f64 must stay apart in the emitted type, or the input is fixed.
+    for i in 0..nu {
+        let (lo, hi) = (scalar.round(qp.u_min[i]), scalar.round(qp.u_max[i]));
+        if qp.u_min[i] < qp.u_max[i] && lo >= hi {
+            diags.push(
+                Diagnostic::new(
+                    format!(
+                        "input {i}'s bounds [{:e}, {:e}] are one value in {}: the input could not move",
+                        qp.u_min[i],
+                        qp.u_max[i],
+                        scalar.name()
+                    ),
+                    span("mpc.u_min"),
+                )
+                .label("the lower bound rounds to the upper one")
+                .note("hint: rescale the input's units, or write `scalar = \"f64\"` in `[codegen]`"),
+            );
         }
     }
     if diags.is_empty() {
@@ -666,23 +713,15 @@ fn not_definite(M: &DMatrix<f64>, strict: bool) -> Option<String> {
     bad.then(|| format!("scaled to a unit diagonal, its smallest eigenvalue is {lo:.3e}"))
 }
 
-/// The plant must be stabilizable: every mode with |λ| ≥ 1 reachable from the inputs (the
-/// Popov-Belevitch-Hautus test, rank [F − λI, G] = nx at each such eigenvalue λ).
-fn check_stabilizable(
-    F: &DMatrix<f64>,
-    G: &DMatrix<f64>,
-    span: Option<mpc_spec::Span>,
-    diags: &mut Diagnostics,
-) {
+/// A mode of F with |λ| ≥ 1 that G cannot reach, by the Popov-Belevitch-Hautus test: rank [F − λI, G] < n.
+fn unreachable_mode(F: &DMatrix<f64>, G: &DMatrix<f64>) -> Option<nalgebra::Complex<f64>> {
     use nalgebra::Complex;
     let n = F.nrows();
-    let Some(schur) = nalgebra::Schur::try_new(F.clone(), f64::EPSILON, 100_000) else {
-        return;
-    };
+    let schur = nalgebra::Schur::try_new(F.clone(), f64::EPSILON, 100_000)?;
     let scale = F.amax().max(G.amax()).max(1.0);
-    for lambda in schur.complex_eigenvalues().iter() {
+    schur.complex_eigenvalues().iter().copied().find(|lambda| {
         if lambda.norm() < 1.0 - 1e-9 {
-            continue;
+            return false;
         }
         let M = DMatrix::from_fn(n, n + G.ncols(), |i, j| {
             if j < n {
@@ -696,22 +735,78 @@ fn check_stabilizable(
                 Complex::new(G[(i, j - n)], 0.0)
             }
         });
-        let sv = M.singular_values();
-        if sv.min() <= 1e-10 * scale {
-            diags.push(
-                Diagnostic::new(
-                    format!(
-                        "the plant is not stabilizable: its mode λ = {} (|λ| = {:.6}) cannot be moved by the inputs",
-                        complex(*lambda),
-                        lambda.norm()
-                    ),
-                    span.clone(),
-                )
-                .label("rank [F − λI, G] is below nx at this eigenvalue")
-                .note("hint: every unstable or marginally stable mode must be reachable from an input (check `b`, and that it is not all zero)"),
-            );
-            return;
+        // nalgebra's SVD panics on a NaN singular value (an overflowing F): such a plant is refused by
+        // the range checks, not here.
+        if !M.iter().all(|z| z.re.is_finite() && z.im.is_finite()) {
+            return false;
         }
+        nalgebra::SVD::try_new(M, false, false, f64::EPSILON, 10_000).is_some_and(|svd| {
+            let sv = &svd.singular_values;
+            sv.iter().all(|s| s.is_finite())
+                && sv.iter().fold(f64::INFINITY, |m, s| m.min(*s)) <= 1e-10 * scale
+        })
+    })
+}
+
+/// The plant must be stabilizable: every mode with |λ| ≥ 1 reachable from the inputs.
+fn check_stabilizable(
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+    span: Option<mpc_spec::Span>,
+    diags: &mut Diagnostics,
+) {
+    if let Some(lambda) = unreachable_mode(F, G) {
+        diags.push(
+            Diagnostic::new(
+                format!(
+                    "the plant is not stabilizable: its mode λ = {} (|λ| = {:.6}) cannot be moved by the inputs",
+                    complex(lambda),
+                    lambda.norm()
+                ),
+                span,
+            )
+            .label("rank [F − λI, G] is below nx at this eigenvalue")
+            .note("hint: every unstable or marginally stable mode must be reachable from an input (check `b`, and that it is not all zero)"),
+        );
+    }
+}
+
+/// Every input must move the state: a zero column of B is an input the controller would push in vain
+/// (B = 0 makes every input so, stable plant or not).
+fn check_inputs_act(G: &DMatrix<f64>, span: Option<mpc_spec::Span>, diags: &mut Diagnostics) {
+    if let Some(j) = (0..G.ncols()).find(|&j| G.column(j).iter().all(|v| *v == 0.0)) {
+        diags.push(
+            Diagnostic::new(
+                format!("input {j} moves nothing: column {j} of `model.b` is zero"),
+                span,
+            )
+            .label("every input needs a nonzero column in `b`")
+            .note("hint: remove the input, or give it the states it acts on"),
+        );
+    }
+}
+
+/// The measurements must see every mode with |λ| ≥ 1 (detectability of (F, C): stabilizability of
+/// (Fᵀ, Cᵀ)), or the filter cannot estimate it.
+fn check_detectable(
+    F: &DMatrix<f64>,
+    C: &DMatrix<f64>,
+    span: Option<mpc_spec::Span>,
+    diags: &mut Diagnostics,
+) {
+    if let Some(lambda) = unreachable_mode(&F.transpose(), &C.transpose()) {
+        diags.push(
+            Diagnostic::new(
+                format!(
+                    "the plant is not detectable: the measurements cannot see its mode λ = {} (|λ| = {:.6})",
+                    complex(lambda),
+                    lambda.norm()
+                ),
+                span,
+            )
+            .label("rank [F − λI; C] is below nx at this eigenvalue")
+            .note("hint: every unstable or marginally stable mode must show in an output (check `c`)"),
+        );
     }
 }
 

@@ -165,7 +165,8 @@ fn values_beyond_the_scalar_type_are_located_errors() {
     let diags = lower(&load(&src).unwrap()).unwrap_err();
     let d = diags.iter().next().unwrap();
     assert!(
-        d.message.starts_with("the input bounds would overflow f32"),
+        d.message
+            .starts_with("the upper input bounds would overflow f32"),
         "{}",
         d.message
     );
@@ -227,11 +228,21 @@ q = [[0.01, 0], [0, 0.01]]
 r = [[0.01]]
 "#;
     let (message, at) = first_error(src);
+    assert_eq!(
+        message,
+        "input 0 moves nothing: column 0 of `model.b` is zero"
+    );
+    assert_eq!(at, "[[0], [0]]");
+    // An input that moves only a stable mode leaves the integrator unreachable.
+    let partial = src
+        .replace("a = [[1, 0.1], [0, 1]]", "a = [[1, 0], [0, 0.5]]")
+        .replace("b = [[0], [0]]", "b = [[0], [1]]");
+    let (message, at) = first_error(&partial);
     assert!(
         message.starts_with("the plant is not stabilizable: its mode λ = 1"),
         "{message}"
     );
-    assert_eq!(at, "[[0], [0]]");
+    assert_eq!(at, "[[0], [1]]");
     // Stabilizable with the input on the velocity.
     assert!(lower(&load(&src.replace("b = [[0], [0]]", "b = [[0], [0.1]]")).unwrap()).is_ok());
 }

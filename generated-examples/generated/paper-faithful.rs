@@ -7582,6 +7582,8 @@ pub mod paper_faithful {
         pub const BYTES_STATE_KALMAN: usize = 168;
         /// Bytes of `Controller`, all the state carried between cycles.
         pub const BYTES_STATE: usize = 408;
+        /// Multiply-adds of the filter's update and predict, unrolled in the code.
+        pub const MACS_FILTER: usize = 159;
         /// The a priori bound J(U_k) − J* ≤ C·ρᵏ·(J(U_0) − J*): (C, ρ); `None` for a step above 1/L.
         pub const RATE: Option<(f64, f64)> = Some((1f64, 0.98798343451433f64));
         /// The paper's check (Section 2.4.3): the LQR gain of the stage weights Q, R.

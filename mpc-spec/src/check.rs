@@ -55,6 +55,10 @@ fn check_model(raw: &Raw, diags: &mut Diagnostics) -> Option<Model> {
             );
         }
         let Some(axes) = &raw.axes else {
+            // Present but invalid was reported where it was parsed.
+            if raw.has("model.axes") {
+                return None;
+            }
             diags.push(
                 Diagnostic::new("missing key `axes` in `[model]`", ty.span.clone())
                     .label("a `double_integrator` needs `axes`")
@@ -74,6 +78,10 @@ fn check_model(raw: &Raw, diags: &mut Diagnostics) -> Option<Model> {
         for (key, m) in [("a", &raw.a), ("b", &raw.b), ("c", &raw.c)] {
             if m.is_none() {
                 missing = true;
+                // Present but invalid was reported where it was parsed.
+                if raw.has(&format!("model.{key}")) {
+                    continue;
+                }
                 diags.push(
                     Diagnostic::new(format!("missing key `{key}` in `[model]`"), ty.span.clone())
                         .label(format!("a `linear` model needs `{key}`")),

@@ -15,6 +15,10 @@ pub use diag::{Diagnostic, Diagnostics};
 
 /// The longest horizon a spec may ask for: the emitted code unrolls products that grow as N².
 pub const MAX_HORIZON: usize = 250;
+
+/// The most axes a `double_integrator` may have: every weight and covariance is a dense (2·axes)² matrix
+/// in the spec already, and the compiler's budgets (`codegen::budget`) refuse far smaller controllers.
+pub const MAX_AXES: usize = 1000;
 pub use model::*;
 
 /// Parses and validates a spec, reporting every problem at once, sorted by position.

@@ -135,7 +135,9 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.model_type = p
             .required(t, "model", "type", &span)
             .and_then(|v| p.choice(v, "model.type", keys::MODEL_TYPES));
-        raw.axes = t.get("axes").and_then(|v| p.count(v, "model.axes", 1));
+        raw.axes = t
+            .get("axes")
+            .and_then(|v| p.count_at_most(v, "model.axes", 1, crate::MAX_AXES as i64, AXES_LIMIT));
         raw.dt = p
             .required(t, "model", "dt", &span)
             .and_then(|v| p.positive(v, "model.dt"));
@@ -416,11 +418,6 @@ impl Parser<'_> {
         None
     }
 
-    /// A whole number of at least `min`.
-    fn count(&mut self, v: &Value<'_>, path: &str, min: i64) -> Option<Located<usize>> {
-        self.count_at_most(v, path, min, 100_000, "")
-    }
-
     /// A whole number in `min..=max`; `why` explains the upper limit.
     fn count_at_most(
         &mut self,
@@ -676,6 +673,9 @@ impl Parser<'_> {
         Some(self.located(path, v, input))
     }
 }
+
+/// Why the number of axes is bounded.
+const AXES_LIMIT: &str = "hint: each axis adds two states, and every weight and covariance is a dense matrix over all of them; a controller this large is refused by the build budgets anyway";
 
 /// Why the horizon is bounded.
 const HORIZON_LIMIT: &str = "hint: the emitted code unrolls the products with H (N·nu × N·nu) and Fr (N·nu × N·nx), which grow as N²; beyond this the generated source and its compile time grow past what is sensible for a fixed-iteration controller";

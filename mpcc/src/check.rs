@@ -78,6 +78,8 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
                 };
                 format!("{tol:e}{source}")
             }
+            (Shown::Bytes, Value::Real(bytes)) => codegen::budget::size(bytes),
+            (Shown::Seconds, Value::Real(seconds)) => format!("{seconds:.1} s"),
             (Shown::Gap, Value::MaybeReal(Some(gap))) => {
                 format!("Δ_{m}/Δ_0 ≤ {}", num(gap), m = c.iterations)
             }

@@ -40,15 +40,19 @@ fn constant(value: Value) -> (TokenStream, TokenStream) {
 
 /// `pub mod report { ... }`.
 pub fn emit(c: &Certificate) -> TokenStream {
-    let fields = c.fields().into_iter().map(|field| {
-        let name = Ident::new(field.constant, Span::call_site());
-        let (ty, value) = constant(field.value);
-        let doc = format!(" {}", field.doc);
-        quote! {
-            #[doc = #doc]
-            pub const #name: #ty = #value;
-        }
-    });
+    let fields = c
+        .fields()
+        .into_iter()
+        .filter(|f| !f.constant.is_empty())
+        .map(|field| {
+            let name = Ident::new(field.constant, Span::call_site());
+            let (ty, value) = constant(field.value);
+            let doc = format!(" {}", field.doc);
+            quote! {
+                #[doc = #doc]
+                pub const #name: #ty = #value;
+            }
+        });
     let matrix = |m: &nalgebra::DMatrix<f64>| {
         let rows = m.row_iter().map(|r| {
             let items = r.iter().map(|v| real(*v));

@@ -1,0 +1,227 @@
+//! Budgets: what building a spec will cost, predicted before the work is spent, and refused with a
+//! located error past what a build should take.
+//!
+//! Two checks, each before the work it predicts:
+//! - [`before_lowering`], from the spec's dimensions alone: the bytes of the f64 matrices lowering forms
+//!   (the block weight Q_blk is (N·nx)², Su (N·nx)×(N·nu)) and the multiply-adds of the products and
+//!   eigenvalue problems. `axes = 1000` would form 7.2 GB; it is refused before any allocation.
+//! - [`before_emission`], from the lowered problem's counts: the numbers the module writes (its tables)
+//!   and the multiply-adds it unrolls (the filter over the covariance's pattern, an unrolled gradient),
+//!   and from them the source size and rustc's time and memory.
+//!
+//! rustc's cost model is calibrated on this machine (`rustc -C opt-level=3` on `mpcc emit` output,
+//! `/usr/bin/time`): tables cost little (the paper at N = 100, 272k numbers in 5.3 MB: 2.3 s, 219 MB), unrolled
+//! code a lot and more than linearly (a dense `linear` plant, nx = 12: 13.5k unrolled multiply-adds, 7.2 s,
+//! 230 MB; nx = 24: 78k, 107 s, 1.8 GB). The estimate is t = 1 s + 0.22 s/MB of tables + 4.6 µs·m^1.5 and
+//! memory = 120 MB + 19 MB per MB of tables + 230 MB·(m / 13,500)^1.18 for m unrolled multiply-adds: an
+//! order of magnitude, which is what a budget needs.
+#![allow(non_snake_case)]
+
+use crate::certificate::Resources;
+use crate::lower::Problem;
+use mpc_spec::{Diagnostic, Diagnostics, Span, Spec};
+use serde::Serialize;
+
+/// Bytes of f64 matrices lowering may form.
+pub const LOWERING_BYTES: f64 = 2.0 * GIB;
+/// Multiply-adds lowering and the certificate may spend (products, eigenvalues): about a minute.
+pub const LOWERING_MACS: f64 = 5e10;
+/// The solver-loop analysis (the closed loop of the fixed-iteration solver, unrolled over every iteration)
+/// is skipped above this many multiply-adds; the certificate then says it was not computed.
+pub const SOLVER_ANALYSIS_MACS: f64 = 2e9;
+/// rustc's predicted memory for the emitted module.
+pub const RUSTC_BYTES: f64 = 4.0 * GIB;
+/// rustc's predicted time for the emitted module, seconds.
+pub const RUSTC_SECONDS: f64 = 300.0;
+
+const GIB: f64 = (1u64 << 30) as f64;
+const MB: f64 = 1e6;
+/// Bytes of source per number or unrolled term, from the paper at N = 100 (5.33 MB for 272k numbers).
+const BYTES_PER_TERM: f64 = 20.0;
+
+/// What building the module is predicted to cost.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct BuildCost {
+    /// Bytes of the f64 matrices lowering forms.
+    pub lowering_bytes: f64,
+    /// Multiply-adds of lowering and of the certificate's analyses.
+    pub lowering_macs: f64,
+    /// Numbers in the emitted tables.
+    pub emitted_numbers: usize,
+    /// Multiply-adds unrolled into the emitted code.
+    pub emitted_unrolled: usize,
+    /// Bytes of the emitted source.
+    pub source_bytes: f64,
+    /// rustc's time on the module, seconds.
+    pub rustc_seconds: f64,
+    /// rustc's memory on the module, bytes.
+    pub rustc_bytes: f64,
+}
+
+/// The dimensions that set the cost.
+#[derive(Clone, Copy, Debug)]
+struct Dims {
+    nx: f64,
+    nu: f64,
+    N: f64,
+    na: f64,
+}
+
+fn dims_of(p: &Problem) -> Dims {
+    Dims {
+        nx: p.nx as f64,
+        nu: p.nu as f64,
+        N: p.qp.N as f64,
+        na: (p.nx + p.filter.nd) as f64,
+    }
+}
+
+fn dims(spec: &Spec) -> Dims {
+    let k = &spec.model.kind;
+    let nd = if spec.kalman.disturbance.is_some() {
+        k.nu()
+    } else {
+        0
+    };
+    Dims {
+        nx: k.nx() as f64,
+        nu: k.nu() as f64,
+        N: spec.mpc.horizon as f64,
+        na: (k.nx() + nd) as f64,
+    }
+}
+
+/// Bytes and multiply-adds of lowering and the certificate, from the dimensions.
+fn lowering(d: Dims) -> (f64, f64) {
+    let (nr, nz) = (d.N * d.nx, d.N * d.nu);
+    // Q_blk, Su, Sx, R_blk, SuᵀQ_blk, H and its eigen copies, Fx, Fr, the filter's matrices.
+    let numbers =
+        nr * nr + 2.0 * nr * nz + nr * d.nx + 5.0 * nz * nz + nz * d.nx + 12.0 * d.na * d.na;
+    // SuᵀQ_blk, ·Su, ·Sx, the eigenvalues of H (twice) and its inverse, the Riccati and Lyapunov steps.
+    let macs =
+        nz * nr * nr + nz * nz * nr + nz * nr * d.nx + 25.0 * nz.powi(3) + 1e3 * d.na.powi(3);
+    (8.0 * numbers, macs)
+}
+
+/// The multiply-adds of the solver-loop analysis: every iteration on an nz × (nx + nz) matrix, then the
+/// spectral radius of the (nx + nz)² closed loop.
+pub fn solver_analysis_macs(nx: usize, nz: usize, iterations: usize) -> f64 {
+    let (nx, nz) = (nx as f64, nz as f64);
+    let dim = nx + nz;
+    iterations as f64 * nz * nz * dim + 25.0 * dim.powi(3)
+}
+
+/// The key a size error points at: the model's dimension.
+fn size_key(spec: &Spec) -> Option<Span> {
+    spec.spans
+        .get("model.axes")
+        .or_else(|| spec.spans.get("model.a"))
+        .or_else(|| spec.spans.get("model"))
+}
+
+/// Refuses, before any matrix is formed, a spec whose lowering would exceed [`LOWERING_BYTES`] or
+/// [`LOWERING_MACS`].
+pub fn before_lowering(spec: &Spec) -> Result<(), Diagnostics> {
+    let d = dims(spec);
+    let (bytes, macs) = lowering(d);
+    let shape = format!(
+        "nx = {}, nu = {}, horizon N = {}: N·nx = {}",
+        d.nx,
+        d.nu,
+        d.N,
+        d.N * d.nx
+    );
+    let hint = "hint: fewer states or inputs, or a shorter horizon";
+    if bytes > LOWERING_BYTES {
+        return Err(Diagnostic::new(
+            format!(
+                "this controller is too large to build: lowering would form {} of matrices, above the limit of {}",
+                size(bytes),
+                size(LOWERING_BYTES)
+            ),
+            size_key(spec),
+        )
+        .label(shape)
+        .note(hint)
+        .into());
+    }
+    if macs > LOWERING_MACS {
+        return Err(Diagnostic::new(
+            format!(
+                "this controller is too large to build: lowering would take {macs:.2e} multiply-adds, above the limit of {LOWERING_MACS:.0e}"
+            ),
+            size_key(spec),
+        )
+        .label(shape)
+        .note(hint)
+        .into());
+    }
+    Ok(())
+}
+
+/// The predicted cost of building the module of `p`, which writes `tables` numbers and unrolls `unrolled`
+/// multiply-adds.
+pub fn predict(p: &Problem, tables: usize, unrolled: usize) -> BuildCost {
+    let (lowering_bytes, lowering_macs) = lowering(dims_of(p));
+    let source_bytes = BYTES_PER_TERM * (tables + unrolled) as f64;
+    let table_mb = BYTES_PER_TERM * tables as f64 / MB;
+    let m = unrolled as f64;
+    BuildCost {
+        lowering_bytes,
+        lowering_macs,
+        emitted_numbers: tables,
+        emitted_unrolled: unrolled,
+        source_bytes,
+        rustc_seconds: 1.0 + 0.22 * table_mb + 4.6e-6 * m.powf(1.5),
+        rustc_bytes: 120.0 * MB + 19.0 * table_mb * MB + 230.0 * MB * (m / 13_500.0).powf(1.18),
+    }
+}
+
+/// Refuses a module whose predicted rustc time or memory exceeds [`RUSTC_SECONDS`] or [`RUSTC_BYTES`].
+pub fn before_emission(
+    spec: &Spec,
+    cost: &BuildCost,
+    resources: &Resources,
+) -> Result<(), Diagnostics> {
+    let over = if cost.rustc_bytes > RUSTC_BYTES {
+        Some(format!(
+            "rustc would need about {} for the emitted module, above the limit of {}",
+            size(cost.rustc_bytes),
+            size(RUSTC_BYTES)
+        ))
+    } else if cost.rustc_seconds > RUSTC_SECONDS {
+        Some(format!(
+            "rustc would take about {:.0} s on the emitted module, above the limit of {RUSTC_SECONDS:.0} s",
+            cost.rustc_seconds
+        ))
+    } else {
+        None
+    };
+    let Some(message) = over else {
+        return Ok(());
+    };
+    Err(Diagnostic::new(
+        format!("this controller is too large to build: {message}"),
+        size_key(spec),
+    )
+    .label(format!(
+        "{} numbers in tables and {} unrolled multiply-adds ({} of them the filter's), about {} of source",
+        cost.emitted_numbers,
+        cost.emitted_unrolled,
+        resources.macs_filter,
+        size(cost.source_bytes)
+    ))
+    .note("hint: a `steady_state` filter unrolls far less than a time-varying one over a dense covariance; or fewer states, or a shorter horizon")
+    .into())
+}
+
+/// "7.2 GB", "840 MB".
+pub fn size(bytes: f64) -> String {
+    if bytes >= 1e9 {
+        format!("{:.1} GB", bytes / 1e9)
+    } else if bytes >= 1e6 {
+        format!("{:.0} MB", bytes / 1e6)
+    } else {
+        format!("{:.0} kB", bytes / 1e3)
+    }
+}
