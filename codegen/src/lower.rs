@@ -206,12 +206,10 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     if !diags.is_empty() {
         return Err(diags.sorted());
     }
-    let filter = filter.ok_or_else(|| {
-        Diagnostics::from(
-            Diagnostic::new("the Kalman filter has no steady state: the Riccati recursion does not converge", spec.spans.get("kalman"))
-                .note("hint: the measured outputs must make the model detectable, and the process noise must reach every unstable mode"),
-        )
-    })?;
+    // `filter` reports why it is `None`, so `diags` is not empty then.
+    let Some(filter) = filter else {
+        return Err(diags.sorted());
+    };
     let Fd = &H
         * DMatrix::from_fn(
             N * nu,
@@ -326,7 +324,10 @@ fn solver_parameters(spec: &Spec, mu: f64, L: f64, diags: &mut Diagnostics) -> (
     if let Some(why) = algorithm.step_too_large(&parameters) {
         diags.push(
             Diagnostic::new(
-                format!("`mpc.step` = {step} is too large: it must be {why}"),
+                format!(
+                    "`mpc.step` = {} is too large: it must be {why}",
+                    short(step)
+                ),
                 span("mpc.step"),
             )
             .label("step too large")
@@ -417,6 +418,29 @@ fn filter(
             .note("hint: an input disturbance per input channel needs at least as many independent measurements as inputs"),
         );
     }
+    // Numbers the emitted filter holds must exist in its scalar type, and must be checked before the
+    // Riccati recursion runs on them (an overflowing P0 otherwise ends in "no steady state").
+    let process = span("kalman.q").or(span("kalman.sigma_a"));
+    let measurement = span("kalman.r").or(span("kalman.sigma_meas"));
+    let scalar = Numeric(spec.codegen.scalar);
+    let mut in_range = true;
+    for (what, M, at) in [
+        ("the process noise Q", &Qn, process.clone()),
+        ("the measurement noise R", &Rn, measurement.clone()),
+        (
+            "the initial covariance P0",
+            &P0,
+            span("kalman.p0").or(span("kalman")),
+        ),
+    ] {
+        if let Some(d) = out_of_range(what, M, scalar, at) {
+            diags.push(d);
+            in_range = false;
+        }
+    }
+    if !in_range {
+        return None;
+    }
     check_definite(
         diags,
         &Qn,
@@ -441,7 +465,13 @@ fn filter(
     if !diags.is_empty() {
         return None;
     }
-    let (P_inf, K_inf) = steady_state_filter(&Fa, &Ca, &Qn, &Rn, &P0)?;
+    let Some((P_inf, K_inf)) = steady_state_filter(&Fa, &Ca, &Qn, &Rn, &P0) else {
+        diags.push(
+            Diagnostic::new("the Kalman filter has no steady state: the Riccati recursion does not converge", process.or(span("kalman")))
+                .note("hint: the measured outputs must make the model detectable, and the process noise must reach every unstable mode"),
+        );
+        return None;
+    };
     let P_pattern = crate::structure::covariance_pattern(&Fa, &Ca, &Qn, &Rn, &P0);
     Some(Filter {
         nd,
@@ -473,17 +503,8 @@ fn check_ranges(
         DMatrix::from_iterator(1, nu, qp.u_max.iter().copied()),
     );
     let step_matrix = DMatrix::from_element(1, 1, qp.step);
-    let process = if spec.spans.get("kalman.q").is_some() {
-        "kalman.q"
-    } else {
-        "kalman.sigma_a"
-    };
-    let measurement = if spec.spans.get("kalman.r").is_some() {
-        "kalman.r"
-    } else {
-        "kalman.sigma_meas"
-    };
-    let emitted: [(&str, &str, &DMatrix<f64>); 14] = [
+    // Q, R and P0 were checked by `filter`, before its Riccati recursion.
+    let emitted: [(&str, &str, &DMatrix<f64>); 11] = [
         ("the lower input bounds", "mpc.u_min", &u_min),
         ("the upper input bounds", "mpc.u_max", &u_max),
         ("the step", "mpc.step", &step_matrix),
@@ -493,26 +514,13 @@ fn check_ranges(
         ("the disturbance map Fd", "mpc.q", &qp.Fd),
         ("the model F", "model", F),
         ("the model G", "model", G),
-        ("the process noise Q", process, &filter.Qn),
-        ("the measurement noise R", measurement, &filter.Rn),
-        ("the initial covariance P0", "kalman.p0", &filter.P0),
         ("the steady-state covariance P∞", "kalman", &filter.P_inf),
         ("the steady-state gain K∞", "kalman", &filter.K_inf),
     ];
     let scalar = Numeric(spec.codegen.scalar);
     let mut diags = Diagnostics::default();
     for (what, key, M) in emitted {
-        let worst = M.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
-        if !worst.is_finite() || worst > scalar.max() {
-            let d = Diagnostic::new(
-                format!(
-                    "{what} would overflow {}: its largest magnitude is {worst:e}",
-                    scalar.name()
-                ),
-                span(key).or(span("codegen.scalar")),
-            )
-            .label("out of range for the emitted scalar type")
-            .note("hint: rescale the weights or units, or write `scalar = \"f64\"` in `[codegen]`");
+        if let Some(d) = out_of_range(what, M, scalar, span(key).or(span("codegen.scalar"))) {
             diags.push(d);
         }
     }
@@ -810,6 +818,15 @@ fn check_detectable(
     }
 }
 
+/// A number as written in a spec: plainly in [1e-4, 1e6), else in scientific notation.
+fn short(v: f64) -> String {
+    if v == 0.0 || (1e-4..1e6).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
 /// `a`, or `a ± bi`.
 fn complex(z: nalgebra::Complex<f64>) -> String {
     if z.im.abs() < 1e-12 {
@@ -842,6 +859,30 @@ fn check_hessian(spec: &Spec, H: &DMatrix<f64>, mu: f64, L: f64) -> Result<(), D
     .label("the input weight is too small against the state weights to keep H invertible")
     .note("hint: raise `r` or lower `q`/`qf`, or shorten the horizon")
     .into())
+}
+
+/// The error for a matrix with an entry that is not finite or beyond the emitted scalar type's range.
+fn out_of_range(
+    what: &str,
+    M: &DMatrix<f64>,
+    scalar: Numeric,
+    span: Option<mpc_spec::Span>,
+) -> Option<Diagnostic> {
+    let worst = M.iter().fold(
+        0.0_f64,
+        |a, v| if v.is_nan() { f64::NAN } else { a.max(v.abs()) },
+    );
+    (!worst.is_finite() || worst > scalar.max()).then(|| {
+        Diagnostic::new(
+            format!(
+                "{what} would overflow {}: its largest magnitude is {worst:e}",
+                scalar.name()
+            ),
+            span,
+        )
+        .label("out of range for the emitted scalar type")
+        .note("hint: rescale the weights or units, or write `scalar = \"f64\"` in `[codegen]`")
+    })
 }
 
 /// A spec's symmetric matrix, exactly symmetric: (A + Aᵀ)/2 (the spec allows rounding-sized asymmetry).
