@@ -17,8 +17,6 @@
 //! order of magnitude, which is what a budget needs.
 #![allow(non_snake_case)]
 
-use crate::certificate::Resources;
-use crate::lower::Problem;
 use mpc_spec::{Diagnostic, Diagnostics, Span, Spec};
 use serde::Serialize;
 
@@ -58,22 +56,17 @@ pub struct BuildCost {
     pub rustc_bytes: f64,
 }
 
-/// The dimensions that set the cost.
+/// The dimensions that set the cost: states, inputs, horizon and the filter's states.
 #[derive(Clone, Copy, Debug)]
-struct Dims {
-    nx: f64,
-    nu: f64,
-    N: f64,
-    na: f64,
-}
-
-fn dims_of(p: &Problem) -> Dims {
-    Dims {
-        nx: p.nx as f64,
-        nu: p.nu as f64,
-        N: p.qp.N as f64,
-        na: (p.nx + p.filter.nd) as f64,
-    }
+pub struct Dims {
+    /// States.
+    pub nx: f64,
+    /// Inputs.
+    pub nu: f64,
+    /// Horizon.
+    pub N: f64,
+    /// The filter's states (with the disturbance).
+    pub na: f64,
 }
 
 fn dims(spec: &Spec) -> Dims {
@@ -159,10 +152,10 @@ pub fn before_lowering(spec: &Spec) -> Result<(), Diagnostics> {
     Ok(())
 }
 
-/// The predicted cost of building the module of `p`, which writes `tables` numbers and unrolls `unrolled`
-/// multiply-adds.
-pub fn predict(p: &Problem, tables: usize, unrolled: usize) -> BuildCost {
-    let (lowering_bytes, lowering_macs) = lowering(dims_of(p));
+/// The predicted cost of building a module of dimensions `d` that writes `tables` numbers and unrolls
+/// `unrolled` multiply-adds.
+pub fn predict(d: Dims, tables: usize, unrolled: usize) -> BuildCost {
+    let (lowering_bytes, lowering_macs) = lowering(d);
     let source_bytes = BYTES_PER_TERM * (tables + unrolled) as f64;
     let table_mb = BYTES_PER_TERM * tables as f64 / MB;
     let m = unrolled as f64;
@@ -177,11 +170,12 @@ pub fn predict(p: &Problem, tables: usize, unrolled: usize) -> BuildCost {
     }
 }
 
-/// Refuses a module whose predicted rustc time or memory exceeds [`RUSTC_SECONDS`] or [`RUSTC_BYTES`].
+/// Refuses a module whose predicted rustc time or memory exceeds [`RUSTC_SECONDS`] or [`RUSTC_BYTES`];
+/// `macs_filter` is the filter's share of the unrolled multiply-adds.
 pub fn before_emission(
     spec: &Spec,
     cost: &BuildCost,
-    resources: &Resources,
+    macs_filter: usize,
 ) -> Result<(), Diagnostics> {
     let over = if cost.rustc_bytes > RUSTC_BYTES {
         Some(format!(
@@ -208,7 +202,7 @@ pub fn before_emission(
         "{} numbers in tables and {} unrolled multiply-adds ({} of them the filter's), about {} of source",
         cost.emitted_numbers,
         cost.emitted_unrolled,
-        resources.macs_filter,
+        macs_filter,
         size(cost.source_bytes)
     ))
     .note("hint: a `steady_state` filter unrolls far less than a time-varying one over a dense covariance; or fewer states, or a shorter horizon")

@@ -352,7 +352,16 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
         lqr: lqr(p),
         mpc: mpc_loop(p, plan),
         resources,
-        build_cost: budget::predict(p, tables, unrolled),
+        build_cost: budget::predict(
+            budget::Dims {
+                nx: p.nx as f64,
+                nu: p.nu as f64,
+                N: qp.N as f64,
+                na: (p.nx + p.filter.nd) as f64,
+            },
+            tables,
+            unrolled,
+        ),
         emission: plan.emission(),
         estimates: plan.estimates.clone(),
         disturbance_time_constant: (p.filter.nd > 0).then(|| {

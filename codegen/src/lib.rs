@@ -111,7 +111,11 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
     let plan = plan(spec, &problem)?;
     let certificate = certify(&problem, &plan);
     let warnings = certificate::review(spec, &certificate)?;
-    budget::before_emission(spec, &certificate.build_cost, &certificate.resources)?;
+    budget::before_emission(
+        spec,
+        &certificate.build_cost,
+        certificate.resources.macs_filter,
+    )?;
     let vis: TokenStream = opt.visibility.parse().map_err(|_| {
         Diagnostics::from(Diagnostic::new(
             format!("invalid visibility `{}`", opt.visibility),
