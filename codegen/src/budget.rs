@@ -9,12 +9,13 @@
 //!   and the multiply-adds it unrolls (the filter over the covariance's pattern, an unrolled gradient),
 //!   and from them the source size and rustc's time and memory.
 //!
-//! rustc's cost model is calibrated on this machine (`rustc -C opt-level=3` on `mpcc emit` output,
-//! `/usr/bin/time`): tables cost little (the paper at N = 100, 272k numbers in 5.3 MB: 2.3 s, 219 MB), unrolled
-//! code a lot and more than linearly (a dense `linear` plant, nx = 12: 13.5k unrolled multiply-adds, 7.2 s,
-//! 230 MB; nx = 24: 78k, 107 s, 1.8 GB). The estimate is t = 1 s + 0.22 s/MB of tables + 4.6 µs·m^1.5 and
-//! memory = 120 MB + 19 MB per MB of tables + 230 MB·(m / 13,500)^1.18 for m unrolled multiply-adds: an
-//! order of magnitude, which is what a budget needs.
+//! rustc's cost model is calibrated with `scripts/rustc-cost.sh` (rustc -C opt-level=3 on `mpcc emit` output
+//! under `/usr/bin/time`; its table is in the README): tables cost little (the paper at N = 100, 272k
+//! numbers in 5.3 MB: about 2.3 s, 220 MB), unrolled code a lot and more than linearly (a dense `linear`
+//! plant with a time-varying filter, nx = 12: 13.5k unrolled multiply-adds, about 6 s, 230 MB; nx = 24: 78k,
+//! 97-107 s, 1.8 GB). The estimate is t = 1 s + 0.22 s/MB of tables + 4.6 µs·m^1.5 and memory = 120 MB +
+//! 19 MB per MB of tables + 230 MB·(m / 13,500)^1.18 for m unrolled multiply-adds: an order of magnitude,
+//! which is what a budget needs.
 #![allow(non_snake_case)]
 
 use mpc_spec::{Diagnostic, Diagnostics, Span, Spec};

@@ -202,12 +202,8 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     let (mu, L) = extreme_eigenvalues(&H);
     check_hessian(spec, &H, mu, L)?;
     let (step, momentum, iterations) = solver_parameters(spec, mu, L, &mut diags);
-    let filter = filter(spec, &F, &G, &C, &mut diags);
-    if !diags.is_empty() {
-        return Err(diags.sorted());
-    }
     // `filter` reports why it is `None`, so `diags` is not empty then.
-    let Some(filter) = filter else {
+    let (Some(filter), true) = (filter(spec, &F, &G, &C, &mut diags), diags.is_empty()) else {
         return Err(diags.sorted());
     };
     let Fd = &H

@@ -5,7 +5,8 @@
 //! through `Read::take(SPEC_SIZE_LIMIT + 1)`, so that no source, standard input included, can make
 //! `mpcc` read without bound.
 
-use crate::error::ReadError;
+use std::error::Error as StdError;
+use std::fmt::{self, Display};
 use std::fs::{self, FileType};
 use std::io::{self, Read};
 use std::path::Path;
@@ -77,4 +78,41 @@ fn kind(file_type: FileType) -> &'static str {
         }
     }
     "a special file"
+}
+
+/// Why a spec could not be read: the `Caused by:` line under "cannot read the spec".
+#[derive(Debug)]
+pub(crate) enum ReadError {
+    /// The operating system's error, shown as it is.
+    Io(io::Error),
+    /// The path is not a regular file: `kind` is what it is ("a FIFO", "a directory", ...).
+    NotAFile(&'static str),
+    /// The spec is longer than [`SPEC_SIZE_LIMIT`].
+    TooLarge,
+    /// The spec is not UTF-8 text.
+    NotUtf8(std::str::Utf8Error),
+}
+
+impl Display for ReadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ReadError::Io(e) => Display::fmt(e, f),
+            ReadError::NotAFile(kind) => write!(f, "it is {kind}, not a regular file"),
+            ReadError::TooLarge => write!(
+                f,
+                "it is larger than the limit of {SPEC_SIZE_LIMIT_MIB} MiB ({SPEC_SIZE_LIMIT} bytes)"
+            ),
+            ReadError::NotUtf8(e) => write!(f, "it is not UTF-8 text: {e}"),
+        }
+    }
+}
+
+impl StdError for ReadError {
+    /// An I/O error stands for itself (its own source comes next); the others end the chain.
+    fn source(&self) -> Option<&(dyn StdError + 'static)> {
+        match self {
+            ReadError::Io(e) => e.source(),
+            ReadError::NotAFile(_) | ReadError::TooLarge | ReadError::NotUtf8(_) => None,
+        }
+    }
 }

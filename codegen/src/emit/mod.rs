@@ -64,9 +64,10 @@ pub fn module(
     // statics, never copied.
     let time_varying = (p.filter.kind == mpc_spec::FilterKind::TimeVarying)
         .then(|| quote!(non_snake_case, clippy::neg_cmp_op_on_partial_ord,));
-    let neon_cfg = items
-        .to_string()
-        .contains("mpc_neon")
+    let neon_cfg = plan
+        .form
+        .gradient()
+        .uses_neon(p)
         .then(|| quote!(unexpected_cfgs,));
     let largest_table = {
         let (nz, nr, na) = (p.qp.N * p.nu, p.qp.N * p.nx, p.nx + p.filter.nd);

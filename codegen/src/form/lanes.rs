@@ -102,6 +102,11 @@ impl GradientForm for Lanes {
     fn separate_step(&self) -> bool {
         false
     }
+
+    /// The fused iteration's NEON twin (and the sweeps', which run in the same lanes).
+    fn uses_neon(&self, p: &Problem) -> bool {
+        neon::applies(p)
+    }
 }
 
 impl Lanes {

@@ -91,10 +91,20 @@ pub fn linear_term(p: &Problem) -> TokenStream {
 
 /// `fn adjoint_gradient(v, x0, [d,] xref, g)`, in lanes when the model and the plan have them.
 pub(crate) fn emit(p: &Problem, num: Num, lanes: usize) -> TokenStream {
-    match &p.model_lanes {
-        Some(m) if lanes == lane_count(p.nu) => in_lanes(p, m, num),
-        _ => scalar(p, num, lanes),
+    match lane_model(p, lanes) {
+        Some(m) => in_lanes(p, m, num),
+        None => scalar(p, num, lanes),
     }
+}
+
+/// The model per lane, when the sweeps run in lanes: the model has them and the plan is in lanes.
+fn lane_model(p: &Problem, lanes: usize) -> Option<&ModelLanes> {
+    p.model_lanes.as_ref().filter(|_| lanes == lane_count(p.nu))
+}
+
+/// Whether the sweeps of a plan of `lanes` entries per step have NEON twins.
+pub(crate) fn uses_neon(p: &Problem, lanes: usize) -> bool {
+    neon::applies(p) && lane_model(p, lanes).is_some()
 }
 
 /// The matrix-free gradient ∇J(v) = 2 Suᵀ Q_blk (Sx·x0 + Su·v − Xref) + 2 R_blk·v without Su: a forward

@@ -85,6 +85,12 @@ pub trait GradientForm {
         algorithm.iterations(&self.gradient_call(p, algorithm))
     }
 
+    /// Whether the emitted code has NEON kernels (under `cfg(mpc_neon)`): by default, where the sweeps
+    /// that compute f run in lanes.
+    fn uses_neon(&self, p: &Problem) -> bool {
+        matrix_free::uses_neon(p, self.plan_lanes(p))
+    }
+
     /// Whether the algorithm's separate step kernel is used (a fused form inlines its own).
     fn separate_step(&self) -> bool {
         true

@@ -95,6 +95,11 @@ impl GradientForm for Unrolled {
         quote!(gradient(&#point, &f, &mut g))
     }
 
+    /// No sweeps and no lanes.
+    fn uses_neon(&self, _p: &Problem) -> bool {
+        false
+    }
+
     /// f unrolled over Fx, Fr and Fd; H, Fx, Fr and Fd inlined.
     fn gradient_map(&self, p: &Problem, _estimates: &[Estimate]) -> (usize, usize) {
         let num = Numeric(p.scalar);
