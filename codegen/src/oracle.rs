@@ -4,7 +4,7 @@
 #![allow(non_snake_case)]
 
 use crate::linalg::{kalman_gain_and_posterior, project, symmetrize};
-use crate::lower::{Problem, Qp};
+use crate::lower::{Problem, Qp, Screening};
 use crate::solver::{algorithm, Algorithm, Fgm};
 use mpc_spec::{FilterKind, Method};
 use nalgebra::{DMatrix, DVector};
@@ -141,7 +141,32 @@ fn stack(xs: &[DVector<f64>]) -> DVector<f64> {
     )
 }
 
-/// The linear Kalman filter: time-varying (Joseph-form update) or with the steady-state gain.
+/// What the filter did with a reading: the emitted `Measurement` without its `NoneYet`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Measurement {
+    /// Fused by the Kalman update.
+    Accepted,
+    /// Fused by re-acquisition (the estimate moved onto the measurement).
+    Reacquired,
+    /// A NaN or infinite entry.
+    NonFinite,
+    /// The normalized innovation squared exceeded the gate.
+    Gated,
+    /// Bit-identical to the readings before it for `stuck_cycles` cycles.
+    Stuck,
+    /// The update's arithmetic failed.
+    Numerical,
+}
+
+impl Measurement {
+    /// Whether the reading was fused.
+    pub fn accepted(self) -> bool {
+        matches!(self, Measurement::Accepted | Measurement::Reacquired)
+    }
+}
+
+/// The linear Kalman filter: time-varying (Joseph-form update) or with the steady-state gain, with the
+/// emitted filter's measurement screening (gate, stuck sensor, re-acquisition, disturbance bound).
 #[derive(Clone, Debug)]
 pub struct Kalman {
     F: DMatrix<f64>,
@@ -149,38 +174,81 @@ pub struct Kalman {
     C: DMatrix<f64>,
     Qn: DMatrix<f64>,
     Rn: DMatrix<f64>,
+    P0: DMatrix<f64>,
     K_inf: Option<DMatrix<f64>>,
+    S_inf_inv: DMatrix<f64>,
+    C_pinv: DMatrix<f64>,
+    screening: Screening,
+    /// The disturbance bound [−u_max, −u_min], per input; empty without a disturbance model.
+    d_bounds: Vec<(f64, f64)>,
     x: DVector<f64>,
     P: DMatrix<f64>,
+    valid: bool,
+    last: Option<DVector<f64>>,
+    repeats: u32,
+    gated: u32,
+    /// Readings rejected in a row.
+    pub consecutive_rejections: u32,
+    /// Re-acquisitions, the first acquisition included.
+    pub reacquisitions: u32,
+    /// Whether the last fused update held the disturbance estimate at its bound.
+    pub disturbance_clamped: bool,
 }
 
 impl Kalman {
-    /// A filter at x0 (and a zero disturbance estimate) with the spec's initial covariance.
+    /// A filter at x0 (and a zero disturbance estimate) with the spec's initial covariance; without an
+    /// estimate when x0 is not finite.
     pub fn new(problem: &Problem, x0: DVector<f64>) -> Self {
         let f = &problem.filter;
+        let valid = x0.iter().all(|v| v.is_finite());
         let x0 = DVector::from_iterator(
             x0.len() + f.nd,
-            x0.iter().copied().chain(std::iter::repeat_n(0.0, f.nd)),
+            x0.iter()
+                .map(|v| if valid { *v } else { 0.0 })
+                .chain(std::iter::repeat_n(0.0, f.nd)),
         );
+        let qp = &problem.qp;
+        let d_bounds = if f.nd > 0 {
+            qp.u_max
+                .iter()
+                .zip(qp.u_min.iter())
+                .map(|(hi, lo)| (-hi, -lo))
+                .collect()
+        } else {
+            Vec::new()
+        };
         Kalman {
             F: f.Fa.clone(),
             G: f.Ga.clone(),
             C: f.Ca.clone(),
             Qn: f.Qn.clone(),
             Rn: f.Rn.clone(),
+            P0: f.P0.clone(),
             K_inf: (f.kind == FilterKind::SteadyState).then(|| f.K_inf.clone()),
+            S_inf_inv: f.S_inf_inv.clone(),
+            C_pinv: f.C_pinv.clone(),
+            screening: f.screening,
+            d_bounds,
             P: if f.kind == FilterKind::SteadyState {
                 f.P_inf.clone()
             } else {
                 f.P0.clone()
             },
             x: x0,
+            valid,
+            last: None,
+            repeats: 0,
+            gated: 0,
+            consecutive_rejections: 0,
+            reacquisitions: 0,
+            disturbance_clamped: false,
         }
     }
 
-    /// x ← F x + G u; P ← F P Fᵀ + Q. A non-finite input changes nothing.
+    /// x ← F x + G u; P ← F P Fᵀ + Q. A non-finite input, or a filter without an estimate, changes
+    /// nothing.
     pub fn predict(&mut self, u: &DVector<f64>) {
-        if !u.iter().all(|v| v.is_finite()) {
+        if !self.valid || !u.iter().all(|v| v.is_finite()) {
             return;
         }
         self.x = &self.F * &self.x + &self.G * u;
@@ -189,26 +257,105 @@ impl Kalman {
         }
     }
 
-    /// The measurement update; a non-finite measurement is rejected (false, nothing changes).
-    pub fn update(&mut self, z: &DVector<f64>) -> bool {
+    /// The measurement update after the screening; returns what was done with `z`.
+    pub fn update(&mut self, z: &DVector<f64>) -> Measurement {
+        let verdict = self.screen(z);
+        if verdict.accepted() {
+            self.consecutive_rejections = 0;
+            self.gated = 0;
+        } else {
+            self.consecutive_rejections = self.consecutive_rejections.saturating_add(1);
+        }
+        verdict
+    }
+
+    fn screen(&mut self, z: &DVector<f64>) -> Measurement {
         if !z.iter().all(|v| v.is_finite()) {
-            return false;
+            return Measurement::NonFinite;
+        }
+        let s = self.screening;
+        let changing = match &self.last {
+            Some(last) => last
+                .iter()
+                .zip(z.iter())
+                .any(|(a, b)| a.to_bits() != b.to_bits()),
+            None => true,
+        };
+        self.repeats = if changing {
+            1
+        } else {
+            self.repeats.saturating_add(1)
+        };
+        self.last = Some(z.clone());
+        if s.stuck_cycles.is_some_and(|n| self.repeats >= n) {
+            return Measurement::Stuck;
+        }
+        if !self.valid {
+            return self.reacquire(z);
         }
         let innovation = z - &self.C * &self.x;
+        let S_inv = match &self.K_inf {
+            Some(_) => self.S_inf_inv.clone(),
+            None => match (&self.C * &self.P * self.C.transpose() + &self.Rn).cholesky() {
+                Some(c) => c.inverse(),
+                None => return Measurement::Numerical,
+            },
+        };
+        if let Some(gate) = s.gate {
+            let nis = innovation.dot(&(&S_inv * &innovation));
+            if !(nis <= gate) {
+                if changing {
+                    self.gated = self.gated.saturating_add(1);
+                }
+                if self.gated >= s.reacquire_after {
+                    return self.reacquire(z);
+                }
+                return Measurement::Gated;
+            }
+        }
         let (K, P) = match &self.K_inf {
             Some(K) => (K.clone(), self.P.clone()),
             None => match kalman_gain_and_posterior(&self.P, &self.C, &self.Rn) {
                 Some(kp) => kp,
-                None => return false,
+                None => return Measurement::Numerical,
             },
         };
-        let x = &self.x + K * innovation;
+        let mut x = &self.x + K * innovation;
         if !x.iter().all(|v| v.is_finite()) || !P.iter().all(|v| v.is_finite()) {
-            return false;
+            return Measurement::Numerical;
         }
+        let nx = x.len() - self.d_bounds.len();
+        let mut clamped = false;
+        for (v, (lo, hi)) in x.iter_mut().skip(nx).zip(&self.d_bounds) {
+            let bounded = v.clamp(*lo, *hi);
+            clamped |= bounded != *v;
+            *v = bounded;
+        }
+        self.disturbance_clamped = clamped;
         self.x = x;
         self.P = P;
-        true
+        Measurement::Accepted
+    }
+
+    /// x ← x + C⁺ (z − C x), P ← P0 (time-varying).
+    fn reacquire(&mut self, z: &DVector<f64>) -> Measurement {
+        let x = &self.x + &self.C_pinv * (z - &self.C * &self.x);
+        if !x.iter().all(|v| v.is_finite()) {
+            return Measurement::Numerical;
+        }
+        self.x = x;
+        if self.K_inf.is_none() {
+            self.P = self.P0.clone();
+        }
+        self.gated = 0;
+        self.valid = true;
+        self.reacquisitions = self.reacquisitions.saturating_add(1);
+        Measurement::Reacquired
+    }
+
+    /// Whether the filter holds an estimate.
+    pub fn has_estimate(&self) -> bool {
+        self.valid
     }
 
     /// The estimate: the state, then the disturbance estimate when the spec models one.
@@ -248,9 +395,14 @@ impl Controller {
         }
     }
 
-    /// Update with z, solve from the estimate, predict with the command; returns the command.
+    /// Update with z, solve from the estimate, predict with the command; returns the command (the rest
+    /// input while the filter has no estimate).
     pub fn step(&mut self, z: &DVector<f64>, xref: &[DVector<f64>]) -> DVector<f64> {
         self.kalman.update(z);
+        if !self.kalman.has_estimate() {
+            self.mpc.reset();
+            return self.mpc.qp().rest_input();
+        }
         let nx = self.mpc.qp().Fx.ncols();
         let estimate = self.kalman.state();
         let x = estimate.rows(0, nx).into_owned();

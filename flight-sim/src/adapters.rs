@@ -40,10 +40,10 @@ macro_rules! generated_kalman {
     };
 }
 
-/// Defines a controller from a generated module: its `Kalman` and its `Mpc`, stepped exactly as
-/// the module's `Controller::step` (filter update with the GPS position, MPC on the estimate
-/// with the N-step reference window, filter predict with the command), keeping the estimate
-/// each solve started from so that a caller can compare the command with the exact QP optimum.
+/// Defines a controller from a generated module: a wrapper around its `Controller` (one control cycle:
+/// the screened filter update with the GPS position, the MPC on the estimate with the N-step
+/// reference window, the filter prediction with the command), converting between `f64` and the
+/// module's `Real`, and counting the measurements the filter rejected.
 ///
 /// ```ignore
 /// flight_sim::mpc_controller!(pub struct PaperMpc(generated_examples::paper));
@@ -51,9 +51,7 @@ macro_rules! generated_kalman {
 /// ```
 ///
 /// For a module generated with `[kalman] disturbance` (offset-free MPC), add `, disturbance`: the
-/// wrapper then steps as that module's `Controller::step` does, passing the filter's disturbance
-/// estimate to `Mpc::solve_with_disturbance`, and also keeps the estimate each solve used
-/// (`last_disturbance`):
+/// wrapper then also has `last_disturbance`, the estimate the last solve used.
 ///
 /// ```ignore
 /// flight_sim::mpc_controller!(pub struct OffsetFree(generated_examples::paper_offset_free), disturbance);
@@ -61,103 +59,68 @@ macro_rules! generated_kalman {
 #[macro_export]
 macro_rules! mpc_controller {
     ($(#[$attr:meta])* $vis:vis struct $name:ident($($m:ident)::+), disturbance $(;)?) => {
-        $(#[$attr])*
-        $vis struct $name {
-            kalman: $($m)::+::Kalman,
-            mpc: $($m)::+::Mpc,
-            x0: [$($m)::+::Real; $($m)::+::NX],
-            d: [$($m)::+::Real; $($m)::+::ND],
-        }
+        $crate::mpc_controller!($(#[$attr])* $vis struct $name($($m)::+));
 
         #[allow(dead_code)]
         impl $name {
-            /// The generated filter started at `x0` (disturbance estimate zero) and a fresh MPC.
-            $vis fn new(x0: &[f64; 6]) -> Self {
-                let x0 = $crate::cast(x0);
-                Self {
-                    kalman: $($m)::+::Kalman::new(x0),
-                    mpc: $($m)::+::Mpc::new(),
-                    x0,
-                    d: [0.0; $($m)::+::ND],
-                }
-            }
-            /// The generated MPC (its `plan()` is the last solution).
-            $vis fn mpc(&self) -> &$($m)::+::Mpc {
-                &self.mpc
-            }
-            /// The generated Kalman filter (its `disturbance()` is the current estimate).
-            $vis fn kalman(&self) -> &$($m)::+::Kalman {
-                &self.kalman
-            }
-            /// The estimate the last solve started from, in the module's scalar.
-            $vis fn last_x0(&self) -> &[$($m)::+::Real; $($m)::+::NX] {
-                &self.x0
-            }
             /// The disturbance estimate the last solve used, in the module's scalar.
             $vis fn last_disturbance(&self) -> &[$($m)::+::Real; $($m)::+::ND] {
-                &self.d
-            }
-        }
-
-        impl $crate::Controller for $name {
-            fn step<R: $crate::Reference>(&mut self, k: usize, z: &[f64; 3], reference: &R) -> [f64; 3] {
-                let _ = self.kalman.update(&$crate::cast(z));
-                self.x0 = *self.kalman.state();
-                self.d = *self.kalman.disturbance();
-                let xref = $crate::Reference::window::<$($m)::+::Real, { $($m)::+::N }>(reference, k);
-                let u = self.mpc.solve_with_disturbance(&self.x0, &self.d, &xref);
-                self.kalman.predict(&u);
-                $crate::cast(&u)
-            }
-            fn estimate(&self) -> [f64; 6] {
-                $crate::cast(&self.x0)
+                self.controller.kalman().disturbance()
             }
         }
     };
     ($(#[$attr:meta])* $vis:vis struct $name:ident($($m:ident)::+) $(;)?) => {
         $(#[$attr])*
         $vis struct $name {
-            kalman: $($m)::+::Kalman,
-            mpc: $($m)::+::Mpc,
-            x0: [$($m)::+::Real; $($m)::+::NX],
+            controller: $($m)::+::Controller,
+            rejected: usize,
         }
 
         #[allow(dead_code)]
         impl $name {
-            /// The generated filter started at `x0` and a fresh MPC.
+            /// The generated controller, its filter started at `x0`.
             $vis fn new(x0: &[f64; 6]) -> Self {
-                let x0 = $crate::cast(x0);
                 Self {
-                    kalman: $($m)::+::Kalman::new(x0),
-                    mpc: $($m)::+::Mpc::new(),
-                    x0,
+                    controller: $($m)::+::Controller::new($crate::cast(x0)),
+                    rejected: 0,
                 }
+            }
+            /// The generated controller.
+            $vis fn controller(&self) -> &$($m)::+::Controller {
+                &self.controller
             }
             /// The generated MPC (its `plan()` is the last solution).
             $vis fn mpc(&self) -> &$($m)::+::Mpc {
-                &self.mpc
+                self.controller.mpc()
             }
             /// The generated Kalman filter.
             $vis fn kalman(&self) -> &$($m)::+::Kalman {
-                &self.kalman
+                self.controller.kalman()
             }
             /// The estimate the last solve started from, in the module's scalar.
             $vis fn last_x0(&self) -> &[$($m)::+::Real; $($m)::+::NX] {
-                &self.x0
+                self.controller.estimate()
+            }
+            /// What the last cycle did.
+            $vis fn status(&self) -> &$($m)::+::Status {
+                self.controller.status()
             }
         }
 
         impl $crate::Controller for $name {
             fn step<R: $crate::Reference>(&mut self, k: usize, z: &[f64; 3], reference: &R) -> [f64; 3] {
-                let _ = self.kalman.update(&$crate::cast(z));
-                self.x0 = *self.kalman.state();
                 let xref = $crate::Reference::window::<$($m)::+::Real, { $($m)::+::N }>(reference, k);
-                let u = self.mpc.solve(&self.x0, &xref);
-                self.kalman.predict(&u);
+                let u = self.controller.step(&$crate::cast(z), &xref);
+                if !self.controller.status().filter.measurement.accepted() {
+                    self.rejected += 1;
+                }
                 $crate::cast(&u)
             }
             fn estimate(&self) -> [f64; 6] {
-                $crate::cast(&self.x0)
+                $crate::cast(self.controller.estimate())
+            }
+            fn rejected_measurements(&self) -> usize {
+                self.rejected
             }
         }
     };
@@ -165,84 +128,108 @@ macro_rules! mpc_controller {
 
 #[cfg(test)]
 mod tests {
-    //! A hand-written module with the generated API, to check that the macros expand.
-    #[allow(dead_code, clippy::all)]
-    mod fake {
-        pub type Real = f32;
-        pub const NX: usize = 6;
-        pub const NU: usize = 3;
-        pub const NY: usize = 3;
-        pub const N: usize = 4;
-        pub struct Kalman([Real; NX]);
-        impl Kalman {
-            pub const fn new(x0: [Real; NX]) -> Self {
-                Self(x0)
+    //! Hand-written modules with the generated API, to check that the macros expand.
+
+    /// The generated API in miniature: a filter that copies the measurement, an MPC that steers to the
+    /// end of the window.
+    macro_rules! fake_module {
+        ($name:ident, $real:ty, $nd:literal) => {
+            #[allow(dead_code, clippy::all)]
+            mod $name {
+                pub type Real = $real;
+                pub const NX: usize = 6;
+                pub const NU: usize = 3;
+                pub const NY: usize = 3;
+                pub const ND: usize = $nd;
+                pub const N: usize = 4;
+                #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+                pub enum Measurement {
+                    Accepted,
+                    NonFinite,
+                }
+                impl Measurement {
+                    pub const fn accepted(self) -> bool {
+                        matches!(self, Measurement::Accepted)
+                    }
+                }
+                pub struct FilterStatus {
+                    pub measurement: Measurement,
+                }
+                pub struct Status {
+                    pub filter: FilterStatus,
+                }
+                pub struct Kalman([Real; NX], [Real; ND]);
+                impl Kalman {
+                    pub const fn new(x0: [Real; NX]) -> Self {
+                        Self(x0, [0.0; ND])
+                    }
+                    pub fn predict(&mut self, u: &[Real; NU]) {
+                        self.0[3] += u[0];
+                    }
+                    pub fn update(&mut self, z: &[Real; NY]) -> Measurement {
+                        if !z[0].is_finite() {
+                            return Measurement::NonFinite;
+                        }
+                        self.0[0] = z[0];
+                        if ND > 0 {
+                            self.1[0] += 0.5;
+                        }
+                        Measurement::Accepted
+                    }
+                    pub fn state(&self) -> &[Real; NX] {
+                        &self.0
+                    }
+                    pub fn disturbance(&self) -> &[Real; ND] {
+                        &self.1
+                    }
+                }
+                pub struct Mpc;
+                pub struct Controller {
+                    kalman: Kalman,
+                    mpc: Mpc,
+                    estimate: [Real; NX],
+                    status: Status,
+                }
+                impl Controller {
+                    pub const fn new(x0: [Real; NX]) -> Self {
+                        Self {
+                            kalman: Kalman::new(x0),
+                            mpc: Mpc,
+                            estimate: x0,
+                            status: Status {
+                                filter: FilterStatus {
+                                    measurement: Measurement::Accepted,
+                                },
+                            },
+                        }
+                    }
+                    pub fn step(&mut self, z: &[Real; NY], xref: &[[Real; NX]; N]) -> [Real; NU] {
+                        self.status.filter.measurement = self.kalman.update(z);
+                        self.estimate = self.kalman.0;
+                        let d = if ND > 0 { self.kalman.1[0] } else { 0.0 };
+                        let u = [xref[N - 1][0] - self.estimate[0] - d, 0.0, 0.0];
+                        self.kalman.predict(&u);
+                        u
+                    }
+                    pub fn status(&self) -> &Status {
+                        &self.status
+                    }
+                    pub fn estimate(&self) -> &[Real; NX] {
+                        &self.estimate
+                    }
+                    pub fn kalman(&self) -> &Kalman {
+                        &self.kalman
+                    }
+                    pub fn mpc(&self) -> &Mpc {
+                        &self.mpc
+                    }
+                }
             }
-            pub fn predict(&mut self, u: &[Real; NU]) {
-                self.0[3] += u[0];
-            }
-            pub fn update(&mut self, z: &[Real; NY]) -> bool {
-                self.0[0] = z[0];
-                true
-            }
-            pub fn state(&self) -> &[Real; NX] {
-                &self.0
-            }
-        }
-        pub struct Mpc;
-        impl Mpc {
-            pub const fn new() -> Self {
-                Self
-            }
-            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
-                [xref[N - 1][0] - x0[0], 0.0, 0.0]
-            }
-        }
+        };
     }
 
-    /// The same with a disturbance estimate, as a module generated with `[kalman] disturbance`.
-    #[allow(dead_code, clippy::all)]
-    mod fake_offset_free {
-        pub type Real = f64;
-        pub const NX: usize = 6;
-        pub const NU: usize = 3;
-        pub const ND: usize = 3;
-        pub const N: usize = 4;
-        pub struct Kalman([Real; NX], [Real; ND]);
-        impl Kalman {
-            pub const fn new(x0: [Real; NX]) -> Self {
-                Self(x0, [0.0; ND])
-            }
-            pub fn predict(&mut self, u: &[Real; NU]) {
-                self.0[3] += u[0];
-            }
-            pub fn update(&mut self, z: &[Real; 3]) -> bool {
-                self.0[0] = z[0];
-                self.1[0] += 0.5;
-                true
-            }
-            pub fn state(&self) -> &[Real; NX] {
-                &self.0
-            }
-            pub fn disturbance(&self) -> &[Real; ND] {
-                &self.1
-            }
-        }
-        pub struct Mpc;
-        impl Mpc {
-            pub const fn new() -> Self {
-                Self
-            }
-            pub fn solve_with_disturbance(
-                &mut self,
-                x0: &[Real; NX],
-                d: &[Real; ND],
-                xref: &[[Real; NX]; N],
-            ) -> [Real; NU] {
-                [xref[N - 1][0] - x0[0] - d[0], 0.0, 0.0]
-            }
-        }
-    }
+    fake_module!(fake, f32, 0);
+    fake_module!(fake_offset_free, f64, 3);
 
     crate::mpc_controller!(struct FakeMpc(self::fake));
     crate::mpc_controller!(struct FakeOffsetFree(self::fake_offset_free), disturbance);
@@ -262,6 +249,9 @@ mod tests {
         assert_eq!(u, [0.75, 0.0, 0.0]);
         assert_eq!(c.estimate()[0], 0.25);
         assert_eq!(c.kalman().state()[3], 0.75);
+        assert_eq!(c.rejected_measurements(), 0);
+        c.step(1, &[f64::NAN, 0.0, 0.0], &r);
+        assert_eq!(c.rejected_measurements(), 1);
         let mut k = FakeKalman::new(&[1.0; 6]);
         k.update(&[2.0, 0.0, 0.0]);
         k.predict(&[0.5, 0.0, 0.0]);

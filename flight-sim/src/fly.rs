@@ -14,6 +14,11 @@ pub trait Controller {
 
     /// The state estimate the last command was computed from.
     fn estimate(&self) -> [f64; NX];
+
+    /// The measurements the controller's filter has rejected so far (0 for one that cannot tell).
+    fn rejected_measurements(&self) -> usize {
+        0
+    }
 }
 
 impl<C: Controller + ?Sized> Controller for &mut C {
@@ -22,6 +27,9 @@ impl<C: Controller + ?Sized> Controller for &mut C {
     }
     fn estimate(&self) -> [f64; NX] {
         (**self).estimate()
+    }
+    fn rejected_measurements(&self) -> usize {
+        (**self).rejected_measurements()
     }
 }
 

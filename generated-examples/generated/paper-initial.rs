@@ -40,28 +40,95 @@ pub mod paper_initial {
     pub const LANES: usize = 4;
     /// A plan: one row of LANES per predicted step.
     type Plan = [[Real; LANES]; N];
+    /// The χ² gate on the normalized innovation squared eᵀS⁻¹e ([kalman] gate): a consistent filter's reading exceeds it with probability 1.0e-6 (NY = 3 degrees of freedom).
+    pub const GATE: Real = 30.66485f32;
+    /// Consecutive gated readings, each different from the one before, after which the filter
+    /// re-acquires from the measurement ([kalman] reacquire_after).
+    pub const REACQUIRE_AFTER: u32 = 25;
+    /// Bit-identical readings in a row from which the sensor is taken as stuck and its reading
+    /// rejected ([kalman] stuck_cycles); a stuck reading never causes a re-acquisition.
+    pub const STUCK_CYCLES: u32 = 10;
     /// One control cycle in the paper's order (Section 2.1): filter update with the measurement,
     /// MPC from the estimate, filter prediction with the command.
     #[derive(Clone, Debug, PartialEq)]
     pub struct Controller {
         kalman: Kalman,
         mpc: Mpc,
+        estimate: [Real; NX],
+        status: Status,
+    }
+    /// What one control cycle did ([`Controller::status`]).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct Status {
+        /// What the filter did with the measurement, and its counts.
+        pub filter: FilterStatus,
+        /// How the command was made.
+        pub command: Command,
+        /// Per input, whether the command is at U_MIN or U_MAX.
+        pub saturated: [bool; NU],
+    }
+    /// How a control cycle's command was made.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Command {
+        /// No cycle yet.
+        NoneYet,
+        /// Solved from the estimate.
+        Solved,
+        /// [`U_REST`]: the filter has no estimate (a non-finite `x0`, and no usable reading since).
+        NoEstimate,
+        /// [`U_REST`]: the reference window has a NaN or infinite entry; the warm start is reset.
+        InvalidReference,
     }
     impl Controller {
-        /// A controller whose filter starts at `x0` and whose MPC starts cold.
+        /// A controller whose filter starts at `x0` and whose MPC starts cold. A non-finite `x0` is
+        /// refused, visibly: until the first usable reading the status says
+        /// [`Command::NoEstimate`] and the command is [`U_REST`].
         pub const fn new(x0: [Real; NX]) -> Self {
+            let kalman = Kalman::new(x0);
             Controller {
-                kalman: Kalman::new(x0),
+                estimate: kalman.x,
+                status: Status {
+                    filter: kalman.status,
+                    command: Command::NoneYet,
+                    saturated: [false; NU],
+                },
+                kalman,
                 mpc: Mpc::new(),
             }
         }
-        /// One control cycle: returns the command, always finite and inside [U_MIN, U_MAX].
-        /// A rejected measurement (non-finite) leaves the estimate to the prediction alone.
+        /// Starts again from `x0`, as [`Controller::new`].
+        pub fn reset(&mut self, x0: [Real; NX]) {
+            *self = Self::new(x0);
+        }
+        /// One control cycle: the filter update with the measurement `z` (screened: see [`Kalman::update`]), the MPC from the estimate with the reference window `xref`, the filter prediction with the command. Returns the command, always finite and inside [U_MIN, U_MAX]; [`Controller::status`] says what happened.
         pub fn step(&mut self, z: &[Real; NY], xref: &[[Real; NX]; N]) -> [Real; NU] {
             self.kalman.update(z);
-            let u = self.mpc.solve(self.kalman.state(), xref);
+            let (u, command) = if self.kalman.status.estimate_valid {
+                self.estimate = self.kalman.x;
+                match self.mpc.checked(&self.estimate, xref) {
+                    Some(u) => (u, Command::Solved),
+                    None => (U_REST, Command::InvalidReference),
+                }
+            } else {
+                self.mpc.reset();
+                (U_REST, Command::NoEstimate)
+            };
             self.kalman.predict(&u);
+            self.status = Status {
+                filter: self.kalman.status,
+                command,
+                saturated: saturated(&u),
+            };
             u
+        }
+        /// What the last cycle did.
+        pub fn status(&self) -> &Status {
+            &self.status
+        }
+        /// The estimate the last command was computed from (the filter's state before its
+        /// prediction).
+        pub fn estimate(&self) -> &[Real; NX] {
+            &self.estimate
         }
         /// The filter.
         pub fn kalman(&self) -> &Kalman {
@@ -86,10 +153,24 @@ pub mod paper_initial {
         /// Returns the first input of the plan, always finite and inside [U_MIN, U_MAX]. A non-finite
         /// `x0` or `xref` returns the rest input and resets the warm start.
         pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
+            self.checked(x0, xref).unwrap_or(U_REST)
+        }
+        /// [`Mpc::solve`], with `None` (and a reset warm start) for a non-finite argument.
+        fn checked(
+            &mut self,
+            x0: &[Real; NX],
+            xref: &[[Real; NX]; N],
+        ) -> Option<[Real; NU]> {
             if !(all_finite(x0) && xref.iter().all(|r| all_finite(r))) {
                 self.reset();
-                return U_REST;
+                return None;
             }
+            let x0 = &flushed(x0);
+            let mut reference = *xref;
+            for row in reference.iter_mut() {
+                *row = flushed(row);
+            }
+            let xref = &reference;
             let mut f: Plan = [[0.0; LANES]; N];
             adjoint_gradient(&[[0.0; LANES]; N], x0, xref, &mut f);
             let mut u: Plan = [
@@ -109,7 +190,7 @@ pub mod paper_initial {
                 u = next;
             }
             self.plan = u;
-            inputs(&u[0])
+            Some(inputs(&u[0]))
         }
         /// The plan of the last solve, one input per predicted step.
         pub fn plan(&self) -> [[Real; NU]; N] {
@@ -129,36 +210,99 @@ pub mod paper_initial {
             Self::new()
         }
     }
-    /// The time-varying Kalman filter (paper eqs. 1-3), with a Joseph-form covariance update that keeps
-    /// P symmetric positive definite in finite precision.
+    /// The time-varying Kalman filter (paper eqs. 1-3), with a Joseph-form covariance update that keeps P symmetric positive definite in finite precision: K = P Cᵀ (C P Cᵀ + R)⁻¹, x ← x + K (z − C x), P ← (I − K C) P (I − K C)ᵀ + K R Kᵀ; the time update x ← F x + G u, P ← F P Fᵀ + Q.
     #[derive(Clone, Debug, PartialEq)]
     pub struct Kalman {
         x: [Real; NX],
         P: [[Real; NX]; NX],
+        last: [Real; NY],
+        repeats: u32,
+        gated: u32,
+        status: FilterStatus,
     }
     impl Kalman {
-        /// A filter whose estimate starts at `x0`, with covariance P0.
+        /// A filter whose estimate starts at `x0`. A non-finite `x0` is refused: the filter then has
+        /// no estimate ([`FilterStatus::estimate_valid`] is false) until its first usable reading,
+        /// which it acquires.
         pub const fn new(x0: [Real; NX]) -> Self {
-            Kalman { x: x0, P: P0 }
+            let valid = finite(&x0);
+            Kalman {
+                x: if valid { x0 } else { [0.0; NX] },
+                P: P0,
+                last: [0.0; NY],
+                repeats: 0,
+                gated: 0,
+                status: FilterStatus::new(valid),
+            }
         }
-        /// The time update x ← F x + G u, P ← F P Fᵀ + Q. A non-finite `u` changes nothing.
+        /// Starts again from `x0`, as [`Kalman::new`].
+        pub fn reset(&mut self, x0: [Real; NX]) {
+            *self = Self::new(x0);
+        }
+        /// The time update with the applied input `u`. A non-finite `u`, a filter without an
+        /// estimate or a non-finite result changes nothing.
         pub fn predict(&mut self, u: &[Real; NU]) {
-            if !all_finite(u) {
+            if !(self.status.estimate_valid && all_finite(u)) {
                 return;
             }
-            let x = predict_state(&self.x, u);
-            let P = propagate(&self.P);
-            if all_finite(&x) && P.iter().all(|row| all_finite(row)) {
-                self.x = x;
-                self.P = P;
+            let u = flushed(u);
+            let x = predict_state(&self.x, &u);
+            if !all_finite(&x) {
+                return;
             }
+            let P = propagate(&self.P);
+            if !P.iter().all(|row| all_finite(row)) {
+                return;
+            }
+            self.x = flushed(&x);
+            self.P = P;
         }
-        /// The measurement update with z: K = P Cᵀ (C P Cᵀ + R)⁻¹, x ← x + K (z − C x),
-        /// P ← (I − K C) P (I − K C)ᵀ + K R Kᵀ. Returns false, changing nothing, for a non-finite `z`,
-        /// an innovation covariance that is not positive definite, or a non-finite result.
-        pub fn update(&mut self, z: &[Real; NY]) -> bool {
+        /// The measurement update with `z`, after screening: a non-finite reading, a stuck sensor's
+        /// repeated reading and (with a gate) a reading whose normalized innovation squared exceeds
+        /// [`GATE`] are rejected and change nothing but the status. Returns what was done with `z`;
+        /// [`Kalman::status`] has the counts.
+        pub fn update(&mut self, z: &[Real; NY]) -> Measurement {
+            let verdict = self.screen(z);
+            let status = &mut self.status;
+            status.measurement = verdict;
+            if verdict.accepted() {
+                status.consecutive_rejections = 0;
+                status.cycles_since_accepted = 0;
+                self.gated = 0;
+            } else {
+                status.consecutive_rejections = status
+                    .consecutive_rejections
+                    .saturating_add(1);
+                status.cycles_since_accepted = status
+                    .cycles_since_accepted
+                    .saturating_add(1);
+            }
+            verdict
+        }
+        /// What the filter did with the last reading, and its counts.
+        pub fn status(&self) -> &FilterStatus {
+            &self.status
+        }
+        /// Whether the filter holds an estimate: false after a non-finite `x0` until the first usable
+        /// reading.
+        pub fn has_estimate(&self) -> bool {
+            self.status.estimate_valid
+        }
+        /// Screens `z`, then fuses it.
+        fn screen(&mut self, z: &[Real; NY]) -> Measurement {
+            self.status.innovation = 0.0;
             if !all_finite(z) {
-                return false;
+                return Measurement::NonFinite;
+            }
+            let z = flushed(z);
+            let changing = self.repeats == 0 || !same_bits(&z, &self.last);
+            self.repeats = if changing { 1 } else { self.repeats.saturating_add(1) };
+            self.last = z;
+            if self.repeats >= STUCK_CYCLES {
+                return Measurement::Stuck;
+            }
+            if !self.status.estimate_valid {
+                return self.reacquire(&z);
             }
             let pct_0_0: Real = self.P[0][0];
             let pct_1_1: Real = self.P[1][1];
@@ -175,19 +319,26 @@ pub mod paper_initial {
                 [0f32, 0f32, s_2_2],
             ];
             let Some(S_inv) = spd_inverse(&S) else {
-                return false;
+                return Measurement::Numerical;
             };
+            let innovation = innovation(&z, &self.x);
+            let nis = normalized(&innovation, &S_inv);
+            self.status.innovation = nis;
+            if !(nis <= GATE) {
+                if changing {
+                    self.gated = self.gated.saturating_add(1);
+                }
+                if self.gated >= REACQUIRE_AFTER {
+                    return self.reacquire(&z);
+                }
+                return Measurement::Gated;
+            }
             let k_0_0: Real = pct_0_0 * S_inv[0][0];
             let k_1_1: Real = pct_1_1 * S_inv[1][1];
             let k_2_2: Real = pct_2_2 * S_inv[2][2];
             let k_3_0: Real = pct_3_0 * S_inv[0][0];
             let k_4_1: Real = pct_4_1 * S_inv[1][1];
             let k_5_2: Real = pct_5_2 * S_inv[2][2];
-            let predicted = measure(&self.x);
-            let mut innovation = *z;
-            for (e, zp) in innovation.iter_mut().zip(predicted.iter()) {
-                *e -= *zp;
-            }
             let xn_0_0: Real = k_0_0 * innovation[0] + self.x[0];
             let xn_1_0: Real = k_1_1 * innovation[1] + self.x[1];
             let xn_2_0: Real = k_2_2 * innovation[2] + self.x[2];
@@ -264,11 +415,25 @@ pub mod paper_initial {
                 [0f32, 0f32, pn_5_2, 0f32, 0f32, pn_5_5],
             ];
             if !(all_finite(&x) && P.iter().all(|row| all_finite(row))) {
-                return false;
+                return Measurement::Numerical;
             }
-            self.x = x;
+            self.x = flushed(&x);
             self.P = P;
-            true
+            Measurement::Accepted
+        }
+        /// Moves the estimate onto the measurement, x ← x + C⁺·(z − C x) (the measured directions set,
+        /// the rest and the disturbance kept), and restarts the covariance.
+        fn reacquire(&mut self, z: &[Real; NY]) -> Measurement {
+            let x = reacquired(&self.x, &innovation(z, &self.x));
+            if !all_finite(&x) {
+                return Measurement::Numerical;
+            }
+            self.x = flushed(&x);
+            self.P = P0;
+            self.gated = 0;
+            self.status.estimate_valid = true;
+            self.status.reacquisitions = self.status.reacquisitions.saturating_add(1);
+            Measurement::Reacquired
         }
         /// The estimate.
         pub fn state(&self) -> &[Real; NX] {
@@ -278,6 +443,76 @@ pub mod paper_initial {
         pub fn covariance(&self) -> &[[Real; NX]; NX] {
             &self.P
         }
+    }
+    /// What the filter did with a reading.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Measurement {
+        /// No reading yet.
+        NoneYet,
+        /// Fused by the Kalman update.
+        Accepted,
+        /// Fused by re-acquisition: the estimate was moved onto the measurement (the first usable
+        /// reading after a non-finite `x0`, or a reading after a run of gated ones).
+        Reacquired,
+        /// An entry was NaN or infinite (a dropout): not fused.
+        NonFinite,
+        /// Its normalized innovation squared exceeded [`GATE`]: not fused.
+        Gated,
+        /// Bit-identical to the readings before it for [`STUCK_CYCLES`] cycles: not fused.
+        Stuck,
+        /// The update's arithmetic failed (an innovation covariance that is not positive definite,
+        /// or a non-finite result): not fused.
+        Numerical,
+    }
+    impl Measurement {
+        /// Whether the reading was fused.
+        pub const fn accepted(self) -> bool {
+            matches!(self, Measurement::Accepted | Measurement::Reacquired)
+        }
+    }
+    /// The filter's part of a control cycle's [`Status`].
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct FilterStatus {
+        /// What was done with the last reading.
+        pub measurement: Measurement,
+        /// The last reading's normalized innovation squared eᵀS⁻¹e (0 when it was not computed).
+        pub innovation: Real,
+        /// Readings rejected in a row.
+        pub consecutive_rejections: u32,
+        /// Readings since the last one fused (0 when the last was fused).
+        pub cycles_since_accepted: u32,
+        /// Re-acquisitions since construction, the first acquisition after a non-finite `x0`
+        /// included.
+        pub reacquisitions: u32,
+        /// Whether the filter holds an estimate: false from a non-finite `x0` until the first
+        /// usable reading; the controller commands [`U_REST`] meanwhile.
+        pub estimate_valid: bool,
+    }
+    impl FilterStatus {
+        const fn new(estimate_valid: bool) -> Self {
+            FilterStatus {
+                measurement: Measurement::NoneYet,
+                innovation: 0.0,
+                consecutive_rejections: 0,
+                cycles_since_accepted: 0,
+                reacquisitions: 0,
+                estimate_valid,
+            }
+        }
+    }
+    /// Per input, whether `u` is at a bound.
+    #[inline(always)]
+    fn saturated(u: &[Real; NU]) -> [bool; NU] {
+        let mut out = [false; NU];
+        for (((s, v), lo), hi) in out
+            .iter_mut()
+            .zip(u.iter())
+            .zip(U_MIN.iter())
+            .zip(U_MAX.iter())
+        {
+            *s = *v <= *lo || *v >= *hi;
+        }
+        out
     }
     /// The NU inputs of one plan step.
     #[inline(always)]
@@ -665,6 +900,38 @@ pub mod paper_initial {
         let v2_0 = w2_0 / d0 - l1_0 * v2_1 - l2_0 * v2_2;
         Some([[v0_0, v1_0, v2_0], [v0_1, v1_1, v2_1], [v0_2, v1_2, v2_2]])
     }
+    /// z − C·x.
+    #[inline(always)]
+    fn innovation(z: &[Real; NY], x: &[Real; NX]) -> [Real; NY] {
+        let mut e = *z;
+        for (e, zp) in e.iter_mut().zip(measure(x).iter()) {
+            *e -= *zp;
+        }
+        e
+    }
+    /// x + C⁺·e, unrolled over the pseudo-inverse of C.
+    #[inline(always)]
+    fn reacquired(x: &[Real; NX], e: &[Real; NY]) -> [Real; NX] {
+        [x[0] + e[0], x[1] + e[1], x[2] + e[2], x[3], x[4], x[5]]
+    }
+    /// eᵀ·S⁻¹·e, the normalized innovation squared (χ² with NY degrees of freedom).
+    #[inline(always)]
+    fn normalized(e: &[Real; NY], S_inv: &[[Real; NY]; NY]) -> Real {
+        let mut sum = 0.0;
+        for (ei, row) in e.iter().zip(S_inv.iter()) {
+            let mut r = 0.0;
+            for (sij, ej) in row.iter().zip(e.iter()) {
+                r += *sij * *ej;
+            }
+            sum += *ei * r;
+        }
+        sum
+    }
+    /// Whether two readings are the same in every bit.
+    #[inline(always)]
+    fn same_bits(a: &[Real; NY], b: &[Real; NY]) -> bool {
+        a.iter().zip(b.iter()).all(|(a, b)| a.to_bits() == b.to_bits())
+    }
     /// The projection onto [lo, hi]; NaN maps to `lo`, so the result is always finite and in the box.
     #[cfg(not(all(mpc_neon, target_arch = "arm", target_feature = "neon")))]
     #[inline(always)]
@@ -676,6 +943,32 @@ pub mod paper_initial {
     #[inline(always)]
     fn all_finite(v: &[Real]) -> bool {
         v.iter().all(|x| x.is_finite())
+    }
+    /// [`all_finite`] for constant contexts (`Kalman::new`).
+    const fn finite(mut v: &[Real]) -> bool {
+        while let [first, rest @ ..] = v {
+            if !first.is_finite() {
+                return false;
+            }
+            v = rest;
+        }
+        true
+    }
+    /// Magnitudes below this are read as zero where data enters and where the estimate is stored:
+    /// the smallest normal number over ε, so that a product with any coefficient above ε stays
+    /// normal. Subnormal arithmetic costs up to 100× on x86; nothing this small is resolvable next
+    /// to a value of order one.
+    const FLUSH_BELOW: Real = Real::MIN_POSITIVE / Real::EPSILON;
+    /// `v` with entries below [`FLUSH_BELOW`] in magnitude set to zero.
+    #[inline(always)]
+    fn flushed<const M: usize>(v: &[Real; M]) -> [Real; M] {
+        let mut out = *v;
+        for e in out.iter_mut() {
+            if e.abs() < FLUSH_BELOW {
+                *e = 0.0;
+            }
+        }
+        out
     }
     /// State transition F, eq. 2.
     pub const F: [[Real; NX]; NX] = [

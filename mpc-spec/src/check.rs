@@ -318,11 +318,28 @@ fn check_kalman(raw: &Raw, model: &Model, diags: &mut Diagnostics) -> Option<Kal
             }
         }
     };
+    let defaults = Screening::default();
+    let screening = Screening {
+        gate: match raw.gate.as_ref().map(|g| g.value) {
+            None => Gate::Default,
+            Some(None) => Gate::Off,
+            Some(Some(g)) => Gate::Threshold(g),
+        },
+        stuck_cycles: match raw.stuck_cycles.as_ref().map(|s| s.value) {
+            None => defaults.stuck_cycles,
+            Some(s) => s.map(|s| s as u32),
+        },
+        reacquire_after: raw
+            .reacquire_after
+            .as_ref()
+            .map_or(defaults.reacquire_after, |r| r.value as u32),
+    };
     Some(Kalman {
         noise: noise?,
         p0: p0?,
         filter,
         disturbance,
+        screening,
     })
 }
 

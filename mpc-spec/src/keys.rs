@@ -39,6 +39,9 @@ pub const KALMAN_KEYS: &[&str] = &[
     "p0",
     "filter",
     "disturbance",
+    "gate",
+    "stuck_cycles",
+    "reacquire_after",
 ];
 /// Keys of `[codegen]`.
 pub const CODEGEN_KEYS: &[&str] = &["scalar", "emission"];

@@ -255,6 +255,49 @@ pub struct Kalman {
     /// The random-walk standard deviation per step of a constant input disturbance per input channel,
     /// estimated by the filter and cancelled by the MPC (offset-free MPC); `None`: no disturbance model.
     pub disturbance: Option<Vec<f64>>,
+    /// How measurements are screened before they are fused.
+    pub screening: Screening,
+}
+
+/// How the filter screens a measurement before fusing it: `[kalman] gate`, `stuck_cycles` and
+/// `reacquire_after`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Screening {
+    /// The χ² gate on the normalized innovation squared.
+    pub gate: Gate,
+    /// Bit-identical readings in a row from which the sensor is taken as stuck; `None`: never.
+    pub stuck_cycles: Option<u32>,
+    /// Consecutive gated readings, each different from the one before, after which the filter
+    /// re-acquires from the measurement.
+    pub reacquire_after: u32,
+}
+
+/// Bit-identical readings in a row that make a stuck sensor when `stuck_cycles` is not written.
+pub const DEFAULT_STUCK_CYCLES: u32 = 10;
+/// Consecutive gated, changing readings that make the filter re-acquire when `reacquire_after` is not
+/// written.
+pub const DEFAULT_REACQUIRE_AFTER: u32 = 25;
+
+/// `[kalman] gate`: the threshold on the normalized innovation squared eᵀS⁻¹e.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Gate {
+    /// Not written: the χ² quantile with ny degrees of freedom at the compiler's default
+    /// false-rejection probability.
+    Default,
+    /// A threshold written in the spec.
+    Threshold(f64),
+    /// `"off"`: every finite reading is fused.
+    Off,
+}
+
+impl Default for Screening {
+    fn default() -> Self {
+        Screening {
+            gate: Gate::Default,
+            stuck_cycles: Some(DEFAULT_STUCK_CYCLES),
+            reacquire_after: DEFAULT_REACQUIRE_AFTER,
+        }
+    }
 }
 
 spelled! {

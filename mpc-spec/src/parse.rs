@@ -86,6 +86,11 @@ pub struct Raw {
     pub p0: Option<Located<MatrixInput>>,
     pub filter: Option<Located<String>>,
     pub disturbance: Option<Located<MatrixInput>>,
+    /// `None` inside for `"off"`.
+    pub gate: Option<Located<Option<f64>>>,
+    /// `None` inside for `"off"`.
+    pub stuck_cycles: Option<Located<Option<usize>>>,
+    pub reacquire_after: Option<Located<usize>>,
 
     pub scalar: Option<Located<String>>,
     pub emission: Option<Located<String>>,
@@ -212,6 +217,19 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.filter = t
             .get("filter")
             .and_then(|v| p.choice(v, "kalman.filter", keys::FILTERS));
+        raw.gate = t.get("gate").and_then(|v| {
+            p.word_or(v, "kalman.gate", "off", GATE_HINT, |p, v| {
+                p.positive(v, "kalman.gate")
+            })
+        });
+        raw.stuck_cycles = t.get("stuck_cycles").and_then(|v| {
+            p.word_or(v, "kalman.stuck_cycles", "off", STUCK_HINT, |p, v| {
+                p.count_at_most(v, "kalman.stuck_cycles", 2, COUNT_MAX, STUCK_HINT)
+            })
+        });
+        raw.reacquire_after = t.get("reacquire_after").and_then(|v| {
+            p.count_at_most(v, "kalman.reacquire_after", 1, COUNT_MAX, REACQUIRE_HINT)
+        });
     }
     if let Some((_, t)) = p.table(root, keys::CODEGEN, &root_span, false) {
         p.unknown_keys(t, keys::CODEGEN_KEYS, "codegen", "key");
@@ -490,28 +508,42 @@ impl Parser<'_> {
         }
     }
 
-    /// `"auto"` (None) or a whole number of at least 1.
-    fn iterations(&mut self, v: &Value<'_>) -> Option<Located<Option<usize>>> {
+    /// `word` (None) or what `value` reads; any other string is an unknown value with `hint`.
+    fn word_or<T>(
+        &mut self,
+        v: &Value<'_>,
+        path: &str,
+        word: &str,
+        hint: &str,
+        value: impl FnOnce(&mut Self, &Value<'_>) -> Option<Located<T>>,
+    ) -> Option<Located<Option<T>>> {
         match v.get_ref() {
-            DeValue::String(s) if s == "auto" => Some(self.located("mpc.iterations", v, None)),
+            DeValue::String(s) if s == word => Some(self.located(path, v, None)),
             DeValue::String(s) => {
                 self.err(
-                    Diagnostic::new(
-                        format!("unknown value \"{s}\" for `mpc.iterations`"),
-                        v.span(),
-                    )
-                    .label("unknown value")
-                    .note("hint: write \"auto\" (with `tolerance`) or a whole number"),
+                    Diagnostic::new(format!("unknown value \"{s}\" for `{path}`"), v.span())
+                        .label("unknown value")
+                        .note(hint.to_string()),
                 );
                 None
             }
-            _ => self
-                .count_at_most(v, "mpc.iterations", 1, crate::MAX_ITERATIONS as i64, "")
-                .map(|n| Located {
-                    value: Some(n.value),
-                    span: n.span,
-                }),
+            _ => value(self, v).map(|x| Located {
+                value: Some(x.value),
+                span: x.span,
+            }),
         }
+    }
+
+    /// `"auto"` (None) or a whole number of at least 1.
+    fn iterations(&mut self, v: &Value<'_>) -> Option<Located<Option<usize>>> {
+        let max = crate::MAX_ITERATIONS as i64;
+        self.word_or(
+            v,
+            "mpc.iterations",
+            "auto",
+            "hint: write \"auto\" (with `tolerance`) or a whole number",
+            |p, v| p.count_at_most(v, "mpc.iterations", 1, max, ""),
+        )
     }
 
     /// A number strictly between 0 and 1.
@@ -552,20 +584,13 @@ impl Parser<'_> {
 
     /// `"auto"` (None) or a positive number.
     fn step(&mut self, v: &Value<'_>) -> Option<Located<Option<f64>>> {
-        match v.get_ref() {
-            DeValue::String(s) if s == "auto" => Some(self.located("mpc.step", v, None)),
-            DeValue::String(s) => {
-                self.err(
-                    Diagnostic::new(format!("unknown value \"{s}\" for `mpc.step`"), v.span())
-                        .note("hint: write \"auto\" for 1/L, or a positive number"),
-                );
-                None
-            }
-            _ => self.positive(v, "mpc.step").map(|x| Located {
-                value: Some(x.value),
-                span: x.span,
-            }),
-        }
+        self.word_or(
+            v,
+            "mpc.step",
+            "auto",
+            "hint: write \"auto\" for 1/L, or a positive number",
+            |p, v| p.positive(v, "mpc.step"),
+        )
     }
 
     fn array<'a, 'i>(
@@ -675,6 +700,11 @@ impl Parser<'_> {
 }
 
 /// Why the number of axes is bounded.
+/// The largest cycle count `[kalman]` takes: the emitted counters are `u32`.
+const COUNT_MAX: i64 = u32::MAX as i64;
+const GATE_HINT: &str = "hint: the gate is a threshold on the normalized innovation squared (χ² with ny degrees of freedom), e.g. 30.7 for ny = 3 at a false-rejection probability of 1e-6; write \"off\" to fuse every finite reading";
+const STUCK_HINT: &str = "hint: the number of bit-identical readings in a row after which the sensor is taken as stuck (at least 2), or \"off\"";
+const REACQUIRE_HINT: &str = "hint: the number of consecutive gated, changing readings after which the filter re-acquires from the measurement";
 const AXES_LIMIT: &str = "hint: each axis adds two states, and every weight and covariance is a dense matrix over all of them; a controller this large is refused by the build budgets anyway";
 
 /// Why the horizon is bounded.

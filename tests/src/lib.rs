@@ -76,7 +76,7 @@ macro_rules! controllers {
                         for (a, b) in v.iter_mut().zip(z) {
                             *a = *b as Self::Real;
                         }
-                        k.update(&v)
+                        k.update(&v).accepted()
                     }
 
                     fn kalman_state(k: &Self::Kalman) -> Vec<f64> {

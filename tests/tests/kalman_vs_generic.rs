@@ -43,7 +43,7 @@ fn compare_filter<G: Generated>(seed: u64, steps: usize) -> f64 {
         let z = (&p.C * &x
             + DVector::from_iterator(ny, sigma_z.iter().map(|s| s * normal(&mut rng))))
         .map(G::round);
-        assert!(oracle.update(&z));
+        assert!(oracle.update(&z).accepted());
         assert!(G::kalman_update(&mut generated, z.as_slice()));
         let u = DVector::from_iterator(
             nu,
@@ -171,19 +171,29 @@ fn generated_time_varying_filter_approaches_the_steady_state_one() {
     );
 }
 
-/// A non-finite measurement is rejected and changes nothing.
+/// A non-finite measurement is rejected, counted, and changes nothing else.
 #[test]
 fn non_finite_measurement_is_rejected() {
+    use mpc_tests::paper::Measurement;
     let mut k = mpc_tests::paper::Kalman::new([1.0, 2.0, 3.0, 0.0, 0.0, 0.0]);
     k.predict(&[1.0, 0.0, -1.0]);
     let before = k.clone();
-    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
-        assert!(!k.update(&[0.0, bad, 0.0]));
-        assert_eq!(k, before);
+    for (n, bad) in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY]
+        .into_iter()
+        .enumerate()
+    {
+        assert_eq!(k.update(&[0.0, bad, 0.0]), Measurement::NonFinite);
+        assert_eq!(
+            (k.state(), k.covariance()),
+            (before.state(), before.covariance())
+        );
+        assert_eq!(k.status().consecutive_rejections, n as u32 + 1);
+        assert_eq!(k.status().cycles_since_accepted, n as u32 + 1);
     }
-    assert!(k.update(&[1.0, 2.0, 3.0]));
-    assert_ne!(k, before);
+    assert_eq!(k.update(&[1.0, 2.0, 3.0]), Measurement::Accepted);
+    assert_ne!(k.state(), before.state());
+    assert_eq!(k.status().consecutive_rejections, 0);
     let mut s = mpc_tests::paper_f64::Kalman::new([0.0; 6]);
-    assert!(!s.update(&[f64::NAN, 0.0, 0.0]));
+    assert!(!s.update(&[f64::NAN, 0.0, 0.0]).accepted());
     assert_eq!(s.state(), &[0.0; 6]);
 }

@@ -62,31 +62,6 @@ fn flown_with<C: Controller, R: Reference>(
 }
 
 #[test]
-fn the_adapter_steps_exactly_as_the_generated_controller() {
-    // The simulation drives the module's Kalman and Mpc through `mpc_controller!`, so that it can
-    // see what each solve started from; it must command what `Controller::step` commands.
-    let r = Trajectory::paper();
-    let x0 = r.start();
-    let mut adapter = PaperMpc::new(&x0);
-    let mut generated = paper::Controller::new(flight_sim::cast(&x0));
-    let s = Scenario::new(5, Scenario::cycles_for(20.0));
-    let mut cycles = 0;
-    fly(&mut adapter, &r, &s, |sample, _| {
-        let z: [paper::Real; 3] = flight_sim::cast(&sample.measurement);
-        let xref = r.window::<paper::Real, { paper::N }>(sample.k);
-        let u = generated.step(&z, &xref);
-        assert_eq!(
-            flight_sim::cast::<_, f64, 3>(&u),
-            sample.command,
-            "cycle {}",
-            sample.k
-        );
-        cycles += 1;
-    });
-    assert_eq!(cycles, s.cycles);
-}
-
-#[test]
 fn without_noise_both_mpcs_track_far_better_than_the_pid_on_every_axis() {
     let r = Trajectory::paper();
     let x0 = r.start();

@@ -2,6 +2,7 @@
 //! steady-state gain solved at compile time.
 #![allow(non_snake_case)]
 
+use super::screening::{self, Screen};
 use super::tokens::{at1, Num};
 use super::Sections;
 use crate::lower::Problem;
@@ -71,21 +72,127 @@ fn state_signature(p: &Problem) -> (TokenStream, TokenStream) {
 }
 
 /// The `Kalman` items shared by both filter kinds when a disturbance is modelled: its field, its
-/// accessor and the correction of the estimate.
-fn disturbance_parts(p: &Problem) -> (TokenStream, TokenStream, TokenStream) {
+/// initial value, its accessor, and its commit (held within what the inputs can cancel).
+struct DisturbanceParts {
+    field: TokenStream,
+    init: TokenStream,
+    accessor: TokenStream,
+    check: TokenStream,
+    commit: TokenStream,
+}
+
+fn disturbance_parts(p: &Problem) -> DisturbanceParts {
     if p.filter.nd == 0 {
-        return (quote!(), quote!(), quote!());
+        return DisturbanceParts {
+            field: quote!(),
+            init: quote!(),
+            accessor: quote!(),
+            check: quote!(),
+            commit: quote!(),
+        };
     }
-    (
-        quote!(d: [Real; ND],),
-        quote!(d: [0.0; ND],),
-        quote! {
-            /// The estimated input disturbance (the input that cancels it is its negative).
+    DisturbanceParts {
+        field: quote!(d: [Real; ND],),
+        init: quote!(d: [0.0; ND],),
+        accessor: quote! {
+            /// The estimated input disturbance (the input that cancels it is its negative), held within
+            /// [`D_MIN`], [`D_MAX`].
             pub fn disturbance(&self) -> &[Real; ND] {
                 &self.d
             }
         },
-    )
+        check: quote!(&&all_finite(&d)),
+        commit: quote! {
+            let (d, clamped) = bounded(&flushed(&d));
+            self.d = d;
+            self.status.disturbance_clamped = clamped;
+        },
+    }
+}
+
+/// The `Kalman` struct, `new`, `reset`, `predict` and the accessors both kinds share, around the
+/// kind's own fields and methods.
+struct KindParts {
+    doc: &'static str,
+    fields: TokenStream,
+    init: TokenStream,
+    /// Run after the state's prediction is known finite; binds nothing; may veto with `return`.
+    predict_covariance: TokenStream,
+    commit_covariance: TokenStream,
+    methods: TokenStream,
+}
+
+fn kalman_type(p: &Problem, screen: &Screen, kind: KindParts) -> TokenStream {
+    let (_, state_args) = state_signature(p);
+    let d = disturbance_parts(p);
+    let (d_field, d_init, d_accessor) = (d.field, d.init, d.accessor);
+    let (screen_fields, screen_init, screen_methods) =
+        (&screen.fields, &screen.init, &screen.methods);
+    let KindParts {
+        doc,
+        fields,
+        init,
+        predict_covariance,
+        commit_covariance,
+        methods,
+    } = kind;
+    quote! {
+        #[doc = #doc]
+        #[derive(Clone, Debug, PartialEq)]
+        pub struct Kalman {
+            x: [Real; NX],
+            #d_field
+            #fields
+            #screen_fields
+        }
+
+        impl Kalman {
+            /// A filter whose estimate starts at `x0`. A non-finite `x0` is refused: the filter then has
+            /// no estimate ([`FilterStatus::estimate_valid`] is false) until its first usable reading,
+            /// which it acquires.
+            pub const fn new(x0: [Real; NX]) -> Self {
+                let valid = finite(&x0);
+                Kalman {
+                    x: if valid { x0 } else { [0.0; NX] },
+                    #d_init
+                    #init
+                    #screen_init
+                }
+            }
+
+            /// Starts again from `x0`, as [`Kalman::new`].
+            pub fn reset(&mut self, x0: [Real; NX]) {
+                *self = Self::new(x0);
+            }
+
+            /// The time update with the applied input `u`. A non-finite `u`, a filter without an
+            /// estimate or a non-finite result changes nothing.
+            pub fn predict(&mut self, u: &[Real; NU]) {
+                if !(self.status.estimate_valid && all_finite(u)) {
+                    return;
+                }
+                let u = flushed(u);
+                let x = predict_state(#state_args, &u);
+                if !all_finite(&x) {
+                    return;
+                }
+                #predict_covariance
+                self.x = flushed(&x);
+                #commit_covariance
+            }
+
+            #screen_methods
+
+            /// The estimate.
+            pub fn state(&self) -> &[Real; NX] {
+                &self.x
+            }
+
+            #d_accessor
+
+            #methods
+        }
+    }
 }
 
 fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
@@ -98,9 +205,8 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
             (0..ny).map(|j| (K[(i, j)], at1(&innovation, j))),
         )
     });
-    let (_, state_args) = state_signature(p);
-    let (d_field, d_init, d_accessor) = disturbance_parts(p);
-    let (d_kernel, d_correct, d_commit, d_check) = if nd > 0 {
+    let parts = disturbance_parts(p);
+    let (d_kernel, d_correct) = if nd > 0 {
         let rows = (0..nd).map(|i| {
             num.sum(
                 Some(at1(&d, i)),
@@ -116,17 +222,55 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
                 }
             },
             quote!(let d = correct_disturbance(&self.d, &innovation);),
-            quote!(self.d = d;),
-            quote!(&&all_finite(&d)),
         )
     } else {
-        (quote!(), quote!(), quote!(), quote!())
+        (quote!(), quote!())
     };
     let covariance_type = if nd > 0 {
         quote!([[Real; NA]; NA])
     } else {
         quote!([[Real; NX]; NX])
     };
+    let (d_check, d_commit) = (parts.check, parts.commit);
+    let fuse = quote! {
+        let x = correct(&self.x, &innovation);
+        #d_correct
+        if !(all_finite(&x) #d_check) {
+            return Measurement::Numerical;
+        }
+        self.x = flushed(&x);
+        #d_commit
+        Measurement::Accepted
+    };
+    let s_inverse = if p.filter.screening.gate.is_some() {
+        quote!(let S_inv = S_INV;)
+    } else {
+        quote!()
+    };
+    let screen = screening::emit(p, num, s_inverse, fuse, quote!());
+    let kalman = kalman_type(
+        p,
+        &screen,
+        KindParts {
+            doc: " The steady-state Kalman filter: the gain K∞ of the discrete Riccati equation, fixed at compile time.",
+            fields: quote!(),
+            init: quote!(),
+            predict_covariance: quote!(),
+            commit_covariance: quote!(),
+            methods: quote! {
+                /// The covariance the gain was computed from: the steady-state prior P∞.
+                pub fn covariance(&self) -> &#covariance_type {
+                    &P_INF
+                }
+            },
+        },
+    );
+    let Sections {
+        constants,
+        api: screen_api,
+        kernels: screen_kernels,
+        tables,
+    } = screen.sections;
     let kernels = quote! {
         #kernels
 
@@ -137,86 +281,23 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
         }
 
         #d_kernel
-
-    };
-    let api = quote! {
-        /// The steady-state Kalman filter: the gain K∞ of the discrete Riccati equation, fixed at compile time.
-        #[derive(Clone, Debug, PartialEq)]
-        pub struct Kalman {
-            x: [Real; NX],
-            #d_field
-        }
-
-        impl Kalman {
-            /// A filter whose estimate starts at `x0`.
-            pub const fn new(x0: [Real; NX]) -> Self {
-                Kalman { x: x0, #d_init }
-            }
-
-            /// The time update x ← F x + G u. A non-finite `u` changes nothing.
-            pub fn predict(&mut self, u: &[Real; NU]) {
-                if all_finite(u) {
-                    let x = predict_state(#state_args, u);
-                    if all_finite(&x) {
-                        self.x = x;
-                    }
-                }
-            }
-
-            /// The measurement update with z. Returns false, changing nothing, for a non-finite `z`
-            /// or a non-finite result.
-            pub fn update(&mut self, z: &[Real; NY]) -> bool {
-                if !all_finite(z) {
-                    return false;
-                }
-                let predicted = measure(&self.x);
-                let mut innovation = *z;
-                for (e, zp) in innovation.iter_mut().zip(predicted.iter()) {
-                    *e -= *zp;
-                }
-                let x = correct(&self.x, &innovation);
-                #d_correct
-                if !(all_finite(&x) #d_check) {
-                    return false;
-                }
-                self.x = x;
-                #d_commit
-                true
-            }
-
-            /// The estimate.
-            pub fn state(&self) -> &[Real; NX] {
-                &self.x
-            }
-
-            #d_accessor
-
-            /// The covariance the gain was computed from: the steady-state prior P∞.
-            pub fn covariance(&self) -> &#covariance_type {
-                &P_INF
-            }
-        }
+        #screen_kernels
     };
     Sections {
-        api,
+        constants,
+        api: quote!(#kalman #screen_api),
         kernels,
-        ..Sections::default()
+        tables,
     }
 }
 
 fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
-    let (ny, nd) = (p.ny, p.filter.nd);
+    let nd = p.filter.nd;
     // The covariance is over the filter's state (x, d): na = nx + nd entries.
     let na = p.nx + nd;
     let Fa = &p.filter.Fa;
     let ns = if nd > 0 { quote!(NA) } else { quote!(NX) };
-    let (_, state_args) = state_signature(p);
-    let (d_field, d_init, d_accessor) = disturbance_parts(p);
-    let (d_commit, d_check) = if nd > 0 {
-        (quote!(self.d = d;), quote!(&&all_finite(&d)))
-    } else {
-        (quote!(), quote!())
-    };
+    let parts = disturbance_parts(p);
     let (P, FP) = (quote!(P), quote!(FP));
     let ix = |i: usize| Literal::usize_unsuffixed(i);
     let m = |name: &TokenStream, i: usize, j: usize| {
@@ -252,8 +333,48 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
             }
         }
     }
-    let update = update_covariance(p, num);
-    let inverse = spd_inverse(ny);
+    let (s_inverse, correction) = update_covariance(p, num);
+    let (d_check, d_commit) = (parts.check, parts.commit);
+    let fuse = quote! {
+        #correction
+        if !(all_finite(&x) #d_check && P.iter().all(|row| all_finite(row))) {
+            return Measurement::Numerical;
+        }
+        self.x = flushed(&x);
+        #d_commit
+        self.P = P;
+        Measurement::Accepted
+    };
+    let screen = screening::emit(p, num, s_inverse, fuse, quote!(self.P = P0;));
+    let kalman = kalman_type(
+        p,
+        &screen,
+        KindParts {
+            doc: " The time-varying Kalman filter (paper eqs. 1-3), with a Joseph-form covariance update that keeps P symmetric positive definite in finite precision: K = P Cᵀ (C P Cᵀ + R)⁻¹, x ← x + K (z − C x), P ← (I − K C) P (I − K C)ᵀ + K R Kᵀ; the time update x ← F x + G u, P ← F P Fᵀ + Q.",
+            fields: quote!(P: [[Real; #ns]; #ns],),
+            init: quote!(P: P0,),
+            predict_covariance: quote! {
+                let P = propagate(&self.P);
+                if !P.iter().all(|row| all_finite(row)) {
+                    return;
+                }
+            },
+            commit_covariance: quote!(self.P = P;),
+            methods: quote! {
+                /// The covariance: the prior after `predict`, the posterior after `update`.
+                pub fn covariance(&self) -> &[[Real; #ns]; #ns] {
+                    &self.P
+                }
+            },
+        },
+    );
+    let inverse = spd_inverse(p.ny);
+    let Sections {
+        constants,
+        api: screen_api,
+        kernels: screen_kernels,
+        tables,
+    } = screen.sections;
     let kernels = quote! {
         #kernels
 
@@ -273,71 +394,13 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
         }
 
         #inverse
-
-    };
-    let api = quote! {
-        /// The time-varying Kalman filter (paper eqs. 1-3), with a Joseph-form covariance update that keeps
-        /// P symmetric positive definite in finite precision.
-        #[derive(Clone, Debug, PartialEq)]
-        pub struct Kalman {
-            x: [Real; NX],
-            #d_field
-            P: [[Real; #ns]; #ns],
-        }
-
-        impl Kalman {
-            /// A filter whose estimate starts at `x0`, with covariance P0.
-            pub const fn new(x0: [Real; NX]) -> Self {
-                Kalman { x: x0, #d_init P: P0 }
-            }
-
-            /// The time update x ← F x + G u, P ← F P Fᵀ + Q. A non-finite `u` changes nothing.
-            pub fn predict(&mut self, u: &[Real; NU]) {
-                if !all_finite(u) {
-                    return;
-                }
-                let x = predict_state(#state_args, u);
-                let P = propagate(&self.P);
-                if all_finite(&x) && P.iter().all(|row| all_finite(row)) {
-                    self.x = x;
-                    self.P = P;
-                }
-            }
-
-            /// The measurement update with z: K = P Cᵀ (C P Cᵀ + R)⁻¹, x ← x + K (z − C x),
-            /// P ← (I − K C) P (I − K C)ᵀ + K R Kᵀ. Returns false, changing nothing, for a non-finite `z`,
-            /// an innovation covariance that is not positive definite, or a non-finite result.
-            pub fn update(&mut self, z: &[Real; NY]) -> bool {
-                if !all_finite(z) {
-                    return false;
-                }
-                #update
-                if !(all_finite(&x) #d_check && P.iter().all(|row| all_finite(row))) {
-                    return false;
-                }
-                self.x = x;
-                #d_commit
-                self.P = P;
-                true
-            }
-
-            /// The estimate.
-            pub fn state(&self) -> &[Real; NX] {
-                &self.x
-            }
-
-            #d_accessor
-
-            /// The covariance: the prior after `predict`, the posterior after `update`.
-            pub fn covariance(&self) -> &[[Real; #ns]; #ns] {
-                &self.P
-            }
-        }
+        #screen_kernels
     };
     Sections {
-        api,
+        constants,
+        api: quote!(#kalman #screen_api),
         kernels,
-        ..Sections::default()
+        tables,
     }
 }
 
@@ -407,8 +470,9 @@ fn spd_inverse(ny: usize) -> TokenStream {
 
 /// The measurement update's arithmetic over the entries that can be nonzero: K = P·Cᵀ·S⁻¹ with
 /// S = C·P·Cᵀ + R, the corrected estimate, and the Joseph form (I − KC)·P·(I − KC)ᵀ + K·R·Kᵀ,
-/// symmetrized. Binds `x` (and `d`) and `P`; returns false from `update` when S is not positive definite.
-fn update_covariance(p: &Problem, num: Num) -> TokenStream {
+/// symmetrized. Returns two parts: the first binds `S_inv` (returning `Measurement::Numerical` when S is
+/// not positive definite), the second, which reads `innovation`, binds `x` (and `d`) and `P`.
+fn update_covariance(p: &Problem, num: Num) -> (TokenStream, TokenStream) {
     use super::sparse::{product, symmetrized, Sym};
     use crate::structure::pattern_inverse;
     let f = &p.filter;
@@ -454,19 +518,16 @@ fn update_covariance(p: &Problem, num: Num) -> TokenStream {
     let (joseph, J) = product(num, "pj", &KR, &K.transpose(), Some(&APA));
     let (sym, Pn) = symmetrized(num, "pn", &J);
     let P_array = Pn.array(num);
-    quote! {
+    let s_inverse = quote! {
         #(#pct)*
         #(#s)*
         let S: [[Real; NY]; NY] = #S_array;
         let Some(S_inv) = spd_inverse(&S) else {
-            return false;
+            return Measurement::Numerical;
         };
+    };
+    let correction = quote! {
         #(#k)*
-        let predicted = measure(&self.x);
-        let mut innovation = *z;
-        for (e, zp) in innovation.iter_mut().zip(predicted.iter()) {
-            *e -= *zp;
-        }
         #(#corrected)*
         let x: [Real; NX] = [#(#x_rows),*];
         #d_binding
@@ -477,5 +538,6 @@ fn update_covariance(p: &Problem, num: Num) -> TokenStream {
         #(#joseph)*
         #(#sym)*
         let P = #P_array;
-    }
+    };
+    (s_inverse, correction)
 }

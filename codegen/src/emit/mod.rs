@@ -1,8 +1,10 @@
 //! The emitter: `quote!` only, no math. It turns a lowered [`Problem`] into the generated module.
 
+mod controller;
 mod kalman;
 mod mpc;
 mod report;
+mod screening;
 mod sparse;
 mod support;
 pub(crate) mod tokens;
@@ -58,12 +60,14 @@ pub fn module(
     let items = items(p, plan, num);
     let report = report::emit(certificate);
     // Only the lints the code needs, each where it is needed: the paper's names (P, S_inv, FP) and
-    // `!(d > 0.0)` (the NaN-aware pivot test) in the time-varying filter; the target's own cfg where NEON
+    // `!(d > 0.0)` (the NaN-aware pivot test) in the time-varying filter, S_inv and `!(nis <= GATE)` in
+    // the gate; the target's own cfg where NEON
     // kernels are emitted; and tables above clippy's 16 KiB for const arrays (H, FR at long horizons),
     // which stay `const` for const contexts: the code reads them by reference, so they are promoted to
     // statics, never copied.
-    let time_varying = (p.filter.kind == mpc_spec::FilterKind::TimeVarying)
-        .then(|| quote!(non_snake_case, clippy::neg_cmp_op_on_partial_ord,));
+    let time_varying = (p.filter.kind == mpc_spec::FilterKind::TimeVarying
+        || p.filter.screening.gate.is_some())
+    .then(|| quote!(non_snake_case, clippy::neg_cmp_op_on_partial_ord,));
     let neon_cfg = plan
         .form
         .gradient()
@@ -162,15 +166,6 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     } else {
         (quote!(), quote!())
     };
-    let solve_call = if nd > 0 {
-        quote!(self.mpc.solve_with_disturbance(
-            self.kalman.state(),
-            self.kalman.disturbance(),
-            xref
-        ))
-    } else {
-        quote!(self.mpc.solve(self.kalman.state(), xref))
-    };
     let step_doc = plan.algorithm.step_doc(&qp.parameters());
     let momentum_doc = plan.algorithm.momentum_doc(&qp.parameters());
     let h_doc = format!(
@@ -187,10 +182,12 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         tables: mpc_tables,
     } = mpc;
     let Sections {
+        constants: kalman_constants,
         api: kalman_api,
         kernels: kalman_kernels,
-        ..
+        tables: kalman_tables,
     } = kalman;
+    let (controller_api, controller_kernels) = controller::emit(p);
     quote! {
         /// The scalar type of this controller.
         pub type Real = #real;
@@ -219,43 +216,13 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         #disturbance_dimensions
         #mpc_constants
 
-        /// One control cycle in the paper's order (Section 2.1): filter update with the measurement,
-        /// MPC from the estimate, filter prediction with the command.
-        #[derive(Clone, Debug, PartialEq)]
-        pub struct Controller {
-            kalman: Kalman,
-            mpc: Mpc,
-        }
+        #kalman_constants
 
-        impl Controller {
-            /// A controller whose filter starts at `x0` and whose MPC starts cold.
-            pub const fn new(x0: [Real; NX]) -> Self {
-                Controller { kalman: Kalman::new(x0), mpc: Mpc::new() }
-            }
-
-            /// One control cycle: returns the command, always finite and inside [U_MIN, U_MAX].
-            /// A rejected measurement (non-finite) leaves the estimate to the prediction alone.
-            pub fn step(&mut self, z: &[Real; NY], xref: &[[Real; NX]; N]) -> [Real; NU] {
-                self.kalman.update(z);
-                let u = #solve_call;
-                self.kalman.predict(&u);
-                u
-            }
-
-            /// The filter.
-            pub fn kalman(&self) -> &Kalman {
-                &self.kalman
-            }
-
-            /// The MPC.
-            pub fn mpc(&self) -> &Mpc {
-                &self.mpc
-            }
-        }
-
+        #controller_api
         #mpc_api
         #kalman_api
 
+        #controller_kernels
         #mpc_kernels
         #kalman_kernels
         #support
@@ -284,5 +251,6 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         /// Steady-state Kalman gain K∞ = P∞ Cᵀ (C P∞ Cᵀ + R)⁻¹.
         pub const K_INF: [[Real; NY]; #ns] = #k_inf;
         #mpc_tables
+        #kalman_tables
     }
 }

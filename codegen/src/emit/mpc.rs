@@ -39,7 +39,15 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
         let mut u: Plan = [#(#shifted,)* REST];
         #iterations
         self.plan = u;
-        inputs(&u[0])
+        Some(inputs(&u[0]))
+    };
+    // Data enters flushed of magnitudes the arithmetic would turn subnormal (`flushed`).
+    let flush_reference = quote! {
+        let mut reference = *xref;
+        for row in reference.iter_mut() {
+            *row = flushed(row);
+        }
+        let xref = &reference;
     };
     let solve_fns = if nd > 0 {
         quote! {
@@ -54,10 +62,17 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
             /// constant disturbance. Returns the first input, always finite and inside [U_MIN, U_MAX];
             /// a non-finite argument returns the rest input and resets the warm start.
             pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; NX]; N]) -> [Real; NU] {
+                self.checked(x0, d, xref).unwrap_or(U_REST)
+            }
+
+            /// [`Mpc::solve_with_disturbance`], with `None` (and a reset warm start) for a non-finite argument.
+            fn checked(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; NX]; N]) -> Option<[Real; NU]> {
                 if !(all_finite(x0) && all_finite(d) && xref.iter().all(|r| all_finite(r))) {
                     self.reset();
-                    return U_REST;
+                    return None;
                 }
+                let (x0, d) = (&flushed(x0), &flushed(d));
+                #flush_reference
                 #body
             }
         }
@@ -67,10 +82,17 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
             /// Returns the first input of the plan, always finite and inside [U_MIN, U_MAX]. A non-finite
             /// `x0` or `xref` returns the rest input and resets the warm start.
             pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
+                self.checked(x0, xref).unwrap_or(U_REST)
+            }
+
+            /// [`Mpc::solve`], with `None` (and a reset warm start) for a non-finite argument.
+            fn checked(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> Option<[Real; NU]> {
                 if !(all_finite(x0) && xref.iter().all(|r| all_finite(r))) {
                     self.reset();
-                    return U_REST;
+                    return None;
                 }
+                let x0 = &flushed(x0);
+                #flush_reference
                 #body
             }
         }

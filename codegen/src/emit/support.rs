@@ -7,7 +7,7 @@ use crate::plan::Plan;
 use proc_macro2::TokenStream;
 use quote::quote;
 
-/// `project` (where a portable kernel calls it) and `all_finite`.
+/// `project` (where a portable kernel calls it), `all_finite`, `finite` and `flushed`.
 pub fn emit(p: &Problem, plan: &Plan) -> TokenStream {
     // The NEON `lanes` kernel projects with `project_lanes`; only its portable twin calls `project`.
     let cfg = match plan.form {
@@ -27,6 +27,35 @@ pub fn emit(p: &Problem, plan: &Plan) -> TokenStream {
         #[inline(always)]
         fn all_finite(v: &[Real]) -> bool {
             v.iter().all(|x| x.is_finite())
+        }
+
+        /// [`all_finite`] for constant contexts (`Kalman::new`).
+        const fn finite(mut v: &[Real]) -> bool {
+            while let [first, rest @ ..] = v {
+                if !first.is_finite() {
+                    return false;
+                }
+                v = rest;
+            }
+            true
+        }
+
+        /// Magnitudes below this are read as zero where data enters and where the estimate is stored:
+        /// the smallest normal number over ε, so that a product with any coefficient above ε stays
+        /// normal. Subnormal arithmetic costs up to 100× on x86; nothing this small is resolvable next
+        /// to a value of order one.
+        const FLUSH_BELOW: Real = Real::MIN_POSITIVE / Real::EPSILON;
+
+        /// `v` with entries below [`FLUSH_BELOW`] in magnitude set to zero.
+        #[inline(always)]
+        fn flushed<const M: usize>(v: &[Real; M]) -> [Real; M] {
+            let mut out = *v;
+            for e in out.iter_mut() {
+                if e.abs() < FLUSH_BELOW {
+                    *e = 0.0;
+                }
+            }
+            out
         }
     }
 }

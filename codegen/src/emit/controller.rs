@@ -1,0 +1,137 @@
+//! `Controller`, one control cycle in the paper's order, and the `Status` it reports.
+
+use crate::lower::Problem;
+use proc_macro2::TokenStream;
+use quote::quote;
+
+/// The `Controller` and `Status` types (API), and the saturation kernel.
+pub fn emit(p: &Problem) -> (TokenStream, TokenStream) {
+    let (d_arg, d_doc) = if p.filter.nd > 0 {
+        (
+            quote!(&self.kalman.d,),
+            " The MPC is given the filter's disturbance estimate (offset-free MPC).",
+        )
+    } else {
+        (quote!(), "")
+    };
+    let step_doc = format!(
+        " One control cycle: the filter update with the measurement `z` (screened: see [`Kalman::update`]), \
+         the MPC from the estimate with the reference window `xref`, the filter prediction with the \
+         command. Returns the command, always finite and inside [U_MIN, U_MAX]; [`Controller::status`] \
+         says what happened.{d_doc}"
+    );
+    let api = quote! {
+        /// One control cycle in the paper's order (Section 2.1): filter update with the measurement,
+        /// MPC from the estimate, filter prediction with the command.
+        #[derive(Clone, Debug, PartialEq)]
+        pub struct Controller {
+            kalman: Kalman,
+            mpc: Mpc,
+            estimate: [Real; NX],
+            status: Status,
+        }
+
+        /// What one control cycle did ([`Controller::status`]).
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Status {
+            /// What the filter did with the measurement, and its counts.
+            pub filter: FilterStatus,
+            /// How the command was made.
+            pub command: Command,
+            /// Per input, whether the command is at U_MIN or U_MAX.
+            pub saturated: [bool; NU],
+        }
+
+        /// How a control cycle's command was made.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum Command {
+            /// No cycle yet.
+            NoneYet,
+            /// Solved from the estimate.
+            Solved,
+            /// [`U_REST`]: the filter has no estimate (a non-finite `x0`, and no usable reading since).
+            NoEstimate,
+            /// [`U_REST`]: the reference window has a NaN or infinite entry; the warm start is reset.
+            InvalidReference,
+        }
+
+        impl Controller {
+            /// A controller whose filter starts at `x0` and whose MPC starts cold. A non-finite `x0` is
+            /// refused, visibly: until the first usable reading the status says
+            /// [`Command::NoEstimate`] and the command is [`U_REST`].
+            pub const fn new(x0: [Real; NX]) -> Self {
+                let kalman = Kalman::new(x0);
+                Controller {
+                    estimate: kalman.x,
+                    status: Status {
+                        filter: kalman.status,
+                        command: Command::NoneYet,
+                        saturated: [false; NU],
+                    },
+                    kalman,
+                    mpc: Mpc::new(),
+                }
+            }
+
+            /// Starts again from `x0`, as [`Controller::new`].
+            pub fn reset(&mut self, x0: [Real; NX]) {
+                *self = Self::new(x0);
+            }
+
+            #[doc = #step_doc]
+            pub fn step(&mut self, z: &[Real; NY], xref: &[[Real; NX]; N]) -> [Real; NU] {
+                self.kalman.update(z);
+                let (u, command) = if self.kalman.status.estimate_valid {
+                    self.estimate = self.kalman.x;
+                    match self.mpc.checked(&self.estimate, #d_arg xref) {
+                        Some(u) => (u, Command::Solved),
+                        None => (U_REST, Command::InvalidReference),
+                    }
+                } else {
+                    self.mpc.reset();
+                    (U_REST, Command::NoEstimate)
+                };
+                self.kalman.predict(&u);
+                self.status = Status {
+                    filter: self.kalman.status,
+                    command,
+                    saturated: saturated(&u),
+                };
+                u
+            }
+
+            /// What the last cycle did.
+            pub fn status(&self) -> &Status {
+                &self.status
+            }
+
+            /// The estimate the last command was computed from (the filter's state before its
+            /// prediction).
+            pub fn estimate(&self) -> &[Real; NX] {
+                &self.estimate
+            }
+
+            /// The filter.
+            pub fn kalman(&self) -> &Kalman {
+                &self.kalman
+            }
+
+            /// The MPC.
+            pub fn mpc(&self) -> &Mpc {
+                &self.mpc
+            }
+        }
+    };
+    let kernels = quote! {
+        /// Per input, whether `u` is at a bound.
+        #[inline(always)]
+        fn saturated(u: &[Real; NU]) -> [bool; NU] {
+            let mut out = [false; NU];
+            for (((s, v), lo), hi) in out.iter_mut().zip(u.iter()).zip(U_MIN.iter()).zip(U_MAX.iter()) {
+                *s = *v <= *lo || *v >= *hi;
+            }
+            out
+        }
+    };
+    (api, kernels)
+}
