@@ -303,7 +303,8 @@ impl Kalman {
         };
         if let Some(gate) = s.gate {
             let nis = innovation.dot(&(&S_inv * &innovation));
-            if !(nis <= gate) {
+            // NaN is gated too.
+            if nis.is_nan() || nis > gate {
                 if changing {
                     self.gated = self.gated.saturating_add(1);
                 }

@@ -153,7 +153,10 @@ pub mod paper_initial {
         /// Returns the first input of the plan, always finite and inside [U_MIN, U_MAX]. A non-finite
         /// `x0` or `xref` returns the rest input and resets the warm start.
         pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
-            self.checked(x0, xref).unwrap_or(U_REST)
+            match self.checked(x0, xref) {
+                Some(u) => u,
+                None => U_REST,
+            }
         }
         /// [`Mpc::solve`], with `None` (and a reset warm start) for a non-finite argument.
         fn checked(
@@ -946,7 +949,7 @@ pub mod paper_initial {
     }
     /// [`all_finite`] for constant contexts (`Kalman::new`).
     const fn finite(mut v: &[Real]) -> bool {
-        while let [first, rest @ ..] = v {
+        while let Some((first, rest)) = v.split_first() {
             if !first.is_finite() {
                 return false;
             }

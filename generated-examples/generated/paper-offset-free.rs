@@ -172,7 +172,10 @@ pub mod paper_offset_free {
             d: &[Real; ND],
             xref: &[[Real; NX]; N],
         ) -> [Real; NU] {
-            self.checked(x0, d, xref).unwrap_or(U_REST)
+            match self.checked(x0, d, xref) {
+                Some(u) => u,
+                None => U_REST,
+            }
         }
         /// [`Mpc::solve_with_disturbance`], with `None` (and a reset warm start) for a non-finite argument.
         fn checked(
@@ -1537,7 +1540,7 @@ pub mod paper_offset_free {
     }
     /// [`all_finite`] for constant contexts (`Kalman::new`).
     const fn finite(mut v: &[Real]) -> bool {
-        while let [first, rest @ ..] = v {
+        while let Some((first, rest)) = v.split_first() {
             if !first.is_finite() {
                 return false;
             }

@@ -63,6 +63,12 @@ pub trait OffsetFree: Generated {
     fn kalman_disturbance(k: &Self::Kalman) -> Vec<f64>;
 }
 
+/// The filter tolerance's constant k: each cycle rounds the estimate at about ε·(|x| + |z|), and the
+/// filter's error dynamics x̃⁺ = F(I − KC)x̃ forget such errors at the rate ρ = ρ(F(I − K∞C)) < 1, so a
+/// generated filter stays within k·ε·(|x|max + |z|max)/(1 − ρ) of the oracle (`kalman_vs_generic.rs`,
+/// `runtime_faults.rs`).
+pub const K_FILTER: f64 = 4.0;
+
 /// A reproducible random source for a named test.
 pub fn rng(seed: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(seed)

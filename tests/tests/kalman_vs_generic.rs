@@ -4,7 +4,7 @@
 //! Tolerance. Each cycle rounds the estimate at about ε·(|x| + |z|); the filter's error dynamics
 //! x̃⁺ = F(I − KC)x̃ forget such errors at the rate ρ = ρ(F(I − K∞C)) < 1, so they add up to at most
 //!     k · ε · (|x|max + |z|max) / (1 − ρ)
-//! We assert k = 4 (observed maxima are printed by `--nocapture`); in f64 also 1e-9 relative.
+//! We assert k = `K_FILTER` (observed maxima are printed by `--nocapture`); in f64 also 1e-9 relative.
 #![allow(non_snake_case)]
 
 use codegen::oracle;
@@ -13,8 +13,6 @@ use mpc_tests::harness::*;
 use nalgebra::{DMatrix, DVector};
 use rand::Rng;
 use rand_distr::StandardNormal;
-
-const K_FILTER: f64 = 4.0;
 
 /// A standard normal sample.
 fn normal(rng: &mut impl Rng) -> f64 {

@@ -62,7 +62,10 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
             /// constant disturbance. Returns the first input, always finite and inside [U_MIN, U_MAX];
             /// a non-finite argument returns the rest input and resets the warm start.
             pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; NX]; N]) -> [Real; NU] {
-                self.checked(x0, d, xref).unwrap_or(U_REST)
+                match self.checked(x0, d, xref) {
+                    Some(u) => u,
+                    None => U_REST,
+                }
             }
 
             /// [`Mpc::solve_with_disturbance`], with `None` (and a reset warm start) for a non-finite argument.
@@ -82,7 +85,10 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
             /// Returns the first input of the plan, always finite and inside [U_MIN, U_MAX]. A non-finite
             /// `x0` or `xref` returns the rest input and resets the warm start.
             pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
-                self.checked(x0, xref).unwrap_or(U_REST)
+                match self.checked(x0, xref) {
+                    Some(u) => u,
+                    None => U_REST,
+                }
             }
 
             /// [`Mpc::solve`], with `None` (and a reset warm start) for a non-finite argument.

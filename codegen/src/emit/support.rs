@@ -31,7 +31,7 @@ pub fn emit(p: &Problem, plan: &Plan) -> TokenStream {
 
         /// [`all_finite`] for constant contexts (`Kalman::new`).
         const fn finite(mut v: &[Real]) -> bool {
-            while let [first, rest @ ..] = v {
+            while let Some((first, rest)) = v.split_first() {
                 if !first.is_finite() {
                     return false;
                 }
