@@ -66,7 +66,8 @@ pub struct Resources {
     pub bytes_constants: usize,
     /// Bytes of `Mpc` (the plan).
     pub bytes_state_mpc: usize,
-    /// Bytes of `Kalman` (the estimate, and the covariance for the time-varying filter).
+    /// Bytes of `Kalman` (the estimate, the covariance for the time-varying filter, the screening's
+    /// memory and its status).
     pub bytes_state_kalman: usize,
     /// Bytes of `Controller`: everything carried between control cycles.
     pub bytes_state: usize,
@@ -525,19 +526,61 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
                 + macs(&KR, &K.transpose())
         }
     };
+    // The gate's eᵀS⁻¹e (S⁻¹ a table for the steady-state filter) and the re-acquisition's C⁺.
+    let filter = filter + f.screening.gate.map_or(0, |_| ny * ny + ny);
+    filter_constants += coefficients(&f.C_pinv.rows(0, p.nx).into_owned());
+    if f.screening.gate.is_some() && f.kind == FilterKind::SteadyState {
+        filter_constants += ny * ny;
+    }
     let size = num.bytes();
-    let bytes_state_mpc = plan_entries * size;
-    let bytes_state_kalman = match f.kind {
-        FilterKind::SteadyState => na * size,
-        FilterKind::TimeVarying => (na + na * na) * size,
-    };
+    let real = (size, size);
+    let array = |n: usize, (s, a): (usize, usize)| (n * s, a);
+    let (u32_, flag) = ((4, 4), (1, 1));
+    let history = f.screening.stuck_cycles.is_some() || f.screening.gate.is_some();
+    // `FilterStatus`: the verdict (a one-byte enum), the statistic, three counts and the flags.
+    let filter_status = layout(&[
+        flag,
+        real,
+        array(3, u32_),
+        flag,
+        if f.nd > 0 { flag } else { (0, 1) },
+    ]);
+    let mpc = layout(&[array(plan_entries, real)]);
+    let kalman = layout(&[
+        array(na, real),
+        if f.kind == FilterKind::TimeVarying {
+            array(na * na, real)
+        } else {
+            (0, 1)
+        },
+        if history { array(ny, real) } else { (0, 1) },
+        if history { u32_ } else { (0, 1) },
+        if f.screening.gate.is_some() {
+            u32_
+        } else {
+            (0, 1)
+        },
+        filter_status,
+    ]);
+    // `Status`: the filter's, the command's verdict, a flag per input.
+    let status = layout(&[filter_status, flag, array(p.nu, flag)]);
+    let controller = layout(&[kalman, mpc, array(p.nx, real), status]);
     Resources {
         macs_per_iteration: per_iteration,
         macs_per_cycle: qp.iterations * per_iteration + gradient_map + filter,
         macs_filter: filter,
         bytes_constants: (gradient_map_constants + filter_constants) * size,
-        bytes_state_mpc,
-        bytes_state_kalman,
-        bytes_state: bytes_state_mpc + bytes_state_kalman,
+        bytes_state_mpc: mpc.0,
+        bytes_state_kalman: kalman.0,
+        bytes_state: controller.0,
     }
+}
+
+/// The size and alignment of a Rust struct (the default representation) with fields of these sizes and
+/// alignments: the compiler orders fields so that none needs padding before it (every size is a multiple
+/// of its alignment), so the size is the sum rounded up to the largest alignment.
+fn layout(fields: &[(usize, usize)]) -> (usize, usize) {
+    let align = fields.iter().map(|f| f.1).max().unwrap_or(1);
+    let sum: usize = fields.iter().map(|f| f.0).sum();
+    (sum.div_ceil(align) * align, align)
 }

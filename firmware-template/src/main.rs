@@ -70,6 +70,7 @@ struct Timed<'t> {
     timer: &'t board::Timer,
     ticks: Ticks,
     stack: stack::CycleProbe,
+    status: report::StatusCounts,
 }
 
 impl Controller for Timed<'_> {
@@ -86,11 +87,12 @@ impl Controller for Timed<'_> {
         let u = black_box(out_of_line(|| controller.step(black_box(&z), black_box(&xref))));
         self.ticks.add(self.timer.since(t0));
         self.stack.measure(painted);
+        self.status.add(self.controller.status());
         cast(&u)
     }
 
     fn estimate(&self) -> [f64; NX] {
-        cast(self.controller.kalman().state())
+        cast(self.controller.estimate())
     }
 }
 
@@ -130,6 +132,7 @@ extern "C" fn main() -> ! {
         timer: &timer,
         ticks: Ticks::new(),
         stack: stack::CycleProbe::new(),
+        status: report::StatusCounts::default(),
     };
     let mut errors = Errors::new();
     let scenario = Scenario::new(SEED, CYCLES);
@@ -149,6 +152,7 @@ extern "C" fn main() -> ! {
             stack_bytes: stack::high_water().max(timed.stack.from_top),
             cycle_stack_bytes: timed.stack.deepest,
             cycle_stack_overflowed: timed.stack.overflowed,
+            status: &timed.status,
         },
     );
     board::exit(if ok { 0 } else { 1 })

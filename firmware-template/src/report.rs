@@ -45,6 +45,8 @@ pub struct Run<'a> {
     pub stack_bytes: usize,
     /// Deepest use of the stack by one control cycle, below its caller's stack pointer, bytes.
     pub cycle_stack_bytes: usize,
+    /// What the controller's `Status` reported over the run.
+    pub status: &'a StatusCounts,
     /// A control cycle went deeper than the probe painted: `cycle_stack_bytes` is a lower bound.
     pub cycle_stack_overflowed: bool,
 }
@@ -94,6 +96,22 @@ pub fn result(out: &mut Serial, run: &Run) -> bool {
     axes(out, &rmse, "/");
     out.str(", max ");
     axes(out, &max_abs, "/");
+    let st = run.status;
+    out.str("\nstatus: ")
+        .u64(st.rejected)
+        .str(" measurements rejected (")
+        .u64(st.gated)
+        .str(" gated, ")
+        .u64(st.stuck)
+        .str(" stuck, ")
+        .u64(st.non_finite)
+        .str(" non-finite), ")
+        .u64(st.reacquisitions)
+        .str(" re-acquisitions, ")
+        .u64(st.saturated)
+        .str(" cycles with a saturated input, ")
+        .u64(st.not_solved)
+        .str(" cycles without a solve");
     out.str("\nstack used: ")
         .u64(run.stack_bytes as u64)
         .str(" bytes, of which a control cycle ")
@@ -141,6 +159,20 @@ pub fn result(out: &mut Serial, run: &Run) -> bool {
         .u64(run.stack_bytes as u64)
         .str(",\"cycle_stack_bytes\":")
         .u64(run.cycle_stack_bytes as u64)
+        .str(",\"rejected\":")
+        .u64(st.rejected)
+        .str(",\"gated\":")
+        .u64(st.gated)
+        .str(",\"stuck\":")
+        .u64(st.stuck)
+        .str(",\"non_finite\":")
+        .u64(st.non_finite)
+        .str(",\"reacquisitions\":")
+        .u64(st.reacquisitions)
+        .str(",\"saturated_cycles\":")
+        .u64(st.saturated)
+        .str(",\"unsolved_cycles\":")
+        .u64(st.not_solved)
         .str(",\"rmse_um\":[");
     axes(out, &rmse, ",");
     out.str("],\"max_abs_error_um\":[");
@@ -149,6 +181,40 @@ pub fn result(out: &mut Serial, run: &Run) -> bool {
         .str(if ok { "true" } else { "false" })
         .str("}\n");
     ok
+}
+
+/// Counts of what the generated controller's `Status` said, cycle by cycle.
+#[derive(Default)]
+pub struct StatusCounts {
+    /// Measurements the filter did not fuse.
+    pub rejected: u64,
+    /// ... because they were outside the χ² gate.
+    pub gated: u64,
+    /// ... because the sensor repeated itself bit for bit.
+    pub stuck: u64,
+    /// ... because they were NaN or infinite.
+    pub non_finite: u64,
+    /// Re-acquisitions (the last status's count).
+    pub reacquisitions: u64,
+    /// Cycles whose command had an input at a bound.
+    pub saturated: u64,
+    /// Cycles whose command was the rest input (no estimate, or an invalid reference).
+    pub not_solved: u64,
+}
+
+impl StatusCounts {
+    /// Adds one cycle's status.
+    pub fn add(&mut self, s: &ctrl::Status) {
+        use ctrl::Measurement as M;
+        let m = s.filter.measurement;
+        self.rejected += u64::from(!m.accepted());
+        self.gated += u64::from(m == M::Gated);
+        self.stuck += u64::from(m == M::Stuck);
+        self.non_finite += u64::from(m == M::NonFinite);
+        self.reacquisitions = u64::from(s.filter.reacquisitions);
+        self.saturated += u64::from(s.saturated.iter().any(|b| *b));
+        self.not_solved += u64::from(s.command != ctrl::Command::Solved);
+    }
 }
 
 /// Three values joined by `sep`, `null` for a missing one.

@@ -15,20 +15,25 @@
 macro_rules! generated_kalman {
     ($(#[$attr:meta])* $vis:vis struct $name:ident($($m:ident)::+) $(;)?) => {
         $(#[$attr])*
-        $vis struct $name(pub $($m)::+::Kalman);
+        $vis struct $name(pub $($m)::+::Kalman, usize);
 
         impl $name {
             /// The generated filter started at `x0`.
             #[allow(dead_code)]
             $vis fn new(x0: &[f64; 6]) -> Self {
-                Self($($m)::+::Kalman::new($crate::cast(x0)))
+                Self($($m)::+::Kalman::new($crate::cast(x0)), 0)
             }
         }
 
         impl $crate::Estimator for $name {
             fn update(&mut self, z: &[f64; 3]) {
-                // `false` means the filter refused the measurement; it then keeps its prediction.
-                let _ = self.0.update(&$crate::cast(z));
+                // A rejected reading leaves the filter on its prediction; it is counted.
+                if !self.0.update(&$crate::cast(z)).accepted() {
+                    self.1 += 1;
+                }
+            }
+            fn rejected_measurements(&self) -> usize {
+                self.1
             }
             fn predict(&mut self, u: &[f64; 3]) {
                 self.0.predict(&$crate::cast(u));

@@ -12,6 +12,10 @@ pub trait Estimator {
     fn predict(&mut self, u: &[f64; NU]);
     /// The current estimate `[px, py, pz, vx, vy, vz]`.
     fn state(&self) -> [f64; NX];
+    /// The measurements rejected so far (0 for an estimator that fuses every reading).
+    fn rejected_measurements(&self) -> usize {
+        0
+    }
 }
 
 /// A time-varying linear Kalman filter of eq. 1-3 in `f64`, one 2-state filter per axis (the

@@ -168,6 +168,9 @@ impl<E: Estimator> Controller for PidController<E> {
     fn estimate(&self) -> [f64; NX] {
         self.estimate
     }
+    fn rejected_measurements(&self) -> usize {
+        self.estimator.rejected_measurements()
+    }
 }
 
 #[cfg(test)]

@@ -44,7 +44,7 @@ pub mod paper_initial {
     pub const GATE: Real = 30.66485f32;
     /// Consecutive gated readings, each different from the one before, after which the filter
     /// re-acquires from the measurement ([kalman] reacquire_after).
-    pub const REACQUIRE_AFTER: u32 = 25;
+    pub const REACQUIRE_AFTER: u32 = 8;
     /// Bit-identical readings in a row from which the sensor is taken as stuck and its reading
     /// rejected ([kalman] stuck_cycles); a stuck reading never causes a re-acquisition.
     pub const STUCK_CYCLES: u32 = 10;
@@ -1871,17 +1871,17 @@ pub mod paper_initial {
         /// Multiply-adds of one solver iteration.
         pub const MACS_PER_ITERATION: usize = 120;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
-        pub const MACS_PER_CYCLE: usize = 12459;
+        pub const MACS_PER_CYCLE: usize = 12471;
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 352;
         /// Bytes of `Mpc`.
         pub const BYTES_STATE_MPC: usize = 80;
         /// Bytes of `Kalman`.
-        pub const BYTES_STATE_KALMAN: usize = 168;
+        pub const BYTES_STATE_KALMAN: usize = 208;
         /// Bytes of `Controller`, all the state carried between cycles.
-        pub const BYTES_STATE: usize = 248;
+        pub const BYTES_STATE: usize = 336;
         /// Multiply-adds of the filter's update and predict, unrolled in the code.
-        pub const MACS_FILTER: usize = 159;
+        pub const MACS_FILTER: usize = 171;
         /// The a priori bound J(U_k) − J* ≤ C·ρᵏ·(J(U_0) − J*): (C, ρ); `None` for a step above 1/L.
         pub const RATE: Option<(f64, f64)> = Some((1f64, 0.9997819039543036f64));
         /// The paper's check (Section 2.4.3): the LQR gain of the stage weights Q, R.

@@ -276,7 +276,7 @@ pub struct Screening {
 pub const DEFAULT_STUCK_CYCLES: u32 = 10;
 /// Consecutive gated, changing readings that make the filter re-acquire when `reacquire_after` is not
 /// written.
-pub const DEFAULT_REACQUIRE_AFTER: u32 = 25;
+pub const DEFAULT_REACQUIRE_AFTER: u32 = 8;
 
 /// `[kalman] gate`: the threshold on the normalized innovation squared eᵀS⁻¹e.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -41,8 +41,11 @@ fn compare_filter<G: Generated>(seed: u64, steps: usize) -> f64 {
         let z = (&p.C * &x
             + DVector::from_iterator(ny, sigma_z.iter().map(|s| s * normal(&mut rng))))
         .map(G::round);
-        assert!(oracle.update(&z).accepted());
-        assert!(G::kalman_update(&mut generated, z.as_slice()));
+        // The same verdict (the start can be outside the gate of a filter whose P0 is small).
+        assert_eq!(
+            oracle.update(&z).accepted(),
+            G::kalman_update(&mut generated, z.as_slice())
+        );
         let u = DVector::from_iterator(
             nu,
             (0..nu).map(|j| rng.gen_range(p.qp.u_min[j]..=p.qp.u_max[j])),
@@ -107,6 +110,8 @@ fn steady_state_gain_is_the_limit_of_the_time_varying_filter() {
             &{
                 let mut p = problem.clone();
                 p.filter.kind = mpc_spec::FilterKind::TimeVarying;
+                // The same zero reading every cycle: no stuck-sensor rule.
+                p.filter.screening.stuck_cycles = None;
                 p
             },
             DVector::zeros(problem.nx),

@@ -383,12 +383,8 @@ fn gate_stuck_and_reacquisition_follow_their_constants() {
     assert_eq!(k.update(&z), Measurement::Reacquired);
     assert_eq!(k.status().reacquisitions, 1);
     assert_eq!(k.status().consecutive_rejections, 0);
-    for i in 0..3 {
-        assert!(
-            (k.state()[i] - z[i]).abs() <= 1e-5 * z[i].abs(),
-            "{:?}",
-            k.state()
-        );
+    for (x, z) in k.state().iter().zip(z) {
+        assert!((x - z).abs() <= 1e-5 * z.abs(), "{:?}", k.state());
     }
     assert_eq!(k.covariance(), &paper::P0);
     // A repeated gated reading is not a changing one: a stuck receiver never re-acquires.

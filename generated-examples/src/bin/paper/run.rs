@@ -173,6 +173,8 @@ pub struct Run {
     pub gap: Option<QpGap>,
     /// Per-cycle rows, kept for the first seed only.
     pub rows: Vec<Row>,
+    /// Measurements the controller's filter rejected (gated, stuck, non-finite) over the run.
+    pub rejected: usize,
 }
 
 /// The exact solution of an MPC's own QP, from the generic runtime solver of `codegen`.
@@ -286,6 +288,9 @@ impl<C: Controller> Controller for Timed<C> {
     }
     fn estimate(&self) -> [f64; 6] {
         self.inner.estimate()
+    }
+    fn rejected_measurements(&self) -> usize {
+        self.inner.rejected_measurements()
     }
 }
 
@@ -451,6 +456,7 @@ impl Context<'_> {
             solve_us_max: max_ns as f64 / 1e3,
             gap,
             rows,
+            rejected: timed.rejected_measurements(),
         }
     }
 }

@@ -60,6 +60,14 @@ pub fn per_seed(flight: &Run, gusty: &Run, windy: &Run, step: &Run, wind: (f64, 
         },
         "gust": disturbed(gusty, flight, Disturbance::GUST.start, Disturbance::GUST.end),
         "wind": disturbed(windy, flight, wind.0, wind.1),
+        // Readings the generated filter's screening rejected (the default gate is meant to reject none
+        // of the nominal flight's).
+        "rejected_measurements": {
+            "flight": flight.rejected,
+            "gust": gusty.rejected,
+            "wind": windy.rejected,
+            "step": step.rejected,
+        },
     });
     if let Some(gap) = flight.gap.filter(|g| g.count > 0) {
         let n = gap.count as f64;
