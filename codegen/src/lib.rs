@@ -27,6 +27,7 @@ pub mod certificate;
 pub mod cost;
 pub mod emit;
 pub mod form;
+pub mod input;
 pub mod linalg;
 pub mod lower;
 pub mod numeric;
