@@ -18,7 +18,7 @@
 //! which is what a budget needs.
 #![allow(non_snake_case)]
 
-use mpc_spec::{Diagnostic, Diagnostics, Span, Spec};
+use mpc_spec::{Diagnostic, Diagnostics, Emission, Span, Spec};
 use serde::Serialize;
 
 /// Bytes of f64 matrices lowering may form.
@@ -171,14 +171,9 @@ pub fn predict(d: Dims, tables: usize, unrolled: usize) -> BuildCost {
     }
 }
 
-/// Refuses a module whose predicted rustc time or memory exceeds [`RUSTC_SECONDS`] or [`RUSTC_BYTES`];
-/// `macs_filter` is the filter's share of the unrolled multiply-adds.
-pub fn before_emission(
-    spec: &Spec,
-    cost: &BuildCost,
-    macs_filter: usize,
-) -> Result<(), Diagnostics> {
-    let over = if cost.rustc_bytes > RUSTC_BYTES {
+/// Why a module of predicted cost `cost` is over [`RUSTC_BYTES`] or [`RUSTC_SECONDS`], if it is.
+pub fn over(cost: &BuildCost) -> Option<String> {
+    if cost.rustc_bytes > RUSTC_BYTES {
         Some(format!(
             "rustc would need about {} for the emitted module, above the limit of {}",
             size(cost.rustc_bytes),
@@ -191,21 +186,51 @@ pub fn before_emission(
         ))
     } else {
         None
-    };
-    let Some(message) = over else {
+    }
+}
+
+/// Refuses a module whose predicted rustc time or memory exceeds [`RUSTC_SECONDS`] or [`RUSTC_BYTES`];
+/// `macs_filter` is the filter's share of the unrolled multiply-adds. `own` is the cost model's own
+/// choice of emission and its cost when the spec forces another: if that one is within the budgets, the
+/// error is the forced `codegen.emission`'s.
+pub fn before_emission(
+    spec: &Spec,
+    cost: &BuildCost,
+    macs_filter: usize,
+    own: Option<&(Emission, BuildCost)>,
+) -> Result<(), Diagnostics> {
+    let Some(message) = over(cost) else {
         return Ok(());
     };
-    Err(Diagnostic::new(
-        format!("this controller is too large to build: {message}"),
-        size_key(spec),
-    )
-    .label(format!(
+    let counts = format!(
         "{} numbers in tables and {} unrolled multiply-adds ({} of them the filter's), about {} of source",
         cost.emitted_numbers,
         cost.emitted_unrolled,
         macs_filter,
         size(cost.source_bytes)
-    ))
+    );
+    let forced = spec.spans.get("codegen.emission");
+    if let (Some((emission, own)), Some(at)) = (own, forced) {
+        if over(own).is_none() {
+            return Err(Diagnostic::new(
+                format!("this controller is too large to build: {message}"),
+                Some(at),
+            )
+            .label(format!("this emission makes {counts}"))
+            .note(format!(
+                "hint: the cost model's own choice, `emission = \"{}\"`, is predicted at about {:.0} s and {}: remove `emission` or write `emission = \"auto\"`",
+                emission.name(),
+                own.rustc_seconds,
+                size(own.rustc_bytes)
+            ))
+            .into());
+        }
+    }
+    Err(Diagnostic::new(
+        format!("this controller is too large to build: {message}"),
+        size_key(spec),
+    )
+    .label(counts)
     .note("hint: a `steady_state` filter unrolls far less than a time-varying one over a dense covariance; or fewer states, or a shorter horizon")
     .into())
 }

@@ -253,8 +253,9 @@ impl Certificate {
 }
 
 /// The rules that need the certificate: an unstable closed loop is an error unless the spec sets
-/// `accept_unstable`; fixed iterations below what the spec's `tolerance` needs are a warning, or an error
-/// with `strict`. Returns the warnings.
+/// `accept_unstable`; fixed iterations below what the spec's `tolerance` needs ([`DEFAULT_TOLERANCE`] when
+/// it has none) are a warning, or an error with `strict`, and iterations whose bound cannot decrease at all
+/// are an error; a `tolerance` below the arithmetic's resolution is a warning. Returns the warnings.
 pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> {
     let (mut errors, mut warnings) = (Diagnostics::default(), Diagnostics::default());
     // Matrices accepted as symmetric up to rounding (mpc_spec::SYMMETRY_TOLERANCE) are used as (A + Aᵀ)/2.
@@ -306,17 +307,70 @@ pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> 
             }
         }
     }
-    if let (Iterations::Fixed(m), Some(tol), Some(needed)) =
-        (spec.mpc.iterations, spec.mpc.tolerance, c.iterations_bound)
-    {
-        if m < needed {
+    // A tolerance the arithmetic cannot resolve: each iteration evaluates the gradient H·U + f in the
+    // emitted scalar with a relative error of about its ε, which moves the iteration's fixed point by up to
+    // κ(H)·ε relative to U* (a linear system's perturbation bound), so below ε·κ(H) the iterates stop
+    // improving in the arithmetic whatever the a priori bound promises. ε·κ is the order of that floor,
+    // not a tight bound; a tolerance under it is met on paper only.
+    if let Some(tol) = spec.mpc.tolerance {
+        let scalar = Numeric(spec.codegen.scalar);
+        let floor = scalar.epsilon() * c.condition_number;
+        if tol < floor {
+            warnings.push(
+                Diagnostic::new(
+                    format!(
+                        "`mpc.tolerance` = {tol:e} is below what the arithmetic can resolve: the solver runs in {}, whose ε = {:.3e} times the condition number κ(H) = {:.4} is {floor:.3e}",
+                        scalar.name(),
+                        scalar.epsilon(),
+                        c.condition_number
+                    ),
+                    spec.spans.get("mpc.tolerance"),
+                )
+                .label(format!("below ε·κ(H) = {floor:.3e}"))
+                .note(format!("hint: write a tolerance of at least {floor:.1e}; the {} iterations it asks for only repeat rounding", c.iterations)),
+            );
+        }
+    }
+    if let (Iterations::Fixed(m), Some(rate)) = (spec.mpc.iterations, c.rate) {
+        let iterations = || spec.spans.get("mpc.iterations");
+        if rate.factor >= 1.0 {
+            // 1 − αμ (or 1 − √(αμ)) rounds to 1: the bound is constant·1^m whatever the count, so no number of
+            // iterations guarantees any decrease of the gap. With `step = "auto"` (αμ = 1/κ) check_hessian
+            // refuses this first; it is a written step's doing.
+            errors.push(
+                Diagnostic::new(
+                    format!("the a priori bound guarantees no improvement at all: its factor per iteration rounds to 1 with the step α = {:e} and μ = λmin(H) = {:.4e}", c.step, c.strong_convexity),
+                    spec.spans.get("mpc.step").or_else(iterations),
+                )
+                .label(format!("no count of iterations, {m} or more, reduces the bound"))
+                .note(format!("hint: write `step = \"auto\"` for 1/L = {:e}", 1.0 / c.lipschitz)),
+            );
+        } else if let Some(needed) = c.iterations_bound.filter(|needed| m < *needed) {
+            // `tolerance` is the spec's, or DEFAULT_TOLERANCE when it has none: a count that misses the
+            // default is as much a finding as one that misses a written tolerance.
+            let tol = c.tolerance;
             let gap = c.guaranteed_gap.unwrap_or(1.0);
+            let (what, hint) = match spec.mpc.tolerance {
+                Some(_) => (
+                    format!("`tolerance = {tol:e}`"),
+                    "hint: write `iterations = \"auto\"`, raise the count, or loosen `tolerance`"
+                        .to_string(),
+                ),
+                None => (
+                    format!("the default tolerance {tol:e} (no `tolerance` is written)"),
+                    if gap < 1.0 {
+                        format!("hint: write `iterations = \"auto\"` with a `tolerance`, raise the count to {needed}, or write the tolerance these iterations do meet, `tolerance = {}`", met_tolerance(gap))
+                    } else {
+                        format!("hint: write `iterations = \"auto\"` with a `tolerance`, or raise the count to {needed}: `iterations = {m}` guarantee nothing")
+                    },
+                ),
+            };
             let d = Diagnostic::new(
-                format!("`iterations = {m}` is below the {needed} that guarantee `tolerance = {tol:e}`: the bound only guarantees (J(U_{m}) − J*)/(J(U_0) − J*) ≤ {gap:.3e}"),
-                spec.spans.get("mpc.iterations"),
+                format!("`iterations = {m}` is below the {needed} that guarantee {what}: the bound only guarantees (J(U_{m}) − J*)/(J(U_0) − J*) ≤ {gap:.3e}"),
+                iterations(),
             )
             .label(format!("the a priori bound needs {needed}"))
-            .note("hint: write `iterations = \"auto\"`, raise the count, or loosen `tolerance`");
+            .note(hint);
             if spec.mpc.strict {
                 errors.push(d);
             } else {
@@ -331,13 +385,57 @@ pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> 
     }
 }
 
+/// The guaranteed gap ratio rounded up to two significant digits: a `tolerance` the iterations meet.
+fn met_tolerance(gap: f64) -> String {
+    let exponent = gap.log10().floor() - 1.0;
+    let scale = 10f64.powf(exponent);
+    let mut up = (gap / scale).ceil() * scale;
+    let show = |v: f64| {
+        if exponent >= -5.0 {
+            format!("{v:.*}", (-exponent) as usize)
+        } else {
+            format!("{v:.1e}")
+        }
+    };
+    // The printed value is what the spec will hold: step up once more if it rounded below `gap`.
+    if show(up).parse::<f64>().map_or(true, |v| v < gap) {
+        up += scale;
+    }
+    let shown = show(up);
+    if shown.contains('e') {
+        shown
+    } else {
+        shown
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .to_string()
+    }
+}
+
+/// What the module of a lowered and planned problem costs, to run and to build: cheap counts, computed
+/// before the certificate's analyses so that a module past the budgets is refused without them.
+pub fn predicted(p: &Problem, plan: &Plan) -> (Resources, BuildCost) {
+    let resources = resources(p, plan);
+    let (tables, unrolled) = emitted_terms(p, plan, &resources);
+    let build_cost = budget::predict(
+        budget::Dims {
+            nx: p.nx as f64,
+            nu: p.nu as f64,
+            N: p.qp.N as f64,
+            na: (p.nx + p.filter.nd) as f64,
+        },
+        tables,
+        unrolled,
+    );
+    (resources, build_cost)
+}
+
 /// Computes the certificate of a lowered and planned problem.
 pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
     let qp = &p.qp;
     let rate = plan.algorithm.rate(&qp.parameters());
     let tolerance = qp.tolerance.unwrap_or(DEFAULT_TOLERANCE);
-    let resources = resources(p, plan);
-    let (tables, unrolled) = emitted_terms(p, plan, &resources);
+    let (resources, build_cost) = predicted(p, plan);
     Certificate {
         lipschitz: qp.L,
         strong_convexity: qp.mu,
@@ -353,16 +451,7 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
         lqr: lqr(p),
         mpc: mpc_loop(p, plan),
         resources,
-        build_cost: budget::predict(
-            budget::Dims {
-                nx: p.nx as f64,
-                nu: p.nu as f64,
-                N: qp.N as f64,
-                na: (p.nx + p.filter.nd) as f64,
-            },
-            tables,
-            unrolled,
-        ),
+        build_cost,
         emission: plan.emission(),
         estimates: plan.estimates.clone(),
         disturbance_time_constant: (p.filter.nd > 0).then(|| {

@@ -27,6 +27,7 @@ pub mod certificate;
 pub mod cost;
 pub mod emit;
 pub mod form;
+pub mod input;
 pub mod linalg;
 pub mod lower;
 pub mod numeric;
@@ -109,13 +110,22 @@ impl Generated {
 pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
     let problem = lower(spec)?;
     let plan = plan(spec, &problem)?;
+    // The build's cost is counted before the certificate's analyses, which take seconds on a large H.
+    let (resources, build_cost) = certificate::predicted(&problem, &plan);
+    if budget::over(&build_cost).is_some() {
+        // A forced emission is compared with the cost model's own choice, which the error then names.
+        let own = (spec.codegen.emission != mpc_spec::Emission::Auto)
+            .then(|| {
+                let mut auto = spec.clone();
+                auto.codegen.emission = mpc_spec::Emission::Auto;
+                plan::plan(&auto, &problem).ok()
+            })
+            .flatten()
+            .map(|own| (own.emission(), certificate::predicted(&problem, &own).1));
+        budget::before_emission(spec, &build_cost, resources.macs_filter, own.as_ref())?;
+    }
     let certificate = certify(&problem, &plan);
     let warnings = certificate::review(spec, &certificate)?;
-    budget::before_emission(
-        spec,
-        &certificate.build_cost,
-        certificate.resources.macs_filter,
-    )?;
     let vis: TokenStream = opt.visibility.parse().map_err(|_| {
         Diagnostics::from(Diagnostic::new(
             format!("invalid visibility `{}`", opt.visibility),

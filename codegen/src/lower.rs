@@ -236,21 +236,40 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     crate::budget::before_lowering(spec)?;
     let mut diags = Diagnostics::default();
     let dt = spec.model.dt;
+    if let ModelKind::DoubleIntegrator { .. } = spec.model.kind {
+        check_dt(spec)?;
+    }
     let (F, G, C) = plant(&spec.model.kind, dt);
     let (nx, nu, ny) = (F.nrows(), G.ncols(), C.nrows());
     let m = &spec.mpc;
+    let N = m.horizon;
     let (Q, R, Qf) = (symmetric(&m.q), symmetric(&m.r), symmetric(&m.qf));
     check_weights(spec, &Q, &R, &Qf, &mut diags);
     if let ModelKind::Linear { .. } = spec.model.kind {
         check_inputs_act(&G, spec.spans.get("model.b"), &mut diags);
-        check_stabilizable(&F, &G, spec.spans.get("model.b"), &mut diags);
-        check_detectable(&F, &C, spec.spans.get("model.c"), &mut diags);
+        // A model whose powers overflow over the horizon is reported as that, not by the rank tests it
+        // defeats.
+        if check_growth(&F, &G, N, spec.spans.get("model.a"), &mut diags) {
+            check_stabilizable(&F, &G, spec.spans.get("model.b"), &mut diags);
+            check_detectable(&F, &C, spec.spans.get("model.c"), &mut diags);
+        }
     }
     if !diags.is_empty() {
         return Err(diags.sorted());
     }
-    let N = m.horizon;
     let (Sx, Su, H, Fx, Fr) = condense(&F, &G, &Q, &R, &Qf, N);
+    // H out of range (or not finite) is the weights' doing: named before its eigenvalues, which it defeats.
+    let hessian = Hessian {
+        Su: &Su,
+        Q: &Q,
+        R: &R,
+        Qf: &Qf,
+    };
+    let scalar = Numeric(spec.codegen.scalar);
+    if let Some(mut d) = out_of_range("the Hessian H", &H, scalar, None) {
+        d.span = hessian.key(spec, scalar);
+        return Err(d.into());
+    }
     let (mu, L) = extreme_eigenvalues(&H);
     check_hessian(spec, &H, mu, L)?;
     let (step, momentum, iterations) = solver_parameters(spec, mu, L, &mut diags);
@@ -300,6 +319,132 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         scalar: spec.codegen.scalar,
         model_lanes,
     })
+}
+
+/// The double integrator's `dt` must give a discrete model that f64 resolves. Per axis the model moves
+/// the state through its reachability matrix W = [G, FG] = [[Δt²/2, 3Δt²/2], [Δt, Δt]], whose condition
+/// number is about 2/Δt for a small Δt and 2.5·Δt for a large one. The condensed Hessian (SuᵀQSu, Su made
+/// of the blocks FᵏG) and the Kalman filter's Riccati recursion (which accumulates FᵏG·GᵀFᵏᵀ through the
+/// noise) both work with W's Gram matrix, of condition κ(W)²: when κ(W)²·ε ≥ 1 that matrix is singular in
+/// f64 (a Δt² that underflows next to Δt, or that swamps it), the states are not told apart and the
+/// recursion never settles. That bounds Δt to about (3e-8, 3e7) in the spec's units.
+fn check_dt(spec: &Spec) -> Result<(), Diagnostics> {
+    let dt = spec.model.dt;
+    let (F, G, _) = plant(&ModelKind::DoubleIntegrator { axes: 1 }, dt);
+    let mut W = DMatrix::zeros(2, 2);
+    W.set_column(0, &G.column(0));
+    W.set_column(1, &(&F * &G).column(0));
+    let at = spec.spans.get("model.dt");
+    let hint =
+        "hint: write `dt` in seconds, the sampling time of the controller (the paper's is 0.0128)";
+    if !W.iter().all(|v| v.is_finite()) {
+        return Err(Diagnostic::new(
+            format!(
+                "`model.dt` = {} is too large for f64: the discrete model's Δt²/2 = {:e} overflows",
+                short(dt),
+                dt * dt / 2.0
+            ),
+            at,
+        )
+        .label("the model's input matrix G = [Δt²/2; Δt] is not finite")
+        .note(hint)
+        .into());
+    }
+    let sv = W.singular_values();
+    let kappa = sv.max() / sv.min();
+    if kappa.is_finite() && kappa * kappa * f64::EPSILON < 1.0 {
+        return Ok(());
+    }
+    let what = if dt < 1.0 { "small" } else { "large" };
+    Err(Diagnostic::new(
+        format!(
+            "`model.dt` = {} is too {what} for f64: the discrete model's reachability matrix [G, FG] has condition number {kappa:.3e}, and its Gram matrix, which the Hessian and the Kalman filter work with, κ² ≥ 1/ε = {:.3e}",
+            short(dt),
+            1.0 / f64::EPSILON
+        ),
+        at,
+    )
+    .label(format!(
+        "Δt = {} and Δt²/2 = {} cannot both be resolved",
+        short(dt),
+        short(dt * dt / 2.0)
+    ))
+    .note(hint)
+    .into())
+}
+
+/// A `linear` model's powers Fᵏ, k ≤ N, and the products with G that the prediction holds must stay
+/// finite, and so must the Hessian's squares of them: ρ(F)^(2N)·max|G|² within f64's range (in logarithms,
+/// so that nothing overflows here). Returns whether the model passed.
+fn check_growth(
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+    N: usize,
+    span: Option<mpc_spec::Span>,
+    diags: &mut Diagnostics,
+) -> bool {
+    let Some(schur) = nalgebra::Schur::try_new(F.clone(), f64::EPSILON, 100_000) else {
+        return true;
+    };
+    let rho = schur
+        .complex_eigenvalues()
+        .iter()
+        .map(|c| c.norm())
+        .fold(0.0, f64::max);
+    let log_growth = 2.0 * (N as f64 * rho.ln() + G.amax().max(1.0).ln());
+    if log_growth.is_nan() || log_growth < f64::MAX.ln() {
+        return true;
+    }
+    diags.push(
+        Diagnostic::new(
+            format!(
+                "`model.a` has a mode with |λ| = {rho:.3e}: over the horizon of {N} steps the prediction grows by |λ|^{N} ≈ 1e{:.0}, beyond f64's range",
+                N as f64 * rho.log10()
+            ),
+            span,
+        )
+        .label("the powers of A in the condensed QP overflow")
+        .note("hint: check the units and the entries of `a`; a sampled plant's modes are near 1, and a shorter horizon shrinks the growth"),
+    );
+    false
+}
+
+/// The parts of H = 2(Σₖ Su_kᵀ W_k Su_k + R_blk) (W_k = Q, and Qf at the last step), for naming the key
+/// that makes H overflow.
+struct Hessian<'a> {
+    Su: &'a DMatrix<f64>,
+    Q: &'a DMatrix<f64>,
+    R: &'a DMatrix<f64>,
+    Qf: &'a DMatrix<f64>,
+}
+
+impl Hessian<'_> {
+    /// The key to blame for an H beyond `scalar`'s range: `mpc.r` when 2R alone is; the terminal weight
+    /// when its term 2·Su_Nᵀ Qf Su_N is and the stage terms are not; else the state weight `mpc.q`.
+    fn key(&self, spec: &Spec, scalar: Numeric) -> Option<mpc_spec::Span> {
+        let span = |key: &str| spec.spans.get(key);
+        let beyond = |M: &DMatrix<f64>| {
+            M.iter()
+                .any(|v| !v.is_finite() || 2.0 * v.abs() > scalar.max())
+        };
+        if beyond(self.R) {
+            return span("mpc.r");
+        }
+        let nx = self.Q.nrows();
+        let N = self.Su.nrows() / nx.max(1);
+        if N > 0 {
+            let last = self.Su.rows((N - 1) * nx, nx);
+            let terminal = last.transpose() * self.Qf * last;
+            let stage = (0..N).any(|k| {
+                let rows = self.Su.rows(k * nx, nx);
+                beyond(&(rows.transpose() * self.Q * rows))
+            });
+            if beyond(&terminal) && !stage {
+                return span("mpc.qf").or(span("mpc.qf_scale")).or(span("mpc.q"));
+            }
+        }
+        span("mpc.q").or(span("codegen.scalar"))
+    }
 }
 
 /// Q and Qf must be positive semidefinite, R positive definite.
@@ -513,6 +658,29 @@ fn filter(
     if !diags.is_empty() {
         return None;
     }
+    // The recursion converges geometrically only if the process noise reaches every mode on the unit circle
+    // (with (F, C) detectable, the standard condition is (F, Q^½) stabilizable; a mode with |λ| > 1 the
+    // noise misses still settles, one with |λ| = 1 only as 1/k): an integrator without noise would run the
+    // recursion's million steps and end in "no steady state". Checked here, at the noise's key.
+    if let Some(lambda) = unreachable_mode_where(&Fa, &psd_sqrt(&Qn), |r| (r - 1.0).abs() <= 1e-9) {
+        let mode = format!("λ = {} (|λ| = {:.6})", complex(lambda), lambda.norm());
+        let message = match &spec.kalman.noise {
+            KalmanNoise::WhiteAcceleration { sigma_a, .. } => format!(
+                "`kalman.sigma_a` = {} is too small: the process noise it gives (σ_a² = {}) does not reach the mode {mode} in f64, so the Kalman filter has no steady state",
+                short(*sigma_a),
+                short(sigma_a * sigma_a)
+            ),
+            KalmanNoise::Covariances { .. } => format!(
+                "the Kalman filter has no steady state: the process noise does not reach the mode {mode}, so the Riccati recursion settles only as 1/k"
+            ),
+        };
+        diags.push(
+            Diagnostic::new(message, process.or(span("kalman")))
+                .label("rank [F − λI, Q^½] is below nx at this eigenvalue")
+                .note("hint: every integrator or marginally stable mode needs process noise that reaches it (a nonzero `q` on it or on a state that drives it)"),
+        );
+        return None;
+    }
     let Some((P_inf, K_inf)) = steady_state_filter(&Fa, &Ca, &Qn, &Rn, &P0) else {
         diags.push(
             Diagnostic::new("the Kalman filter has no steady state: the Riccati recursion does not converge", process.or(span("kalman")))
@@ -565,12 +733,11 @@ fn check_ranges(
         DMatrix::from_iterator(1, nu, qp.u_max.iter().copied()),
     );
     let step_matrix = DMatrix::from_element(1, 1, qp.step);
-    // Q, R and P0 were checked by `filter`, before its Riccati recursion.
-    let emitted: [(&str, &str, &DMatrix<f64>); 11] = [
+    // Q, R and P0 were checked by `filter`, before its Riccati recursion; H by `lower`, before its eigenvalues.
+    let emitted: [(&str, &str, &DMatrix<f64>); 10] = [
         ("the lower input bounds", "mpc.u_min", &u_min),
         ("the upper input bounds", "mpc.u_max", &u_max),
         ("the step", "mpc.step", &step_matrix),
-        ("the Hessian H", "mpc.q", &qp.H),
         ("the gradient map Fx", "mpc.q", &qp.Fx),
         ("the gradient map Fr", "mpc.q", &qp.Fr),
         ("the disturbance map Fd", "mpc.q", &qp.Fd),
@@ -783,14 +950,30 @@ fn not_definite(M: &DMatrix<f64>, strict: bool) -> Option<String> {
     bad.then(|| format!("scaled to a unit diagonal, its smallest eigenvalue is {lo:.3e}"))
 }
 
+/// The symmetric square root of a positive semidefinite matrix (negative rounding eigenvalues as zero).
+fn psd_sqrt(M: &DMatrix<f64>) -> DMatrix<f64> {
+    let eig = nalgebra::SymmetricEigen::new(M.clone());
+    let root = eig.eigenvalues.map(|l| l.max(0.0).sqrt());
+    &eig.eigenvectors * DMatrix::from_diagonal(&root) * eig.eigenvectors.transpose()
+}
+
 /// A mode of F with |λ| ≥ 1 that G cannot reach, by the Popov-Belevitch-Hautus test: rank [F − λI, G] < n.
 fn unreachable_mode(F: &DMatrix<f64>, G: &DMatrix<f64>) -> Option<nalgebra::Complex<f64>> {
+    unreachable_mode_where(F, G, |r| r >= 1.0 - 1e-9)
+}
+
+/// A mode of F whose modulus satisfies `modulus` that G cannot reach (rank [F − λI, G] < n).
+fn unreachable_mode_where(
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+    modulus: impl Fn(f64) -> bool,
+) -> Option<nalgebra::Complex<f64>> {
     use nalgebra::Complex;
     let n = F.nrows();
     let schur = nalgebra::Schur::try_new(F.clone(), f64::EPSILON, 100_000)?;
     let scale = F.amax().max(G.amax()).max(1.0);
     schur.complex_eigenvalues().iter().copied().find(|lambda| {
-        if lambda.norm() < 1.0 - 1e-9 {
+        if !modulus(lambda.norm()) {
             return false;
         }
         let M = DMatrix::from_fn(n, n + G.ncols(), |i, j| {

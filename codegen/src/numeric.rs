@@ -34,6 +34,14 @@ impl Numeric {
         }
     }
 
+    /// The machine epsilon (the gap between 1 and the next number), as f64.
+    pub fn epsilon(self) -> f64 {
+        match self.0 {
+            Scalar::F32 => f32::EPSILON as f64,
+            Scalar::F64 => f64::EPSILON,
+        }
+    }
+
     /// `v` rounded to the emitted type.
     pub fn round(self, v: f64) -> f64 {
         match self.0 {

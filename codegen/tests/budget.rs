@@ -134,3 +134,33 @@ fn the_solver_loop_analysis_is_skipped_past_its_budget_instead_of_hanging() {
     assert!(paper.certificate.mpc.solver_spectral_radius.is_some());
     assert!(paper.certificate.build_cost.rustc_bytes < 0.5e9);
 }
+
+#[test]
+fn a_forced_emission_past_the_budget_is_an_error_at_the_emission() {
+    // Unrolled code at the longest horizon: about 1.3 million unrolled multiply-adds, where the cost
+    // model's own choice builds.
+    let src = PAPER.replace("horizon = 15", "horizon = 250").replace(
+        "scalar = \"f32\"",
+        "scalar = \"f32\"\nemission = \"unrolled\"",
+    );
+    let Err(diags) = generate_from_source(&src, &Opt::default()) else {
+        panic!("the spec was accepted");
+    };
+    let d = diags.iter().next().unwrap();
+    assert!(
+        d.message
+            .starts_with("this controller is too large to build: rustc would "),
+        "{}",
+        d.message
+    );
+    assert_eq!(&src[d.span.clone().unwrap()], "\"unrolled\"");
+    let hint = d.note.clone().unwrap_or_default();
+    assert!(
+        hint.contains("the cost model's own choice, `emission = \""),
+        "{hint}"
+    );
+    // Without the forced emission it builds (its own choice is within the budget).
+    let own = src.replace("\nemission = \"unrolled\"", "");
+    let g = generate_from_source(&own, &Opt::default()).unwrap();
+    assert!(codegen::budget::over(&g.certificate.build_cost).is_none());
+}

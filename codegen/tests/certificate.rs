@@ -52,9 +52,12 @@ fn paper_faithful_solver_loop_differs_from_the_mpc_gain() {
         c.mpc.spectral_radius
     );
     assert!(solver < 1.0);
-    // α = 0.04 is far below 1/L ≈ 0.49: thirty steps guarantee little.
-    assert!(c.iterations_bound.unwrap() > 700);
-    assert!(c.guaranteed_gap.unwrap() > 0.6);
+    // α = 0.04 is far below 1/L ≈ 0.49: thirty steps guarantee little, the `tolerance = 0.7` the spec
+    // writes, where the default 1e-4 would need more than 700.
+    assert!(c.rate.unwrap().iterations_for(1e-4) > 700);
+    assert_eq!(c.tolerance, 0.7);
+    assert!(c.iterations_bound.unwrap() <= 30);
+    assert!(c.guaranteed_gap.unwrap() > 0.6 && c.guaranteed_gap.unwrap() <= 0.7);
 }
 
 #[test]
@@ -137,7 +140,8 @@ fn auto_iterations_are_the_bound() {
 
 #[test]
 fn too_few_iterations_warn_or_fail_when_strict() {
-    let src = FAITHFUL.replace("iterations = 30", "iterations = 30\ntolerance = 1e-4");
+    let src = FAITHFUL.replace("tolerance = 0.7", "tolerance = 1e-4");
+    assert_ne!(src, FAITHFUL);
     let spec = load(&src).unwrap();
     let p = lower(&spec).unwrap();
     let c = certify(&p, &plan(&spec, &p).unwrap());
@@ -233,4 +237,108 @@ disturbance = 0.01
         d.message
     );
     assert_eq!(&blind[d.span.clone().unwrap()], "0.01");
+}
+
+/// The shipped Algorithm 1 spec without its `tolerance`: the default 1e-4 is the one its 30 iterations miss.
+fn faithful_without_tolerance() -> String {
+    let src: String = FAITHFUL
+        .lines()
+        .filter(|l| !l.starts_with("tolerance =") && !l.starts_with("# The a priori bound"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert!(!src.contains("tolerance"), "{src}");
+    src
+}
+
+#[test]
+fn the_default_tolerance_warns_when_the_iterations_miss_it() {
+    let src = faithful_without_tolerance();
+    let g = generate_from_source(&src, &Opt::default()).unwrap();
+    let w = g.warnings.iter().next().expect("a warning");
+    assert!(
+        w.message.starts_with(
+            "`iterations = 30` is below the 762 that guarantee the default tolerance 1e-4 (no `tolerance` is written)"
+        ),
+        "{}",
+        w.message
+    );
+    assert_eq!(&src[w.span.clone().unwrap()], "30");
+    // The hint names the tolerance the 30 iterations meet; written, it silences the warning, and so does
+    // the shipped spec, which writes it.
+    let hint = w.note.clone().unwrap_or_default();
+    let met = hint
+        .split("`tolerance = ")
+        .nth(1)
+        .and_then(|rest| rest.split('`').next())
+        .unwrap_or_else(|| panic!("no tolerance in the hint: {hint}"));
+    let tol: f64 = met.parse().unwrap();
+    let gap = g.certificate.guaranteed_gap.unwrap();
+    assert!(tol >= gap && tol < 1.0, "{tol} for a gap of {gap}");
+    let written = src.replace(
+        "iterations = 30",
+        &format!("iterations = 30\ntolerance = {met}"),
+    );
+    let g = generate_from_source(&written, &Opt::default()).unwrap();
+    assert!(g.warnings.is_empty(), "{:?}", g.warnings);
+    assert!(generate_from_source(FAITHFUL, &Opt::default())
+        .unwrap()
+        .warnings
+        .is_empty());
+    // `strict` makes the default's miss an error too.
+    let strict = src.replace("iterations = 30", "iterations = 30\nstrict = true");
+    assert!(generate_from_source(&strict, &Opt::default()).is_err());
+}
+
+#[test]
+fn a_bound_that_cannot_decrease_is_an_error_at_the_step() {
+    // 1 − αμ with α = 1e-300 rounds to 1: no count of iterations guarantees anything. The loop it closes is
+    // the open-loop plant, accepted here so that the bound's error is the one reported.
+    let src = faithful_without_tolerance()
+        .replace("step = 0.04", "step = 1e-300")
+        .replace(
+            "u_max = [10, 10, 10]",
+            "u_max = [10, 10, 10]\naccept_unstable = true",
+        );
+    let diags = generate_from_source(&src, &Opt::default()).unwrap_err();
+    let d = diags.iter().next().unwrap();
+    assert!(
+        d.message
+            .starts_with("the a priori bound guarantees no improvement at all"),
+        "{}",
+        d.message
+    );
+    assert_eq!(&src[d.span.clone().unwrap()], "1e-300");
+}
+
+#[test]
+fn a_tolerance_below_the_arithmetic_warns_at_the_tolerance() {
+    let src = PAPER.replace(
+        "iterations = 30",
+        "iterations = \"auto\"\ntolerance = 1e-300",
+    );
+    let g = generate_from_source(&src, &Opt::default()).unwrap();
+    let w = g.warnings.iter().next().expect("a warning");
+    assert!(
+        w.message
+            .starts_with("`mpc.tolerance` = 1e-300 is below what the arithmetic can resolve: the solver runs in f32"),
+        "{}",
+        w.message
+    );
+    assert_eq!(&src[w.span.clone().unwrap()], "1e-300");
+    // The floor is ε·κ(H) of the emitted scalar: f32's is about 8e-7 on the paper's H, f64's about 1.5e-15.
+    let kappa = g.certificate.condition_number;
+    let floor = |tol: &str, scalar: &str| {
+        let src = src
+            .replace("tolerance = 1e-300", &format!("tolerance = {tol}"))
+            .replace("scalar = \"f32\"", &format!("scalar = \"{scalar}\""));
+        generate_from_source(&src, &Opt::default())
+            .unwrap()
+            .warnings
+            .is_empty()
+    };
+    assert!(f32::EPSILON as f64 * kappa > 1e-6 / 2.0 && f32::EPSILON as f64 * kappa < 1e-6);
+    assert!(floor("1e-6", "f32"));
+    assert!(!floor("4e-7", "f32"));
+    assert!(floor("4e-7", "f64"));
+    assert!(!floor("1e-16", "f64"));
 }

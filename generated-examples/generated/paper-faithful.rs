@@ -7849,9 +7849,9 @@ pub mod paper_faithful {
         /// The a priori bound's factor per iteration ρ (see `RATE`).
         pub const RATE_FACTOR: Option<f64> = Some(0.98798343451433f64);
         /// The relative suboptimality the bound is stated for: J(U_k) − J* ≤ TOLERANCE·(J(U_0) − J*).
-        pub const TOLERANCE: f64 = 0.0001f64;
+        pub const TOLERANCE: f64 = 0.7f64;
         /// The iterations the bound needs for TOLERANCE from any start in the box.
-        pub const ITERATIONS_BOUND: Option<usize> = Some(762);
+        pub const ITERATIONS_BOUND: Option<usize> = Some(30);
         /// What ITERATIONS guarantee: (J(U_m) − J*)/(J(U_0) − J*) is at most this.
         pub const GUARANTEED_GAP: Option<f64> = Some(0.695808749351976f64);
         /// ρ(F − G·K_LQR).

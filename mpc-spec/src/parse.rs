@@ -99,6 +99,8 @@ pub struct Raw {
     /// Every table and key written, readable or not (`"kalman"`, `"kalman.sigma_a"`), so that a value
     /// already reported as wrong is not reported again as missing.
     pub present: BTreeSet<String>,
+    /// The top-level tables that are tables (`kalman = 3` is present, and reported, but not one).
+    pub tables: BTreeSet<String>,
 }
 
 impl Raw {
@@ -129,6 +131,7 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         spans: BTreeMap::new(),
         present: BTreeSet::new(),
         suggested: BTreeSet::new(),
+        tables: BTreeSet::new(),
     };
     let root_span = root.span();
     let root = root.get_ref();
@@ -242,6 +245,7 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
     }
     raw.spans = p.spans;
     raw.present = p.present;
+    raw.tables = p.tables;
     raw
 }
 
@@ -251,6 +255,8 @@ struct Parser<'d> {
     present: BTreeSet<String>,
     /// Keys offered as "did you mean" for a misspelled one: not reported again as missing.
     suggested: BTreeSet<String>,
+    /// The tables written as tables (`Raw::tables`).
+    tables: BTreeSet<String>,
 }
 
 impl Parser<'_> {
@@ -284,7 +290,10 @@ impl Parser<'_> {
         let key_span = root.get_key_value(name).map_or(v.span(), |(k, _)| k.span());
         self.spans.insert(name.to_string(), key_span.clone());
         match v.get_ref() {
-            DeValue::Table(t) => Some((key_span, t)),
+            DeValue::Table(t) => {
+                self.tables.insert(name.to_string());
+                Some((key_span, t))
+            }
             other => {
                 self.err(
                     Diagnostic::new(
@@ -631,6 +640,22 @@ impl Parser<'_> {
     /// A list of equally long lists of numbers.
     fn matrix(&mut self, v: &Value<'_>, path: &str) -> Option<Located<Matrix>> {
         let rows = self.array(v, path, "a list of rows")?;
+        // A flat list is a matrix written without its rows, not rows of the wrong type (a number among
+        // rows is that row's mistake, reported by `vector`).
+        if rows.iter().all(|r| !r.get_ref().is_array()) {
+            self.err(
+                Diagnostic::new(
+                    format!(
+                        "`{path}` must be a list of rows, found a flat list of {}",
+                        entries(rows.len())
+                    ),
+                    v.span(),
+                )
+                .label("expected a list of rows")
+                .note("hint: write each row in brackets: `[[1, 0.1], [0, 1]]`"),
+            );
+            return None;
+        }
         let mut out = Vec::with_capacity(rows.len());
         for row in rows {
             out.push(self.vector(row, path)?.value);

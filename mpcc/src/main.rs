@@ -6,7 +6,7 @@
 //!   a regular file only when its content changed, anything else (`/dev/stdout`, a FIFO) straight
 //!   through; `FILE` may not be the spec itself.
 //!
-//! SPEC is a regular file or `-` for standard input, of at most 1 MiB (`input::SPEC_SIZE_LIMIT`); a
+//! SPEC is a regular file or `-` for standard input, of at most 1 MiB (`codegen::input::SPEC_SIZE_LIMIT`); a
 //! FIFO, a device or a directory is refused before it is opened, so that `mpcc` never blocks on or reads
 //! without bound from its input.
 //!

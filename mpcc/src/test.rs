@@ -11,7 +11,7 @@ fn cli_is_well_formed() {
 /// The SPEC help of both subcommands states the limit that `input` enforces.
 #[test]
 fn spec_help_states_the_size_limit() {
-    let limit = format!("at most {} MiB", crate::input::SPEC_SIZE_LIMIT_MIB);
+    let limit = format!("at most {} MiB", codegen::input::SPEC_SIZE_LIMIT_MIB);
     let command = Cli::command();
     for sub in ["check", "emit"] {
         let spec = command
