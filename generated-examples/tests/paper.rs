@@ -81,11 +81,18 @@ fn check_shape(summary: &Value, number: &dyn Fn(&Value) -> bool) {
             }
         }
     }
-    // The offset-free MPC gets back under 0.1 m while the gust still blows; the plain one does not.
-    assert!(number(
-        &c["mpc-offset-free"]["gust"]["settle_after_onset_s"]
-    ));
-    assert!(c["mpc"]["gust"]["settle_after_onset_s"].is_null());
+    // The offset-free MPC gets back under 0.1 m while the gust still blows; the plain one does not, or
+    // (when its filter re-acquires on the gated readings the gust causes) only as the gust ends, many
+    // times later.
+    // A figure of one seed, or the mean over seeds.
+    let value = |v: &Value| v.get("mean").unwrap_or(v).as_f64();
+    let offset_free = &c["mpc-offset-free"]["gust"]["settle_after_onset_s"];
+    assert!(number(offset_free));
+    let plain = &c["mpc"]["gust"]["settle_after_onset_s"];
+    assert!(
+        plain.is_null() || value(plain) > value(offset_free).map(|t| 3.0 * t),
+        "{plain} against {offset_free}"
+    );
     assert!(c["mpc-offset-free"]["qp_gap"].is_object());
     assert!(c["mpc"]["qp_gap"].is_object() && c["pid"].get("qp_gap").is_none());
 }
