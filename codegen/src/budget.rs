@@ -72,7 +72,11 @@ pub struct Dims {
 
 fn dims(spec: &Spec) -> Dims {
     let k = &spec.model.kind;
-    let nd = if spec.kalman.disturbance.is_some() {
+    let nd = if spec
+        .kalman
+        .as_ref()
+        .is_some_and(|k| k.disturbance.is_some())
+    {
         k.nu()
     } else {
         0

@@ -12,7 +12,7 @@
 use crate::budget::{self, BuildCost};
 use crate::cost::Estimate;
 use crate::linalg::{extreme_eigenvalues, lqr_gain, lyapunov_identity, spectral_radius};
-use crate::lower::Problem;
+use crate::lower::{Filter, Problem};
 use crate::numeric::Numeric;
 use crate::plan::Plan;
 pub use crate::solver::Rate;
@@ -44,11 +44,15 @@ pub struct Lqr {
 /// The MPC's own closed loops, constraints inactive and references zero.
 #[derive(Clone, Debug, Serialize)]
 pub struct MpcLoop {
-    /// The unconstrained receding-horizon gain: the first block of H⁻¹·Fx, so u = −K·x (nu × nx).
+    /// The unconstrained receding-horizon gain: the first block of H⁻¹·Fx, so u = −K·x (nu × nx); with
+    /// weighted moves of H⁻¹·[Fx Fu], u = −K·(x, u₋₁).
     #[serde(skip)]
     pub gain: DMatrix<f64>,
     /// ρ(F − G·K) for that gain: the loop an exactly solved MPC closes.
     pub spectral_radius: f64,
+    /// Whether the moves are weighted, so that this gain and the LQR's act on (x, u₋₁).
+    #[serde(skip)]
+    pub moves: bool,
     /// ρ of the loop the fixed-iteration, warm-started solver actually closes, a linear system in the
     /// state and the previous plan; `None` for problems above [`MAX_SOLVER_ANALYSIS_SIZE`] decision variables
     /// or [`budget::SOLVER_ANALYSIS_MACS`] multiply-adds, and for algorithms whose iteration is not linear.
@@ -263,10 +267,15 @@ pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> 
     if spec.spans.get("mpc.qf").is_some() {
         written.push(("mpc.qf", &spec.mpc.qf));
     }
-    if let mpc_spec::KalmanNoise::Covariances { q, r } = &spec.kalman.noise {
-        written.extend([("kalman.q", q), ("kalman.r", r)]);
+    if let Some(r_du) = &spec.mpc.r_du {
+        written.push(("mpc.r_du", r_du));
     }
-    written.push(("kalman.p0", &spec.kalman.p0));
+    if let Some(kalman) = &spec.kalman {
+        if let mpc_spec::KalmanNoise::Covariances { q, r } = &kalman.noise {
+            written.extend([("kalman.q", q), ("kalman.r", r)]);
+        }
+        written.push(("kalman.p0", &kalman.p0));
+    }
     for (key, m) in written {
         let asymmetry = m.asymmetry();
         if asymmetry > 1e-12 {
@@ -422,7 +431,7 @@ pub fn predicted(p: &Problem, plan: &Plan) -> (Resources, BuildCost) {
             nx: p.nx as f64,
             nu: p.nu as f64,
             N: p.qp.N as f64,
-            na: (p.nx + p.filter.nd) as f64,
+            na: (p.nx + p.nd()) as f64,
         },
         tables,
         unrolled,
@@ -454,8 +463,7 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
         build_cost,
         emission: plan.emission(),
         estimates: plan.estimates.clone(),
-        disturbance_time_constant: (p.filter.nd > 0).then(|| {
-            let f = &p.filter;
+        disturbance_time_constant: p.filter.as_ref().filter(|f| f.nd > 0).map(|f| {
             let na = p.nx + f.nd;
             let error = &f.Fa * (DMatrix::identity(na, na) - &f.K_inf * &f.Ca);
             -p.dt / spectral_radius(&error).ln()
@@ -471,17 +479,29 @@ fn contraction(p: &Problem, plan: &Plan) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The LQR of the stage weights. With weighted moves the loop is on ξ = (x, u₋₁) with the move Δu as its
+/// input (ξ⁺ = [F G; 0 I]ξ + [G; I]Δu), stage cost xᵀQx + uᵀRu + ΔuᵀR_duΔu with u = u₋₁ + Δu, so R may be
+/// zero: the cross term ξᵀ[0; R]Δu is removed by the usual change of input before the Riccati recursion.
 fn lqr(p: &Problem) -> Lqr {
+    let (F, G, Q, N, R) = moves_system(p);
     let nan = || Lqr {
-        gain: DMatrix::from_element(p.nu, p.nx, f64::NAN),
+        gain: DMatrix::from_element(p.nu, F.ncols(), f64::NAN),
         spectral_radius: f64::NAN,
         lyapunov_min: f64::NAN,
         lyapunov_max: f64::NAN,
     };
-    let Some(K) = lqr_gain(&p.F, &p.G, &p.qp.Q, &p.qp.R) else {
+    // u = v − R⁻¹Nᵀξ removes the cross term: F̄ = F − G R⁻¹Nᵀ, Q̄ = Q − N R⁻¹ Nᵀ, K = K̄ + R⁻¹Nᵀ.
+    let Some(R_chol) = R.clone().cholesky() else {
         return nan();
     };
-    let Fcl = &p.F - &p.G * &K;
+    let cross = R_chol.solve(&N.transpose());
+    let F_bar = &F - &G * &cross;
+    let Q_bar = crate::linalg::symmetrize(&(&Q - &N * &cross));
+    let Some(K_bar) = lqr_gain(&F_bar, &G, &Q_bar, &R) else {
+        return nan();
+    };
+    let K = K_bar + cross;
+    let Fcl = &F - &G * &K;
     let rho = spectral_radius(&Fcl);
     let (lmin, lmax) =
         lyapunov_identity(&Fcl).map_or((f64::NAN, f64::NAN), |P| extreme_eigenvalues(&P));
@@ -493,21 +513,70 @@ fn lqr(p: &Problem) -> Lqr {
     }
 }
 
+/// The LQR problem (F, G, Q, N, R) with stage cost ξᵀQξ + 2ξᵀNv + vᵀRv: the plant's own (N = 0) without
+/// weighted moves; with them, the state (x, u₋₁) and the move as input.
+#[allow(clippy::type_complexity)]
+fn moves_system(
+    p: &Problem,
+) -> (
+    DMatrix<f64>,
+    DMatrix<f64>,
+    DMatrix<f64>,
+    DMatrix<f64>,
+    DMatrix<f64>,
+) {
+    let qp = &p.qp;
+    let (nx, nu) = (p.nx, p.nu);
+    if !p.has_moves() {
+        return (
+            p.F.clone(),
+            p.G.clone(),
+            qp.Q.clone(),
+            DMatrix::zeros(nx, nu),
+            qp.R.clone(),
+        );
+    }
+    let n = nx + nu;
+    let mut F = DMatrix::identity(n, n);
+    F.view_mut((0, 0), (nx, nx)).copy_from(&p.F);
+    F.view_mut((0, nx), (nx, nu)).copy_from(&p.G);
+    let mut G = DMatrix::zeros(n, nu);
+    G.view_mut((0, 0), (nx, nu)).copy_from(&p.G);
+    G.view_mut((nx, 0), (nu, nu)).fill_with_identity();
+    let mut Q = DMatrix::zeros(n, n);
+    Q.view_mut((0, 0), (nx, nx)).copy_from(&qp.Q);
+    Q.view_mut((nx, nx), (nu, nu)).copy_from(&qp.R);
+    let mut N = DMatrix::zeros(n, nu);
+    N.view_mut((nx, 0), (nu, nu)).copy_from(&qp.R);
+    (F, G, Q, N, &qp.R + &qp.R_du)
+}
+
+/// The MPC's loops. With weighted moves the plan depends on (x, u₋₁), u₋₁ the previous command: the
+/// exact loop is on that pair, and the solver's loop already carries u₋₁ as the first block of the
+/// previous plan.
 fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
     let qp = &p.qp;
     let (nx, nu) = (p.nx, p.nu);
     let nz = qp.N * nu;
+    let moves = if p.has_moves() { nu } else { 0 };
+    // f = Fx·x + Fu·u₋₁ at zero reference: the gain on (x, u₋₁).
+    let mut Fxu = DMatrix::zeros(nz, nx + moves);
+    Fxu.view_mut((0, 0), (nz, nx)).copy_from(&qp.Fx);
+    Fxu.view_mut((0, nx), (nz, moves))
+        .copy_from(&qp.Fu.columns(0, moves));
     // `lower` refuses an H that does not factorize (check_hessian); NaN if it ever did.
     let K = match qp.H.clone().cholesky() {
-        Some(H) => (H.inverse() * &qp.Fx).rows(0, nu).into_owned(),
-        None => DMatrix::from_element(nu, nx, f64::NAN),
+        Some(H) => (H.inverse() * &Fxu).rows(0, nu).into_owned(),
+        None => DMatrix::from_element(nu, nx + moves, f64::NAN),
     };
-    let spectral = spectral_radius(&(&p.F - &p.G * &K));
+    let (F, G, ..) = moves_system(p);
+    let spectral = spectral_radius(&(&F - &G * &K - moves_offset(p, &K)));
     let affordable = nz <= MAX_SOLVER_ANALYSIS_SIZE
         && budget::solver_analysis_macs(nx, nz, qp.iterations) <= budget::SOLVER_ANALYSIS_MACS;
     let solver = affordable.then_some(()).and_then(|()| {
         // The plan after m iterations is linear in z = [x; U_prev]: U_m = M·z. Build M by running the
         // solver on matrices (columns = unit directions of z), references zero and bounds inactive.
+        // u₋₁ is U_prev's first block, the command applied last.
         let dim = nx + nz;
         let mut shift = DMatrix::zeros(nz, dim);
         for i in 0..nz - nu {
@@ -515,6 +584,8 @@ fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
         }
         let mut f = DMatrix::zeros(nz, dim);
         f.view_mut((0, 0), (nz, nx)).copy_from(&qp.Fx);
+        f.view_mut((0, nx), (nz, moves))
+            .copy_from(&qp.Fu.columns(0, moves));
         let step = |Y: &DMatrix<f64>| Y - (&qp.H * Y + &f) * qp.step;
         let U = plan
             .algorithm
@@ -529,19 +600,35 @@ fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
     });
     MpcLoop {
         gain: K,
+        moves: moves > 0,
         spectral_radius: spectral,
         solver_spectral_radius: solver,
     }
+}
+
+/// The MPC gives the input u = −K·ξ itself, not a move: on ξ = (x, u₋₁) the loop is ξ⁺ = [F·x + G·u; u],
+/// which is [F G; 0 I]ξ + [G; I](u − u₋₁). The returned term corrects `F − G·K` for the u₋₁ that the move
+/// form adds: [G; I]·[0 I]. Zero without weighted moves.
+fn moves_offset(p: &Problem, K: &DMatrix<f64>) -> DMatrix<f64> {
+    let (nx, nu) = (p.nx, p.nu);
+    let n = K.ncols();
+    if !p.has_moves() {
+        return DMatrix::zeros(n, n);
+    }
+    let (_, G, ..) = moves_system(p);
+    let mut select = DMatrix::zeros(nu, n);
+    select.view_mut((0, nx), (nu, nu)).fill_with_identity();
+    G * select
 }
 
 /// The numbers the module writes in tables and the multiply-adds it unrolls: the public matrices, the
 /// form's tables, the filter, and an unrolled gradient or the body of the sweeps.
 fn emitted_terms(p: &Problem, plan: &Plan, r: &Resources) -> (usize, usize) {
     let qp = &p.qp;
-    let (nx, nu, ny, na) = (p.nx, p.nu, p.ny, p.nx + p.filter.nd);
+    let (nx, nu, ny, na) = (p.nx, p.nu, p.ny, p.nx + p.nd());
     let nz = qp.N * nu;
     let form_tables = plan.estimate().table_bytes / Numeric(p.scalar).bytes();
-    let tables = nz * (nz + nx + qp.N * nx + p.filter.nd)
+    let tables = nz * (nz + nx + qp.N * nx + p.nd())
         + nx * (nx + nu)
         + ny * nx
         + na * (3 * na + ny)
@@ -564,17 +651,65 @@ fn emitted_terms(p: &Problem, plan: &Plan, r: &Resources) -> (usize, usize) {
 
 fn resources(p: &Problem, plan: &Plan) -> Resources {
     let num = Numeric(p.scalar);
-    let nnz = |M: &DMatrix<f64>| num.nonzeros(M);
-    let coefficients = |M: &DMatrix<f64>| num.coefficients(M);
     let qp = &p.qp;
-    let f = &p.filter;
-    // The filter works on (x, d): na = nx + nd states.
-    let (na, ny) = (p.nx + f.nd, p.ny);
     let plan_entries = qp.N * plan.plan_lanes(p);
     let per_iteration = plan.estimate().macs + plan.algorithm.update_macs(plan_entries);
     // f: unrolled over Fx, Fr and Fd, or one pass of the matrix-free sweeps (f = ∇J(0)).
     let (gradient_map, gradient_map_constants) =
         plan.form.gradient().gradient_map(p, &plan.estimates);
+    let size = num.bytes();
+    let real = (size, size);
+    let array = |n: usize, (s, a): (usize, usize)| (n * s, a);
+    let flag = (1, 1);
+    // The plan, and the last input when the moves are weighted.
+    let last_input = if p.has_moves() {
+        array(p.nu, real)
+    } else {
+        (0, 1)
+    };
+    let mpc = layout(&[array(plan_entries, real), last_input]);
+    let filter = p.filter.as_ref().map(|f| filter_resources(p, f, num));
+    let (macs_filter, filter_constants, kalman) = filter.map_or((0, 0, (0, 1)), |f| f);
+    // `Status`: the filter's (inside the `Kalman`, copied), the command's verdict, a flag per input; the
+    // controller keeps the estimate the command was computed from.
+    let controller = match &p.filter {
+        Some(f) => {
+            let filter_status = filter_status_layout(f, size);
+            let status = layout(&[filter_status, flag, array(p.nu, flag)]);
+            layout(&[kalman, mpc, array(p.nx, real), status])
+        }
+        None => layout(&[mpc, layout(&[flag, array(p.nu, flag)])]),
+    };
+    Resources {
+        macs_per_iteration: per_iteration,
+        macs_per_cycle: qp.iterations * per_iteration + gradient_map + macs_filter,
+        macs_filter,
+        bytes_constants: (gradient_map_constants + filter_constants) * size,
+        bytes_state_mpc: mpc.0,
+        bytes_state_kalman: kalman.0,
+        bytes_state: controller.0,
+    }
+}
+
+/// `FilterStatus`: the verdict (a one-byte enum), the statistic, three counts and the flags.
+fn filter_status_layout(f: &Filter, size: usize) -> (usize, usize) {
+    let (real, flag) = ((size, size), (1, 1));
+    let counts = (3 * 4, 4);
+    layout(&[
+        flag,
+        real,
+        counts,
+        flag,
+        if f.nd > 0 { flag } else { (0, 1) },
+    ])
+}
+
+/// The filter's multiply-adds per cycle, the coefficients it holds, and the `Kalman`'s layout.
+fn filter_resources(p: &Problem, f: &Filter, num: Numeric) -> (usize, usize, (usize, usize)) {
+    let nnz = |M: &DMatrix<f64>| num.nonzeros(M);
+    let coefficients = |M: &DMatrix<f64>| num.coefficients(M);
+    // The filter works on (x, d): na = nx + nd states.
+    let (na, ny) = (p.nx + f.nd, p.ny);
     let (F, G, C) = (&f.Fa, &f.Ga, &f.Ca);
     let predict_state = nnz(&F.rows(0, p.nx).into_owned()) + nnz(G);
     let mut filter_constants = coefficients(F) + coefficients(G) + coefficients(C);
@@ -624,17 +759,8 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
     let size = num.bytes();
     let real = (size, size);
     let array = |n: usize, (s, a): (usize, usize)| (n * s, a);
-    let (u32_, flag) = ((4, 4), (1, 1));
+    let u32_ = (4, 4);
     let history = f.screening.stuck_cycles.is_some() || f.screening.gate.is_some();
-    // `FilterStatus`: the verdict (a one-byte enum), the statistic, three counts and the flags.
-    let filter_status = layout(&[
-        flag,
-        real,
-        array(3, u32_),
-        flag,
-        if f.nd > 0 { flag } else { (0, 1) },
-    ]);
-    let mpc = layout(&[array(plan_entries, real)]);
     let kalman = layout(&[
         array(na, real),
         if f.kind == FilterKind::TimeVarying {
@@ -649,20 +775,9 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
         } else {
             (0, 1)
         },
-        filter_status,
+        filter_status_layout(f, size),
     ]);
-    // `Status`: the filter's, the command's verdict, a flag per input.
-    let status = layout(&[filter_status, flag, array(p.nu, flag)]);
-    let controller = layout(&[kalman, mpc, array(p.nx, real), status]);
-    Resources {
-        macs_per_iteration: per_iteration,
-        macs_per_cycle: qp.iterations * per_iteration + gradient_map + filter,
-        macs_filter: filter,
-        bytes_constants: (gradient_map_constants + filter_constants) * size,
-        bytes_state_mpc: mpc.0,
-        bytes_state_kalman: kalman.0,
-        bytes_state: controller.0,
-    }
+    (filter, filter_constants, kalman)
 }
 
 /// The size and alignment of a Rust struct (the default representation) with fields of these sizes and

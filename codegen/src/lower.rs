@@ -24,12 +24,24 @@ pub struct Qp {
     pub tolerance: Option<f64>,
     /// The solver algorithm ([`crate::solver`]).
     pub method: Method,
-    /// Stage state weight Q (nx × nx).
+    /// Tracked outputs nz: the rows of `[mpc] outputs`, else nx.
+    pub nz: usize,
+    /// The output map C_z (nz × nx) of `[mpc] outputs`; `None`: the state is tracked (C_z = I).
+    pub Cz: Option<DMatrix<f64>>,
+    /// Stage state weight Q (nx × nx): C_zᵀ W C_z for an output weight W.
     pub Q: DMatrix<f64>,
     /// Stage input weight R (nu × nu).
     pub R: DMatrix<f64>,
-    /// Terminal weight Qf (nx × nx).
+    /// Weight on the moves Δu_k = u_k − u_{k−1} (nu × nu); zero without `r_du`.
+    pub R_du: DMatrix<f64>,
+    /// Terminal weight Qf (nx × nx): C_zᵀ W_f C_z, or the spec's state weight.
     pub Qf: DMatrix<f64>,
+    /// How a stage's reference r_k (nz) enters its cost's linear term, −2 x_kᵀ·Qr·r_k (nx × nz): C_zᵀ W,
+    /// and Q itself without outputs.
+    pub Qr: DMatrix<f64>,
+    /// The terminal Qr: C_zᵀ W_f, or Qf·C_z⁺ for a weight on the state (the reference state of x_N is then
+    /// the least-norm state with outputs r_N).
+    pub Qfr: DMatrix<f64>,
     /// Sx = [F; F²; …; Fᴺ], (N·nx) × nx, eq. 12.
     pub Sx: DMatrix<f64>,
     /// Su, (N·nx) × (N·nu), eq. 13.
@@ -38,11 +50,16 @@ pub struct Qp {
     pub H: DMatrix<f64>,
     /// Fx = 2 Suᵀ Q_blk Sx, (N·nu) × nx: the gradient's dependence on x0 (eq. 10).
     pub Fx: DMatrix<f64>,
-    /// Fr = 2 Suᵀ Q_blk, (N·nu) × (N·nx): the gradient's dependence on Xref (eq. 10).
+    /// Fr = 2 Suᵀ Qr_blk, (N·nu) × (N·nz): the gradient's dependence on the references (eq. 10; Qr = Q
+    /// without outputs).
     pub Fr: DMatrix<f64>,
-    /// Fd = H·(1_N ⊗ I), (N·nu) × nd: the gradient's dependence on the estimated input disturbance d.
+    /// Fu = −2 Dᵀ R_du_blk E, (N·nu) × nu: the gradient's dependence on the last input u_{−1} (D the
+    /// block difference matrix, E = [I; 0; …]); zero without `r_du`.
+    pub Fu: DMatrix<f64>,
+    /// Fd = H·(1_N ⊗ I) + Fu, (N·nu) × nd: the gradient's dependence on the estimated input disturbance d.
     /// With V = U + (1_N ⊗ d) the offset-free problem (prediction with u + d, input cost on u − u_ss,
-    /// u_ss = −d) is the plain one in V, so f gains exactly H·(1_N ⊗ d). Zero columns without disturbance.
+    /// u_ss = −d, moves unchanged) is the plain one in V with v_{−1} = u_{−1} + d, so f gains exactly
+    /// H·(1_N ⊗ d) + Fu·d. Zero columns without disturbance.
     pub Fd: DMatrix<f64>,
     /// Largest eigenvalue of H.
     pub L: f64,
@@ -182,12 +199,24 @@ pub struct Problem {
     pub C: DMatrix<f64>,
     /// The condensed QP.
     pub qp: Qp,
-    /// The filter.
-    pub filter: Filter,
+    /// The filter; `None` without `[kalman]` (state feedback: the controller takes the measured state).
+    pub filter: Option<Filter>,
     /// The scalar type to emit.
     pub scalar: Scalar,
     /// The model per input lane, when F, G, Q, Qf and R are all `A ⊗ I_nu` ([`ModelLanes`]).
     pub model_lanes: Option<ModelLanes>,
+}
+
+impl Problem {
+    /// The filter's disturbance states: nu with `[kalman] disturbance`, else 0 (also without a filter).
+    pub fn nd(&self) -> usize {
+        self.filter.as_ref().map_or(0, |f| f.nd)
+    }
+
+    /// Whether the moves Δu are weighted, so that the MPC depends on the last input.
+    pub fn has_moves(&self) -> bool {
+        self.qp.R_du.iter().any(|v| *v != 0.0)
+    }
 }
 
 /// The model of one input lane: with x ordered component-major (x[s·nu + a] is component s of lane
@@ -240,24 +269,45 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         check_dt(spec)?;
     }
     let (F, G, C) = plant(&spec.model.kind, dt);
-    let (nx, nu, ny) = (F.nrows(), G.ncols(), C.nrows());
+    let (nx, nu) = (F.nrows(), G.ncols());
+    // Without a filter the controller is given the state: the measurement is x itself.
+    let C = if spec.kalman.is_some() {
+        C
+    } else {
+        DMatrix::identity(nx, nx)
+    };
+    let ny = C.nrows();
     let m = &spec.mpc;
     let N = m.horizon;
-    let (Q, R, Qf) = (symmetric(&m.q), symmetric(&m.r), symmetric(&m.qf));
-    check_weights(spec, &Q, &R, &Qf, &mut diags);
+    let weights = Weights::new(spec);
+    weights.check(spec, &mut diags);
+    let Weights {
+        Cz,
+        Q,
+        Qf,
+        Qr,
+        Qfr,
+        R,
+        R_du,
+    } = weights;
     if let ModelKind::Linear { .. } = spec.model.kind {
         check_inputs_act(&G, spec.spans.get("model.b"), &mut diags);
         // A model whose powers overflow over the horizon is reported as that, not by the rank tests it
         // defeats.
         if check_growth(&F, &G, N, spec.spans.get("model.a"), &mut diags) {
             check_stabilizable(&F, &G, spec.spans.get("model.b"), &mut diags);
-            check_detectable(&F, &C, spec.spans.get("model.c"), &mut diags);
+            if spec.kalman.is_some() {
+                check_detectable(&F, &C, spec.spans.get("model.c"), &mut diags);
+            }
         }
     }
     if !diags.is_empty() {
         return Err(diags.sorted());
     }
-    let (Sx, Su, H, Fx, Fr) = condense(&F, &G, &Q, &R, &Qf, N);
+    let condensed = condense(&F, &G, &Q, &R, &Qf, N);
+    let Fr = condensed.reference_map(&Qr, &Qfr);
+    let (H, Fu) = condensed.with_moves(&R_du);
+    let (Sx, Su, Fx) = (condensed.Sx, condensed.Su, condensed.Fx);
     // H out of range (or not finite) is the weights' doing: named before its eigenvalues, which it defeats.
     let hessian = Hessian {
         Su: &Su,
@@ -274,29 +324,36 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     check_hessian(spec, &H, mu, L)?;
     let (step, momentum, iterations) = solver_parameters(spec, mu, L, &mut diags);
     // `filter` reports why it is `None`, so `diags` is not empty then.
-    let (Some(filter), true) = (filter(spec, &F, &G, &C, &mut diags), diags.is_empty()) else {
-        return Err(diags.sorted());
+    let filter = match &spec.kalman {
+        Some(kalman) => filter(spec, kalman, &F, &G, &C, &mut diags),
+        None => None,
     };
-    let Fd = &H
-        * DMatrix::from_fn(
-            N * nu,
-            filter.nd,
-            |i, j| if i % nu == j { 1.0 } else { 0.0 },
-        );
+    if !diags.is_empty() || (spec.kalman.is_some() && filter.is_none()) {
+        return Err(diags.sorted());
+    }
+    let nd = filter.as_ref().map_or(0, |f| f.nd);
+    let Fd = &H * DMatrix::from_fn(N * nu, nd, |i, j| if i % nu == j { 1.0 } else { 0.0 })
+        + Fu.columns(0, nd);
     let qp = Qp {
         N,
         iterations,
         tolerance: m.tolerance,
         method: m.method,
+        nz: Qr.ncols(),
+        Cz,
         Q,
         R,
+        R_du,
         Qf,
+        Qr,
+        Qfr,
         Sx,
         Su,
         H,
         Fd,
         Fx,
         Fr,
+        Fu,
         L,
         mu,
         step,
@@ -304,8 +361,11 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         u_min: DVector::from_column_slice(&m.u_min),
         u_max: DVector::from_column_slice(&m.u_max),
     };
-    check_ranges(spec, &qp, &filter, &F, &G)?;
-    let model_lanes = model_lanes(&F, &G, &qp.Q, &qp.Qf, &qp.R);
+    check_ranges(spec, &qp, filter.as_ref(), &F, &G)?;
+    // The lane sweeps know the state weights only: outputs and moves take the scalar ones.
+    let model_lanes = (qp.Cz.is_none() && m.r_du.is_none())
+        .then(|| model_lanes(&F, &G, &qp.Q, &qp.Qf, &qp.R))
+        .flatten();
     Ok(Problem {
         nx,
         nu,
@@ -447,25 +507,94 @@ impl Hessian<'_> {
     }
 }
 
-/// Q and Qf must be positive semidefinite, R positive definite.
-fn check_weights(
-    spec: &Spec,
-    Q: &DMatrix<f64>,
-    R: &DMatrix<f64>,
-    Qf: &DMatrix<f64>,
-    diags: &mut Diagnostics,
-) {
-    let span = |key: &str| spec.spans.get(key);
-    check_definite(diags, Q, false, "`mpc.q`", span("mpc.q"));
-    // Qf = k·Q or Q is definite exactly when Q is: check it only when it is written.
-    if span("mpc.qf").is_some() {
-        check_definite(diags, Qf, false, "`mpc.qf`", span("mpc.qf"));
-    }
-    check_definite(diags, R, true, "`mpc.r`", span("mpc.r"));
+/// The weights in the state space, from the spec's output weights.
+struct Weights {
+    Cz: Option<DMatrix<f64>>,
+    Q: DMatrix<f64>,
+    Qf: DMatrix<f64>,
+    Qr: DMatrix<f64>,
+    Qfr: DMatrix<f64>,
+    R: DMatrix<f64>,
+    R_du: DMatrix<f64>,
 }
 
-/// The condensed QP of eqs. 9-13: Sx, Su, H = 2(Suᵀ Q_blk Su + R_blk), Fx = 2 Suᵀ Q_blk Sx, Fr = 2 Suᵀ Q_blk.
-#[allow(clippy::type_complexity)]
+impl Weights {
+    /// Q = C_zᵀ W C_z and Qr = C_zᵀ W for the output weight W (C_z = I without outputs), likewise the
+    /// terminal ones, or Qf on the state and Qfr = Qf·C_z⁺.
+    fn new(spec: &Spec) -> Self {
+        let m = &spec.mpc;
+        let nu = spec.nu();
+        let (W, Wf) = (symmetric(&m.q), symmetric(&m.qf));
+        let R = symmetric(&m.r);
+        let R_du = m
+            .r_du
+            .as_ref()
+            .map_or_else(|| DMatrix::zeros(nu, nu), symmetric);
+        let Some(Cz) = m.outputs.as_ref().map(dense) else {
+            return Weights {
+                Cz: None,
+                Qr: W.clone(),
+                Qfr: Wf.clone(),
+                Q: W,
+                Qf: Wf,
+                R,
+                R_du,
+            };
+        };
+        let Q = symmetrize(&(Cz.transpose() * &W * &Cz));
+        let Qr = Cz.transpose() * &W;
+        let (Qf, Qfr) = if m.qf_on_state {
+            let scale = Cz.amax().max(f64::MIN_POSITIVE);
+            let pinv = Cz
+                .clone()
+                .pseudo_inverse(scale * f64::EPSILON * Cz.nrows().max(Cz.ncols()) as f64)
+                .unwrap_or_else(|_| DMatrix::zeros(Cz.ncols(), Cz.nrows()));
+            let Qfr = &Wf * pinv;
+            (Wf, Qfr)
+        } else {
+            (
+                symmetrize(&(Cz.transpose() * &Wf * &Cz)),
+                Cz.transpose() * &Wf,
+            )
+        };
+        Weights {
+            Cz: Some(Cz),
+            Q,
+            Qf,
+            Qr,
+            Qfr,
+            R,
+            R_du,
+        }
+    }
+
+    /// The written weights must be positive semidefinite, R positive definite unless the moves are
+    /// weighted (then H's definiteness is checked by [`check_hessian`]).
+    fn check(&self, spec: &Spec, diags: &mut Diagnostics) {
+        let span = |key: &str| spec.spans.get(key);
+        let m = &spec.mpc;
+        check_definite(diags, &symmetric(&m.q), false, "`mpc.q`", span("mpc.q"));
+        // Qf = k·Q or Q is definite exactly when Q is: check it only when it is written.
+        if span("mpc.qf").is_some() {
+            check_definite(diags, &symmetric(&m.qf), false, "`mpc.qf`", span("mpc.qf"));
+        }
+        check_definite(diags, &self.R, m.r_du.is_none(), "`mpc.r`", span("mpc.r"));
+        if m.r_du.is_some() {
+            check_definite(diags, &self.R_du, false, "`mpc.r_du`", span("mpc.r_du"));
+        }
+    }
+}
+
+/// The condensed QP of eqs. 9-13 before the references and the moves: Sx, Su, the state and input terms
+/// of H, 2(Suᵀ Q_blk Su + R_blk), and Fx = 2 Suᵀ Q_blk Sx.
+struct Condensed {
+    Sx: DMatrix<f64>,
+    Su: DMatrix<f64>,
+    H: DMatrix<f64>,
+    Fx: DMatrix<f64>,
+    N: usize,
+}
+
 fn condense(
     F: &DMatrix<f64>,
     G: &DMatrix<f64>,
@@ -473,29 +602,53 @@ fn condense(
     R: &DMatrix<f64>,
     Qf: &DMatrix<f64>,
     N: usize,
-) -> (
-    DMatrix<f64>,
-    DMatrix<f64>,
-    DMatrix<f64>,
-    DMatrix<f64>,
-    DMatrix<f64>,
-) {
+) -> Condensed {
     let (nx, nu) = (F.nrows(), G.ncols());
     let (Sx, Su) = prediction_matrices(F, G, N);
-    let mut Q_blk = DMatrix::zeros(N * nx, N * nx);
-    for k in 0..N {
-        let w = if k + 1 == N { Qf } else { Q };
-        Q_blk.view_mut((k * nx, k * nx), (nx, nx)).copy_from(w);
-    }
-    let mut R_blk = DMatrix::zeros(N * nu, N * nu);
-    for k in 0..N {
-        R_blk.view_mut((k * nu, k * nu), (nu, nu)).copy_from(R);
-    }
-    let SuT_Q = Su.transpose() * &Q_blk;
-    let H = symmetrize(&((&SuT_Q * &Su + &R_blk) * 2.0));
+    let SuT_Q = Su.transpose() * block_diagonal(N, Q, Qf);
+    let H = &SuT_Q * &Su * 2.0 + block_diagonal(N, R, R) * 2.0;
     let Fx = &SuT_Q * &Sx * 2.0;
-    let Fr = SuT_Q * 2.0;
-    (Sx, Su, H, Fx, Fr)
+    debug_assert_eq!(H.nrows(), N * nu);
+    debug_assert_eq!(Sx.ncols(), nx);
+    Condensed { Sx, Su, H, Fx, N }
+}
+
+impl Condensed {
+    /// Fr = 2 Suᵀ Qr_blk (the terminal block Qfr).
+    fn reference_map(&self, Qr: &DMatrix<f64>, Qfr: &DMatrix<f64>) -> DMatrix<f64> {
+        self.Su.transpose() * block_diagonal(self.N, Qr, Qfr) * 2.0
+    }
+
+    /// H with the moves' term 2 Dᵀ R_du_blk D, symmetrized, and Fu = −2 Dᵀ R_du_blk E: Σ_k Δu_kᵀ R_du Δu_k
+    /// with Δu_0 = u_0 − u_{−1} is (DU − E u_{−1})ᵀ R_du_blk (DU − E u_{−1}).
+    fn with_moves(&self, R_du: &DMatrix<f64>) -> (DMatrix<f64>, DMatrix<f64>) {
+        let nu = R_du.nrows();
+        let n = self.N * nu;
+        let D = DMatrix::from_fn(n, n, |i, j| {
+            if i == j {
+                1.0
+            } else if i == j + nu {
+                -1.0
+            } else {
+                0.0
+            }
+        });
+        let R_blk = block_diagonal(self.N, R_du, R_du);
+        let H = symmetrize(&(&self.H + D.transpose() * &R_blk * &D * 2.0));
+        let Fu = -(D.transpose() * R_blk.columns(0, nu)) * 2.0;
+        (H, Fu)
+    }
+}
+
+/// N blocks on the diagonal: `stage` N − 1 times, then `last`.
+fn block_diagonal(N: usize, stage: &DMatrix<f64>, last: &DMatrix<f64>) -> DMatrix<f64> {
+    let (r, c) = stage.shape();
+    let mut out = DMatrix::zeros(N * r, N * c);
+    for k in 0..N {
+        let w = if k + 1 == N { last } else { stage };
+        out.view_mut((k * r, k * c), (r, c)).copy_from(w);
+    }
+    out
 }
 
 /// The algorithm's step α, momentum β and iteration count for Hessian eigenvalues in [μ, L]; a step the
@@ -578,6 +731,7 @@ fn solver_parameters(spec: &Spec, mu: f64, L: f64, diags: &mut Diagnostics) -> (
 /// state (reported by the caller once the other findings are in).
 fn filter(
     spec: &Spec,
+    kalman: &mpc_spec::Kalman,
     F: &DMatrix<f64>,
     G: &DMatrix<f64>,
     C: &DMatrix<f64>,
@@ -585,7 +739,7 @@ fn filter(
 ) -> Option<Filter> {
     let span = |key: &str| spec.spans.get(key);
     let (nx, nu, ny) = (F.nrows(), G.ncols(), C.nrows());
-    let (Qn, Rn) = match &spec.kalman.noise {
+    let (Qn, Rn) = match &kalman.noise {
         KalmanNoise::WhiteAcceleration {
             sigma_a,
             sigma_meas,
@@ -598,9 +752,9 @@ fn filter(
         ),
         KalmanNoise::Covariances { q, r } => (symmetric(q), symmetric(r)),
     };
-    let P0 = symmetric(&spec.kalman.p0);
-    let nd = spec.kalman.disturbance.as_ref().map_or(0, |_| nu);
-    let (Fa, Ga, Ca, Qn, P0) = augment(F, G, C, &Qn, &P0, spec.kalman.disturbance.as_deref());
+    let P0 = symmetric(&kalman.p0);
+    let nd = kalman.disturbance.as_ref().map_or(0, |_| nu);
+    let (Fa, Ga, Ca, Qn, P0) = augment(F, G, C, &Qn, &P0, kalman.disturbance.as_deref());
     if nd > 0 && !disturbance_detectable(F, G, C) {
         diags.push(
             Diagnostic::new(
@@ -664,7 +818,7 @@ fn filter(
     // recursion's million steps and end in "no steady state". Checked here, at the noise's key.
     if let Some(lambda) = unreachable_mode_where(&Fa, &psd_sqrt(&Qn), |r| (r - 1.0).abs() <= 1e-9) {
         let mode = format!("λ = {} (|λ| = {:.6})", complex(lambda), lambda.norm());
-        let message = match &spec.kalman.noise {
+        let message = match &kalman.noise {
             KalmanNoise::WhiteAcceleration { sigma_a, .. } => format!(
                 "`kalman.sigma_a` = {} is too small: the process noise it gives (σ_a² = {}) does not reach the mode {mode} in f64, so the Kalman filter has no steady state",
                 short(*sigma_a),
@@ -708,11 +862,11 @@ fn filter(
         Qn,
         Rn,
         P0,
-        kind: spec.kalman.filter,
+        kind: kalman.filter,
         P_inf,
         K_inf,
         P_pattern,
-        screening: Screening::resolve(&spec.kalman.screening, ny),
+        screening: Screening::resolve(&kalman.screening, ny),
         C_pinv,
         S_inf_inv,
     })
@@ -722,7 +876,7 @@ fn filter(
 fn check_ranges(
     spec: &Spec,
     qp: &Qp,
-    filter: &Filter,
+    filter: Option<&Filter>,
     F: &DMatrix<f64>,
     G: &DMatrix<f64>,
 ) -> Result<(), Diagnostics> {
@@ -734,18 +888,21 @@ fn check_ranges(
     );
     let step_matrix = DMatrix::from_element(1, 1, qp.step);
     // Q, R and P0 were checked by `filter`, before its Riccati recursion; H by `lower`, before its eigenvalues.
-    let emitted: [(&str, &str, &DMatrix<f64>); 10] = [
+    let mut emitted: Vec<(&str, &str, &DMatrix<f64>)> = vec![
         ("the lower input bounds", "mpc.u_min", &u_min),
         ("the upper input bounds", "mpc.u_max", &u_max),
         ("the step", "mpc.step", &step_matrix),
         ("the gradient map Fx", "mpc.q", &qp.Fx),
         ("the gradient map Fr", "mpc.q", &qp.Fr),
+        ("the last input's map Fu", "mpc.r_du", &qp.Fu),
         ("the disturbance map Fd", "mpc.q", &qp.Fd),
         ("the model F", "model", F),
         ("the model G", "model", G),
-        ("the steady-state covariance P∞", "kalman", &filter.P_inf),
-        ("the steady-state gain K∞", "kalman", &filter.K_inf),
     ];
+    if let Some(filter) = filter {
+        emitted.push(("the steady-state covariance P∞", "kalman", &filter.P_inf));
+        emitted.push(("the steady-state gain K∞", "kalman", &filter.K_inf));
+    }
     let scalar = Numeric(spec.codegen.scalar);
     let mut diags = Diagnostics::default();
     for (what, key, M) in emitted {
@@ -1101,8 +1258,16 @@ fn check_hessian(spec: &Spec, H: &DMatrix<f64>, mu: f64, L: f64) -> Result<(), D
         ),
         spec.spans.get("mpc.r"),
     )
-    .label("the input weight is too small against the state weights to keep H invertible")
-    .note("hint: raise `r` or lower `q`/`qf`, or shorten the horizon")
+    .label(if spec.mpc.r_du.is_some() {
+        "the input and move weights are too small against the state weights to keep H invertible"
+    } else {
+        "the input weight is too small against the state weights to keep H invertible"
+    })
+    .note(if spec.mpc.r_du.is_some() && !extreme_eigenvalues(&symmetric(&spec.mpc.r)).0.is_sign_positive() {
+        "hint: with `r = 0` the moves' weight `r_du` must reach every input; raise `r` or `r_du`, or lower `q`/`qf`"
+    } else {
+        "hint: raise `r` (or `r_du`) or lower `q`/`qf`, or shorten the horizon"
+    })
     .into())
 }
 

@@ -15,14 +15,31 @@ pub struct Mpc {
     qp: Qp,
     /// The last plan U (N·nu), stacked by step.
     plan: DVector<f64>,
+    /// u₋₁, the last input returned (or set): what the first move Δu₀ is measured from.
+    last: DVector<f64>,
 }
 
 impl Mpc {
-    /// A cold controller: its first solve starts from the rest input.
+    /// A cold controller: its first solve starts from the rest input, which is also its last input.
     pub fn new(problem: &Problem) -> Self {
         let qp = problem.qp.clone();
         let plan = rest_plan(&qp);
-        Mpc { qp, plan }
+        let last = qp.rest_input();
+        Mpc { qp, plan, last }
+    }
+
+    /// The last input u₋₁ the moves are measured from.
+    pub fn last_input(&self) -> &DVector<f64> {
+        &self.last
+    }
+
+    /// Sets u₋₁, for a vehicle flown by something else before. A non-finite entry is refused (false).
+    pub fn set_last_input(&mut self, u: &DVector<f64>) -> bool {
+        let finite = u.iter().all(|v| v.is_finite());
+        if finite {
+            self.last = u.clone();
+        }
+        finite
     }
 
     /// The problem's QP.
@@ -35,15 +52,17 @@ impl Mpc {
         &self.plan
     }
 
-    /// Forgets the warm start.
+    /// Forgets the warm start and the last input.
     pub fn reset(&mut self) {
         self.plan = rest_plan(&self.qp);
+        self.last = self.qp.rest_input();
     }
 
-    /// The gradient map f = Fx·x0 − Fr·Xref (eq. 10), `xref[k]` the reference of predicted state k+1.
+    /// The gradient map f = Fx·x0 − Fr·Xref + Fu·u₋₁ (eq. 10 with the moves), `xref[k]` the reference of
+    /// predicted step k+1 (states, or outputs with `[mpc] outputs`).
     pub fn linear_term(&self, x0: &DVector<f64>, xref: &[DVector<f64>]) -> DVector<f64> {
         let Xref = stack(xref);
-        &self.qp.Fx * x0 - &self.qp.Fr * Xref
+        &self.qp.Fx * x0 - &self.qp.Fr * Xref + &self.qp.Fu * &self.last
     }
 
     /// One control step: warm start, fixed iterations, first input. Non-finite inputs give the rest input
@@ -70,7 +89,8 @@ impl Mpc {
         let f = self.linear_term(x0, xref) + &self.qp.Fd * d;
         let start = self.warm_start();
         self.plan = iterate(&self.qp, &f, start, self.qp.iterations);
-        self.plan.rows(0, nu).into_owned()
+        self.last = self.plan.rows(0, nu).into_owned();
+        self.last.clone()
     }
 
     /// The previous plan shifted by one step, with the rest input appended (Algorithm 1, line 8).
@@ -197,9 +217,9 @@ pub struct Kalman {
 
 impl Kalman {
     /// A filter at x0 (and a zero disturbance estimate) with the spec's initial covariance; without an
-    /// estimate when x0 is not finite.
-    pub fn new(problem: &Problem, x0: DVector<f64>) -> Self {
-        let f = &problem.filter;
+    /// estimate when x0 is not finite. `None` when the spec has no `[kalman]`.
+    pub fn new(problem: &Problem, x0: DVector<f64>) -> Option<Self> {
+        let f = problem.filter.as_ref()?;
         let valid = x0.iter().all(|v| v.is_finite());
         let x0 = DVector::from_iterator(
             x0.len() + f.nd,
@@ -217,7 +237,7 @@ impl Kalman {
         } else {
             Vec::new()
         };
-        Kalman {
+        Some(Kalman {
             F: f.Fa.clone(),
             G: f.Ga.clone(),
             C: f.Ca.clone(),
@@ -242,7 +262,7 @@ impl Kalman {
             consecutive_rejections: 0,
             reacquisitions: 0,
             disturbance_clamped: false,
-        }
+        })
     }
 
     /// x ← F x + G u; P ← F P Fᵀ + Q. A non-finite input, or a filter without an estimate, changes
@@ -378,17 +398,18 @@ impl Kalman {
     }
 }
 
-/// One control cycle in the paper's order: filter update, MPC on the estimate, filter predict.
+/// One control cycle in the paper's order: filter update, MPC on the estimate, filter predict; or,
+/// without a filter, the MPC on the measured state.
 #[derive(Clone, Debug)]
 pub struct Controller {
-    /// The filter.
-    pub kalman: Kalman,
+    /// The filter; `None` for state feedback.
+    pub kalman: Option<Kalman>,
     /// The MPC.
     pub mpc: Mpc,
 }
 
 impl Controller {
-    /// A controller whose filter starts at x0.
+    /// A controller whose filter starts at x0 (ignored without a filter).
     pub fn new(problem: &Problem, x0: DVector<f64>) -> Self {
         Controller {
             kalman: Kalman::new(problem, x0),
@@ -397,19 +418,22 @@ impl Controller {
     }
 
     /// Update with z, solve from the estimate, predict with the command; returns the command (the rest
-    /// input while the filter has no estimate).
+    /// input while the filter has no estimate). Without a filter z is the state.
     pub fn step(&mut self, z: &DVector<f64>, xref: &[DVector<f64>]) -> DVector<f64> {
-        self.kalman.update(z);
-        if !self.kalman.has_estimate() {
+        let Some(kalman) = self.kalman.as_mut() else {
+            return self.mpc.solve(z, xref);
+        };
+        kalman.update(z);
+        if !kalman.has_estimate() {
             self.mpc.reset();
             return self.mpc.qp().rest_input();
         }
         let nx = self.mpc.qp().Fx.ncols();
-        let estimate = self.kalman.state();
+        let estimate = kalman.state();
         let x = estimate.rows(0, nx).into_owned();
         let d = estimate.rows(nx, estimate.len() - nx).into_owned();
         let u = self.mpc.solve_with_disturbance(&x, &d, xref);
-        self.kalman.predict(&u);
+        kalman.predict(&u);
         u
     }
 }

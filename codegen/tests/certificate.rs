@@ -200,7 +200,7 @@ fn disturbance_models_are_checked_and_timed() {
     let g = generate_from_source(src, &Opt::default()).unwrap();
     let tau = g.certificate.disturbance_time_constant.unwrap();
     assert!((0.5..5.0).contains(&tau), "τ = {tau} s");
-    assert_eq!(g.problem.filter.nd, 3);
+    assert_eq!(g.problem.nd(), 3);
     // Fd = H·(1_N ⊗ I).
     let qp = &g.problem.qp;
     for i in 0..45 {

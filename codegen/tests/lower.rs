@@ -114,7 +114,7 @@ fn process_noise_is_symmetric_with_dt3_over_2() {
 #[test]
 fn steady_state_gain_solves_the_riccati_equation() {
     let p = paper();
-    let f = &p.filter;
+    let f = p.filter.as_ref().expect("the spec has a filter");
     let (K, post) = codegen::linalg::kalman_gain_and_posterior(&f.P_inf, &p.C, &f.Rn).unwrap();
     assert!((&K - &f.K_inf).amax() < 1e-15);
     let next = &p.F * post * p.F.transpose() + &f.Qn;

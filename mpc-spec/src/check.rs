@@ -6,15 +6,18 @@ use crate::parse::{Located, MatrixInput, Raw};
 
 /// Checks `raw` as a whole and builds the spec; `None` when anything was reported (here or while parsing).
 pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
-    let model = check_model(&raw, diags);
+    let filtered = raw.has("kalman");
+    let model = check_model(&raw, filtered, diags);
     let dims = model
         .as_ref()
         .map(|m| (m.kind.nx(), m.kind.nu(), m.kind.ny()));
     let mpc = dims.and_then(|(nx, nu, _)| check_mpc(&raw, nx, nu, diags));
-    let kalman = model
-        .as_ref()
-        .filter(|_| raw.tables.contains("kalman"))
-        .and_then(|m| check_kalman(&raw, m, diags));
+    // `kalman = 3` was reported where it was parsed: no filter then, but no spec either.
+    let kalman = match (&model, raw.tables.contains("kalman")) {
+        (Some(m), true) => check_kalman(&raw, m, diags).map(Some),
+        (_, false) if !filtered => Some(None),
+        _ => None,
+    };
     // parse.rs accepted only the spellings in `keys`, which are the enums' own.
     let scalar = spelled(&raw.scalar, Scalar::F32, Scalar::from_name);
     let emission = spelled(&raw.emission, Emission::Auto, Emission::from_name);
@@ -39,8 +42,8 @@ fn spelled<T>(value: &Option<Located<String>>, default: T, from_name: fn(&str) -
 }
 
 /// `double_integrator` takes `axes` and no matrices; `linear` takes `a` (nx × nx), `b` (nx × nu) and
-/// `c` (ny × nx) and no `axes`.
-fn check_model(raw: &Raw, diags: &mut Diagnostics) -> Option<Model> {
+/// `c` (ny × nx; optional without a filter, which is what uses it) and no `axes`.
+fn check_model(raw: &Raw, filtered: bool, diags: &mut Diagnostics) -> Option<Model> {
     let ty = raw.model_type.as_ref()?;
     let dt = raw.dt.as_ref()?.value;
     let kind = if ty.value == "double_integrator" {
@@ -76,23 +79,32 @@ fn check_model(raw: &Raw, diags: &mut Diagnostics) -> Option<Model> {
         }
         let mut missing = false;
         for (key, m) in [("a", &raw.a), ("b", &raw.b), ("c", &raw.c)] {
-            if m.is_none() {
+            if m.is_none() && !(key == "c" && !filtered && !raw.has("model.c")) {
                 missing = true;
                 // Present but invalid was reported where it was parsed.
                 if raw.has(&format!("model.{key}")) {
                     continue;
                 }
-                diags.push(
+                let mut d =
                     Diagnostic::new(format!("missing key `{key}` in `[model]`"), ty.span.clone())
-                        .label(format!("a `linear` model needs `{key}`")),
-                );
+                        .label(format!("a `linear` model needs `{key}`"));
+                if key == "c" {
+                    d = d.note("hint: the Kalman filter of `[kalman]` needs the measurement matrix `c` (ny × nx); without `[kalman]` the controller takes the measured state and `c` may be left out");
+                }
+                diags.push(d);
             }
         }
         if missing {
             return None;
         }
-        let (a, b, c) = (raw.a.as_ref()?, raw.b.as_ref()?, raw.c.as_ref()?);
+        let (a, b) = (raw.a.as_ref()?, raw.b.as_ref()?);
         let nx = a.value.rows;
+        // Without a filter and without `c`, the measurement is the state.
+        let identity = Located {
+            value: Matrix::diagonal(&vec![1.0; nx]),
+            span: a.span.clone(),
+        };
+        let c = raw.c.as_ref().unwrap_or(&identity);
         let mut ok = true;
         ok &= expect_shape(
             diags,
@@ -130,20 +142,62 @@ fn check_model(raw: &Raw, diags: &mut Diagnostics) -> Option<Model> {
     Some(Model { kind, dt })
 }
 
-/// Q and Qf are nx × nx and symmetric, R is nu × nu and symmetric; `qf` and `qf_scale` exclude each other;
-/// the bounds have nu entries with u_min ≤ u_max.
+/// `outputs` is nz × nx; Q is nz × nz and symmetric (nz = nx without `outputs`); Qf is nz × nz, or nx × nx
+/// on the state; R and `r_du` are nu × nu and symmetric, R with a positive diagonal unless `r_du` is
+/// given; `qf` and `qf_scale` exclude each other; the bounds have nu entries with u_min ≤ u_max.
 fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option<Mpc> {
-    let q = square(diags, "mpc.q", raw.q.as_ref(), nx, "nx");
+    let outputs = match &raw.outputs {
+        Some(c) if c.value.cols != nx => {
+            diags.push(
+                Diagnostic::new(
+                    format!(
+                        "`mpc.outputs` must have nx = {nx} columns, found {}×{}",
+                        c.value.rows, c.value.cols
+                    ),
+                    c.span.clone(),
+                )
+                .label("wrong shape")
+                .note("hint: `outputs` is the map z = C_z·x from the state to the tracked outputs, one row per output"),
+            );
+            None
+        }
+        Some(c) => Some(Some(c.value.clone())),
+        None if raw.has("mpc.outputs") => None,
+        None => Some(None),
+    };
+    let nz = match &outputs {
+        Some(Some(c)) => c.rows,
+        _ => nx,
+    };
+    let (z_dim, z_name) = if raw.outputs.is_some() {
+        (nz, "nz, the rows of `outputs`")
+    } else {
+        (nx, "nx")
+    };
+    let q = square(diags, "mpc.q", raw.q.as_ref(), z_dim, z_name);
     let r = square(diags, "mpc.r", raw.r.as_ref(), nu, "nu");
-    if let Some(r) = &r {
+    let r_du = match &raw.r_du {
+        Some(_) => square(diags, "mpc.r_du", raw.r_du.as_ref(), nu, "nu").map(Some),
+        None if raw.has("mpc.r_du") => None,
+        None => Some(None),
+    };
+    if let (Some(r), Some(None)) = (&r, &r_du) {
         if (0..nu).any(|i| r.get(i, i) <= 0.0) {
             diags.push(
                 Diagnostic::new("`mpc.r` must be positive definite", raw.r.as_ref().map(|x| x.span.clone()))
                     .label("a zero diagonal entry")
-                    .note("hint: with a zero input weight the QP is not strongly convex and the gradient method has no rate"),
+                    .note("hint: with a zero input weight the QP is not strongly convex and the gradient method has no rate; a weight on the moves, `r_du`, allows `r = 0`"),
             );
         }
     }
+    // A state-sized `qf` with outputs is a terminal weight on x_N (a Riccati solution, say); an
+    // output-sized one (also when nz = nx) weighs z_N like `q`.
+    let qf_on_state = raw.outputs.is_some()
+        && nz != nx
+        && raw
+            .qf
+            .as_ref()
+            .is_some_and(|m| m.value.to_square(nx).is_ok() && m.value.to_square(nz).is_err());
     let qf = match (&raw.qf, &raw.qf_scale) {
         (Some(_), Some(scale)) => {
             diags.push(
@@ -156,7 +210,8 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
             );
             None
         }
-        (Some(_), None) => square(diags, "mpc.qf", raw.qf.as_ref(), nx, "nx"),
+        (Some(_), None) if qf_on_state => square(diags, "mpc.qf", raw.qf.as_ref(), nx, "nx"),
+        (Some(_), None) => square(diags, "mpc.qf", raw.qf.as_ref(), z_dim, z_name),
         (None, Some(scale)) => q.as_ref().map(|q| q.scaled(scale.value)),
         (None, None) => q.clone(),
     };
@@ -201,9 +256,12 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
         accept_unstable: raw.accept_unstable.as_ref().is_some_and(|s| s.value),
         method,
         step,
+        outputs: outputs?,
         q: q?,
         r: r?,
+        r_du: r_du?,
         qf: qf?,
+        qf_on_state,
         u_min: u_min?,
         u_max: u_max?,
     })

@@ -27,6 +27,8 @@ pub const MPC_KEYS: &[&str] = &[
     "r",
     "qf",
     "qf_scale",
+    "outputs",
+    "r_du",
     "u_min",
     "u_max",
 ];

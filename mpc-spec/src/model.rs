@@ -149,7 +149,7 @@ pub enum ModelKind {
         a: Matrix,
         /// nx × nu.
         b: Matrix,
-        /// ny × nx.
+        /// ny × nx; the identity when not written (only without `[kalman]`, which is what uses it).
         c: Matrix,
     },
 }
@@ -201,12 +201,20 @@ pub struct Mpc {
     pub method: Method,
     /// The step size.
     pub step: Step,
-    /// Stage state weight Q, nx × nx.
+    /// The tracked outputs z = C_z x, `outputs` (nz × nx); `None`: the whole state is tracked (C_z = I).
+    pub outputs: Option<Matrix>,
+    /// Stage weight on the tracked outputs, nz × nz (nz = nx without `outputs`).
     pub q: Matrix,
-    /// Stage input weight R, nu × nu.
+    /// Stage input weight R, nu × nu: positive definite, or semidefinite with `r_du`.
     pub r: Matrix,
-    /// Terminal state weight Qf, nx × nx (`qf`, `qf_scale`·Q, or Q).
+    /// Weight on the moves Δu_k = u_k − u_{k−1}, nu × nu (`r_du`); `None`: no move suppression.
+    pub r_du: Option<Matrix>,
+    /// Terminal weight Qf (`qf`, `qf_scale`·Q, or Q): on the outputs (nz × nz), or on the state (nx × nx)
+    /// when [`Mpc::qf_on_state`].
     pub qf: Matrix,
+    /// Whether `qf` weighs the state x_N (nx × nx, e.g. a Riccati solution) rather than the outputs: only
+    /// with `outputs`, for a `qf` of nx × nx when nz ≠ nx.
+    pub qf_on_state: bool,
     /// Lower input bound per input.
     pub u_min: Vec<f64>,
     /// Upper input bound per input.
@@ -355,8 +363,8 @@ pub struct Spec {
     pub model: Model,
     /// `[mpc]`.
     pub mpc: Mpc,
-    /// `[kalman]`.
-    pub kalman: Kalman,
+    /// `[kalman]`; `None`: state feedback, the controller takes the measured state.
+    pub kalman: Option<Kalman>,
     /// `[codegen]`.
     pub codegen: Codegen,
     /// Where each key was written.
@@ -372,9 +380,17 @@ impl Spec {
     pub fn nu(&self) -> usize {
         self.model.kind.nu()
     }
-    /// Measurement dimension ny.
+    /// Measurement dimension ny: the model's outputs with a filter, the state without one.
     pub fn ny(&self) -> usize {
-        self.model.kind.ny()
+        if self.kalman.is_some() {
+            self.model.kind.ny()
+        } else {
+            self.nx()
+        }
+    }
+    /// Tracked-output dimension nz: the rows of `outputs`, else nx.
+    pub fn nz(&self) -> usize {
+        self.mpc.outputs.as_ref().map_or(self.nx(), |c| c.rows)
     }
 }
 

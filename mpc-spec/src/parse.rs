@@ -75,6 +75,8 @@ pub struct Raw {
     pub r: Option<Located<MatrixInput>>,
     pub qf: Option<Located<MatrixInput>>,
     pub qf_scale: Option<Located<f64>>,
+    pub outputs: Option<Located<Matrix>>,
+    pub r_du: Option<Located<MatrixInput>>,
     pub u_min: Option<Located<Vec<f64>>>,
     pub u_max: Option<Located<Vec<f64>>>,
 
@@ -189,6 +191,10 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.qf_scale = t
             .get("qf_scale")
             .and_then(|v| p.non_negative(v, "mpc.qf_scale"));
+        raw.outputs = t.get("outputs").and_then(|v| p.matrix(v, "mpc.outputs"));
+        raw.r_du = t
+            .get("r_du")
+            .and_then(|v| p.matrix_input(v, "mpc.r_du", false));
         raw.u_min = p
             .required(t, "mpc", "u_min", &span)
             .and_then(|v| p.vector(v, "mpc.u_min"));
@@ -196,7 +202,8 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
             .required(t, "mpc", "u_max", &span)
             .and_then(|v| p.vector(v, "mpc.u_max"));
     }
-    if let Some((span, t)) = p.table(root, keys::KALMAN, &root_span, true) {
+    // `[kalman]` is optional: without it the controller takes the measured state.
+    if let Some((span, t)) = p.table(root, keys::KALMAN, &root_span, false) {
         raw.kalman_span = span;
         p.unknown_keys(t, keys::KALMAN_KEYS, "kalman", "key");
         raw.sigma_a = t
@@ -280,7 +287,7 @@ impl Parser<'_> {
                         root_span.start..root_span.start,
                     )
                     .note(format!(
-                        "hint: every spec has `[model]`, `[mpc]` and `[kalman]`; add `[{name}]`"
+                        "hint: every spec has `[model]` and `[mpc]`; add `[{name}]`"
                     )),
                 );
             }

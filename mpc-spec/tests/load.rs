@@ -50,14 +50,20 @@ fn paper_spec_is_accepted_as_written() {
         (vec![-10.0; 3], vec![10.0; 3])
     );
     assert_eq!(
-        spec.kalman.noise,
+        spec.kalman.as_ref().unwrap().noise,
         KalmanNoise::WhiteAcceleration {
             sigma_a: 0.15,
             sigma_meas: vec![0.3; 3]
         }
     );
-    assert_eq!(spec.kalman.p0, Matrix::diagonal(&[1.0; 6]));
-    assert_eq!(spec.kalman.filter, FilterKind::TimeVarying);
+    assert_eq!(
+        spec.kalman.as_ref().unwrap().p0,
+        Matrix::diagonal(&[1.0; 6])
+    );
+    assert_eq!(
+        spec.kalman.as_ref().unwrap().filter,
+        FilterKind::TimeVarying
+    );
     assert_eq!(spec.codegen.scalar, Scalar::F32);
     assert_eq!(
         spec.spans.get("mpc.step").map(|s| &PAPER[s]),
@@ -126,7 +132,10 @@ scalar = "f64"
         Matrix::from_rows(&[vec![2.0, 0.5], vec![0.5, 1.0]])
     );
     assert_eq!(spec.mpc.r, Matrix::diagonal(&[0.1]));
-    assert_eq!(spec.kalman.p0, Matrix::diagonal(&[2.0, 3.0]));
+    assert_eq!(
+        spec.kalman.as_ref().unwrap().p0,
+        Matrix::diagonal(&[2.0, 3.0])
+    );
     assert_eq!(spec.codegen.scalar, Scalar::F64);
 }
 
@@ -284,18 +293,22 @@ fn wrong_types_and_syntax_are_located() {
 fn missing_tables_are_reported() {
     let errs = errors("[model]\ntype = \"double_integrator\"\naxes = 1\ndt = 0.1\n");
     let msgs: Vec<&str> = errs.iter().map(|e| e.0.as_str()).collect();
-    assert_eq!(msgs, ["missing table `[mpc]`", "missing table `[kalman]`"]);
+    // `[kalman]` is optional: without it the controller takes the measured state.
+    assert_eq!(msgs, ["missing table `[mpc]`"]);
 }
 
 #[test]
 fn disturbance_is_optional_and_sized() {
-    assert_eq!(load(PAPER).unwrap().kalman.disturbance, None);
+    assert_eq!(load(PAPER).unwrap().kalman.unwrap().disturbance, None);
     let spec = load(&edited(
         "filter = \"time_varying\"",
         "filter = \"time_varying\"\ndisturbance = 0.01",
     ))
     .unwrap();
-    assert_eq!(spec.kalman.disturbance, Some(vec![0.01; 3]));
+    assert_eq!(
+        spec.kalman.as_ref().unwrap().disturbance,
+        Some(vec![0.01; 3])
+    );
     let errs = errors(&edited(
         "filter = \"time_varying\"",
         "filter = \"time_varying\"\ndisturbance = [0.01, 0.02]",

@@ -24,7 +24,8 @@ fn compare_filter<G: Generated>(seed: u64, steps: usize) -> f64 {
     let (nx, nu, ny) = (p.nx, p.nu, p.ny);
     let mut rng = rng(seed);
     let eps = G::epsilon();
-    let closed = &p.F * (DMatrix::identity(nx, nx) - &p.filter.K_inf * &p.C);
+    let filter = p.filter.as_ref().expect("the spec has a filter");
+    let closed = &p.F * (DMatrix::identity(nx, nx) - &filter.K_inf * &p.C);
     let rho = spectral_radius(&closed);
     assert!(
         rho < 1.0,
@@ -32,10 +33,10 @@ fn compare_filter<G: Generated>(seed: u64, steps: usize) -> f64 {
     );
     let mut x = random_vector(&mut rng, nx, 1.0);
     let x0 = DVector::zeros(nx);
-    let mut oracle = oracle::Kalman::new(&p, x0.clone());
+    let mut oracle = oracle::Kalman::new(&p, x0.clone()).expect("the spec has a filter");
     let mut generated = G::kalman_new(x0.as_slice());
-    let sigma_z: Vec<f64> = (0..ny).map(|i| p.filter.Rn[(i, i)].sqrt()).collect();
-    let sigma_w: Vec<f64> = (0..nx).map(|i| p.filter.Qn[(i, i)].sqrt()).collect();
+    let sigma_z: Vec<f64> = (0..ny).map(|i| filter.Rn[(i, i)].sqrt()).collect();
+    let sigma_w: Vec<f64> = (0..nx).map(|i| filter.Qn[(i, i)].sqrt()).collect();
     let (mut x_abs, mut z_abs, mut worst, mut worst_abs) = (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64);
     for _ in 0..steps {
         let z = (&p.C * &x
@@ -109,13 +110,16 @@ fn steady_state_gain_is_the_limit_of_the_time_varying_filter() {
         let mut filter = oracle::Kalman::new(
             &{
                 let mut p = problem.clone();
-                p.filter.kind = mpc_spec::FilterKind::TimeVarying;
+                let f = p.filter.as_mut().expect("the spec has a filter");
+                f.kind = mpc_spec::FilterKind::TimeVarying;
                 // The same zero reading every cycle: no stuck-sensor rule.
-                p.filter.screening.stuck_cycles = None;
+                f.screening.stuck_cycles = None;
                 p
             },
             DVector::zeros(problem.nx),
-        );
+        )
+        .expect("the spec has a filter");
+        let steady = problem.filter.as_ref().expect("the spec has a filter");
         let z = DVector::zeros(problem.ny);
         let u = DVector::zeros(problem.nu);
         for _ in 0..20_000 {
@@ -125,14 +129,14 @@ fn steady_state_gain_is_the_limit_of_the_time_varying_filter() {
         let gain = filter
             .gain()
             .expect("positive definite innovation covariance");
-        let diff = (&gain - &problem.filter.K_inf).amax();
+        let diff = (&gain - &steady.K_inf).amax();
         assert!(
-            diff <= 1e-9 * problem.filter.K_inf.amax(),
+            diff <= 1e-9 * steady.K_inf.amax(),
             "gain differs from K∞ by {diff:e}"
         );
-        let p_diff = (filter.covariance() - &problem.filter.P_inf).amax();
+        let p_diff = (filter.covariance() - &steady.P_inf).amax();
         assert!(
-            p_diff <= 1e-9 * problem.filter.P_inf.amax(),
+            p_diff <= 1e-9 * steady.P_inf.amax(),
             "covariance differs from P∞ by {p_diff:e}"
         );
     }

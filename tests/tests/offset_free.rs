@@ -80,16 +80,16 @@ fn offset_free_mpc_matches_the_generic_solver() {
 /// by a constant input disturbance (tolerance as in `kalman_vs_generic.rs`).
 fn compare_offset_free_filter<G: OffsetFree>(seed: u64) -> f64 {
     let p = G::problem();
-    let (nx, nu, ny, nd) = (p.nx, p.nu, p.ny, p.filter.nd);
+    let (nx, nu, ny, nd) = (p.nx, p.nu, p.ny, p.nd());
     let na = nx + nd;
-    let f = &p.filter;
+    let f = p.filter.as_ref().expect("a filter");
     let rho = codegen::linalg::spectral_radius(
         &(&f.Fa * (nalgebra::DMatrix::identity(na, na) - &f.K_inf * &f.Ca)),
     );
     let mut rng = rng(seed);
     let disturbance = random_vector(&mut rng, nu, 1.0);
     let mut x = DVector::zeros(nx);
-    let mut oracle = oracle::Kalman::new(&p, DVector::zeros(nx));
+    let mut oracle = oracle::Kalman::new(&p, DVector::zeros(nx)).expect("the spec has a filter");
     let mut generated = G::kalman_new(&vec![0.0; nx]);
     let (mut scale, mut worst) = (0.0_f64, 0.0_f64);
     let mut d_sum = vec![0.0; nu];

@@ -74,9 +74,11 @@ fn no_fault(_: usize, z: [f64; 3]) -> [f64; 3] {
 /// ln(100)/(−ln ρ) (a gap g takes ln(100·g)/(−ln ρ)). No fault handling can beat it: after a fault the
 /// two runs are two such filters.
 fn one_cm_from_one_m(problem: &codegen::lower::Problem) -> usize {
-    let na = problem.filter.Fa.nrows();
-    let closed = &problem.filter.Fa
-        * (nalgebra::DMatrix::identity(na, na) - &problem.filter.K_inf * &problem.filter.Ca);
+    let na = problem.filter.as_ref().expect("a filter").Fa.nrows();
+    let closed = &problem.filter.as_ref().expect("a filter").Fa
+        * (nalgebra::DMatrix::identity(na, na)
+            - &problem.filter.as_ref().expect("a filter").K_inf
+                * &problem.filter.as_ref().expect("a filter").Ca);
     let rho = mpc_tests::harness::spectral_radius(&closed);
     (100f64.ln() / -rho.ln()).ceil() as usize
 }
@@ -462,12 +464,14 @@ fn generated_screening_matches_the_oracle() {
         let problem = G::problem();
         let mut rng = rng(seed);
         let x0 = [0.5, -0.5, 1.0, 0.0, 0.0, 0.0];
-        let mut oracle = codegen::oracle::Kalman::new(&problem, DVector::from_row_slice(&x0));
+        let mut oracle = codegen::oracle::Kalman::new(&problem, DVector::from_row_slice(&x0))
+            .expect("the spec has a filter");
         let mut generated = G::kalman_new(&x0);
         let mut truth = [0.5, -0.5, 1.0];
         let eps = G::epsilon();
-        let closed =
-            &problem.F * (nalgebra::DMatrix::identity(6, 6) - &problem.filter.K_inf * &problem.C);
+        let closed = &problem.F
+            * (nalgebra::DMatrix::identity(6, 6)
+                - &problem.filter.as_ref().expect("a filter").K_inf * &problem.C);
         let rho = mpc_tests::harness::spectral_radius(&closed);
         let (mut x_abs, mut z_abs) = (0.0_f64, 0.0_f64);
         let mut stuck: Option<[f64; 3]> = None;

@@ -6,7 +6,32 @@ use quote::quote;
 
 /// The `Controller` and `Status` types (API), and the saturation kernel.
 pub fn emit(p: &Problem) -> (TokenStream, TokenStream) {
-    let (d_arg, d_doc) = if p.filter.nd > 0 {
+    let row = crate::form::reference_row(p);
+    let moves = p.has_moves().then(|| {
+        quote! {
+            /// Sets the last input u₋₁ the first move is weighted from (see [`Mpc::set_last_input`]), for a
+            /// vehicle flown by something else until now; `false`, and nothing changes, for a non-finite
+            /// entry.
+            pub fn set_last_input(&mut self, u: &[Real; NU]) -> bool {
+                self.mpc.set_last_input(u)
+            }
+        }
+    });
+    let kernels = quote! {
+        /// Per input, whether `u` is at a bound.
+        #[inline(always)]
+        fn saturated(u: &[Real; NU]) -> [bool; NU] {
+            let mut out = [false; NU];
+            for (((s, v), lo), hi) in out.iter_mut().zip(u.iter()).zip(U_MIN.iter()).zip(U_MAX.iter()) {
+                *s = *v <= *lo || *v >= *hi;
+            }
+            out
+        }
+    };
+    if p.filter.is_none() {
+        return (state_feedback(p, &row, moves), kernels);
+    }
+    let (d_arg, d_doc) = if p.nd() > 0 {
         (
             quote!(&self.kalman.d,),
             " The MPC is given the filter's disturbance estimate (offset-free MPC).",
@@ -79,7 +104,7 @@ pub fn emit(p: &Problem) -> (TokenStream, TokenStream) {
             }
 
             #[doc = #step_doc]
-            pub fn step(&mut self, z: &[Real; NY], xref: &[[Real; NX]; N]) -> [Real; NU] {
+            pub fn step(&mut self, z: &[Real; NY], xref: &[[Real; #row]; N]) -> [Real; NU] {
                 self.kalman.update(z);
                 let (u, command) = if self.kalman.status.estimate_valid {
                     self.estimate = self.kalman.x;
@@ -120,18 +145,109 @@ pub fn emit(p: &Problem) -> (TokenStream, TokenStream) {
             pub fn mpc(&self) -> &Mpc {
                 &self.mpc
             }
-        }
-    };
-    let kernels = quote! {
-        /// Per input, whether `u` is at a bound.
-        #[inline(always)]
-        fn saturated(u: &[Real; NU]) -> [bool; NU] {
-            let mut out = [false; NU];
-            for (((s, v), lo), hi) in out.iter_mut().zip(u.iter()).zip(U_MIN.iter()).zip(U_MAX.iter()) {
-                *s = *v <= *lo || *v >= *hi;
-            }
-            out
+
+            #moves
         }
     };
     (api, kernels)
+}
+
+/// The controller of a spec without `[kalman]`: the MPC on the measured state.
+fn state_feedback(p: &Problem, row: &TokenStream, moves: Option<TokenStream>) -> TokenStream {
+    let reference = if p.qp.Cz.is_some() {
+        "the output references"
+    } else {
+        "the state references"
+    };
+    let step_doc = format!(
+        " One control cycle on the measured state `x` (this controller has no filter) and the window of \
+         {reference} `xref`. Returns the command, always finite and inside [U_MIN, U_MAX]; \
+         [`Controller::status`] says what happened: a non-finite state or reference gives [`U_REST`]."
+    );
+    quote! {
+        /// State feedback: the MPC on the measured state, one control cycle per [`Controller::step`]
+        /// (the spec has no `[kalman]`).
+        #[derive(Clone, Debug, PartialEq)]
+        pub struct Controller {
+            mpc: Mpc,
+            status: Status,
+        }
+
+        /// What one control cycle did ([`Controller::status`]).
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Status {
+            /// How the command was made.
+            pub command: Command,
+            /// Per input, whether the command is at U_MIN or U_MAX.
+            pub saturated: [bool; NU],
+        }
+
+        /// How a control cycle's command was made. The state is measured, not estimated: there is no
+        /// filter status.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum Command {
+            /// No cycle yet.
+            NoneYet,
+            /// Solved from the measured state.
+            Solved,
+            /// [`U_REST`]: the measured state has a NaN or infinite entry; the warm start is reset.
+            InvalidState,
+            /// [`U_REST`]: the reference window has a NaN or infinite entry; the warm start is reset.
+            InvalidReference,
+        }
+
+        impl Controller {
+            /// A controller whose MPC starts cold.
+            pub const fn new() -> Self {
+                Controller {
+                    mpc: Mpc::new(),
+                    status: Status {
+                        command: Command::NoneYet,
+                        saturated: [false; NU],
+                    },
+                }
+            }
+
+            /// Starts again, as [`Controller::new`].
+            pub fn reset(&mut self) {
+                *self = Self::new();
+            }
+
+            #[doc = #step_doc]
+            pub fn step(&mut self, x: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                let (u, command) = if !all_finite(x) {
+                    self.mpc.reset();
+                    (U_REST, Command::InvalidState)
+                } else {
+                    match self.mpc.checked(x, xref) {
+                        Some(u) => (u, Command::Solved),
+                        None => (U_REST, Command::InvalidReference),
+                    }
+                };
+                self.status = Status {
+                    command,
+                    saturated: saturated(&u),
+                };
+                u
+            }
+
+            /// What the last cycle did.
+            pub fn status(&self) -> &Status {
+                &self.status
+            }
+
+            /// The MPC.
+            pub fn mpc(&self) -> &Mpc {
+                &self.mpc
+            }
+
+            #moves
+        }
+
+        impl Default for Controller {
+            fn default() -> Self {
+                Self::new()
+            }
+        }
+    }
 }

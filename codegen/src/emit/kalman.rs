@@ -5,16 +5,15 @@
 use super::screening::{self, Screen};
 use super::tokens::{at1, Num};
 use super::Sections;
-use crate::lower::Problem;
+use crate::lower::{Filter, Problem};
 use mpc_spec::FilterKind;
 use nalgebra::DMatrix;
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
 /// The `Kalman` type and its unrolled kernels.
-pub fn emit(p: &Problem, num: Num) -> Sections {
+pub fn emit(p: &Problem, f: &Filter, num: Num) -> Sections {
     let (nx, nu, ny) = (p.nx, p.nu, p.ny);
-    let f = &p.filter;
     let u = quote!(u);
     let (state_params, _) = state_signature(p);
     // x⁺ = F x + G (u + d) (eq. 1 without noise; d only with a disturbance model). d⁺ = d needs no code.
@@ -44,9 +43,9 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             [#(#measure_rows),*]
         }
     };
-    match p.filter.kind {
-        FilterKind::SteadyState => steady_state(p, num, kernels),
-        FilterKind::TimeVarying => time_varying(p, num, kernels),
+    match f.kind {
+        FilterKind::SteadyState => steady_state(p, f, num, kernels),
+        FilterKind::TimeVarying => time_varying(p, f, num, kernels),
     }
 }
 
@@ -61,7 +60,7 @@ fn element(p: &Problem, k: usize) -> TokenStream {
 
 /// The parameters and arguments that carry the filter's state into a kernel.
 fn state_signature(p: &Problem) -> (TokenStream, TokenStream) {
-    if p.filter.nd > 0 {
+    if p.nd() > 0 {
         (
             quote!(x: &[Real; NX], d: &[Real; ND]),
             quote!(&self.x, &self.d),
@@ -82,7 +81,7 @@ struct DisturbanceParts {
 }
 
 fn disturbance_parts(p: &Problem) -> DisturbanceParts {
-    if p.filter.nd == 0 {
+    if p.nd() == 0 {
         return DisturbanceParts {
             field: quote!(),
             init: quote!(),
@@ -195,9 +194,9 @@ fn kalman_type(p: &Problem, screen: &Screen, kind: KindParts) -> TokenStream {
     }
 }
 
-fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
-    let (nx, ny, nd) = (p.nx, p.ny, p.filter.nd);
-    let K = &p.filter.K_inf;
+fn steady_state(p: &Problem, f: &Filter, num: Num, kernels: TokenStream) -> Sections {
+    let (nx, ny, nd) = (p.nx, p.ny, p.nd());
+    let K = &f.K_inf;
     let (x, d, innovation) = (quote!(x), quote!(d), quote!(innovation));
     let correct_rows = (0..nx).map(|i| {
         num.sum(
@@ -242,12 +241,12 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
         #d_commit
         Measurement::Accepted
     };
-    let s_inverse = if p.filter.screening.gate.is_some() {
+    let s_inverse = if f.screening.gate.is_some() {
         quote!(let S_inv = S_INV;)
     } else {
         quote!()
     };
-    let screen = screening::emit(p, num, s_inverse, fuse, quote!());
+    let screen = screening::emit(p, f, num, s_inverse, fuse, quote!());
     let kalman = kalman_type(
         p,
         &screen,
@@ -291,11 +290,11 @@ fn steady_state(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
     }
 }
 
-fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
-    let nd = p.filter.nd;
+fn time_varying(p: &Problem, f: &Filter, num: Num, kernels: TokenStream) -> Sections {
+    let nd = p.nd();
     // The covariance is over the filter's state (x, d): na = nx + nd entries.
     let na = p.nx + nd;
-    let Fa = &p.filter.Fa;
+    let Fa = &f.Fa;
     let ns = if nd > 0 { quote!(NA) } else { quote!(NX) };
     let parts = disturbance_parts(p);
     let (P, FP) = (quote!(P), quote!(FP));
@@ -306,7 +305,7 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
     };
     // F·P, then (F·P)·Fᵀ + Q, upper triangle computed and mirrored so P stays symmetric. Entries of P
     // that are structurally zero (`Filter::P_pattern`) are skipped, and so are those of F·P.
-    let pattern = &p.filter.P_pattern;
+    let pattern = &f.P_pattern;
     let fp_pattern = crate::structure::pattern_product(&crate::structure::pattern(Fa), pattern);
     let fp_rows = (0..na).map(|i| {
         let row = (0..na).map(|j| {
@@ -320,9 +319,9 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
         for j in i..na {
             let terms = (0..na).filter(|k| fp_pattern[(i, *k)]);
             let e = num.sum(None, terms.map(|k| (Fa[(j, k)], m(&FP, i, k))));
-            let q = num.lit(p.filter.Qn[(i, j)]);
+            let q = num.lit(f.Qn[(i, j)]);
             let (ii, jj) = (ix(i), ix(j));
-            let value = if num.round(p.filter.Qn[(i, j)]) == 0.0 {
+            let value = if num.round(f.Qn[(i, j)]) == 0.0 {
                 e
             } else {
                 quote!(#e + #q)
@@ -333,7 +332,7 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
             }
         }
     }
-    let (s_inverse, correction) = update_covariance(p, num);
+    let (s_inverse, correction) = update_covariance(p, f, num);
     let (d_check, d_commit) = (parts.check, parts.commit);
     let fuse = quote! {
         #correction
@@ -345,7 +344,7 @@ fn time_varying(p: &Problem, num: Num, kernels: TokenStream) -> Sections {
         self.P = P;
         Measurement::Accepted
     };
-    let screen = screening::emit(p, num, s_inverse, fuse, quote!(self.P = P0;));
+    let screen = screening::emit(p, f, num, s_inverse, fuse, quote!(self.P = P0;));
     let kalman = kalman_type(
         p,
         &screen,
@@ -472,10 +471,9 @@ fn spd_inverse(ny: usize) -> TokenStream {
 /// S = C·P·Cᵀ + R, the corrected estimate, and the Joseph form (I − KC)·P·(I − KC)ᵀ + K·R·Kᵀ,
 /// symmetrized. Returns two parts: the first binds `S_inv` (returning `Measurement::Numerical` when S is
 /// not positive definite), the second, which reads `innovation`, binds `x` (and `d`) and `P`.
-fn update_covariance(p: &Problem, num: Num) -> (TokenStream, TokenStream) {
+fn update_covariance(p: &Problem, f: &Filter, num: Num) -> (TokenStream, TokenStream) {
     use super::sparse::{product, symmetrized, Sym};
     use crate::structure::pattern_inverse;
-    let f = &p.filter;
     let (nx, nd, ny) = (p.nx, f.nd, p.ny);
     let na = nx + nd;
     let P = Sym::place(&quote!(self.P), &f.P_pattern);

@@ -65,21 +65,28 @@ pub fn module(
     // kernels are emitted; and tables above clippy's 16 KiB for const arrays (H, FR at long horizons),
     // which stay `const` for const contexts: the code reads them by reference, so they are promoted to
     // statics, never copied.
-    let time_varying = (p.filter.kind == mpc_spec::FilterKind::TimeVarying
-        || p.filter.screening.gate.is_some())
-    .then(|| quote!(non_snake_case, clippy::neg_cmp_op_on_partial_ord,));
+    let time_varying = p
+        .filter
+        .as_ref()
+        .is_some_and(|f| f.kind == mpc_spec::FilterKind::TimeVarying || f.screening.gate.is_some())
+        .then(|| quote!(non_snake_case, clippy::neg_cmp_op_on_partial_ord,));
     let neon_cfg = plan
         .form
         .gradient()
         .uses_neon(p)
         .then(|| quote!(unexpected_cfgs,));
     let largest_table = {
-        let (nz, nr, na) = (p.qp.N * p.nu, p.qp.N * p.nx, p.nx + p.filter.nd);
+        let (nz, nr, na) = (p.qp.N * p.nu, p.qp.N * p.qp.nz.max(p.nx), p.nx + p.nd());
         nz.max(na) * nz.max(nr).max(na) * Numeric(p.scalar).bytes()
     };
     let large_tables = (largest_table > 16 * 1024).then(|| quote!(clippy::large_const_arrays,));
     let allow = quote!(#time_varying #neon_cfg #large_tables);
     let allow = (!allow.is_empty()).then(|| quote!(#![allow(#allow)]));
+    let halves = if p.filter.is_some() {
+        " [`Controller::step`] runs one control cycle; [`Mpc`] and [`Kalman`] are its two halves."
+    } else {
+        " [`Controller::step`] runs one control cycle from the measured state (no filter); [`Mpc`] solves."
+    };
     let algorithm = plan.algorithm.title();
     let summary = format!(" {algorithm}: {} iterations per step,", p.qp.iterations);
     let shape = format!(
@@ -109,7 +116,7 @@ pub fn module(
         ///
         #[doc = #summary]
         #[doc = #shape]
-        /// [`Controller::step`] runs one control cycle; [`Mpc`] and [`Kalman`] are its two halves.
+        #[doc = #halves]
         /// Every constant was computed at compile time in f64 and rounded once to [`Real`].
         ///
         /// Reading order: dimensions and parameters, the public types, their kernels, the constant tables,
@@ -130,7 +137,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     let (nx, nu, ny, n, iterations) = (p.nx, p.nu, p.ny, qp.N, qp.iterations);
     let [nx, nu, ny, n, iterations] = [nx, nu, ny, n, iterations].map(Literal::usize_unsuffixed);
     let nz = Literal::usize_unsuffixed(qp.N * p.nu);
-    let nr = Literal::usize_unsuffixed(qp.N * p.nx);
+    let nr = Literal::usize_unsuffixed(qp.N * qp.nz);
     let dt = num.lit(p.dt);
     let step = num.lit(qp.step);
     let momentum = num.lit(qp.momentum);
@@ -138,14 +145,34 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     let u_max = num.vector(qp.u_max.iter().copied());
     let u_rest = num.vector(qp.rest_input().iter().copied());
     let (h, fx, fr) = (num.matrix(&qp.H), num.matrix(&qp.Fx), num.matrix(&qp.Fr));
-    let (f, g, c) = (num.matrix(&p.F), num.matrix(&p.G), num.matrix(&p.C));
-    let (qn, rn, p0) = (
-        num.matrix(&p.filter.Qn),
-        num.matrix(&p.filter.Rn),
-        num.matrix(&p.filter.P0),
-    );
-    let (k_inf, p_inf) = (num.matrix(&p.filter.K_inf), num.matrix(&p.filter.P_inf));
-    let nd = p.filter.nd;
+    let (f, g) = (num.matrix(&p.F), num.matrix(&p.G));
+    let nd = p.nd();
+    // The tracked outputs: NZ and C_z with `outputs`; without, the state is tracked and the reference
+    // window keeps its NX columns.
+    let (output_dimensions, output_table) = match &qp.Cz {
+        Some(outputs) => {
+            let nz_lit = Literal::usize_unsuffixed(qp.nz);
+            let cz = num.matrix(outputs);
+            (
+                quote! {
+                    /// Tracked outputs z = C_z·x (`[mpc] outputs`): the reference window has NZ columns.
+                    pub const NZ: usize = #nz_lit;
+                },
+                quote! {
+                    /// The output map C_z of `[mpc] outputs`: z = C_z·x.
+                    pub const CZ: [[Real; NX]; NZ] = #cz;
+                },
+            )
+        }
+        None => (quote!(), quote!()),
+    };
+    let moves_table = p.has_moves().then(|| {
+        let fu = num.matrix(&qp.Fu);
+        quote! {
+            /// Fu = −2 Dᵀ R_du_blk E: the gradient's dependence on the last input, f gains Fu·u₋₁.
+            pub const FU: [[Real; NU]; #nz] = #fu;
+        }
+    });
     // The filter's state: x, or (x, d) with a disturbance model.
     let ns = if nd > 0 { quote!(NA) } else { quote!(NX) };
     let (disturbance_dimensions, disturbance_table) = if nd > 0 {
@@ -159,21 +186,62 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
                 pub const NA: usize = NX + ND;
             },
             quote! {
-                /// Fd = H·(1_N ⊗ I): the gradient's dependence on the estimated disturbance, f = Fx·x0 − Fr·Xref + Fd·d.
+                /// Fd = H·(1_N ⊗ I) + Fu: the gradient's dependence on the estimated disturbance, f = Fx·x0 − Fr·Xref + Fd·d.
                 pub const FD: [[Real; ND]; #nz] = #fd;
             },
         )
     } else {
         (quote!(), quote!())
     };
+    let filter_tables = p.filter.as_ref().map(|filter| {
+        let (qn, rn, p0) = (
+            num.matrix(&filter.Qn),
+            num.matrix(&filter.Rn),
+            num.matrix(&filter.P0),
+        );
+        let (k_inf, p_inf) = (num.matrix(&filter.K_inf), num.matrix(&filter.P_inf));
+        quote! {
+            /// Process noise covariance Q, eq. 3 (with the disturbance's random walk last, if modelled).
+            pub const Q_NOISE: [[Real; #ns]; #ns] = #qn;
+            /// Measurement noise covariance R.
+            pub const R_NOISE: [[Real; NY]; NY] = #rn;
+            /// Initial covariance P0.
+            pub const P0: [[Real; #ns]; #ns] = #p0;
+            /// Steady-state prior covariance P∞ of the discrete Riccati recursion.
+            pub const P_INF: [[Real; #ns]; #ns] = #p_inf;
+            /// Steady-state Kalman gain K∞ = P∞ Cᵀ (C P∞ Cᵀ + R)⁻¹.
+            pub const K_INF: [[Real; NY]; #ns] = #k_inf;
+        }
+    });
+    let measurement_table = p.filter.is_some().then(|| {
+        let c = num.matrix(&p.C);
+        quote! {
+            /// Measurement matrix C (the paper's H of eq. 2).
+            pub const C: [[Real; NX]; NY] = #c;
+        }
+    });
+    let ny_doc = if p.filter.is_some() {
+        " Measurement dimension."
+    } else {
+        " Measurement dimension: the state, measured (no filter)."
+    };
     let step_doc = plan.algorithm.step_doc(&qp.parameters());
     let momentum_doc = plan.algorithm.momentum_doc(&qp.parameters());
+    let fr_doc = if qp.Cz.is_some() {
+        " Fr = 2 Suᵀ Qr_blk, Qr = C_zᵀ·W (eq. 10 for outputs), acting on the output references stacked."
+    } else {
+        " Fr = 2 Suᵀ Q_blk (eq. 10), acting on Xref = [xref₁; …; xref_N] (eq. 14)."
+    };
     let h_doc = format!(
         " Hessian H = 2(Suᵀ Q_blk Su + R_blk), eq. 9; (N·NU)×(N·NU), L = {:.6e}, μ = {:.6e}.",
         qp.L, qp.mu
     );
     let mpc = mpc::emit(p, plan, num);
-    let kalman = kalman::emit(p, num);
+    let kalman = p
+        .filter
+        .as_ref()
+        .map(|f| kalman::emit(p, f, num))
+        .unwrap_or_default();
     let support = support::emit(p, plan);
     let Sections {
         constants: mpc_constants,
@@ -195,7 +263,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         pub const NX: usize = #nx;
         /// Input dimension.
         pub const NU: usize = #nu;
-        /// Measurement dimension.
+        #[doc = #ny_doc]
         pub const NY: usize = #ny;
         /// Prediction horizon.
         pub const N: usize = #n;
@@ -213,6 +281,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         pub const U_MAX: [Real; NU] = #u_max;
         /// The input that cold starts use and warm starts append: zero projected onto the box.
         pub const U_REST: [Real; NU] = #u_rest;
+        #output_dimensions
         #disturbance_dimensions
         #mpc_constants
 
@@ -231,25 +300,17 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         pub const F: [[Real; NX]; NX] = #f;
         /// Input matrix G, eq. 2.
         pub const G: [[Real; NU]; NX] = #g;
-        /// Measurement matrix C (the paper's H of eq. 2).
-        pub const C: [[Real; NX]; NY] = #c;
+        #measurement_table
+        #output_table
         #[doc = #h_doc]
         pub const H: [[Real; #nz]; #nz] = #h;
         /// Fx = 2 Suᵀ Q_blk Sx (eq. 10): f = Fx·x0 − Fr·Xref.
         pub const FX: [[Real; NX]; #nz] = #fx;
-        /// Fr = 2 Suᵀ Q_blk (eq. 10), acting on Xref = [xref₁; …; xref_N] (eq. 14).
+        #[doc = #fr_doc]
         pub const FR: [[Real; #nr]; #nz] = #fr;
+        #moves_table
         #disturbance_table
-        /// Process noise covariance Q, eq. 3 (with the disturbance's random walk last, if modelled).
-        pub const Q_NOISE: [[Real; #ns]; #ns] = #qn;
-        /// Measurement noise covariance R.
-        pub const R_NOISE: [[Real; NY]; NY] = #rn;
-        /// Initial covariance P0.
-        pub const P0: [[Real; #ns]; #ns] = #p0;
-        /// Steady-state prior covariance P∞ of the discrete Riccati recursion.
-        pub const P_INF: [[Real; #ns]; #ns] = #p_inf;
-        /// Steady-state Kalman gain K∞ = P∞ Cᵀ (C P∞ Cᵀ + R)⁻¹.
-        pub const K_INF: [[Real; NY]; #ns] = #k_inf;
+        #filter_tables
         #mpc_tables
         #kalman_tables
     }

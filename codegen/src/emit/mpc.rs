@@ -13,7 +13,7 @@ use quote::quote;
 pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
     let qp = &p.qp;
     let (nu, N) = (p.nu, qp.N);
-    let nd = p.filter.nd;
+    let nd = p.nd();
     let (algorithm, form) = (plan.algorithm, plan.form.gradient());
     let lanes = form.plan_lanes(p);
     let lanes_lit = Literal::usize_unsuffixed(lanes);
@@ -34,12 +34,33 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
         quote!(self.plan[#k])
     });
     let iterations = form.iterations(p, algorithm);
+    let moves = p.has_moves();
+    // With weighted moves the first move is measured from the last input, which the solve then replaces.
+    let (bind_last, first) = if moves {
+        (
+            quote!(let last = &self.last;),
+            quote! {
+                let first = inputs(&u[0]);
+                self.last = first;
+                Some(first)
+            },
+        )
+    } else {
+        (quote!(), quote!(Some(inputs(&u[0]))))
+    };
     let body = quote! {
+        #bind_last
         #prepare
         let mut u: Plan = [#(#shifted,)* REST];
         #iterations
         self.plan = u;
-        Some(inputs(&u[0]))
+        #first
+    };
+    let row = crate::form::reference_row(p);
+    let reference_doc = if p.qp.Cz.is_some() {
+        "`xref[k]` the reference of the outputs z = C_z·x at predicted step k+1"
+    } else {
+        "`xref[k]` the reference of predicted state k+1"
     };
     // Data enters flushed of magnitudes the arithmetic would turn subnormal (`flushed`).
     let flush_reference = quote! {
@@ -49,19 +70,29 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
         }
         let xref = &reference;
     };
+    let offset_doc = format!(
+        " One control step of the offset-free MPC: `x0` is the current state, `d` the estimated\n \
+         input disturbance (`Kalman::disturbance`), {reference_doc}.\n \
+         The prediction includes d and the input cost is on u + d, so the command cancels a\n \
+         constant disturbance. Returns the first input, always finite and inside [U_MIN, U_MAX];\n \
+         a non-finite argument returns the rest input and resets the warm start."
+    );
+    let offset_doc: Vec<&str> = offset_doc.split('\n').collect();
+    let solve_doc = format!(
+        " One control step: `x0` is the current state, {reference_doc}.\n \
+         Returns the first input of the plan, always finite and inside [U_MIN, U_MAX]. A non-finite\n \
+         `x0` or `xref` returns the rest input and resets the warm start."
+    );
+    let solve_doc: Vec<&str> = solve_doc.split('\n').collect();
     let solve_fns = if nd > 0 {
         quote! {
             /// One control step with no disturbance estimate (d = 0); see [`Mpc::solve_with_disturbance`].
-            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
+            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
                 self.solve_with_disturbance(x0, &[0.0; ND], xref)
             }
 
-            /// One control step of the offset-free MPC: `x0` is the current state, `d` the estimated
-            /// input disturbance (`Kalman::disturbance`), `xref[k]` the reference of predicted state k+1.
-            /// The prediction includes d and the input cost is on u + d, so the command cancels a
-            /// constant disturbance. Returns the first input, always finite and inside [U_MIN, U_MAX];
-            /// a non-finite argument returns the rest input and resets the warm start.
-            pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; NX]; N]) -> [Real; NU] {
+            #(#[doc = #offset_doc])*
+            pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; #row]; N]) -> [Real; NU] {
                 match self.checked(x0, d, xref) {
                     Some(u) => u,
                     None => U_REST,
@@ -69,7 +100,7 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
             }
 
             /// [`Mpc::solve_with_disturbance`], with `None` (and a reset warm start) for a non-finite argument.
-            fn checked(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; NX]; N]) -> Option<[Real; NU]> {
+            fn checked(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; #row]; N]) -> Option<[Real; NU]> {
                 if !(all_finite(x0) && all_finite(d) && xref.iter().all(|r| all_finite(r))) {
                     self.reset();
                     return None;
@@ -81,10 +112,8 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
         }
     } else {
         quote! {
-            /// One control step: `x0` is the current state, `xref[k]` the reference of predicted state k+1.
-            /// Returns the first input of the plan, always finite and inside [U_MIN, U_MAX]. A non-finite
-            /// `x0` or `xref` returns the rest input and resets the warm start.
-            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> [Real; NU] {
+            #(#[doc = #solve_doc])*
+            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
                 match self.checked(x0, xref) {
                     Some(u) => u,
                     None => U_REST,
@@ -92,7 +121,7 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
             }
 
             /// [`Mpc::solve`], with `None` (and a reset warm start) for a non-finite argument.
-            fn checked(&mut self, x0: &[Real; NX], xref: &[[Real; NX]; N]) -> Option<[Real; NU]> {
+            fn checked(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> Option<[Real; NU]> {
                 if !(all_finite(x0) && xref.iter().all(|r| all_finite(r))) {
                     self.reset();
                     return None;
@@ -102,6 +131,39 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
                 #body
             }
         }
+    };
+    let (last_field, last_init, last_fns, new_doc, reset_doc) = if moves {
+        (
+            quote!(last: [Real; NU],),
+            quote!(last: U_REST),
+            quote! {
+                /// The last input u₋₁, from which the first move Δu₀ = u₀ − u₋₁ is weighted: the last command
+                /// returned, or what [`Mpc::set_last_input`] set.
+                pub fn last_input(&self) -> &[Real; NU] {
+                    &self.last
+                }
+
+                /// Sets the last input u₋₁, for a vehicle flown by something else until now. A non-finite
+                /// entry is refused: nothing changes and the result is `false`.
+                pub fn set_last_input(&mut self, u: &[Real; NU]) -> bool {
+                    if !all_finite(u) {
+                        return false;
+                    }
+                    self.last = flushed(u);
+                    true
+                }
+            },
+            " A cold controller: the first solve starts from the rest input (zero, projected onto the box), which is also its last input.",
+            " Forgets the warm start; the last input becomes the rest input.",
+        )
+    } else {
+        (
+            quote!(),
+            quote!(),
+            quote!(),
+            " A cold controller: the first solve starts from the rest input (zero, projected onto the box).",
+            " Forgets the warm start.",
+        )
     };
     let emission = plan.emission();
     let lanes_doc = if lanes > nu {
@@ -129,15 +191,17 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
             #[derive(Clone, Debug, PartialEq)]
             pub struct Mpc {
                 plan: Plan,
+                #last_field
             }
 
             impl Mpc {
-                /// A cold controller: the first solve starts from the rest input (zero, projected onto the box).
+                #[doc = #new_doc]
                 pub const fn new() -> Self {
-                    Mpc { plan: [REST; N] }
+                    Mpc { plan: [REST; N], #last_init }
                 }
 
                 #solve_fns
+                #last_fns
                 /// The plan of the last solve, one input per predicted step.
                 pub fn plan(&self) -> [[Real; NU]; N] {
                     let mut out = [[0.0; NU]; N];
@@ -147,7 +211,7 @@ pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
                     out
                 }
 
-                /// Forgets the warm start.
+                #[doc = #reset_doc]
                 pub fn reset(&mut self) {
                     *self = Self::new();
                 }

@@ -61,6 +61,20 @@ pub fn emit(c: &Certificate) -> TokenStream {
         quote!([#(#rows),*])
     };
     let (lqr_gain, mpc_gain) = (matrix(&c.lqr.gain), matrix(&c.mpc.gain));
+    // With weighted moves the gains act on (x, u₋₁).
+    let (columns, lqr_doc, mpc_doc) = if c.mpc.moves {
+        (
+            quote!(NX + NU),
+            " The paper's check (Section 2.4.3) with weighted moves: the LQR gain on (x, u₋₁) of the move, Δu = −K·(x, u₋₁).",
+            " The unconstrained receding-horizon gain (first block of H⁻¹·[Fx Fu]): u = −K·(x, u₋₁) at zero reference.",
+        )
+    } else {
+        (
+            quote!(NX),
+            " The paper's check (Section 2.4.3): the LQR gain of the stage weights Q, R.",
+            " The unconstrained receding-horizon gain (first block of H⁻¹·Fx): u = −K·x at zero reference.",
+        )
+    };
     let rate = match c.rate {
         Some(rate) => {
             let (constant, factor) = (real(rate.constant), real(rate.factor));
@@ -76,10 +90,10 @@ pub fn emit(c: &Certificate) -> TokenStream {
             #(#fields)*
             /// The a priori bound J(U_k) − J* ≤ C·ρᵏ·(J(U_0) − J*): (C, ρ); `None` for a step above 1/L.
             pub const RATE: Option<(f64, f64)> = #rate;
-            /// The paper's check (Section 2.4.3): the LQR gain of the stage weights Q, R.
-            pub const LQR_GAIN: [[f64; NX]; NU] = #lqr_gain;
-            /// The unconstrained receding-horizon gain (first block of H⁻¹·Fx): u = −K·x at zero reference.
-            pub const MPC_GAIN: [[f64; NX]; NU] = #mpc_gain;
+            #[doc = #lqr_doc]
+            pub const LQR_GAIN: [[f64; #columns]; NU] = #lqr_gain;
+            #[doc = #mpc_doc]
+            pub const MPC_GAIN: [[f64; #columns]; NU] = #mpc_gain;
         }
     }
 }

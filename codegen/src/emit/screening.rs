@@ -9,7 +9,7 @@
 
 use super::tokens::{at1, Num};
 use super::Sections;
-use crate::lower::Problem;
+use crate::lower::{Filter, Problem};
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
@@ -32,12 +32,12 @@ pub struct Screen {
 /// `reset_covariance` is run on re-acquisition.
 pub fn emit(
     p: &Problem,
+    f: &Filter,
     num: Num,
     s_inverse: TokenStream,
     fuse: TokenStream,
     reset_covariance: TokenStream,
 ) -> Screen {
-    let f = &p.filter;
     let s = &f.screening;
     let (nx, nd, ny) = (p.nx, f.nd, p.ny);
     let gate = s.gate.map(|g| num.lit(g));

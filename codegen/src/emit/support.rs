@@ -7,13 +7,28 @@ use crate::plan::Plan;
 use proc_macro2::TokenStream;
 use quote::quote;
 
-/// `project` (where a portable kernel calls it), `all_finite`, `finite` and `flushed`.
+/// `project` (where a portable kernel calls it), `all_finite`, `finite` (with a filter) and `flushed`.
 pub fn emit(p: &Problem, plan: &Plan) -> TokenStream {
     // The NEON `lanes` kernel projects with `project_lanes`; only its portable twin calls `project`.
     let cfg = match plan.form {
         Form::Lanes(_) if neon::applies(p) => neon::portable_cfg(),
         _ => quote!(),
     };
+    // `Kalman::new` is the one constant context.
+    let finite = p.filter.is_some().then(|| {
+        quote! {
+            /// [`all_finite`] for constant contexts (`Kalman::new`).
+            const fn finite(mut v: &[Real]) -> bool {
+                while let Some((first, rest)) = v.split_first() {
+                    if !first.is_finite() {
+                        return false;
+                    }
+                    v = rest;
+                }
+                true
+            }
+        }
+    });
     quote! {
         /// The projection onto [lo, hi]; NaN maps to `lo`, so the result is always finite and in the box.
         #cfg
@@ -29,16 +44,7 @@ pub fn emit(p: &Problem, plan: &Plan) -> TokenStream {
             v.iter().all(|x| x.is_finite())
         }
 
-        /// [`all_finite`] for constant contexts (`Kalman::new`).
-        const fn finite(mut v: &[Real]) -> bool {
-            while let Some((first, rest)) = v.split_first() {
-                if !first.is_finite() {
-                    return false;
-                }
-                v = rest;
-            }
-            true
-        }
+        #finite
 
         /// Magnitudes below this are read as zero where data enters and where the estimate is stored:
         /// the smallest normal number over ε, so that a product with any coefficient above ε stays

@@ -5,7 +5,7 @@
 //! one set of constants (NEON on the A9); otherwise they are unrolled over the model's nonzeros.
 #![allow(non_snake_case)]
 
-use super::{disturbance_arg, disturbance_param, lane_count, neon, GradientForm};
+use super::{lane_count, linear_args, linear_params, neon, reference_row, GradientForm};
 use crate::cost::{
     Estimate, BYTES_OF_A_LOOP, BYTES_PER_INLINED_MAC, SWEEP, SWEEP_IN_LANES, VECTOR_WIDTH,
 };
@@ -73,7 +73,7 @@ impl GradientForm for MatrixFree {
     }
 
     fn gradient_call(&self, p: &Problem, algorithm: &dyn Algorithm) -> TokenStream {
-        let (point, d_arg) = (algorithm.point(), disturbance_arg(p));
+        let (point, d_arg) = (algorithm.point(), linear_args(p));
         quote!(adjoint_gradient(&#point, x0, #d_arg xref, &mut g))
     }
 }
@@ -81,7 +81,7 @@ impl GradientForm for MatrixFree {
 /// The statements computing f = ∇J(0) by the sweeps, for the table forms: O(N) instead of the O(N²)
 /// Fr·Xref.
 pub fn linear_term(p: &Problem) -> TokenStream {
-    let d_arg = disturbance_arg(p);
+    let d_arg = linear_args(p);
     quote! {
         // f = ∇J(0): the same sweeps as the matrix-free form, O(N) instead of the O(N²) Fr·Xref.
         let mut f: Plan = [[0.0; LANES]; N];
@@ -113,7 +113,7 @@ pub(crate) fn uses_neon(p: &Problem, lanes: usize) -> bool {
 /// v + d, see [`crate::lower::Qp::Fd`]).
 fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
     let qp = &p.qp;
-    let (nx, nu, nd) = (p.nx, p.nu, p.filter.nd);
+    let (nx, nu, nd) = (p.nx, p.nu, p.nd());
     let (prev, u, e, lambda) = (quote!(prev), quote!(u), quote!(e), quote!(lambda));
     let inputs: Vec<TokenStream> = (0..nu)
         .map(|a| {
@@ -132,18 +132,47 @@ fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
             num.sum(None, from_x.chain(from_u))
         })
         .collect();
-    let error: Vec<TokenStream> = (0..nx)
-        .map(|i| {
-            let i = Literal::usize_unsuffixed(i);
-            quote!(x_k[#i] - r_k[#i])
-        })
-        .collect();
-    let weighted = |W: &nalgebra::DMatrix<f64>| -> Vec<TokenStream> {
-        (0..nx)
-            .map(|i| num.sum(None, (0..nx).map(|j| (2.0 * W[(i, j)], at1(&e, j)))))
-            .collect()
+    let (stage, terminal) = match &qp.Cz {
+        // 2W(x_k − r_k): the error once, then its weighting.
+        None => {
+            let error: Vec<TokenStream> = (0..nx)
+                .map(|i| {
+                    let i = Literal::usize_unsuffixed(i);
+                    quote!(x_k[#i] - r_k[#i])
+                })
+                .collect();
+            let weighted = |W: &nalgebra::DMatrix<f64>| -> Vec<TokenStream> {
+                (0..nx)
+                    .map(|i| num.sum(None, (0..nx).map(|j| (2.0 * W[(i, j)], at1(&e, j)))))
+                    .collect()
+            };
+            let prologue = quote!(let e: [Real; NX] = [#(#error),*];);
+            (
+                (prologue.clone(), weighted(&qp.Q)),
+                (prologue, weighted(&qp.Qf)),
+            )
+        }
+        // 2(Q x_k − Qr r_k), Q = C_zᵀWC_z and Qr = C_zᵀW: outputs weighted in the state space.
+        Some(_) => {
+            let (x, r) = (quote!(x_k), quote!(r_k));
+            let weighted =
+                |Q: &nalgebra::DMatrix<f64>, Qr: &nalgebra::DMatrix<f64>| -> Vec<TokenStream> {
+                    (0..nx)
+                        .map(|i| {
+                            let from_x = (0..nx).map(|j| (2.0 * Q[(i, j)], at1(&x, j)));
+                            let from_r = (0..qp.nz).map(|j| (-2.0 * Qr[(i, j)], at1(&r, j)));
+                            num.sum(None, from_x.chain(from_r))
+                        })
+                        .collect()
+                };
+            (
+                (quote!(), weighted(&qp.Q, &qp.Qr)),
+                (quote!(), weighted(&qp.Qf, &qp.Qfr)),
+            )
+        }
     };
-    let (backward, weighted) = stage_or_terminal(&weighted(&qp.Q), &weighted(&qp.Qf));
+    let prologue = stage.0;
+    let (backward, weighted) = stage_or_terminal(&stage.1, &terminal.1);
     let we = quote!(we);
     let adjoint: Vec<TokenStream> = (0..nx)
         .map(|i| {
@@ -163,12 +192,14 @@ fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
             num.sum(None, from_lambda.chain(from_u))
         })
         .collect();
-    let d_param = disturbance_param(p);
+    let d_param = linear_params(p);
+    let row = reference_row(p);
+    let moves = moves(p, num);
     quote! {
         /// ∇J(v) without H: a forward sweep of the dynamics, then a backward adjoint sweep (O(N)).
         /// λ_k = 2W_k(x_k − r_k) + Fᵀλ_{k+1}, g_k = Gᵀλ_{k+1} + 2R·u_k, W_k = Q, and Qf at the last step.
         #[inline(always)]
-        fn adjoint_gradient(v: &Plan, x0: &[Real; NX], #d_param xref: &[[Real; NX]; N], g: &mut Plan) {
+        fn adjoint_gradient(v: &Plan, x0: &[Real; NX], #d_param xref: &[[Real; #row]; N], g: &mut Plan) {
             // The predicted states x_1 … x_N.
             let mut x = [[0.0; NX]; N];
             let mut prev = *x0;
@@ -181,11 +212,57 @@ fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
             let steps = g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()));
             for #backward {
                 let u: [Real; NU] = [#(#inputs),*];
-                let e: [Real; NX] = [#(#error),*];
+                #prologue
                 let we: [Real; NX] = #weighted;
                 lambda = [#(#adjoint),*];
                 *g_k = [#(#grad),*];
             }
+            #moves
+        }
+    }
+}
+
+/// The moves' part of the gradient, 2R_du(Δ_k − Δ_{k+1}) with Δ_k = v_k − v_{k−1}, v_{−1} = u₋₁ (`last`)
+/// and Δ_N = 0; nothing without weighted moves. The moves are those of the command v, which a disturbance
+/// estimate does not change.
+fn moves(p: &Problem, num: Num) -> TokenStream {
+    if !p.has_moves() {
+        return quote!();
+    }
+    let nu = p.nu;
+    let (v_k, before, m, g_k) = (quote!(v_k), quote!(before), quote!(m), quote!(g_k));
+    let delta = (0..nu).map(|a| {
+        let (va, ba) = (at1(&v_k, a), at1(&before, a));
+        quote!(#va - #ba)
+    });
+    let change = (0..nu).map(|a| {
+        let a = Literal::usize_unsuffixed(a);
+        quote!(d_k[#a] - d_next[#a])
+    });
+    // An input whose moves are not weighted keeps its gradient entry.
+    let weighted = |a: usize| (0..nu).any(|b| num.round(p.qp.R_du[(a, b)]) != 0.0);
+    let add = (0..nu).filter(|a| weighted(*a)).map(|a| {
+        let sum = num.sum(
+            Some(at1(&g_k, a)),
+            (0..nu).map(|b| (2.0 * p.qp.R_du[(a, b)], at1(&m, b))),
+        );
+        let a = Literal::usize_unsuffixed(a);
+        quote!(g_k[#a] = #sum;)
+    });
+    quote! {
+        // The moves Δ_k = v_k − v_{k−1}, from the last input.
+        let mut delta = [[0.0; NU]; N];
+        let mut before = *last;
+        for (d_k, v_k) in delta.iter_mut().zip(v.iter()) {
+            *d_k = [#(#delta),*];
+            for (b, v) in before.iter_mut().zip(v_k.iter()) {
+                *b = *v;
+            }
+        }
+        let next = delta.iter().skip(1).chain(core::iter::once(&[0.0; NU]));
+        for ((g_k, d_k), d_next) in g.iter_mut().zip(delta.iter()).zip(next) {
+            let m: [Real; NU] = [#(#change),*];
+            #(#add)*
         }
     }
 }
@@ -259,7 +336,7 @@ fn lane_sum(
 
 /// The sweeps with component s of every lane in one vector: x[s·NU + a] is lane a's component s.
 fn in_lanes(p: &Problem, m: &ModelLanes, num: Num) -> TokenStream {
-    let (nu, nd) = (p.nu, p.filter.nd);
+    let (nu, nd) = (p.nu, p.nd());
     let lanes = lane_count(nu);
     let S = m.F.nrows();
     let s_lit = Literal::usize_unsuffixed(S);
@@ -334,7 +411,7 @@ fn in_lanes(p: &Problem, m: &ModelLanes, num: Num) -> TokenStream {
         let from_u = std::iter::once((2.0 * m.R[(0, 0)], quote!(u)));
         lane_sum(num, &ops, None, from_lambda.chain(from_u).collect())
     };
-    let d_param = disturbance_param(p);
+    let d_param = linear_params(p);
     let helpers = lane_helpers(neon::applies(p), &ops.0.borrow());
     quote! {
         #helpers

@@ -133,20 +133,26 @@ pub fn lane_count(nu: usize) -> usize {
     nu.next_power_of_two()
 }
 
-/// `d,` when the problem has a disturbance estimate, for the calls that take it.
-pub(crate) fn disturbance_arg(p: &Problem) -> TokenStream {
-    if p.filter.nd > 0 {
-        quote!(d,)
-    } else {
-        quote!()
-    }
+/// The arguments f depends on besides `x0` and `xref`: `d,` with a disturbance estimate, `last,` (the last
+/// input u₋₁) with weighted moves.
+pub(crate) fn linear_args(p: &Problem) -> TokenStream {
+    let d = (p.nd() > 0).then(|| quote!(d,));
+    let last = p.has_moves().then(|| quote!(last,));
+    quote!(#d #last)
 }
 
-/// `d: &[Real; ND],` when the problem has a disturbance estimate.
-pub(crate) fn disturbance_param(p: &Problem) -> TokenStream {
-    if p.filter.nd > 0 {
-        quote!(d: &[Real; ND],)
+/// The parameters of [`linear_args`]: `d: &[Real; ND],`, `last: &[Real; NU],`.
+pub(crate) fn linear_params(p: &Problem) -> TokenStream {
+    let d = (p.nd() > 0).then(|| quote!(d: &[Real; ND],));
+    let last = p.has_moves().then(|| quote!(last: &[Real; NU],));
+    quote!(#d #last)
+}
+
+/// The columns of a reference window row: `NZ` with `[mpc] outputs`, else `NX`.
+pub(crate) fn reference_row(p: &Problem) -> TokenStream {
+    if p.qp.Cz.is_some() {
+        quote!(NZ)
     } else {
-        quote!()
+        quote!(NX)
     }
 }

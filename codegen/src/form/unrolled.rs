@@ -3,7 +3,7 @@
 //! and must fit the instruction cache.
 #![allow(non_snake_case)]
 
-use super::{disturbance_arg, disturbance_param, GradientForm};
+use super::{linear_args, linear_params, reference_row, GradientForm};
 use crate::cost::{Estimate, BYTES_PER_INLINED_MAC};
 use crate::emit::tokens::{at1, at2, blocks, Num};
 use crate::lower::Problem;
@@ -37,16 +37,19 @@ impl GradientForm for Unrolled {
 
     fn kernels(&self, p: &Problem, _algorithm: &dyn Algorithm, num: Num) -> TokenStream {
         let qp = &p.qp;
-        let (nx, nu, N, nd) = (p.nx, p.nu, qp.N, p.filter.nd);
+        let (nx, nu, N, nd) = (p.nx, p.nu, qp.N, p.nd());
         let nz = N * nu;
         let (x0, xref, y, f, d) = (quote!(x0), quote!(xref), quote!(y), quote!(f), quote!(d));
-        // f = Fx·x0 − Fr·Xref (+ Fd·d), one entry per decision variable (eq. 10).
+        let last = quote!(last);
+        let (nr, moves) = (qp.nz, if p.has_moves() { nu } else { 0 });
+        // f = Fx·x0 − Fr·Xref (+ Fu·u₋₁ + Fd·d), one entry per decision variable (eq. 10).
         let f_entries: Vec<TokenStream> = (0..nz)
             .map(|i| {
                 let from_x0 = (0..nx).map(|k| (qp.Fx[(i, k)], at1(&x0, k)));
-                let from_ref = (0..N * nx).map(|j| (-qp.Fr[(i, j)], at2(&xref, j, nx)));
+                let from_ref = (0..N * nr).map(|j| (-qp.Fr[(i, j)], at2(&xref, j, nr)));
+                let from_last = (0..moves).map(|j| (qp.Fu[(i, j)], at1(&last, j)));
                 let from_d = (0..nd).map(|j| (qp.Fd[(i, j)], at1(&d, j)));
-                num.sum(None, from_x0.chain(from_ref).chain(from_d))
+                num.sum(None, from_x0.chain(from_ref).chain(from_last).chain(from_d))
             })
             .collect();
         // ∇J = H·y + f (eq. 11), exact zeros of H skipped.
@@ -60,20 +63,28 @@ impl GradientForm for Unrolled {
             .collect();
         let f_rows = blocks(&f_entries, nu);
         let g_rows = blocks(&g_entries, nu);
-        let d_param = disturbance_param(p);
+        let d_param = linear_params(p);
+        let row = reference_row(p);
         let numeric = num.numeric();
         let gradient_doc = format!(
             " ∇J(y) = H·y + f (eq. 11), unrolled over the {} nonzeros of H.",
             numeric.nonzeros(&qp.H)
         );
-        let linear_doc = format!(
-            " f = Fx·x0 − Fr·Xref (eq. 10), unrolled over the {} nonzeros of Fx and Fr.",
-            numeric.nonzeros(&qp.Fx) + numeric.nonzeros(&qp.Fr)
-        );
+        let linear_doc = if p.has_moves() {
+            format!(
+                " f = Fx·x0 − Fr·Xref + Fu·u₋₁ (eq. 10 with the moves), unrolled over the {} nonzeros of Fx, Fr and Fu.",
+                numeric.nonzeros(&qp.Fx) + numeric.nonzeros(&qp.Fr) + numeric.nonzeros(&qp.Fu)
+            )
+        } else {
+            format!(
+                " f = Fx·x0 − Fr·Xref (eq. 10), unrolled over the {} nonzeros of Fx and Fr.",
+                numeric.nonzeros(&qp.Fx) + numeric.nonzeros(&qp.Fr)
+            )
+        };
         quote! {
             #[doc = #linear_doc]
             #[inline(always)]
-            fn linear_term(x0: &[Real; NX], #d_param xref: &[[Real; NX]; N]) -> Plan {
+            fn linear_term(x0: &[Real; NX], #d_param xref: &[[Real; #row]; N]) -> Plan {
                 [#(#f_rows),*]
             }
 
@@ -86,7 +97,7 @@ impl GradientForm for Unrolled {
     }
 
     fn prepare(&self, p: &Problem) -> TokenStream {
-        let d_arg = disturbance_arg(p);
+        let d_arg = linear_args(p);
         quote!(let f = linear_term(x0, #d_arg xref);)
     }
 
@@ -104,8 +115,11 @@ impl GradientForm for Unrolled {
     fn gradient_map(&self, p: &Problem, _estimates: &[Estimate]) -> (usize, usize) {
         let num = Numeric(p.scalar);
         let qp = &p.qp;
-        let macs = num.nonzeros(&qp.Fx) + num.nonzeros(&qp.Fr) + num.nonzeros(&qp.Fd);
-        let constants = [&qp.H, &qp.Fx, &qp.Fr, &qp.Fd]
+        let macs = num.nonzeros(&qp.Fx)
+            + num.nonzeros(&qp.Fr)
+            + num.nonzeros(&qp.Fu)
+            + num.nonzeros(&qp.Fd);
+        let constants = [&qp.H, &qp.Fx, &qp.Fr, &qp.Fu, &qp.Fd]
             .iter()
             .map(|M| num.coefficients(M))
             .sum();
