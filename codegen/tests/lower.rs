@@ -462,3 +462,121 @@ r = [[0.01]]
             .all(|d| !d.message.starts_with("`model.a` has a mode")));
     }
 }
+
+/// The cost a spec with outputs and moves defines, summed along a simulated prediction: stage k = 1…N
+/// weighs (C_z x_k − r_k) with `q` (the terminal with `qf`, on the outputs, or on x_N − C_z⁺ r_N when `qf`
+/// is state-sized), every input with `r`, every move u_k − u_{k−1} (u_{−1} the last input) with `r_du`.
+fn cost_by_simulation(
+    spec: &mpc_spec::Spec,
+    p: &codegen::Problem,
+    x0: &nalgebra::DVector<f64>,
+    refs: &[nalgebra::DVector<f64>],
+    last: &nalgebra::DVector<f64>,
+    U: &nalgebra::DVector<f64>,
+) -> f64 {
+    let m = &spec.mpc;
+    let dense = |M: &mpc_spec::Matrix| DMatrix::from_row_slice(M.rows, M.cols, &M.data);
+    let Cz = dense(m.outputs.as_ref().unwrap());
+    let (W, Wf, R) = (dense(&m.q), dense(&m.qf), dense(&m.r));
+    let R_du = dense(m.r_du.as_ref().unwrap());
+    let (nu, N) = (p.nu, m.horizon);
+    let mut x = x0.clone();
+    let mut before = last.clone();
+    let mut J = 0.0;
+    for k in 0..N {
+        let u = U.rows(k * nu, nu).into_owned();
+        x = &p.F * &x + &p.G * &u;
+        let r = &refs[k];
+        J += if k + 1 < N {
+            let e = &Cz * &x - r;
+            (e.transpose() * &W * &e)[(0, 0)]
+        } else if m.qf_on_state {
+            let e = &x - Cz.clone().pseudo_inverse(1e-12).unwrap() * r;
+            (e.transpose() * &Wf * &e)[(0, 0)]
+        } else {
+            let e = &Cz * &x - r;
+            (e.transpose() * &Wf * &e)[(0, 0)]
+        };
+        let du = &u - &before;
+        J += (u.transpose() * &R * &u)[(0, 0)] + (du.transpose() * &R_du * &du)[(0, 0)];
+        before = u;
+    }
+    J
+}
+
+#[test]
+fn outputs_and_moves_condense_to_the_cost_they_define() {
+    use nalgebra::DVector;
+    let outputs = include_str!("../../tests/specs/two-mass-outputs.toml");
+    let filtered = include_str!("../../tests/specs/two-mass-filtered.toml");
+    let on_state = outputs.replace("r = 0\n", "r = 0\nqf = [1, 20, 3, 4]\n");
+    let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+    let mut random = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    for text in [outputs, filtered, on_state.as_str()] {
+        let spec = load(text).unwrap();
+        let p = lower(&spec).unwrap();
+        assert!(p.has_moves());
+        let (nx, nu, nz, N) = (p.nx, p.nu, p.qp.nz, p.qp.N);
+        for _ in 0..20 {
+            let x0 = DVector::from_fn(nx, |_, _| random());
+            let refs: Vec<DVector<f64>> = (0..N)
+                .map(|_| DVector::from_fn(nz, |_, _| random()))
+                .collect();
+            let last = DVector::from_fn(nu, |_, _| random());
+            let U = DVector::from_fn(N * nu, |_, _| random());
+            let R = DVector::from_iterator(N * nz, refs.iter().flat_map(|r| r.iter().copied()));
+            let f = &p.qp.Fx * &x0 - &p.qp.Fr * R + &p.qp.Fu * &last;
+            // J(U) − J(0) = ½UᵀHU + fᵀU exactly: the quadratic and the linear term of the condensed QP.
+            let quadratic = 0.5 * (U.transpose() * &p.qp.H * &U)[(0, 0)] + f.dot(&U);
+            let zero = DVector::zeros(N * nu);
+            let simulated = cost_by_simulation(&spec, &p, &x0, &refs, &last, &U)
+                - cost_by_simulation(&spec, &p, &x0, &refs, &last, &zero);
+            let scale = cost_by_simulation(&spec, &p, &x0, &refs, &last, &U)
+                .abs()
+                .max(1.0);
+            assert!(
+                (quadratic - simulated).abs() <= 1e-10 * scale,
+                "condensed {quadratic} against simulated {simulated}"
+            );
+        }
+    }
+}
+
+#[test]
+fn zero_input_weight_needs_moves_and_a_definite_hessian() {
+    let outputs = include_str!("../../tests/specs/two-mass-outputs.toml");
+    // Without `r_du`, r = 0 is refused at `mpc.r`, pointing at the move weight.
+    let errors = mpc_spec::load(&outputs.replace("r_du = 1\n", "")).unwrap_err();
+    let message = format!("{errors:?}");
+    assert!(
+        message.contains("`mpc.r` must be positive definite"),
+        "{message}"
+    );
+    assert!(message.contains("r_du"), "{message}");
+    // An input that neither the outputs nor any weight sees leaves H singular: a located error at `mpc.r`.
+    let free_input = r#"
+[model]
+type = "linear"
+dt = 0.1
+a = [[1, 0], [0, 1]]
+b = [[0.1, 0], [0, 0.1]]
+
+[mpc]
+horizon = 5
+iterations = 10
+outputs = [[1, 0]]
+q = 1
+r = [0, 0]
+r_du = [1, 0]
+u_min = [-1, -1]
+u_max = [1, 1]
+"#;
+    let (message, key) = first_error(free_input);
+    assert!(message.contains("numerically singular"), "{message}");
+    assert_eq!(key, "[0, 0]", "{message}");
+}

@@ -185,9 +185,16 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
                 /// The filter's state dimension: the state, then the disturbance.
                 pub const NA: usize = NX + ND;
             },
-            quote! {
-                /// Fd = H·(1_N ⊗ I) + Fu: the gradient's dependence on the estimated disturbance, f = Fx·x0 − Fr·Xref + Fd·d.
-                pub const FD: [[Real; ND]; #nz] = #fd;
+            {
+                let doc = if p.has_moves() {
+                    " Fd = H·(1_N ⊗ I) + Fu: the gradient's dependence on the estimated disturbance, f = Fx·x0 − Fr·Xref + Fu·u₋₁ + Fd·d."
+                } else {
+                    " Fd = H·(1_N ⊗ I): the gradient's dependence on the estimated disturbance, f = Fx·x0 − Fr·Xref + Fd·d."
+                };
+                quote! {
+                    #[doc = #doc]
+                    pub const FD: [[Real; ND]; #nz] = #fd;
+                }
             },
         )
     } else {
