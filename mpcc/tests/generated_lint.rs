@@ -117,6 +117,21 @@ fn variants() -> Vec<(String, String)> {
             "f64",
         );
     }
+    // Output tracking, weighted moves and state feedback without a filter, in every emission.
+    let tests =
+        |name: &str| std::fs::read_to_string(workspace().join("tests/specs").join(name)).unwrap();
+    for (base, file, scalar) in [
+        ("state_feedback", "two-mass-outputs.toml", "f64"),
+        ("outputs_moves_filtered", "two-mass-filtered.toml", "f32"),
+    ] {
+        let spec = tests(file);
+        for emission in ["unrolled", "table", "matrix_free"] {
+            let line = format!("scalar = \"{scalar}\"");
+            let text = spec.replace(&line, &format!("{line}\nemission = \"{emission}\""));
+            assert_ne!(text, spec, "{file}: no `{line}`");
+            out.push((format!("{base}_{emission}"), text));
+        }
+    }
     out
 }
 

@@ -96,7 +96,13 @@ pub fn mpc_error_scale(
     } else {
         0.0
     };
-    eps * (norm_inf(&qp.Fx) * x0_abs + norm_inf(&qp.Fr) * xref_abs + norm_inf(&qp.H) * u_abs + fd)
+    // The last input u₋₁ is inside the box: its term Fu·u₋₁ (zero without weighted moves).
+    let fu = norm_inf(&qp.Fu) * u_abs;
+    eps * (norm_inf(&qp.Fx) * x0_abs
+        + norm_inf(&qp.Fr) * xref_abs
+        + norm_inf(&qp.H) * u_abs
+        + fd
+        + fu)
         / qp.mu
 }
 

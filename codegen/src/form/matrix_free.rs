@@ -172,7 +172,20 @@ fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
         }
     };
     let prologue = stage.0;
-    let (backward, weighted) = stage_or_terminal(&stage.1, &terminal.1);
+    // The backward sweep reads the input for 2R·u only: with R = 0 (moves weighted instead) it does not.
+    let reads_input = (0..nu * nu).any(|i| num.round(qp.R[(i / nu, i % nu)]) != 0.0);
+    let (step, steps) = if reads_input {
+        (
+            quote!(((g_k, x_k), (r_k, v_k))),
+            quote!(g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()))),
+        )
+    } else {
+        (
+            quote!(((g_k, x_k), r_k)),
+            quote!(g.iter_mut().zip(x.iter()).zip(xref.iter())),
+        )
+    };
+    let (backward, weighted) = stage_or_terminal(&stage.1, &terminal.1, step);
     let we = quote!(we);
     let adjoint: Vec<TokenStream> = (0..nx)
         .map(|i| {
@@ -195,6 +208,7 @@ fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
     let d_param = linear_params(p);
     let row = reference_row(p);
     let moves = moves(p, num);
+    let input = reads_input.then(|| quote!(let u: [Real; NU] = [#(#inputs),*];));
     quote! {
         /// ∇J(v) without H: a forward sweep of the dynamics, then a backward adjoint sweep (O(N)).
         /// λ_k = 2W_k(x_k − r_k) + Fᵀλ_{k+1}, g_k = Gᵀλ_{k+1} + 2R·u_k, W_k = Q, and Qf at the last step.
@@ -209,9 +223,9 @@ fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
                 prev = *x_k;
             }
             let mut lambda = [0.0; NX];
-            let steps = g.iter_mut().zip(x.iter()).zip(xref.iter().zip(v.iter()));
+            let steps = #steps;
             for #backward {
-                let u: [Real; NU] = [#(#inputs),*];
+                #input
                 #prologue
                 let we: [Real; NX] = #weighted;
                 lambda = [#(#adjoint),*];
@@ -242,12 +256,9 @@ fn moves(p: &Problem, num: Num) -> TokenStream {
     // An input whose moves are not weighted keeps its gradient entry.
     let weighted = |a: usize| (0..nu).any(|b| num.round(p.qp.R_du[(a, b)]) != 0.0);
     let add = (0..nu).filter(|a| weighted(*a)).map(|a| {
-        let sum = num.sum(
-            Some(at1(&g_k, a)),
-            (0..nu).map(|b| (2.0 * p.qp.R_du[(a, b)], at1(&m, b))),
-        );
+        let sum = num.sum(None, (0..nu).map(|b| (2.0 * p.qp.R_du[(a, b)], at1(&m, b))));
         let a = Literal::usize_unsuffixed(a);
-        quote!(g_k[#a] = #sum;)
+        quote!(#g_k[#a] += #sum;)
     });
     quote! {
         // The moves Δ_k = v_k − v_{k−1}, from the last input.
@@ -273,19 +284,17 @@ fn moves(p: &Problem, num: Num) -> TokenStream {
 fn stage_or_terminal(
     stage: &[TokenStream],
     terminal: &[TokenStream],
+    step: TokenStream,
 ) -> (TokenStream, TokenStream) {
     let same = stage
         .iter()
         .zip(terminal)
         .all(|(s, t)| s.to_string() == t.to_string());
     if same {
-        (
-            quote!(((g_k, x_k), (r_k, v_k)) in steps.rev()),
-            quote!([#(#stage),*]),
-        )
+        (quote!(#step in steps.rev()), quote!([#(#stage),*]))
     } else {
         (
-            quote!((k, ((g_k, x_k), (r_k, v_k))) in steps.enumerate().rev()),
+            quote!((k, #step) in steps.enumerate().rev()),
             quote!(if k + 1 == N { [#(#terminal),*] } else { [#(#stage),*] }),
         )
     }
@@ -399,7 +408,11 @@ fn in_lanes(p: &Problem, m: &ModelLanes, num: Num) -> TokenStream {
             })
             .collect()
     };
-    let (backward, weighted) = stage_or_terminal(&weighted(&m.Q), &weighted(&m.Qf));
+    let (backward, weighted) = stage_or_terminal(
+        &weighted(&m.Q),
+        &weighted(&m.Qf),
+        quote!(((g_k, x_k), (r_k, v_k))),
+    );
     let adjoint = (0..S)
         .map(|s| {
             let terms = (0..S).map(|t| (m.F[(t, s)], vec_at("lambda", t))).collect();
