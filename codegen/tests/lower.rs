@@ -483,10 +483,9 @@ fn cost_by_simulation(
     let mut x = x0.clone();
     let mut before = last.clone();
     let mut J = 0.0;
-    for k in 0..N {
+    for (k, r) in refs.iter().enumerate().take(N) {
         let u = U.rows(k * nu, nu).into_owned();
         x = &p.F * &x + &p.G * &u;
-        let r = &refs[k];
         J += if k + 1 < N {
             let e = &Cz * &x - r;
             (e.transpose() * &W * &e)[(0, 0)]
