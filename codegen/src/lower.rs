@@ -1263,7 +1263,7 @@ fn check_hessian(spec: &Spec, H: &DMatrix<f64>, mu: f64, L: f64) -> Result<(), D
     } else {
         "the input weight is too small against the state weights to keep H invertible"
     })
-    .note(if spec.mpc.r_du.is_some() && !extreme_eigenvalues(&symmetric(&spec.mpc.r)).0.is_sign_positive() {
+    .note(if spec.mpc.r_du.is_some() && extreme_eigenvalues(&symmetric(&spec.mpc.r)).0 <= 0.0 {
         "hint: with `r = 0` the moves' weight `r_du` must reach every input; raise `r` or `r_du`, or lower `q`/`qf`"
     } else {
         "hint: raise `r` (or `r_du`) or lower `q`/`qf`, or shorten the horizon"

@@ -27,6 +27,8 @@ const FAMILIES: &[&str] = &[
     "sigma",
     "tolerance",
     "emission",
+    "outputs",
+    "moves",
 ];
 
 #[test]
