@@ -18,6 +18,12 @@ struct Check<'a> {
     nx: usize,
     nu: usize,
     ny: usize,
+    /// Tracked outputs: the rows of `[mpc] outputs`, else nx.
+    nz: usize,
+    /// Whether the spec has `[kalman]`; without, the controller takes the measured state (ny = nx).
+    filter: bool,
+    /// Whether the moves Δu are weighted (`[mpc] r_du`).
+    moves: bool,
     #[serde(flatten)]
     certificate: &'a Certificate,
     warnings: Vec<&'a str>,
@@ -33,6 +39,9 @@ pub(crate) fn json(shown: &str, g: &Generated) -> String {
         nx: p.nx,
         nu: p.nu,
         ny: p.ny,
+        nz: p.qp.nz,
+        filter: p.filter.is_some(),
+        moves: p.has_moves(),
         certificate: &g.certificate,
         warnings: g.warnings.iter().map(|w| w.message.as_str()).collect(),
     };
@@ -110,7 +119,7 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
         .max()
         .unwrap_or(0);
     let mut out = format!(
-        "{shown}: {}, horizon {}, {} iterations, nx = {}, nu = {}, ny = {}\n",
+        "{shown}: {}, horizon {}, {} iterations, nx = {}, nu = {}, ny = {}",
         p.qp.method.name(),
         p.qp.N,
         c.iterations,
@@ -118,6 +127,16 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
         p.nu,
         p.ny
     );
+    if p.qp.Cz.is_some() {
+        let _ = write!(out, ", nz = {} tracked outputs", p.qp.nz);
+    }
+    if p.has_moves() {
+        out.push_str(", moves weighted");
+    }
+    if p.filter.is_none() {
+        out.push_str(", state feedback (no filter)");
+    }
+    out.push('\n');
     for (title, lines) in sections {
         let _ = write!(out, "\n{title}\n");
         for (what, value) in lines {
