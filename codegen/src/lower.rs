@@ -313,6 +313,7 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         Su: &Su,
         Q: &Q,
         R: &R,
+        R_du: &R_du,
         Qf: &Qf,
     };
     let scalar = Numeric(spec.codegen.scalar);
@@ -475,6 +476,7 @@ struct Hessian<'a> {
     Su: &'a DMatrix<f64>,
     Q: &'a DMatrix<f64>,
     R: &'a DMatrix<f64>,
+    R_du: &'a DMatrix<f64>,
     Qf: &'a DMatrix<f64>,
 }
 
@@ -489,6 +491,10 @@ impl Hessian<'_> {
         };
         if beyond(self.R) {
             return span("mpc.r");
+        }
+        // The moves' term 2DᵀR̄D holds 4·R_du on its diagonal.
+        if beyond(&(self.R_du * 2.0)) {
+            return span("mpc.r_du");
         }
         let nx = self.Q.nrows();
         let N = self.Su.nrows() / nx.max(1);
