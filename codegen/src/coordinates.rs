@@ -15,16 +15,19 @@
 //!   z − C·x of two nearby numbers is exact (Sterbenz). These errors persist: the estimate error follows the
 //!   controller's own loop with the readings fixed, A = (I − K∞C)(F − G·M), M the first nu rows of
 //!   H⁻¹·[Fx Fd] (u₀ = −M·x̂ + ...), K∞ the steady-state gain (the time-varying filter's limit); when that
-//!   loop is not stable (a controller may be unstable on its own) the estimation error dynamics
-//!   (I − K∞C)F of a closed loop are used instead. Each injection is weighted by the ℓ1 norm of its impulse
+//!   loop is not strictly stable (the offset-free controller's integral action puts an eigenvalue at 1,
+//!   and a controller may be unstable on its own) the estimation error dynamics (I − K∞C)F that a closed
+//!   loop sees are used instead. Each injection is weighted by the ℓ1 norm of its impulse
 //!   response to u₀, Σⱼ |M·Aʲ·B| (B the injection's input matrix: I, I − K∞C, K∞);
 //! - **the gradient map**: unrolled, f = Fx·x0 − Fr·Xref (+ Fd·d) has terms of order ‖Fx‖·X that cancel, so
 //!   its rounding is about |Fx|·s + |Fr|·(1 ⊗ s), one rounding per term (the partial sums, bounded by the
 //!   same, are not counted again), mapped by the first nu rows of |H⁻¹|; the sweep forms (`table`,
 //!   `lanes`, `matrix_free`) compute f from the predicted states xₖ = F·xₖ₋₁ (+ G·vₖ for `matrix_free`'s
 //!   iterations), which accumulate the predict's rounding over the horizon (δxₖ = |F|·δxₖ₋₁ + ι), mapped by
-//!   |H⁻¹·Fr|. The fixed-iteration, warm-started solver's map is taken as the exact H⁻¹ (the certificate's
-//!   two loops agree to 1e-9 for the paper); a command error also enters the filter's predict through G.
+//!   |H⁻¹·Fr|. The fixed-iteration, warm-started solver's map is taken as the exact H⁻¹: right for a
+//!   solver that converges (the paper: the impulse responses of the oracle's real iteration give the same g
+//!   to 4 digits, `codegen/tests/coordinates.rs`), conservative for the under-converged `paper-initial`
+//!   (744 measured, 1112 stated). A command error also enters the filter's predict through G.
 //!
 //! The sum is g, the worst ‖δu₀‖∞ per unit of u·X, and X_max = accuracy·min(u_max − u_min)/(u·g). Worst
 //! case over the signs of every rounding: real runs, whose roundings partly cancel, stay below it.
@@ -166,8 +169,27 @@ fn first_rows_of_solve(H: &DMatrix<f64>, M: &DMatrix<f64>, rows: usize) -> DMatr
     }
 }
 
-/// The range of `p` for the gradient form `emission`, at `accuracy` (a fraction of the smallest span).
-pub fn coordinate_range(p: &Problem, emission: Emission, accuracy: f64) -> CoordinateRange {
+/// The roundings one control cycle injects, per unit of u·X: the worst magnitude of each entry.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Injections {
+    /// The states counted as absolute coordinates.
+    pub states: Vec<usize>,
+    /// Into the filter's estimate (x, d) as the update stores it.
+    pub update: DVector<f64>,
+    /// Into the estimate as the predict stores it.
+    pub predict: DVector<f64>,
+    /// Into the innovation: the reading as stored and the predicted measurement C·x.
+    pub measured: DVector<f64>,
+    /// Into u₀ directly from the references as stored (through H⁻¹·Fr).
+    pub reference: DVector<f64>,
+    /// Into u₀ directly from the gradient map's arithmetic.
+    pub gradient: DVector<f64>,
+    /// The map from the estimate (x, d) to u₀, the first nu rows of H⁻¹·[Fx Fd] (u₀ = −M·x̂ + ...).
+    pub M: DMatrix<f64>,
+}
+
+/// Where and how much the controller of `p`, with the gradient form `emission`, rounds per cycle.
+pub fn injections(p: &Problem, emission: Emission) -> Injections {
     let num = Numeric(p.scalar);
     let qp = &p.qp;
     let f = &p.filter;
@@ -186,12 +208,13 @@ pub fn coordinate_range(p: &Problem, emission: Emission, accuracy: f64) -> Coord
     }
     let M = first_rows_of_solve(&qp.H, &Fxd, nu);
     let Mr = first_rows_of_solve(&qp.H, &qp.Fr, nu);
-    let Mf = first_rows_of_solve(&qp.H, &DMatrix::identity(N * nu, N * nu), nu);
 
-    // Command injections ν (per unit of u·X): the references as stored, the gradient map.
     let reference = Mr.abs() * &s_ref;
     let gradient = match emission {
-        Emission::Unrolled => Mf.abs() * (qp.Fx.abs() * &s + qp.Fr.abs() * &s_ref),
+        Emission::Unrolled => {
+            let Mf = first_rows_of_solve(&qp.H, &DMatrix::identity(N * nu, N * nu), nu);
+            Mf.abs() * (qp.Fx.abs() * &s + qp.Fr.abs() * &s_ref)
+        }
         _ => {
             let G = (emission == Emission::MatrixFree).then_some(&p.G);
             let step = row_roundings(&p.F, G, &s, num);
@@ -204,30 +227,49 @@ pub fn coordinate_range(p: &Problem, emission: Emission, accuracy: f64) -> Coord
             Mr.abs() * stacked
         }
     };
-    let nu_bound = &reference + &gradient;
+    Injections {
+        states,
+        predict: row_roundings(&f.Fa, Some(&f.Ga), &s_a, num),
+        measured: f.Ca.abs() * &s_a + row_roundings(&f.Ca, None, &s_a, num),
+        update: s_a,
+        reference,
+        gradient,
+        M,
+    }
+}
 
-    // Estimate injections: the update's final addition, the predict's sums, the reading as stored plus
-    // the predicted measurement's sums.
-    let update = s_a.clone();
-    let predict = row_roundings(&f.Fa, Some(&f.Ga), &s_a, num);
-    let measured = f.Ca.abs() * &s_a + row_roundings(&f.Ca, None, &s_a, num);
+/// The loop an estimate error follows with the readings fixed: (I − K∞C)(F − G·M) when it is stable,
+/// else the estimation error dynamics (I − K∞C)F.
+pub fn error_loop(p: &Problem, M: &DMatrix<f64>) -> DMatrix<f64> {
+    let f = &p.filter;
+    let na = p.nx + f.nd;
+    let I_KC = DMatrix::identity(na, na) - &f.K_inf * &f.Ca;
+    let own = &I_KC * (&f.Fa - &f.Ga * M);
+    if crate::linalg::spectral_radius(&own) < 1.0 {
+        own
+    } else {
+        I_KC * &f.Fa
+    }
+}
 
+/// The range of `p` for the gradient form `emission`, at `accuracy` (a fraction of the smallest span).
+pub fn coordinate_range(p: &Problem, emission: Emission, accuracy: f64) -> CoordinateRange {
+    let f = &p.filter;
+    let (nu, na) = (p.nu, p.nx + f.nd);
+    let inj = injections(p, emission);
     let K = &f.K_inf;
     let I_KC = DMatrix::identity(na, na) - K * &f.Ca;
-    let own_loop = &I_KC * (&f.Fa - &f.Ga * &M);
-    let A = if crate::linalg::spectral_radius(&own_loop) < 1.0 {
-        own_loop
-    } else {
-        &I_KC * &f.Fa
-    };
+    let A = error_loop(p, &inj.M);
     let into_filter = &I_KC * &f.Ga;
+    // Σⱼ |M·Aʲ·B| for each injection's input matrix B; a command error is u₀'s own (I) and then enters
+    // the predict through G.
     let (mut S_upd, mut S_pred, mut S_meas, mut S_cmd) = (
         DMatrix::zeros(nu, na),
         DMatrix::zeros(nu, na),
         DMatrix::zeros(nu, p.ny),
         DMatrix::identity(nu, nu),
     );
-    let mut T = M.clone();
+    let mut T = inj.M.clone();
     let per_step = (nu * na * (2 * na + p.ny + nu)) as f64;
     let steps = (BUDGET / per_step).clamp(1.0, 1e7) as usize;
     for _ in 0..steps {
@@ -240,25 +282,26 @@ pub fn coordinate_range(p: &Problem, emission: Emission, accuracy: f64) -> Coord
             break;
         }
     }
-    let filter_part = &S_upd * &update + &S_pred * &predict + &S_meas * &measured;
-    let total = &filter_part + &S_cmd * &nu_bound;
+    let filter = &S_upd * &inj.update + &S_pred * &inj.predict + &S_meas * &inj.measured;
+    let total = &filter + &S_cmd * (&inj.reference + &inj.gradient);
     let g = total.amax();
     let command_accuracy = accuracy
-        * qp.u_max
+        * p.qp
+            .u_max
             .iter()
-            .zip(qp.u_min.iter())
+            .zip(p.qp.u_min.iter())
             .map(|(hi, lo)| hi - lo)
             .fold(f64::INFINITY, f64::min);
     let range = |scalar| command_accuracy / (unit_roundoff(scalar) * g);
     CoordinateRange {
-        states,
+        states: inj.states,
         accuracy,
         command_accuracy,
         sensitivity: Sensitivity {
             total: g,
-            filter: filter_part.amax(),
-            reference: (&S_cmd * reference).amax(),
-            gradient: (&S_cmd * gradient).amax(),
+            filter: filter.amax(),
+            reference: (&S_cmd * &inj.reference).amax(),
+            gradient: (&S_cmd * &inj.gradient).amax(),
         },
         f32: range(Scalar::F32),
         f64: range(Scalar::F64),
