@@ -278,7 +278,8 @@ pub fn coordinate_range(p: &Problem, emission: Emission, accuracy: f64) -> Coord
         S_meas += (&T * K).abs();
         S_cmd += (&T * &into_filter).abs();
         T = &T * &A;
-        if !(T.amax() > TAIL * S_upd.amax()) {
+        let tail = T.amax();
+        if tail.is_nan() || tail <= TAIL * S_upd.amax() {
             break;
         }
     }
