@@ -50,8 +50,9 @@ pub const DEFAULT_ACCURACY: f64 = 0.01;
 /// Impulse responses are summed until their terms fall below this fraction of the sum.
 const TAIL: f64 = 1e-12;
 
-/// Multiply-adds the ℓ1 sums may spend (a filter whose slowest mode is very slow is cut there).
-const BUDGET: f64 = 2e9;
+/// Multiply-adds the ℓ1 sums may spend; past it, the rest of each sum is bounded by its last term
+/// times ρ/(1 − ρ), ρ the loop's spectral radius.
+const BUDGET: f64 = 1e8;
 
 /// What rounding of absolute coordinates costs the first command, and the range it allows.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -271,15 +272,25 @@ pub fn coordinate_range(p: &Problem, emission: Emission, accuracy: f64) -> Coord
     );
     let mut T = inj.M.clone();
     let per_step = (nu * na * (2 * na + p.ny + nu)) as f64;
-    let steps = (BUDGET / per_step).clamp(1.0, 1e7) as usize;
-    for _ in 0..steps {
-        S_upd += T.abs();
-        S_pred += (&T * &I_KC).abs();
-        S_meas += (&T * K).abs();
-        S_cmd += (&T * &into_filter).abs();
+    let steps = (BUDGET / per_step).clamp(1.0, 1e6) as usize;
+    let mut weight = 1.0;
+    for step in 0..=steps {
+        if step == steps {
+            // Cut by the budget: the terms left shrink at most like ρʲ (first order in the tail).
+            let rho = crate::linalg::spectral_radius(&A);
+            weight = if rho < 1.0 {
+                rho / (1.0 - rho)
+            } else {
+                f64::MAX
+            };
+        }
+        S_upd += T.abs() * weight;
+        S_pred += (&T * &I_KC).abs() * weight;
+        S_meas += (&T * K).abs() * weight;
+        S_cmd += (&T * &into_filter).abs() * weight;
         T = &T * &A;
         let tail = T.amax();
-        if tail.is_nan() || tail <= TAIL * S_upd.amax() {
+        if step == steps || tail.is_nan() || tail <= TAIL * S_upd.amax() {
             break;
         }
     }
