@@ -10,6 +10,7 @@
 #![allow(non_snake_case)]
 
 use crate::budget::{self, BuildCost};
+pub use crate::coordinates::CoordinateRange;
 use crate::cost::Estimate;
 use crate::linalg::{extreme_eigenvalues, lqr_gain, lyapunov_identity, spectral_radius};
 use crate::lower::{Filter, Problem};
@@ -125,6 +126,9 @@ pub struct Certificate {
     /// The disturbance estimate's time constant in seconds, with `[kalman] disturbance`: −Δt / ln ρ of the
     /// steady-state estimation error dynamics F_a(I − K∞C_a), whose slowest mode is the disturbance's.
     pub disturbance_time_constant: Option<f64>,
+    /// The absolute coordinates each scalar type can carry with u₀ within 1 % of the smallest input span
+    /// ([`crate::coordinates`]).
+    pub coordinate_range: CoordinateRange,
 }
 
 /// A number of the certificate.
@@ -161,6 +165,8 @@ pub enum Shown {
     Bytes,
     /// A time in seconds.
     Seconds,
+    /// The range of the absolute coordinates: "for |x[0..3]| ≤ 3.2e3".
+    Range,
 }
 
 /// One number of the certificate under the names of its outputs: the `report` module's constant and the
@@ -197,6 +203,9 @@ pub mod section {
     pub const LOOPS: &str = "MPC closed loops (constraints inactive)";
     /// The disturbance estimate.
     pub const OFFSET_FREE: &str = "offset-free: the input disturbance estimate";
+    /// The absolute coordinates the scalar types can carry ([`crate::coordinates`]).
+    pub const COORDINATES: &str =
+        "absolute coordinates (rounding; first-order, worst case over signs)";
     /// The code's cost.
     pub const RESOURCES: &str = "resources";
     /// The build's predicted cost ([`crate::budget`]); not in the `report` module.
@@ -220,6 +229,10 @@ impl Certificate {
             value,
         };
         let (r, b) = (&self.resources, &self.build_cost);
+        let range = &self.coordinate_range;
+        let percent = format!("{}", range.accuracy * 100.0);
+        let keeps =
+            |scalar: &str| format!("{scalar} keeps u₀ within {percent} % of the input span");
         vec![
             field("lipschitz", "LIPSCHITZ", "L, the largest eigenvalue of the Hessian H.", QP, "L = λmax(H)", Plain, Real(self.lipschitz)),
             field("strong_convexity", "STRONG_CONVEXITY", "μ, the smallest eigenvalue of H.", QP, "μ = λmin(H)", Plain, Real(self.strong_convexity)),
@@ -238,6 +251,10 @@ impl Certificate {
             field("mpc.spectral_radius", "MPC_SPECTRAL_RADIUS", "ρ(F − G·K_MPC): the loop an exactly solved, unconstrained MPC closes.", LOOPS, "ρ(F − G·K_MPC), QP solved exactly", Stability, Real(self.mpc.spectral_radius)),
             field("mpc.solver_spectral_radius", "MPC_SOLVER_SPECTRAL_RADIUS", "ρ of the loop the fixed-iteration, warm-started solver closes, in (x, previous plan).", LOOPS, "ρ of the fixed-iteration warm-started solver", Stability, MaybeReal(self.mpc.solver_spectral_radius)),
             field("disturbance_time_constant", "DISTURBANCE_TIME_CONSTANT", "The disturbance estimate's time constant, s (with `[kalman] disturbance`).", OFFSET_FREE, "time constant, s", IfPresent, MaybeReal(self.disturbance_time_constant)),
+            field("coordinate_range.sensitivity.total", "COORDINATE_SENSITIVITY", "g: the worst first-order ‖δu₀‖∞ per unit of u·X, X the absolute coordinates' magnitude, u the unit roundoff.", COORDINATES, "g = ‖δu₀‖∞ per rounding u·X of |x|", Plain, Real(range.sensitivity.total)),
+            field("coordinate_range.command_accuracy", "COMMAND_ACCURACY", "The command accuracy the ranges are stated for: 1 % of the smallest input span.", COORDINATES, &format!("command accuracy ({percent} % of the smallest span)"), Plain, Real(range.command_accuracy)),
+            field("coordinate_range.f32", "COORDINATE_RANGE_F32", "X_max in f32: absolute coordinates up to this magnitude keep u₀ within COMMAND_ACCURACY.", COORDINATES, &keeps("f32"), Range, Real(range.f32)),
+            field("coordinate_range.f64", "COORDINATE_RANGE_F64", "X_max in f64.", COORDINATES, &keeps("f64"), Range, Real(range.f64)),
             field("macs_per_iteration", "MACS_PER_ITERATION", "Multiply-adds of one solver iteration.", RESOURCES, "multiply-adds per iteration", Plain, Count(r.macs_per_iteration)),
             field("macs_per_cycle", "MACS_PER_CYCLE", "Multiply-adds of one control cycle (filter, gradient map, every iteration).", RESOURCES, "multiply-adds per control cycle", Plain, Count(r.macs_per_cycle)),
             field("bytes_constants", "BYTES_CONSTANTS", "Bytes of coefficients inlined into the code.", RESOURCES, "bytes of constants", Plain, Count(r.bytes_constants)),
@@ -463,6 +480,11 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
         build_cost,
         emission: plan.emission(),
         estimates: plan.estimates.clone(),
+        coordinate_range: crate::coordinates::coordinate_range(
+            p,
+            plan.emission(),
+            crate::coordinates::DEFAULT_ACCURACY,
+        ),
         disturbance_time_constant: p.filter.as_ref().filter(|f| f.nd > 0).map(|f| {
             let na = p.nx + f.nd;
             let error = &f.Fa * (DMatrix::identity(na, na) - &f.K_inf * &f.Ca);

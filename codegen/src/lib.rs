@@ -24,6 +24,7 @@
 
 pub mod budget;
 pub mod certificate;
+pub mod coordinates;
 pub mod cost;
 pub mod emit;
 pub mod form;

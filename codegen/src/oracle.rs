@@ -374,6 +374,12 @@ impl Kalman {
         Measurement::Reacquired
     }
 
+    /// Moves the estimate by `dx`: a perturbation where the emitted filter rounds what it stores
+    /// (`codegen/tests/coordinates.rs` measures the controller's response to it).
+    pub fn perturb(&mut self, dx: &DVector<f64>) {
+        self.x += dx;
+    }
+
     /// Whether the filter holds an estimate.
     pub fn has_estimate(&self) -> bool {
         self.valid

@@ -5,6 +5,8 @@
 /// horizon 15, gradient form `lanes` ([`EMISSION`]).
 /// [`Controller::step`] runs one control cycle; [`Mpc`] and [`Kalman`] are its two halves.
 /// Every constant was computed at compile time in f64 and rounded once to [`Real`].
+/// Absolute coordinates up to |x[0..3]| ≤ 8.0e1 keep u₀ within 1 % of the input span in f32
+/// (`report::COORDINATE_RANGE_F32`); beyond, give the controller coordinates from a local origin.
 ///
 /// Reading order: dimensions and parameters, the public types, their kernels, the constant tables,
 /// and the `report` of what the compiler proved.
@@ -8493,6 +8495,14 @@ pub mod paper_offset_free {
         pub const MPC_SOLVER_SPECTRAL_RADIUS: Option<f64> = Some(0.9304735590350819f64);
         /// The disturbance estimate's time constant, s (with `[kalman] disturbance`).
         pub const DISTURBANCE_TIME_CONSTANT: Option<f64> = Some(1.420745950798284f64);
+        /// g: the worst first-order ‖δu₀‖∞ per unit of u·X, X the absolute coordinates' magnitude, u the unit roundoff.
+        pub const COORDINATE_SENSITIVITY: f64 = 42080.22295144247f64;
+        /// The command accuracy the ranges are stated for: 1 % of the smallest input span.
+        pub const COMMAND_ACCURACY: f64 = 0.2f64;
+        /// X_max in f32: absolute coordinates up to this magnitude keep u₀ within COMMAND_ACCURACY.
+        pub const COORDINATE_RANGE_F32: f64 = 79.73919729160986f64;
+        /// X_max in f64.
+        pub const COORDINATE_RANGE_F64: f64 = 42809655572.09451f64;
         /// Multiply-adds of one solver iteration.
         pub const MACS_PER_ITERATION: usize = 1020;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).

@@ -89,6 +89,9 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             }
             (Shown::Bytes, Value::Real(bytes)) => codegen::budget::size(bytes),
             (Shown::Seconds, Value::Real(seconds)) => format!("{seconds:.1} s"),
+            (Shown::Range, Value::Real(x)) => {
+                format!("for |{}| ≤ {x:.1e}", c.coordinate_range.names())
+            }
             (Shown::Gap, Value::MaybeReal(Some(gap))) => {
                 format!("Δ_{m}/Δ_0 ≤ {}", num(gap), m = c.iterations)
             }
