@@ -25,6 +25,7 @@
 pub mod budget;
 pub mod certificate;
 pub mod cost;
+pub mod discretize;
 pub mod emit;
 pub mod form;
 pub mod input;
