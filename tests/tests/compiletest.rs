@@ -27,6 +27,7 @@ const FAMILIES: &[&str] = &[
     "sigma",
     "tolerance",
     "emission",
+    "time",
 ];
 
 #[test]
