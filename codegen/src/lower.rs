@@ -785,6 +785,7 @@ fn check_ranges(
 
 /// F, G and the measurement matrix C of the model, discrete: a continuous-time `linear` model is sampled
 /// with a zero-order hold over `dt` ([`crate::discretize`]).
+#[allow(clippy::type_complexity)]
 pub fn plant(
     kind: &ModelKind,
     dt: f64,

@@ -104,7 +104,10 @@ fn stiff_model_agrees_with_a_taylor_series_and_its_eigendecomposition() {
         let Be = &V * diagonal(&|l| (l * dt).exp_m1() / l) * &Vi * &B;
         let ea = (&Ad - &Ae).norm() / Ae.norm();
         let eb = (&Bd - &Be).norm() / Be.norm();
-        assert!(ea <= 1e-12, "dt = {dt}: A_d differs by {ea:e} of ‖e^(A dt)‖");
+        assert!(
+            ea <= 1e-12,
+            "dt = {dt}: A_d differs by {ea:e} of ‖e^(A dt)‖"
+        );
         assert!(eb <= 1e-12, "dt = {dt}: B_d differs by {eb:e} of ‖B_d‖");
     }
 }
@@ -171,7 +174,10 @@ fn the_double_integrator_is_its_own_zero_order_hold() {
         let F = DMatrix::from_row_slice(2, 2, &[1.0, dt, 0.0, 1.0]);
         let G = DMatrix::from_row_slice(2, 1, &[dt * dt / 2.0, dt]);
         assert!((&Ad - &F).amax() <= 1e-15 * dt.max(1.0), "dt = {dt}: {Ad}");
-        assert!((&Bd - &G).amax() <= 1e-15 * (dt * dt).max(1.0), "dt = {dt}: {Bd}");
+        assert!(
+            (&Bd - &G).amax() <= 1e-15 * (dt * dt).max(1.0),
+            "dt = {dt}: {Bd}"
+        );
         // Through `lower::plant`, the one place the lowering takes its model from.
         let linear = ModelKind::Linear {
             a: Matrix::from_rows(&[vec![0.0, 1.0], vec![0.0, 0.0]]),
@@ -189,11 +195,9 @@ fn the_double_integrator_is_its_own_zero_order_hold() {
         let sigma2 = 0.15f64.powi(2);
         let Qc = DMatrix::from_row_slice(2, 2, &[0.0, 0.0, 0.0, sigma2]);
         let Qd = van_loan(&A, &Qc, dt).unwrap();
-        let exact = DMatrix::from_row_slice(
-            2,
-            2,
-            &[dt.powi(3) / 3.0, dt * dt / 2.0, dt * dt / 2.0, dt],
-        ) * sigma2;
+        let exact =
+            DMatrix::from_row_slice(2, 2, &[dt.powi(3) / 3.0, dt * dt / 2.0, dt * dt / 2.0, dt])
+                * sigma2;
         assert!(
             (&Qd - &exact).norm() <= 1e-14 * exact.norm(),
             "dt = {dt}: {Qd} vs {exact}"
@@ -237,7 +241,9 @@ fn unsampleable_models_are_refused() {
     let B = DMatrix::from_row_slice(2, 1, &[0.0, 1.0]);
     // A mode e^{1000}: overflows.
     let A = DMatrix::from_row_slice(2, 2, &[1000.0, 0.0, 0.0, -1.0]);
-    assert!(matches!(zero_order_hold(&A, &B, 1.0), Err(NotFinite { norm_dt }) if norm_dt == 1000.0));
+    assert!(
+        matches!(zero_order_hold(&A, &B, 1.0), Err(NotFinite { norm_dt }) if norm_dt == 1000.0)
+    );
     // e^{500} is finite, its covariance's e^{1000} is not.
     assert!(zero_order_hold(&A, &B, 0.5).is_ok());
     assert!(van_loan(&A, &DMatrix::identity(2, 2), 0.5).is_err());
@@ -245,4 +251,3 @@ fn unsampleable_models_are_refused() {
     let A = DMatrix::from_row_slice(2, 2, &[-1e200, 0.0, 0.0, -1.0]);
     assert!(zero_order_hold(&A, &B, 1.0).is_err());
 }
-

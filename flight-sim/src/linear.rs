@@ -198,7 +198,8 @@ impl<const NR: usize> LinearReference<NR> for Setpoint<NR> {
 pub trait LinearController<const NU: usize, const NY: usize, const NR: usize> {
     /// One control cycle at cycle `k`: the measurement `y` and the reference (the controller reads what
     /// it needs, e.g. [`LinearReference::window`]); returns the command.
-    fn step<R: LinearReference<NR>>(&mut self, k: usize, y: &[f64; NY], reference: &R) -> [f64; NU];
+    fn step<R: LinearReference<NR>>(&mut self, k: usize, y: &[f64; NY], reference: &R)
+        -> [f64; NU];
 
     /// The measurements the controller's filter has rejected so far (0 for one that cannot tell).
     fn rejected_measurements(&self) -> usize {
@@ -274,16 +275,7 @@ pub struct LinearReport<const NU: usize, const NR: usize> {
 /// Each cycle `k`: the sensor measures C x + v; the controller returns a command u; the plant advances
 /// one period under u + d(t) and the process noise w. The noise depends only on the seed and the
 /// cycle, never on the controller.
-pub fn fly_linear<
-    const NX: usize,
-    const NU: usize,
-    const NY: usize,
-    const NR: usize,
-    C,
-    R,
-    D,
-    F,
->(
+pub fn fly_linear<const NX: usize, const NU: usize, const NY: usize, const NR: usize, C, R, D, F>(
     plant: &mut LinearPlant<NX, NU, NY>,
     controller: &mut C,
     reference: &R,

@@ -633,7 +633,13 @@ fn check_json_reports_the_discrete_model() {
         v.as_array()
             .unwrap()
             .iter()
-            .map(|r| r.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect())
+            .map(|r| {
+                r.as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|x| x.as_f64().unwrap())
+                    .collect()
+            })
             .collect()
     };
     let o = mpcc(&["check", "tests/specs/dc-motor-continuous.toml", "--json"]);
@@ -646,7 +652,10 @@ fn check_json_reports_the_discrete_model() {
     // input reaching ω through i within the period.
     assert!((a[0][0] - (-0.5f64).exp()).abs() < 1e-3, "{a:?}");
     assert!((a[1][1] - (-0.1f64).exp()).abs() < 1e-3, "{a:?}");
-    assert!(b[0][0] > 0.0 && (b[1][0] - 2.0 * 0.05).abs() < 0.01, "{b:?}");
+    assert!(
+        b[0][0] > 0.0 && (b[1][0] - 2.0 * 0.05).abs() < 0.01,
+        "{b:?}"
+    );
     // Q_d ≈ Q_c·dt for a short period, below it for decaying modes.
     assert!(q[1][1] > 0.0 && q[1][1] < 0.1 * 0.05, "{q:?}");
     assert_eq!(q[0][1], q[1][0]);
