@@ -26,6 +26,7 @@ pub mod budget;
 pub mod certificate;
 pub mod coordinates;
 pub mod cost;
+pub mod discretize;
 pub mod emit;
 pub mod form;
 pub mod input;

@@ -142,3 +142,16 @@ pub fn lyapunov_identity(A: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     }
     Some((&P + P.transpose()) * 0.5)
 }
+
+/// A matrix as a fixed-size array of rows, the form `no_std` code takes (`flight_sim::LinearPlant`
+/// from the lowered F, G and C). Panics when `M` is not R × C.
+pub fn array<const R: usize, const C: usize>(M: &DMatrix<f64>) -> [[f64; C]; R] {
+    assert_eq!(
+        (M.nrows(), M.ncols()),
+        (R, C),
+        "the matrix is {}×{}, the array {R}×{C}",
+        M.nrows(),
+        M.ncols()
+    );
+    core::array::from_fn(|i| core::array::from_fn(|j| M[(i, j)]))
+}

@@ -4,12 +4,13 @@
 //! `cargo build` time and bakes into the emitted module, and what the generic solver runs with.
 #![allow(non_snake_case)]
 
+use crate::discretize::{self, NotFinite};
 use crate::linalg::{dense, extreme_eigenvalues, project, steady_state_filter, symmetrize};
 use crate::numeric::Numeric;
 use crate::solver::Parameters;
 use mpc_spec::{
     Diagnostic, Diagnostics, FilterKind, Iterations, KalmanNoise, Matrix, Method, ModelKind,
-    Scalar, Spec, Step, MAX_ITERATIONS,
+    Scalar, Spec, Step, TimeDomain, MAX_ITERATIONS,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -268,7 +269,8 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     if let ModelKind::DoubleIntegrator { .. } = spec.model.kind {
         check_dt(spec)?;
     }
-    let (F, G, C) = plant(&spec.model.kind, dt);
+    let (F, G, C) = plant(&spec.model.kind, dt)
+        .map_err(|e| not_sampled(spec, "the zero-order-hold sampling e^{A·dt}", e))?;
     let (nx, nu) = (F.nrows(), G.ncols());
     // Without a filter the controller is given the state: the measurement is x itself.
     let C = if spec.kalman.is_some() {
@@ -391,7 +393,9 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
 /// recursion never settles. That bounds Δt to about (3e-8, 3e7) in the spec's units.
 fn check_dt(spec: &Spec) -> Result<(), Diagnostics> {
     let dt = spec.model.dt;
-    let (F, G, _) = plant(&ModelKind::DoubleIntegrator { axes: 1 }, dt);
+    let Ok((F, G, _)) = plant(&ModelKind::DoubleIntegrator { axes: 1 }, dt) else {
+        unreachable!("the double integrator is sampled in closed form")
+    };
     let mut W = DMatrix::zeros(2, 2);
     W.set_column(0, &G.column(0));
     W.set_column(1, &(&F * &G).column(0));
@@ -756,7 +760,7 @@ fn filter(
                 sigma_meas.iter().map(|s| s * s),
             )),
         ),
-        KalmanNoise::Covariances { q, r } => (symmetric(q), symmetric(r)),
+        KalmanNoise::Covariances { q, r } => (process_covariance(spec, q, diags)?, symmetric(r)),
     };
     let P0 = symmetric(&kalman.p0);
     let nd = kalman.disturbance.as_ref().map_or(0, |_| nu);
@@ -942,8 +946,13 @@ fn check_ranges(
     }
 }
 
-/// F, G and the measurement matrix C of the model.
-pub fn plant(kind: &ModelKind, dt: f64) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+/// F, G and the measurement matrix C of the model, discrete: a continuous-time `linear` model is sampled
+/// with a zero-order hold over `dt` ([`crate::discretize`]).
+#[allow(clippy::type_complexity)]
+pub fn plant(
+    kind: &ModelKind,
+    dt: f64,
+) -> Result<(DMatrix<f64>, DMatrix<f64>, DMatrix<f64>), NotFinite> {
     match kind {
         ModelKind::DoubleIntegrator { axes } => {
             let n = *axes;
@@ -957,9 +966,64 @@ pub fn plant(kind: &ModelKind, dt: f64) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<
                 G[(n + i, i)] = dt;
                 C[(i, i)] = 1.0;
             }
-            (F, G, C)
+            Ok((F, G, C))
         }
-        ModelKind::Linear { a, b, c } => (dense(a), dense(b), dense(c)),
+        ModelKind::Linear {
+            a,
+            b,
+            c,
+            time: TimeDomain::Discrete,
+        } => Ok((dense(a), dense(b), dense(c))),
+        ModelKind::Linear {
+            a,
+            b,
+            c,
+            time: TimeDomain::Continuous,
+        } => {
+            let (F, G) = discretize::zero_order_hold(&dense(a), &dense(b), dt)?;
+            Ok((F, G, dense(c)))
+        }
+    }
+}
+
+/// The error for a continuous model that f64 cannot sample, at `model.a`.
+fn not_sampled(spec: &Spec, what: &str, e: NotFinite) -> Diagnostic {
+    let why = if e.norm_dt.is_finite() && e.norm_dt <= discretize::MAX_NORM_DT {
+        "a mode grows past f64's range within one period (Re λ·dt ≳ 709 for the plant, half that for its covariance)".to_string()
+    } else {
+        format!(
+            "the exponent is beyond the {:e} it is computed for",
+            discretize::MAX_NORM_DT
+        )
+    };
+    Diagnostic::new(
+        format!(
+            "{what} of the continuous-time model is not finite in f64: ‖A‖₁·dt = {:.3e}, and {why}",
+            e.norm_dt
+        ),
+        spec.spans.get("model.a").or(spec.spans.get("model.dt")),
+    )
+    .label("sampled over `dt` as e^{A·dt}")
+    .note("hint: check the units of `a` (per second) and of `dt` (seconds); `time = \"continuous\"` takes ẋ = A x + B u, a sampled model is `time = \"discrete\"`")
+}
+
+/// The discrete process covariance of `[kalman] q`: as written for a discrete model; for a continuous one
+/// `q` is the spectral density Q_c of white noise on ẋ, sampled over `dt` by Van Loan's method. `None`
+/// (reported) when f64 cannot sample it.
+fn process_covariance(spec: &Spec, q: &Matrix, diags: &mut Diagnostics) -> Option<DMatrix<f64>> {
+    match &spec.model.kind {
+        ModelKind::Linear {
+            a,
+            time: TimeDomain::Continuous,
+            ..
+        } => match discretize::van_loan(&dense(a), &symmetric(q), spec.model.dt) {
+            Ok(Q) => Some(Q),
+            Err(e) => {
+                diags.push(not_sampled(spec, "the Van Loan sampling of `kalman.q`", e));
+                None
+            }
+        },
+        _ => Some(symmetric(q)),
     }
 }
 

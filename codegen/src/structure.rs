@@ -162,7 +162,7 @@ mod tests {
     #[test]
     fn the_double_integrators_covariance_stays_one_block_per_axis() {
         let (F, _, C) =
-            crate::lower::plant(&mpc_spec::ModelKind::DoubleIntegrator { axes: 3 }, 0.01);
+            crate::lower::plant(&mpc_spec::ModelKind::DoubleIntegrator { axes: 3 }, 0.01).unwrap();
         let Q = crate::lower::white_acceleration_noise(3, 0.01, 0.5);
         let R = DMatrix::identity(3, 3) * 0.09;
         let P = covariance_pattern(&F, &C, &Q, &R, &DMatrix::identity(6, 6));

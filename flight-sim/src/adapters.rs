@@ -131,6 +131,61 @@ macro_rules! mpc_controller {
     };
 }
 
+/// Defines a [`LinearController`](crate::LinearController) from any generated module: a wrapper around
+/// its `Controller` that hands it the measurement and the N-step window of a full-state reference
+/// (`NR = NX`, read at the module's `DT`), converting between `f64` and the module's `Real`, and counting
+/// the measurements its filter rejected. Fly it with `tracked` the NX × NX identity.
+///
+/// ```ignore
+/// flight_sim::linear_mpc_controller!(pub struct Motor(crate::motor));
+/// let mut controller = Motor::new(&[0.0; motor::NX]);
+/// ```
+#[macro_export]
+macro_rules! linear_mpc_controller {
+    ($(#[$attr:meta])* $vis:vis struct $name:ident($($m:ident)::+) $(;)?) => {
+        $(#[$attr])*
+        $vis struct $name {
+            controller: $($m)::+::Controller,
+            rejected: usize,
+        }
+
+        #[allow(dead_code)]
+        impl $name {
+            /// The generated controller, its filter started at `x0`.
+            $vis fn new(x0: &[f64; $($m)::+::NX]) -> Self {
+                Self {
+                    controller: $($m)::+::Controller::new($crate::cast(x0)),
+                    rejected: 0,
+                }
+            }
+            /// The generated controller.
+            $vis fn controller(&self) -> &$($m)::+::Controller {
+                &self.controller
+            }
+        }
+
+        impl $crate::LinearController<{ $($m)::+::NU }, { $($m)::+::NY }, { $($m)::+::NX }> for $name {
+            fn step<R: $crate::LinearReference<{ $($m)::+::NX }>>(
+                &mut self,
+                k: usize,
+                y: &[f64; $($m)::+::NY],
+                reference: &R,
+            ) -> [f64; $($m)::+::NU] {
+                let dt = $crate::Real::to_f64($($m)::+::DT);
+                let xref = reference.window::<$($m)::+::Real, { $($m)::+::N }>(k, dt);
+                let u = self.controller.step(&$crate::cast(y), &xref);
+                if !self.controller.status().filter.measurement.accepted() {
+                    self.rejected += 1;
+                }
+                $crate::cast(&u)
+            }
+            fn rejected_measurements(&self) -> usize {
+                self.rejected
+            }
+        }
+    };
+}
+
 #[cfg(test)]
 mod tests {
     //! Hand-written modules with the generated API, to check that the macros expand.

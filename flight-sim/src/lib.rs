@@ -7,6 +7,7 @@
 mod adapters;
 mod estimator;
 mod fly;
+mod linear;
 pub mod metrics;
 mod model;
 mod noise;
@@ -17,6 +18,10 @@ pub mod wind;
 
 pub use estimator::{Estimator, ModelEstimator};
 pub use fly::{fly, fly_with, Controller, Disturbance, Sample, Scenario};
+pub use linear::{
+    fly_linear, lower_factor, LinearController, LinearNoise, LinearNoiseConfig, LinearPlant,
+    LinearReference, LinearReport, LinearSample, LinearScenario, Setpoint,
+};
 pub use model::{Plant, DT, NU, NX, NY};
 pub use noise::{Noise, NoiseConfig};
 pub use pid::{Derivative, Pid, PidController, PidGains};

@@ -14,67 +14,84 @@
 
 use libm::sqrt;
 
-/// Table 2 of one run, per axis `[x, y, z]`.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Table2 {
+/// Table 2 of one run, per axis `[x, y, z]`: `NE` tracked quantities and `NC` commands, three of each
+/// for the drone (any number for a [`LinearPlant`](crate::LinearPlant)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Table2<const NE: usize = 3, const NC: usize = NE> {
     /// Max absolute error, m.
-    pub max_abs_error: [f64; 3],
+    pub max_abs_error: [f64; NE],
     /// Root-mean-square error, m.
-    pub rmse: [f64; 3],
+    pub rmse: [f64; NE],
     /// Integral of the absolute error, m·s.
-    pub iae: [f64; 3],
+    pub iae: [f64; NE],
     /// Integral of the squared error, m²·s.
-    pub ise: [f64; 3],
+    pub ise: [f64; NE],
     /// Integral of time times absolute error, m·s².
-    pub itae: [f64; 3],
+    pub itae: [f64; NE],
     /// Integral of time times squared error, m²·s².
-    pub itse: [f64; 3],
+    pub itse: [f64; NE],
     /// Mean rate of change of the command, m/s³.
-    pub smoothness: [f64; 3],
+    pub smoothness: [f64; NC],
     /// Variance of the command, (m/s²)².
-    pub variance: [f64; 3],
+    pub variance: [f64; NC],
+}
+
+// `[f64; N]: Default` exists for N ≤ 32 only, not for a const generic N.
+impl<const NE: usize, const NC: usize> Default for Table2<NE, NC> {
+    fn default() -> Self {
+        Self {
+            max_abs_error: [0.0; NE],
+            rmse: [0.0; NE],
+            iae: [0.0; NE],
+            ise: [0.0; NE],
+            itae: [0.0; NE],
+            itse: [0.0; NE],
+            smoothness: [0.0; NC],
+            variance: [0.0; NC],
+        }
+    }
 }
 
 /// Accumulates [`Table2`] one cycle at a time.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Tracking {
+pub struct Tracking<const NE: usize = 3, const NC: usize = NE> {
     dt: f64,
     n: usize,
-    max_abs: [f64; 3],
-    sum_abs: [f64; 3],
-    sum_sq: [f64; 3],
-    sum_t_abs: [f64; 3],
-    sum_t_sq: [f64; 3],
-    sum_du: [f64; 3],
-    previous_u: [f64; 3],
+    max_abs: [f64; NE],
+    sum_abs: [f64; NE],
+    sum_sq: [f64; NE],
+    sum_t_abs: [f64; NE],
+    sum_t_sq: [f64; NE],
+    sum_du: [f64; NC],
+    previous_u: [f64; NC],
     // Welford's running mean and sum of squared deviations of the command.
-    mean_u: [f64; 3],
-    m2_u: [f64; 3],
+    mean_u: [f64; NC],
+    m2_u: [f64; NC],
 }
 
-impl Tracking {
+impl<const NE: usize, const NC: usize> Tracking<NE, NC> {
     /// An empty accumulator for samples `dt` seconds apart.
     pub const fn new(dt: f64) -> Self {
         Self {
             dt,
             n: 0,
-            max_abs: [0.0; 3],
-            sum_abs: [0.0; 3],
-            sum_sq: [0.0; 3],
-            sum_t_abs: [0.0; 3],
-            sum_t_sq: [0.0; 3],
-            sum_du: [0.0; 3],
-            previous_u: [0.0; 3],
-            mean_u: [0.0; 3],
-            m2_u: [0.0; 3],
+            max_abs: [0.0; NE],
+            sum_abs: [0.0; NE],
+            sum_sq: [0.0; NE],
+            sum_t_abs: [0.0; NE],
+            sum_t_sq: [0.0; NE],
+            sum_du: [0.0; NC],
+            previous_u: [0.0; NC],
+            mean_u: [0.0; NC],
+            m2_u: [0.0; NC],
         }
     }
 
     /// Adds one cycle at time `t`: tracking error `error` (m) and command `u` (m/s²).
-    pub fn push(&mut self, t: f64, error: &[f64; 3], u: &[f64; 3]) {
+    pub fn push(&mut self, t: f64, error: &[f64; NE], u: &[f64; NC]) {
         self.n += 1;
         let n = self.n as f64;
-        for i in 0..3 {
+        for i in 0..NE {
             let a = error[i].abs();
             let s = error[i] * error[i];
             if a > self.max_abs[i] {
@@ -84,6 +101,8 @@ impl Tracking {
             self.sum_sq[i] += s;
             self.sum_t_abs[i] += t * a;
             self.sum_t_sq[i] += t * s;
+        }
+        for i in 0..NC {
             if self.n > 1 {
                 self.sum_du[i] += (u[i] - self.previous_u[i]).abs();
             }
@@ -105,19 +124,21 @@ impl Tracking {
     }
 
     /// The metrics so far (all zero when empty).
-    pub fn finish(&self) -> Table2 {
+    pub fn finish(&self) -> Table2<NE, NC> {
         let mut t = Table2::default();
         if self.n == 0 {
             return t;
         }
         let n = self.n as f64;
-        for i in 0..3 {
+        for i in 0..NE {
             t.max_abs_error[i] = self.max_abs[i];
             t.rmse[i] = sqrt(self.sum_sq[i] / n);
             t.iae[i] = self.sum_abs[i] * self.dt;
             t.ise[i] = self.sum_sq[i] * self.dt;
             t.itae[i] = self.sum_t_abs[i] * self.dt;
             t.itse[i] = self.sum_t_sq[i] * self.dt;
+        }
+        for i in 0..NC {
             t.smoothness[i] = if self.n > 1 {
                 self.sum_du[i] / ((n - 1.0) * self.dt)
             } else {
@@ -472,7 +493,7 @@ mod tests {
         assert!(close(t.variance[0], 8.0 / 3.0, 1e-12));
         assert!(close(t.variance[1], 0.0, 1e-12));
         assert!(close(t.variance[2], 2.0, 1e-12));
-        assert_eq!(Tracking::new(0.1).finish(), Table2::default());
+        assert_eq!(Tracking::<3>::new(0.1).finish(), Table2::default());
     }
 
     /// Feeds `f` sampled every `dt` on `[0, t_end]` to a 0 → 1 step at t = 0.

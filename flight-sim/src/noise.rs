@@ -68,8 +68,9 @@ impl Noise {
     }
 }
 
-fn draw(rng: &mut ChaCha8Rng, sigma: f64) -> [f64; 3] {
-    let mut out = [0.0; 3];
+/// `K` independent standard normals from `rng`, scaled by `sigma`.
+pub(crate) fn draw<const K: usize>(rng: &mut ChaCha8Rng, sigma: f64) -> [f64; K] {
+    let mut out = [0.0; K];
     for o in &mut out {
         let n: f64 = StandardNormal.sample(rng);
         *o = sigma * n;

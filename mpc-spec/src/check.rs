@@ -41,8 +41,9 @@ fn spelled<T>(value: &Option<Located<String>>, default: T, from_name: fn(&str) -
         .unwrap_or(default)
 }
 
-/// `double_integrator` takes `axes` and no matrices; `linear` takes `a` (nx × nx), `b` (nx × nu) and
-/// `c` (ny × nx; optional without a filter, which is what uses it) and no `axes`.
+/// `double_integrator` takes `axes` and no matrices nor `time`; `linear` takes `a` (nx × nx), `b`
+/// (nx × nu) and `c` (ny × nx; optional without a filter, which is what uses it), optionally `time`, and
+/// no `axes`.
 fn check_model(raw: &Raw, filtered: bool, diags: &mut Diagnostics) -> Option<Model> {
     let ty = raw.model_type.as_ref()?;
     let dt = raw.dt.as_ref()?.value;
@@ -55,6 +56,17 @@ fn check_model(raw: &Raw, filtered: bool, diags: &mut Diagnostics) -> Option<Mod
                 )
                 .label("not used by this model type")
                 .note("hint: write `type = \"linear\"` to give the matrices yourself"),
+            );
+        }
+        // Present but misspelled was reported where it was parsed.
+        if let Some(time) = &raw.time {
+            diags.push(
+                Diagnostic::new(
+                    "a `double_integrator` model takes no `time`",
+                    time.span.clone(),
+                )
+                .label("not used by this model type")
+                .note("hint: the double integrator is already the exact zero-order-hold sampling of a continuous-time one; for another continuous-time plant write `type = \"linear\"`, `time = \"continuous\"` and its `a`, `b`, `c`"),
             );
         }
         let Some(axes) = &raw.axes else {
@@ -137,6 +149,7 @@ fn check_model(raw: &Raw, filtered: bool, diags: &mut Diagnostics) -> Option<Mod
             a: a.value.clone(),
             b: b.value.clone(),
             c: c.value.clone(),
+            time: spelled(&raw.time, TimeDomain::Discrete, TimeDomain::from_name),
         }
     };
     Some(Model { kind, dt })

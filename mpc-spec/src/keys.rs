@@ -13,7 +13,7 @@ pub const CODEGEN: &str = "codegen";
 pub const TABLES: &[&str] = &[MODEL, MPC, KALMAN, CODEGEN];
 
 /// Keys of `[model]`.
-pub const MODEL_KEYS: &[&str] = &["type", "axes", "dt", "a", "b", "c"];
+pub const MODEL_KEYS: &[&str] = &["type", "axes", "dt", "time", "a", "b", "c"];
 /// Keys of `[mpc]`.
 pub const MPC_KEYS: &[&str] = &[
     "horizon",
@@ -50,6 +50,8 @@ pub const CODEGEN_KEYS: &[&str] = &["scalar", "emission"];
 
 /// Values of `[model] type`.
 pub const MODEL_TYPES: &[&str] = &["double_integrator", "linear"];
+/// Values of `[model] time`.
+pub const TIMES: &[&str] = crate::TimeDomain::NAMES;
 /// Values of `[mpc] method`.
 pub const METHODS: &[&str] = crate::Method::NAMES;
 /// Values of `[kalman] filter`.

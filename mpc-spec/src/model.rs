@@ -143,7 +143,7 @@ pub enum ModelKind {
         /// Number of independent axes.
         axes: usize,
     },
-    /// A discrete-time linear plant x⁺ = A x + B u, y = C x.
+    /// A linear plant x⁺ = A x + B u (or ẋ = A x + B u, see `time`), y = C x.
     Linear {
         /// nx × nx.
         a: Matrix,
@@ -151,7 +151,21 @@ pub enum ModelKind {
         b: Matrix,
         /// ny × nx; the identity when not written (only without `[kalman]`, which is what uses it).
         c: Matrix,
+        /// Whether `a` and `b` are the sampled model or the continuous-time one the compiler samples.
+        time: TimeDomain,
     },
+}
+
+spelled! {
+    /// The time domain of a `linear` model's `a` and `b`, `[model] time`.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum TimeDomain {
+        /// x⁺ = A x + B u over one sampling period `dt`: used as written.
+        Discrete = "discrete",
+        /// ẋ = A x + B u: sampled exactly with a zero-order hold over `dt` (`[kalman] q` is then a
+        /// spectral density, sampled by Van Loan's method).
+        Continuous = "continuous",
+    }
 }
 
 /// `[mpc] iterations`.

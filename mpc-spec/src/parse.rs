@@ -58,6 +58,7 @@ pub struct Raw {
     pub model_type: Option<Located<String>>,
     pub axes: Option<Located<usize>>,
     pub dt: Option<Located<f64>>,
+    pub time: Option<Located<String>>,
     pub a: Option<Located<Matrix>>,
     pub b: Option<Located<Matrix>>,
     pub c: Option<Located<Matrix>>,
@@ -151,6 +152,9 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.dt = p
             .required(t, "model", "dt", &span)
             .and_then(|v| p.positive(v, "model.dt"));
+        raw.time = t
+            .get("time")
+            .and_then(|v| p.choice(v, "model.time", keys::TIMES));
         raw.a = t.get("a").and_then(|v| p.matrix(v, "model.a"));
         raw.b = t.get("b").and_then(|v| p.matrix(v, "model.b"));
         raw.c = t.get("c").and_then(|v| p.matrix(v, "model.c"));

@@ -326,3 +326,57 @@ fn disturbance_is_optional_and_sized() {
         "the diagonal of `kalman.disturbance` must be positive"
     );
 }
+
+/// The linear model of `full_matrices_and_linear_models`, with `extra` after `dt`.
+fn linear_with(extra: &str) -> String {
+    format!(
+        "[model]\ntype = \"linear\"\ndt = 0.1\n{extra}\na = [[0, 1], [0, 0]]\nb = [[0], [1]]\nc = [[1, 0]]\n[mpc]\nhorizon = 4\niterations = 10\nq = 1\nr = 0.1\nu_min = [-1]\nu_max = [1]\n[kalman]\nq = [1e-4, 1e-3]\nr = 0.01\n"
+    )
+}
+
+#[test]
+fn linear_models_are_discrete_unless_said_continuous() {
+    let time = |src: &str| match load(src).unwrap().model.kind {
+        ModelKind::Linear { time, .. } => time,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(time(&linear_with("")), TimeDomain::Discrete);
+    assert_eq!(
+        time(&linear_with("time = \"discrete\"")),
+        TimeDomain::Discrete
+    );
+    assert_eq!(
+        time(&linear_with("time = \"continuous\"")),
+        TimeDomain::Continuous
+    );
+}
+
+#[test]
+fn time_is_spelled_and_belongs_to_linear_models() {
+    let src = linear_with("time = \"contiuous\"");
+    let diags = load(&src).unwrap_err();
+    let d = diags.iter().next().unwrap();
+    assert_eq!(d.message, "unknown value \"contiuous\" for `model.time`");
+    assert_eq!(
+        d.note.as_deref(),
+        Some("hint: expected one of `discrete`, `continuous`")
+    );
+    assert_eq!(d.line_col(&src), Some((line_of(&src, "contiuous"), 8)));
+    assert_eq!(diags.iter().count(), 1);
+
+    let src = edited("dt = 0.0128", "dt = 0.0128\ntime = \"continuous\"");
+    let errs = errors(&src);
+    assert_eq!(
+        errs,
+        [(
+            "a `double_integrator` model takes no `time`".to_string(),
+            line_of(&src, "time = ")
+        )]
+    );
+
+    let src = linear_with("tiem = \"continuous\"");
+    let diags = load(&src).unwrap_err();
+    let d = diags.iter().next().unwrap();
+    assert_eq!(d.message, "unknown key `tiem` in `[model]`");
+    assert_eq!(d.note.as_deref(), Some("hint: did you mean `time`?"));
+}

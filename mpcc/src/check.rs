@@ -24,9 +24,43 @@ struct Check<'a> {
     filter: bool,
     /// Whether the moves Δu are weighted (`[mpc] r_du`).
     moves: bool,
+    model: Model,
     #[serde(flatten)]
     certificate: &'a Certificate,
     warnings: Vec<&'a str>,
+}
+
+/// The discrete model the controller was built from, row by row: for a continuous-time spec the sampled
+/// matrices, for a double integrator its F, G and eq. 3's Q.
+#[derive(Serialize)]
+struct Model {
+    dt: f64,
+    a: Vec<Vec<f64>>,
+    b: Vec<Vec<f64>>,
+    c: Vec<Vec<f64>>,
+    /// The filter's process covariance of the state (without the disturbance's), when there is a filter.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    q: Option<Vec<Vec<f64>>>,
+}
+
+/// The `rows` × `cols` matrix whose entry (i, j) is `at(i, j)`, as a list of rows.
+fn rows(rows: usize, cols: usize, at: impl Fn(usize, usize) -> f64) -> Vec<Vec<f64>> {
+    (0..rows)
+        .map(|i| (0..cols).map(|j| at(i, j)).collect())
+        .collect()
+}
+
+impl Model {
+    fn of(p: &codegen::Problem) -> Self {
+        let (nx, nu, ny) = (p.nx, p.nu, p.ny);
+        Model {
+            dt: p.dt,
+            a: rows(nx, nx, |i, j| p.F[(i, j)]),
+            b: rows(nx, nu, |i, j| p.G[(i, j)]),
+            c: rows(ny, nx, |i, j| p.C[(i, j)]),
+            q: p.filter.as_ref().map(|f| rows(nx, nx, |i, j| f.Qn[(i, j)])),
+        }
+    }
 }
 
 /// The certificate as JSON, pretty-printed, with a final newline.
@@ -42,6 +76,7 @@ pub(crate) fn json(shown: &str, g: &Generated) -> String {
         nz: p.qp.nz,
         filter: p.filter.is_some(),
         moves: p.has_moves(),
+        model: Model::of(p),
         certificate: &g.certificate,
         warnings: g.warnings.iter().map(|w| w.message.as_str()).collect(),
     };

@@ -624,3 +624,48 @@ fn emit_to_dev_full_fails_with_no_space_left() {
         "mpcc: cannot write `/dev/full`\n\nCaused by:\n    No space left on device (os error 28)\n"
     );
 }
+
+/// `model.a`, `model.b`, `model.q`: the discrete matrices the controller was built from, the sampled ones
+/// for a continuous-time spec, a double integrator's F, G and eq. 3's Q.
+#[test]
+fn check_json_reports_the_discrete_model() {
+    let matrix = |v: &serde_json::Value| -> Vec<Vec<f64>> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|r| {
+                r.as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|x| x.as_f64().unwrap())
+                    .collect()
+            })
+            .collect()
+    };
+    let o = mpcc(&["check", "tests/specs/dc-motor-continuous.toml", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let m = &v["model"];
+    assert_eq!(m["dt"].as_f64(), Some(0.05));
+    let (a, b, q) = (matrix(&m["a"]), matrix(&m["b"]), matrix(&m["q"]));
+    // ẋ = [[−10, 1], [−0.02, −2]] x + [0; 2] u over 0.05 s: the diagonal near e^{−0.5} and e^{−0.1}, the
+    // input reaching ω through i within the period.
+    assert!((a[0][0] - (-0.5f64).exp()).abs() < 1e-3, "{a:?}");
+    assert!((a[1][1] - (-0.1f64).exp()).abs() < 1e-3, "{a:?}");
+    assert!(
+        b[0][0] > 0.0 && (b[1][0] - 2.0 * 0.05).abs() < 0.01,
+        "{b:?}"
+    );
+    // Q_d ≈ Q_c·dt for a short period, below it for decaying modes.
+    assert!(q[1][1] > 0.0 && q[1][1] < 0.1 * 0.05, "{q:?}");
+    assert_eq!(q[0][1], q[1][0]);
+    assert_eq!(matrix(&m["c"]), [[1.0, 0.0]]);
+
+    let o = mpcc(&["check", "specs/paper.toml", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let (a, b) = (matrix(&v["model"]["a"]), matrix(&v["model"]["b"]));
+    assert_eq!((a.len(), a[0].len(), b.len(), b[0].len()), (6, 6, 6, 3));
+    assert_eq!(a[0][3], 0.0128);
+    assert_eq!(b[3][0], 0.0128);
+    assert_eq!(matrix(&v["model"]["q"]).len(), 6);
+}

@@ -29,6 +29,7 @@ const FAMILIES: &[&str] = &[
     "emission",
     "outputs",
     "moves",
+    "time",
 ];
 
 #[test]

@@ -73,6 +73,7 @@ fn fragments() -> Vec<String> {
     }
     for value in keys::MODEL_TYPES
         .iter()
+        .chain(keys::TIMES)
         .chain(keys::METHODS)
         .chain(keys::FILTERS)
         .chain(keys::SCALARS)
