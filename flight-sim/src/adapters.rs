@@ -132,17 +132,25 @@ macro_rules! mpc_controller {
 }
 
 /// Defines a [`LinearController`](crate::LinearController) from any generated module: a wrapper around
-/// its `Controller` that hands it the measurement and the N-step window of a full-state reference
-/// (`NR = NX`, read at the module's `DT`), converting between `f64` and the module's `Real`, and counting
-/// the measurements its filter rejected. Fly it with `tracked` the NX × NX identity.
+/// its `Controller` that hands it the measurement and the N-step window of the reference (read at the
+/// module's `DT`), converting between `f64` and the module's `Real`, and counting the measurements it
+/// rejected. The reference has the module's `NX` entries (fly it with `tracked` the NX × NX identity), or
+/// its `NZ` tracked outputs when the spec has `[mpc] outputs` (`tracked` its output map `CZ`). A module
+/// without `[kalman]` (`state`) is handed the measured state: fly it on a plant whose `C` is the identity.
 ///
 /// ```ignore
-/// flight_sim::linear_mpc_controller!(pub struct Motor(crate::motor));
-/// let mut controller = Motor::new(&[0.0; motor::NX]);
+/// flight_sim::linear_mpc_controller!(pub struct Motor(crate::motor));                 // filter, NX
+/// flight_sim::linear_mpc_controller!(pub struct Jet(crate::afti16), filter, NZ);      // filter, outputs
+/// flight_sim::linear_mpc_controller!(pub struct Cart(crate::cart), state, NZ);        // state feedback
+/// let mut motor = Motor::new(&[0.0; motor::NX]);
+/// let mut cart = Cart::new();
 /// ```
 #[macro_export]
 macro_rules! linear_mpc_controller {
     ($(#[$attr:meta])* $vis:vis struct $name:ident($($m:ident)::+) $(;)?) => {
+        $crate::linear_mpc_controller!($(#[$attr])* $vis struct $name($($m)::+), filter, NX);
+    };
+    ($(#[$attr:meta])* $vis:vis struct $name:ident($($m:ident)::+), filter, $nr:ident $(;)?) => {
         $(#[$attr])*
         $vis struct $name {
             controller: $($m)::+::Controller,
@@ -164,17 +172,60 @@ macro_rules! linear_mpc_controller {
             }
         }
 
-        impl $crate::LinearController<{ $($m)::+::NU }, { $($m)::+::NY }, { $($m)::+::NX }> for $name {
-            fn step<R: $crate::LinearReference<{ $($m)::+::NX }>>(
+        impl $crate::LinearController<{ $($m)::+::NU }, { $($m)::+::NY }, { $($m)::+::$nr }> for $name {
+            fn step<R: $crate::LinearReference<{ $($m)::+::$nr }>>(
                 &mut self,
                 k: usize,
                 y: &[f64; $($m)::+::NY],
                 reference: &R,
             ) -> [f64; $($m)::+::NU] {
                 let dt = $crate::Real::to_f64($($m)::+::DT);
-                let xref = reference.window::<$($m)::+::Real, { $($m)::+::N }>(k, dt);
-                let u = self.controller.step(&$crate::cast(y), &xref);
+                let window = reference.window::<$($m)::+::Real, { $($m)::+::N }>(k, dt);
+                let u = self.controller.step(&$crate::cast(y), &window);
                 if !self.controller.status().filter.measurement.accepted() {
+                    self.rejected += 1;
+                }
+                $crate::cast(&u)
+            }
+            fn rejected_measurements(&self) -> usize {
+                self.rejected
+            }
+        }
+    };
+    ($(#[$attr:meta])* $vis:vis struct $name:ident($($m:ident)::+), state, $nr:ident $(;)?) => {
+        $(#[$attr])*
+        $vis struct $name {
+            controller: $($m)::+::Controller,
+            rejected: usize,
+        }
+
+        #[allow(dead_code)]
+        impl $name {
+            /// The generated state-feedback controller, its MPC cold.
+            $vis fn new() -> Self {
+                Self {
+                    controller: $($m)::+::Controller::new(),
+                    rejected: 0,
+                }
+            }
+            /// The generated controller.
+            $vis fn controller(&self) -> &$($m)::+::Controller {
+                &self.controller
+            }
+        }
+
+        impl $crate::LinearController<{ $($m)::+::NU }, { $($m)::+::NX }, { $($m)::+::$nr }> for $name {
+            fn step<R: $crate::LinearReference<{ $($m)::+::$nr }>>(
+                &mut self,
+                k: usize,
+                x: &[f64; $($m)::+::NX],
+                reference: &R,
+            ) -> [f64; $($m)::+::NU] {
+                let dt = $crate::Real::to_f64($($m)::+::DT);
+                let window = reference.window::<$($m)::+::Real, { $($m)::+::N }>(k, dt);
+                let u = self.controller.step(&$crate::cast(x), &window);
+                // A state the controller could not use (non-finite) is its rejected measurement.
+                if self.controller.status().command == $($m)::+::Command::InvalidState {
                     self.rejected += 1;
                 }
                 $crate::cast(&u)

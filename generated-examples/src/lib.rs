@@ -6,3 +6,5 @@ mpc_macros::mpc!(pub mod paper = "../specs/paper.toml");
 mpc_macros::mpc!(pub mod paper_faithful = "../specs/paper-faithful.toml");
 mpc_macros::mpc!(pub mod paper_initial = "../specs/paper-initial.toml");
 mpc_macros::mpc!(pub mod paper_offset_free = "../specs/paper-offset-free.toml");
+// A plant of your own: continuous time, tracked outputs, move suppression (README, "Your own plant").
+mpc_macros::mpc!(pub mod afti16 = "../specs/afti16.toml");
