@@ -151,6 +151,21 @@ macro_rules! linear_mpc_controller {
         $crate::linear_mpc_controller!($(#[$attr])* $vis struct $name($($m)::+), filter, NX);
     };
     ($(#[$attr:meta])* $vis:vis struct $name:ident($($m:ident)::+), filter, $nr:ident $(;)?) => {
+        $crate::linear_mpc_controller!(@wrap $(#[$attr])* $vis $name($($m)::+), $nr, NY,
+            /// The generated controller, its filter started at `x0`.
+            fn new(x0: &[f64; $($m)::+::NX]) { $($m)::+::Controller::new($crate::cast(x0)) },
+            |c| !c.status().filter.measurement.accepted());
+    };
+    ($(#[$attr:meta])* $vis:vis struct $name:ident($($m:ident)::+), state, $nr:ident $(;)?) => {
+        // A state the controller could not use (non-finite) is its rejected measurement.
+        $crate::linear_mpc_controller!(@wrap $(#[$attr])* $vis $name($($m)::+), $nr, NX,
+            /// The generated state-feedback controller, its MPC cold.
+            fn new() { $($m)::+::Controller::new() },
+            |c| c.status().command == $($m)::+::Command::InvalidState);
+    };
+    (@wrap $(#[$attr:meta])* $vis:vis $name:ident($($m:ident)::+), $nr:ident, $ny:ident,
+        $(#[$new_doc:meta])* fn new($($arg:ident: $ty:ty)?) { $ctor:expr },
+        |$c:ident| $rejected:expr) => {
         $(#[$attr])*
         $vis struct $name {
             controller: $($m)::+::Controller,
@@ -159,10 +174,10 @@ macro_rules! linear_mpc_controller {
 
         #[allow(dead_code)]
         impl $name {
-            /// The generated controller, its filter started at `x0`.
-            $vis fn new(x0: &[f64; $($m)::+::NX]) -> Self {
+            $(#[$new_doc])*
+            $vis fn new($($arg: $ty)?) -> Self {
                 Self {
-                    controller: $($m)::+::Controller::new($crate::cast(x0)),
+                    controller: $ctor,
                     rejected: 0,
                 }
             }
@@ -172,60 +187,18 @@ macro_rules! linear_mpc_controller {
             }
         }
 
-        impl $crate::LinearController<{ $($m)::+::NU }, { $($m)::+::NY }, { $($m)::+::$nr }> for $name {
+        impl $crate::LinearController<{ $($m)::+::NU }, { $($m)::+::$ny }, { $($m)::+::$nr }> for $name {
             fn step<R: $crate::LinearReference<{ $($m)::+::$nr }>>(
                 &mut self,
                 k: usize,
-                y: &[f64; $($m)::+::NY],
+                y: &[f64; $($m)::+::$ny],
                 reference: &R,
             ) -> [f64; $($m)::+::NU] {
                 let dt = $crate::Real::to_f64($($m)::+::DT);
                 let window = reference.window::<$($m)::+::Real, { $($m)::+::N }>(k, dt);
                 let u = self.controller.step(&$crate::cast(y), &window);
-                if !self.controller.status().filter.measurement.accepted() {
-                    self.rejected += 1;
-                }
-                $crate::cast(&u)
-            }
-            fn rejected_measurements(&self) -> usize {
-                self.rejected
-            }
-        }
-    };
-    ($(#[$attr:meta])* $vis:vis struct $name:ident($($m:ident)::+), state, $nr:ident $(;)?) => {
-        $(#[$attr])*
-        $vis struct $name {
-            controller: $($m)::+::Controller,
-            rejected: usize,
-        }
-
-        #[allow(dead_code)]
-        impl $name {
-            /// The generated state-feedback controller, its MPC cold.
-            $vis fn new() -> Self {
-                Self {
-                    controller: $($m)::+::Controller::new(),
-                    rejected: 0,
-                }
-            }
-            /// The generated controller.
-            $vis fn controller(&self) -> &$($m)::+::Controller {
-                &self.controller
-            }
-        }
-
-        impl $crate::LinearController<{ $($m)::+::NU }, { $($m)::+::NX }, { $($m)::+::$nr }> for $name {
-            fn step<R: $crate::LinearReference<{ $($m)::+::$nr }>>(
-                &mut self,
-                k: usize,
-                x: &[f64; $($m)::+::NX],
-                reference: &R,
-            ) -> [f64; $($m)::+::NU] {
-                let dt = $crate::Real::to_f64($($m)::+::DT);
-                let window = reference.window::<$($m)::+::Real, { $($m)::+::N }>(k, dt);
-                let u = self.controller.step(&$crate::cast(x), &window);
-                // A state the controller could not use (non-finite) is its rejected measurement.
-                if self.controller.status().command == $($m)::+::Command::InvalidState {
+                let $c = &self.controller;
+                if $rejected {
                     self.rejected += 1;
                 }
                 $crate::cast(&u)
