@@ -1,0 +1,526 @@
+//! The dense interior-point method (`codegen::ipm`) against Clarabel and the box oracle: the box QPs of
+//! two specs, the paper's QP with velocity rows, the iterations a fixed-iteration solve needs, and
+//! infeasible or non-finite data.
+#![allow(non_snake_case)]
+
+use codegen::ipm::{self, InequalityQp, IpmResult, Start, Status};
+use codegen::lower::Qp;
+use codegen::oracle::{exact_solution, Mpc};
+use nalgebra::{DMatrix, DVector};
+
+const PAPER: &str = include_str!("../../specs/paper.toml");
+const TWO_MASS: &str = include_str!("../../tests/specs/two-mass-outputs.toml");
+
+/// The tolerance `solve` runs to, and the agreement asked of it (fraction of the input span).
+const TOLERANCE: f64 = 1e-9;
+const AGREEMENT: f64 = 1e-6;
+/// The issue's accuracy for a fixed-iteration solve: |U − U*|∞ ≤ 1e-3·span, violation ≤
+/// 1e-3·max(1, |bound|).
+const ACCURACY: f64 = 1e-3;
+
+fn problem(src: &str) -> codegen::Problem {
+    codegen::lower(&mpc_spec::load(src).unwrap()).unwrap()
+}
+
+/// A deterministic stream of numbers in [−1, 1) (an LCG): the tests need no statistics.
+struct Stream(u64);
+
+impl Stream {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+}
+
+/// Clarabel on the same QP, its finite sides stacked as G z + s = h, s ≥ 0, solved to 1e-10.
+fn clarabel(qp: &InequalityQp) -> DVector<f64> {
+    use clarabel::algebra::CscMatrix;
+    use clarabel::solver::{
+        DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+    };
+    let n = qp.n();
+    let csc = |M: &DMatrix<f64>, upper_only: bool| {
+        let (mut colptr, mut rowval, mut nzval) = (vec![0], Vec::new(), Vec::new());
+        for j in 0..M.ncols() {
+            let rows = if upper_only { j + 1 } else { M.nrows() };
+            for i in 0..rows {
+                if M[(i, j)] != 0.0 {
+                    rowval.push(i);
+                    nzval.push(M[(i, j)]);
+                }
+            }
+            colptr.push(rowval.len());
+        }
+        CscMatrix::new(M.nrows(), M.ncols(), colptr, rowval, nzval)
+    };
+    let mut rows: Vec<(DVector<f64>, f64)> = Vec::new();
+    for i in 0..n {
+        let e = DVector::from_fn(n, |j, _| if i == j { 1.0 } else { 0.0 });
+        if qp.z_max[i].is_finite() {
+            rows.push((e.clone(), qp.z_max[i]));
+        }
+        if qp.z_min[i].is_finite() {
+            rows.push((-e, -qp.z_min[i]));
+        }
+    }
+    for r in 0..qp.A.nrows() {
+        let a = qp.A.row(r).transpose();
+        if qp.upper[r].is_finite() {
+            rows.push((a.clone(), qp.upper[r]));
+        }
+        if qp.lower[r].is_finite() {
+            rows.push((-a, -qp.lower[r]));
+        }
+    }
+    let m = rows.len();
+    let G = DMatrix::from_fn(m, n, |r, j| rows[r].0[j]);
+    let h: Vec<f64> = rows.iter().map(|r| r.1).collect();
+    let settings = DefaultSettings {
+        verbose: false,
+        tol_gap_abs: 1e-13,
+        tol_gap_rel: 1e-13,
+        tol_feas: 1e-13,
+        tol_ktratio: 1e-10,
+        ..DefaultSettings::default()
+    };
+    let mut solver = DefaultSolver::new(
+        &csc(&qp.H, true),
+        qp.f.as_slice(),
+        &csc(&G, false),
+        &h,
+        &[SupportedConeT::NonnegativeConeT(m)],
+        settings,
+    )
+    .expect("Clarabel set-up");
+    solver.solve();
+    let status = solver.solution.status;
+    assert!(
+        matches!(status, SolverStatus::Solved | SolverStatus::AlmostSolved),
+        "Clarabel: {status:?}"
+    );
+    DVector::from_column_slice(&solver.solution.x)
+}
+
+/// The span u_max − u_min of each entry of U.
+fn span(qp: &Qp) -> DVector<f64> {
+    let nu = qp.u_min.len();
+    DVector::from_fn(qp.N * nu, |i, _| qp.u_max[i % nu] - qp.u_min[i % nu])
+}
+
+/// max_i |a_i − b_i| / span_i.
+fn error(a: &DVector<f64>, b: &DVector<f64>, span: &DVector<f64>) -> f64 {
+    (a - b).component_div(span).amax()
+}
+
+/// The largest violation of the rows, each relative to max(1, |its finite bound|).
+fn violation(qp: &InequalityQp, z: &DVector<f64>) -> f64 {
+    let Az = &qp.A * z;
+    let mut worst: f64 = 0.0;
+    for r in 0..qp.A.nrows() {
+        for (excess, bound) in [
+            (Az[r] - qp.upper[r], qp.upper[r]),
+            (qp.lower[r] - Az[r], qp.lower[r]),
+        ] {
+            if bound.is_finite() {
+                worst = worst.max(excess / bound.abs().max(1.0));
+            }
+        }
+    }
+    let n = qp.n();
+    for i in 0..n {
+        worst = worst.max(z[i] - qp.z_max[i]).max(qp.z_min[i] - z[i]);
+    }
+    worst
+}
+
+/// One problem to solve: a QP and its warm start (cold when `None`).
+struct Case {
+    qp: InequalityQp,
+    warm: Option<DVector<f64>>,
+}
+
+/// The box QP's random cases: states and references scaled from small to saturating; with move
+/// suppression a random last input too.
+fn box_cases(src: &str, seed: u64, count: usize) -> (Qp, Vec<InequalityQp>) {
+    let p = problem(src);
+    let qp = p.qp.clone();
+    let nx = qp.Fx.ncols();
+    let mut rng = Stream(seed);
+    let mut cases = Vec::new();
+    for k in 0..count {
+        let scale = [0.01, 0.1, 1.0, 5.0, 20.0][k % 5];
+        let mut mpc = Mpc::new(&p);
+        let last = DVector::from_fn(p.nu, |i, _| {
+            0.5 * (qp.u_min[i] + qp.u_max[i]) + 0.5 * (qp.u_max[i] - qp.u_min[i]) * rng.next()
+        });
+        assert!(mpc.set_last_input(&last));
+        let x0 = DVector::from_fn(nx, |_, _| scale * rng.next());
+        let r = DVector::from_fn(qp.nz, |_, _| scale * rng.next());
+        let f = mpc.linear_term(&x0, &vec![r; qp.N]);
+        cases.push(InequalityQp::from_box(&qp, &f));
+    }
+    (qp, cases)
+}
+
+/// The paper's QP for state x0 and a fixed position target, plus |v_k| ≤ 2 m/s on every axis of the
+/// predicted states x_1 … x_N: with x_k = Sx_k x0 + Su_k U, the rows Su_k (velocity rows) with bounds
+/// ±2 − Sx_k x0.
+fn paper_with_velocity_rows(
+    p: &codegen::Problem,
+    x0: &DVector<f64>,
+    target: &DVector<f64>,
+) -> InequalityQp {
+    let qp = &p.qp;
+    let nx = qp.Fx.ncols();
+    let axes = nx / 2;
+    let mpc = Mpc::new(p);
+    let f = mpc.linear_term(x0, &vec![target.clone(); qp.N]);
+    let free = &qp.Sx * x0;
+    let rows: Vec<usize> = (0..qp.N)
+        .flat_map(|k| (axes..nx).map(move |i| k * nx + i))
+        .collect();
+    let A = DMatrix::from_fn(rows.len(), qp.Su.ncols(), |r, j| qp.Su[(rows[r], j)]);
+    let lower = DVector::from_fn(rows.len(), |r, _| -2.0 - free[rows[r]]);
+    let upper = DVector::from_fn(rows.len(), |r, _| 2.0 - free[rows[r]]);
+    InequalityQp::from_box(qp, &f).with_rows(&A, &lower, &upper)
+}
+
+/// Random states for the velocity rows: positions ±5 m away from targets ±5 m (the rows and the box
+/// active), velocities inside ±2 m/s, every fourth at 95 % of the bound.
+fn velocity_cases(p: &codegen::Problem, seed: u64, count: usize) -> Vec<InequalityQp> {
+    let axes = p.qp.Fx.ncols() / 2;
+    let mut rng = Stream(seed);
+    (0..count)
+        .map(|k| {
+            let x0 = DVector::from_fn(2 * axes, |i, _| {
+                if i < axes {
+                    5.0 * rng.next()
+                } else if k % 4 == 0 {
+                    1.9 * rng.next().signum()
+                } else {
+                    2.0 * rng.next()
+                }
+            });
+            let target = DVector::from_fn(
+                2 * axes,
+                |i, _| if i < axes { 5.0 * rng.next() } else { 0.0 },
+            );
+            paper_with_velocity_rows(p, &x0, &target)
+        })
+        .collect()
+}
+
+fn converged(qp: &InequalityQp, what: &str) -> IpmResult {
+    let r = ipm::solve(qp, TOLERANCE, 100);
+    assert_eq!(r.status, Status::Converged, "{what}: {r:?}");
+    r
+}
+
+/// The box QPs: `solve` to 1e-9 agrees with Clarabel and with the projected-gradient oracle to
+/// 1e-6 of the input span, on cases that saturate and cases that do not.
+#[test]
+fn box_qps_agree_with_clarabel_and_the_oracle() {
+    for (name, src, seed) in [("paper", PAPER, 1), ("two-mass", TWO_MASS, 2)] {
+        let (qp, cases) = box_cases(src, seed, 50);
+        let span = span(&qp);
+        let (mut saturated, mut interior) = (0, 0);
+        for (k, case) in cases.iter().enumerate() {
+            let r = converged(case, &format!("{name} case {k}"));
+            let reference = clarabel(case);
+            let exact = exact_solution(&qp, &case.f, 1e-14, 400_000);
+            let (to_clarabel, to_exact) =
+                (error(&r.z, &reference, &span), error(&r.z, &exact, &span));
+            assert!(
+                to_clarabel <= AGREEMENT && to_exact <= AGREEMENT,
+                "{name} case {k}: {to_clarabel:e} of the span from Clarabel, {to_exact:e} from the oracle"
+            );
+            let at_bound = (0..r.z.len())
+                .any(|i| (r.z[i] - case.z_min[i]).min(case.z_max[i] - r.z[i]) <= 1e-6 * span[i]);
+            if at_bound {
+                saturated += 1;
+            } else {
+                interior += 1;
+            }
+        }
+        assert!(
+            saturated >= 10 && interior >= 10,
+            "{name}: {saturated} saturating, {interior} interior"
+        );
+    }
+}
+
+/// General rows: the paper's QP with |v_k| ≤ 2 m/s on the predicted velocities agrees with Clarabel
+/// given the same rows, and the rows are active in some cases.
+#[test]
+fn velocity_rows_agree_with_clarabel() {
+    let p = problem(PAPER);
+    let span = span(&p.qp);
+    let mut active = 0;
+    for (k, case) in velocity_cases(&p, 3, 50).iter().enumerate() {
+        let r = converged(case, &format!("case {k}"));
+        let reference = clarabel(case);
+        let to_clarabel = error(&r.z, &reference, &span);
+        assert!(
+            to_clarabel <= AGREEMENT,
+            "case {k}: {to_clarabel:e} of the span from Clarabel"
+        );
+        assert!(
+            violation(case, &r.z) <= 1e-8,
+            "case {k}: violation {:e}",
+            violation(case, &r.z)
+        );
+        let Az = &case.A * &r.z;
+        if (0..Az.len()).any(|i| (Az[i] - case.lower[i]).min(case.upper[i] - Az[i]) <= 1e-6) {
+            active += 1;
+        }
+    }
+    assert!(
+        active >= 10,
+        "the velocity rows were active in {active} cases only"
+    );
+}
+
+/// A closed loop of `steps` on the paper's plant (x ← F x + G u, read off the first block rows of Sx
+/// and Su) from each of the first `loops` cases' states, each solve warm-started from the previous plan
+/// shifted with the rest input appended. `make` builds the QP of a state. Returns the warm cases.
+fn closed_loops(
+    p: &codegen::Problem,
+    make: &dyn Fn(&DVector<f64>) -> InequalityQp,
+    starts: &[DVector<f64>],
+    steps: usize,
+) -> Vec<Case> {
+    let qp = &p.qp;
+    let (nx, nu) = (qp.Fx.ncols(), p.nu);
+    let F = qp.Sx.rows(0, nx).into_owned();
+    let G = qp.Su.view((0, 0), (nx, nu)).into_owned();
+    let rest = qp.rest_input();
+    let mut cases = Vec::new();
+    for x0 in starts {
+        let mut x = x0.clone();
+        let mut plan: Option<DVector<f64>> = None;
+        for _ in 0..steps {
+            let iqp = make(&x);
+            let warm = plan.as_ref().map(|u| {
+                let n = u.len();
+                let mut w = DVector::zeros(n);
+                w.rows_mut(0, n - nu).copy_from(&u.rows(nu, n - nu));
+                w.rows_mut(n - nu, nu).copy_from(&rest);
+                w
+            });
+            let r = converged(&iqp, "closed loop");
+            x = &F * &x + &G * r.z.rows(0, nu);
+            if let Some(w) = warm {
+                cases.push(Case {
+                    qp: iqp,
+                    warm: Some(w),
+                });
+            }
+            plan = Some(r.z);
+        }
+    }
+    cases
+}
+
+/// What a case needs: the iterations `solve` takes to 1e-9, the fewest fixed iterations that meet the
+/// issue's accuracy, and the reference solution.
+struct Need {
+    to_tolerance: usize,
+    to_accuracy: usize,
+    exact: DVector<f64>,
+}
+
+fn start(case: &Case) -> Start {
+    match &case.warm {
+        Some(z) => Start::Primal(z.clone()),
+        None => Start::Cold,
+    }
+}
+
+fn accurate(case: &Case, z: &DVector<f64>, exact: &DVector<f64>, span: &DVector<f64>) -> bool {
+    error(z, exact, span) <= ACCURACY && violation(&case.qp, z) <= ACCURACY
+}
+
+fn need(case: &Case, span: &DVector<f64>) -> Need {
+    let r = ipm::solve_from(&case.qp, &start(case), TOLERANCE, 100);
+    assert_eq!(r.status, Status::Converged, "{r:?}");
+    let to_accuracy = (0..=r.iterations)
+        .find(|k| {
+            accurate(
+                case,
+                &ipm::solve_fixed(&case.qp, &start(case), *k).z,
+                &r.z,
+                span,
+            )
+        })
+        .expect("the converged count meets the accuracy");
+    Need {
+        to_tolerance: r.iterations,
+        to_accuracy,
+        exact: r.z,
+    }
+}
+
+/// Fixed iterations: the counts cold and warm (closed loops), printed; `solve_fixed` with the largest
+/// count that any case needed to meet the accuracy, and with the largest count to 1e-9, meets the
+/// accuracy on every case.
+#[test]
+fn fixed_iterations_meet_the_accuracy() {
+    let paper = problem(PAPER);
+    let two_mass = problem(TWO_MASS);
+    let starts: Vec<DVector<f64>> = {
+        let mut rng = Stream(4);
+        (0..5)
+            .map(|_| {
+                DVector::from_fn(6, |i, _| {
+                    if i < 3 {
+                        5.0 * rng.next()
+                    } else {
+                        1.9 * rng.next()
+                    }
+                })
+            })
+            .collect()
+    };
+    let target = DVector::from_fn(6, |i, _| if i < 3 { 1.0 } else { 0.0 });
+    let paper_box = |x: &DVector<f64>| {
+        let f = Mpc::new(&paper).linear_term(x, &vec![target.clone(); paper.qp.N]);
+        InequalityQp::from_box(&paper.qp, &f)
+    };
+    let paper_rows = |x: &DVector<f64>| paper_with_velocity_rows(&paper, x, &target);
+    let cold = |cases: Vec<InequalityQp>| -> Vec<Case> {
+        cases
+            .into_iter()
+            .map(|qp| Case { qp, warm: None })
+            .collect()
+    };
+    let groups: Vec<(&str, &codegen::Problem, Vec<Case>)> = vec![
+        ("paper box, cold", &paper, cold(box_cases(PAPER, 1, 50).1)),
+        (
+            "paper box, warm",
+            &paper,
+            closed_loops(&paper, &paper_box, &starts, 30),
+        ),
+        (
+            "paper |v| <= 2, cold",
+            &paper,
+            cold(velocity_cases(&paper, 3, 50)),
+        ),
+        (
+            "paper |v| <= 2, warm",
+            &paper,
+            closed_loops(&paper, &paper_rows, &starts, 30),
+        ),
+        (
+            "two-mass box, cold",
+            &two_mass,
+            cold(box_cases(TWO_MASS, 2, 50).1),
+        ),
+    ];
+    for (name, p, cases) in &groups {
+        let span = span(&p.qp);
+        let needs: Vec<Need> = cases.iter().map(|c| need(c, &span)).collect();
+        let tolerance_max = needs.iter().map(|n| n.to_tolerance).max().unwrap();
+        let accuracy_max = needs.iter().map(|n| n.to_accuracy).max().unwrap();
+        let median = {
+            let mut v: Vec<usize> = needs.iter().map(|n| n.to_accuracy).collect();
+            v.sort();
+            v[v.len() / 2]
+        };
+        let macs = ipm::macs_per_iteration(&cases[0].qp);
+        println!(
+            "{name}: {} cases; to 1e-9: max {tolerance_max} iterations; to the accuracy: median {median}, \
+             max {accuracy_max} ({macs} multiply-adds an iteration, {} a solve)",
+            cases.len(),
+            macs * accuracy_max
+        );
+        for k in [accuracy_max, tolerance_max] {
+            for (i, (case, need)) in cases.iter().zip(&needs).enumerate() {
+                let r = ipm::solve_fixed(&case.qp, &start(case), k);
+                assert_eq!(r.iterations, k);
+                assert!(
+                    accurate(case, &r.z, &need.exact, &span),
+                    "{name} case {i}: {k} iterations leave {:e} of the span, violation {:e}",
+                    error(&r.z, &need.exact, &span),
+                    violation(&case.qp, &r.z)
+                );
+            }
+        }
+    }
+}
+
+/// Contradicting rows (z_0 ≥ 5 and z_0 ≤ −5, and a row with lower > upper) end as Infeasible or at
+/// the iteration limit with a finite z; non-finite data ends as NumericalFailure with the start's z.
+#[test]
+fn infeasible_and_non_finite_data_never_panic() {
+    let (_, cases) = box_cases(PAPER, 5, 1);
+    let base = cases[0].clone();
+    let n = base.n();
+    let e0 = DMatrix::from_fn(1, n, |_, j| if j == 0 { 1.0 } else { 0.0 });
+    let two = DMatrix::from_fn(2, n, |_, j| if j == 0 { 1.0 } else { 0.0 });
+    let contradicting = [
+        base.clone().with_rows(
+            &two,
+            &DVector::from_vec(vec![5.0, f64::NEG_INFINITY]),
+            &DVector::from_vec(vec![f64::INFINITY, -5.0]),
+        ),
+        base.clone().with_rows(
+            &e0,
+            &DVector::from_element(1, 1.0),
+            &DVector::from_element(1, -1.0),
+        ),
+    ];
+    for (k, qp) in contradicting.iter().enumerate() {
+        for r in [
+            ipm::solve(qp, TOLERANCE, 200),
+            ipm::solve_fixed(qp, &Start::Cold, 30),
+            ipm::solve_fixed(qp, &Start::Primal(DVector::zeros(n)), 300),
+        ] {
+            assert!(
+                matches!(r.status, Status::Infeasible | Status::IterationLimit),
+                "contradiction {k}: {:?}",
+                r.status
+            );
+            assert!(
+                r.z.iter().all(|v| v.is_finite()),
+                "contradiction {k}: {:?}",
+                r.z
+            );
+        }
+        assert_eq!(
+            ipm::solve(qp, TOLERANCE, 200).status,
+            Status::Infeasible,
+            "contradiction {k}"
+        );
+    }
+    let warm = DVector::from_element(n, 0.5);
+    for bad in [f64::NAN, f64::INFINITY] {
+        let mut qp = base.clone();
+        qp.f[3] = bad;
+        for (start, z) in [
+            (Start::Cold, DVector::zeros(n)),
+            (Start::Primal(warm.clone()), warm.clone()),
+        ] {
+            for r in [
+                ipm::solve_from(&qp, &start, TOLERANCE, 50),
+                ipm::solve_fixed(&qp, &start, 10),
+            ] {
+                assert_eq!(r.status, Status::NumericalFailure);
+                assert_eq!(r.z, z, "the start's plan comes back");
+            }
+        }
+    }
+    // A NaN bound is refused too; an infinite one only drops its side.
+    let mut qp = base.clone();
+    qp.z_max[0] = f64::NAN;
+    assert_eq!(
+        ipm::solve(&qp, TOLERANCE, 50).status,
+        Status::NumericalFailure
+    );
+    let mut qp = base.clone();
+    qp.z_max[0] = f64::INFINITY;
+    assert_eq!(qp.sides(), base.sides() - 1);
+    assert_eq!(ipm::solve(&qp, TOLERANCE, 100).status, Status::Converged);
+}
