@@ -136,10 +136,10 @@ fn violation(qp: &InequalityQp, z: &DVector<f64>) -> f64 {
     worst
 }
 
-/// One problem to solve: a QP and its warm start (cold when `None`).
+/// One problem to solve: a QP and where its iteration starts.
 struct Case {
     qp: InequalityQp,
-    warm: Option<DVector<f64>>,
+    start: Start,
 }
 
 /// The box QP's random cases: states and references scaled from small to saturating; with move
@@ -283,14 +283,26 @@ fn velocity_rows_agree_with_clarabel() {
     );
 }
 
+/// v shifted by one step: every block of `per_step` entries moves up one step, the last step repeated.
+fn shift(v: &DVector<f64>, per_step: usize) -> DVector<f64> {
+    let n = v.len();
+    let mut w = v.clone();
+    w.rows_mut(0, n - per_step)
+        .copy_from(&v.rows(per_step, n - per_step));
+    w
+}
+
 /// A closed loop of `steps` on the paper's plant (x ← F x + G u, read off the first block rows of Sx
-/// and Su) from each of the first `loops` cases' states, each solve warm-started from the previous plan
-/// shifted with the rest input appended. `make` builds the QP of a state. Returns the warm cases.
+/// and Su) from each of `starts`, each solve warm-started from the previous plan shifted with the rest
+/// input appended; with `dual`, from its slacks and multipliers too (box sides and row sides shifted
+/// by a step each, the last step repeated). `make` builds the QP of a state; every side is finite.
+/// Returns the warm cases.
 fn closed_loops(
     p: &codegen::Problem,
     make: &dyn Fn(&DVector<f64>) -> InequalityQp,
     starts: &[DVector<f64>],
     steps: usize,
+    dual: bool,
 ) -> Vec<Case> {
     let qp = &p.qp;
     let (nx, nu) = (qp.Fx.ncols(), p.nu);
@@ -300,25 +312,35 @@ fn closed_loops(
     let mut cases = Vec::new();
     for x0 in starts {
         let mut x = x0.clone();
-        let mut plan: Option<DVector<f64>> = None;
+        let mut previous: Option<IpmResult> = None;
         for _ in 0..steps {
             let iqp = make(&x);
-            let warm = plan.as_ref().map(|u| {
-                let n = u.len();
-                let mut w = DVector::zeros(n);
-                w.rows_mut(0, n - nu).copy_from(&u.rows(nu, n - nu));
-                w.rows_mut(n - nu, nu).copy_from(&rest);
-                w
+            let warm = previous.as_ref().map(|r| {
+                let n = r.z.len();
+                let mut z = DVector::zeros(n);
+                z.rows_mut(0, n - nu).copy_from(&r.z.rows(nu, n - nu));
+                z.rows_mut(n - nu, nu).copy_from(&rest);
+                if !dual {
+                    return Start::Primal(z);
+                }
+                let rows = iqp.A.nrows();
+                let sides = |v: &DVector<f64>| {
+                    let boxed = shift(&v.rows(0, 2 * n).into_owned(), 2 * nu);
+                    let general = shift(&v.rows(2 * n, 2 * rows).into_owned(), 2 * rows / qp.N);
+                    DVector::from_iterator(v.len(), boxed.iter().chain(general.iter()).copied())
+                };
+                Start::PrimalDual {
+                    z,
+                    s: sides(&r.s),
+                    lambda: sides(&r.lambda),
+                }
             });
             let r = converged(&iqp, "closed loop");
             x = &F * &x + &G * r.z.rows(0, nu);
-            if let Some(w) = warm {
-                cases.push(Case {
-                    qp: iqp,
-                    warm: Some(w),
-                });
+            if let Some(start) = warm {
+                cases.push(Case { qp: iqp, start });
             }
-            plan = Some(r.z);
+            previous = Some(r);
         }
     }
     cases
@@ -332,25 +354,18 @@ struct Need {
     exact: DVector<f64>,
 }
 
-fn start(case: &Case) -> Start {
-    match &case.warm {
-        Some(z) => Start::Primal(z.clone()),
-        None => Start::Cold,
-    }
-}
-
 fn accurate(case: &Case, z: &DVector<f64>, exact: &DVector<f64>, span: &DVector<f64>) -> bool {
     error(z, exact, span) <= ACCURACY && violation(&case.qp, z) <= ACCURACY
 }
 
 fn need(case: &Case, span: &DVector<f64>) -> Need {
-    let r = ipm::solve_from(&case.qp, &start(case), TOLERANCE, 100);
+    let r = ipm::solve_from(&case.qp, &case.start, TOLERANCE, 100);
     assert_eq!(r.status, Status::Converged, "{r:?}");
     let to_accuracy = (0..=r.iterations)
         .find(|k| {
             accurate(
                 case,
-                &ipm::solve_fixed(&case.qp, &start(case), *k).z,
+                &ipm::solve_fixed(&case.qp, &case.start, *k).z,
                 &r.z,
                 span,
             )
@@ -393,15 +408,23 @@ fn fixed_iterations_meet_the_accuracy() {
     let cold = |cases: Vec<InequalityQp>| -> Vec<Case> {
         cases
             .into_iter()
-            .map(|qp| Case { qp, warm: None })
+            .map(|qp| Case {
+                qp,
+                start: Start::Cold,
+            })
             .collect()
     };
     let groups: Vec<(&str, &codegen::Problem, Vec<Case>)> = vec![
         ("paper box, cold", &paper, cold(box_cases(PAPER, 1, 50).1)),
         (
-            "paper box, warm",
+            "paper box, warm z",
             &paper,
-            closed_loops(&paper, &paper_box, &starts, 30),
+            closed_loops(&paper, &paper_box, &starts, 30, false),
+        ),
+        (
+            "paper box, warm z, s, λ",
+            &paper,
+            closed_loops(&paper, &paper_box, &starts, 30, true),
         ),
         (
             "paper |v| <= 2, cold",
@@ -409,9 +432,14 @@ fn fixed_iterations_meet_the_accuracy() {
             cold(velocity_cases(&paper, 3, 50)),
         ),
         (
-            "paper |v| <= 2, warm",
+            "paper |v| <= 2, warm z",
             &paper,
-            closed_loops(&paper, &paper_rows, &starts, 30),
+            closed_loops(&paper, &paper_rows, &starts, 30, false),
+        ),
+        (
+            "paper |v| <= 2, warm z, s, λ",
+            &paper,
+            closed_loops(&paper, &paper_rows, &starts, 30, true),
         ),
         (
             "two-mass box, cold",
@@ -438,7 +466,7 @@ fn fixed_iterations_meet_the_accuracy() {
         );
         for k in [accuracy_max, tolerance_max] {
             for (i, (case, need)) in cases.iter().zip(&needs).enumerate() {
-                let r = ipm::solve_fixed(&case.qp, &start(case), k);
+                let r = ipm::solve_fixed(&case.qp, &case.start, k);
                 assert_eq!(r.iterations, k);
                 assert!(
                     accurate(case, &r.z, &need.exact, &span),
