@@ -554,6 +554,15 @@ fn run(qp: &InequalityQp, start: &Start, tolerance: Option<f64>, iterations: usi
     let m = sides.len();
     if m == 0 {
         // Unconstrained: one Newton step is the minimiser.
+        if iterations == 0 {
+            let p = Point {
+                z: fallback_z(qp, start),
+                s: DVector::zeros(0),
+                lambda: DVector::zeros(0),
+            };
+            let r = residuals(qp, &sides, &p);
+            return result(p, &r, 0, Status::IterationLimit);
+        }
         let z = factor(qp.H.clone()).map(|c| c.solve(&-&qp.f));
         return match z {
             Some(z) if z.iter().all(|v| v.is_finite()) => {
