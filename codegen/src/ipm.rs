@@ -14,9 +14,11 @@
 //! then s, λ ← max(1, |·|).
 //!
 //! Two entry points: [`solve_fixed`] runs exactly a given number of iterations (what a fixed-iteration
-//! emitted controller will do), [`solve`] / [`solve_from`] run until the relative residuals, the gap and
-//! the complementarity are below a tolerance. Neither panics; a non-finite iterate is never returned as a solution (see
-//! [`Status`]). [`macs_per_iteration`] counts an iteration's cost by the calibration rule of issue 17.
+//! emitted controller will do), [`solve`] / [`solve_from`] run until the relative residuals, the gap
+//! and the complementarity are below a tolerance. Neither panics, and a non-finite iterate is never
+//! returned as a solution (see [`Status`]). A warm start ([`Start`]) helps when it carries the
+//! previous slacks and multipliers shifted by a step; a plan alone does not (`tests/ipm.rs` prints the
+//! counts). [`macs_per_iteration`] counts an iteration's cost by the calibration rule of issue 17.
 #![allow(non_snake_case)]
 
 use crate::lower::Qp;

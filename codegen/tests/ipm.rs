@@ -321,14 +321,14 @@ fn shift(v: &DVector<f64>, per_step: usize) -> DVector<f64> {
     w
 }
 
-/// A closed loop of `steps` on the paper's plant (x ← F x + G u, read off the first block rows of Sx
+/// A closed loop of `steps` on the spec's plant (x ← F x + G u, read off the first block rows of Sx
 /// and Su) from each of `starts`, each solve warm-started from the previous plan shifted with the rest
 /// input appended; with `dual`, from its slacks and multipliers too (box sides and row sides shifted
-/// by a step each, the last step repeated). `make` builds the QP of a state; every side is finite.
-/// Returns the warm cases.
+/// by a step each, the last step repeated). `make` builds the QP of a state and the last input; the
+/// box is finite and every step has the same row sides. Returns the warm cases.
 fn closed_loops(
     p: &codegen::Problem,
-    make: &dyn Fn(&DVector<f64>) -> InequalityQp,
+    make: &dyn Fn(&DVector<f64>, &DVector<f64>) -> InequalityQp,
     starts: &[DVector<f64>],
     steps: usize,
     dual: bool,
@@ -342,8 +342,9 @@ fn closed_loops(
     for x0 in starts {
         let mut x = x0.clone();
         let mut previous: Option<IpmResult> = None;
+        let mut last = rest.clone();
         for _ in 0..steps {
-            let iqp = make(&x);
+            let iqp = make(&x, &last);
             let warm = previous.as_ref().map(|r| {
                 let n = r.z.len();
                 let mut z = DVector::zeros(n);
@@ -365,7 +366,8 @@ fn closed_loops(
                 }
             });
             let r = converged(&iqp, "closed loop");
-            x = &F * &x + &G * r.z.rows(0, nu);
+            last = r.z.rows(0, nu).into_owned();
+            x = &F * &x + &G * &last;
             if let Some(start) = warm {
                 cases.push(Case { qp: iqp, start });
             }
@@ -432,12 +434,27 @@ fn fixed_iterations_meet_the_accuracy() {
     };
     // Down to the ground: the altitude floor becomes active in the closed loops.
     let target = DVector::from_vec(vec![1.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
-    let paper_box = |x: &DVector<f64>| {
+    let paper_box = |x: &DVector<f64>, _: &DVector<f64>| {
         let f = Mpc::new(&paper).linear_term(x, &vec![target.clone(); paper.qp.N]);
         InequalityQp::from_box(&paper.qp, &f)
     };
-    let paper_rows = |x: &DVector<f64>| paper_with_limits(&paper, x, &target, false);
-    let paper_floor = |x: &DVector<f64>| paper_with_limits(&paper, x, &target, true);
+    let paper_rows =
+        |x: &DVector<f64>, _: &DVector<f64>| paper_with_limits(&paper, x, &target, false);
+    let paper_floor =
+        |x: &DVector<f64>, _: &DVector<f64>| paper_with_limits(&paper, x, &target, true);
+    // The two-mass plant from rest-ish states to p2 = 1, its moves measured from the last input.
+    let two_mass_box = |x: &DVector<f64>, last: &DVector<f64>| {
+        let mut mpc = Mpc::new(&two_mass);
+        assert!(mpc.set_last_input(last));
+        let f = mpc.linear_term(x, &vec![DVector::from_element(1, 1.0); two_mass.qp.N]);
+        InequalityQp::from_box(&two_mass.qp, &f)
+    };
+    let two_mass_starts: Vec<DVector<f64>> = {
+        let mut rng = Stream(7);
+        (0..5)
+            .map(|_| DVector::from_fn(4, |_, _| rng.next()))
+            .collect()
+    };
     let cold = |cases: Vec<InequalityQp>| -> Vec<Case> {
         cases
             .into_iter()
@@ -488,6 +505,11 @@ fn fixed_iterations_meet_the_accuracy() {
             "two-mass box, cold",
             &two_mass,
             cold(box_cases(TWO_MASS, 2, 50).1),
+        ),
+        (
+            "two-mass box, warm z, s, λ",
+            &two_mass,
+            closed_loops(&two_mass, &two_mass_box, &two_mass_starts, 30, true),
         ),
     ];
     for (name, p, cases) in &groups {
