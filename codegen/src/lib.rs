@@ -12,6 +12,8 @@
 //!   iteration;
 //! - [`form`]: one file per gradient form (`unrolled.rs`, `table.rs`, `lanes.rs`, `matrix_free.rs`) behind
 //!   [`form::GradientForm`], each with its cost estimate; the Cortex-A9's NEON kernels in `form/neon.rs`;
+//! - [`ipm`]: a dense primal-dual interior-point method for QPs with inequality rows, in f64 (not yet
+//!   behind the seam: the reference the constrained problems of issue 17 will be checked against);
 //! - [`linalg`] the build-time linear algebra, [`numeric`] the emitted scalar's numbers, [`structure`] the
 //!   structure read off the matrices, [`cost`] the cost model's weights.
 //!
@@ -30,6 +32,7 @@ pub mod discretize;
 pub mod emit;
 pub mod form;
 pub mod input;
+pub mod ipm;
 pub mod linalg;
 pub mod lower;
 pub mod numeric;

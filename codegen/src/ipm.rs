@@ -1,0 +1,629 @@
+//! A dense primal-dual interior-point method for convex QPs with inequality rows, in f64: the
+//! reference of the fixed-iteration IPM of issue 17 (state, output and rate rows, ill-conditioned
+//! plants), before any of it is emitted.
+//!
+//! The problem is [`InequalityQp`]: minimise ½zᵀHz + fᵀz subject to z_min ≤ z ≤ z_max and
+//! lower ≤ A z ≤ upper, any bound ±∞. Its finite sides are stacked as G z ≤ h (upper sides as they are,
+//! lower sides negated; infinite sides dropped), with slacks s > 0 and multipliers λ > 0. Each iteration
+//! is Mehrotra's predictor-corrector (S. Mehrotra, "On the implementation of a primal-dual interior
+//! point method", SIAM J. Optim. 2(4), 1992; for QPs, Nocedal & Wright, *Numerical Optimization*, 2nd
+//! ed., ch. 16.6, Algorithm 16.4): one Cholesky factorisation of the normal matrix
+//! H + Gᵀ diag(λ/s) G, an affine (predictor) step, the centering σ = (μ_aff/μ)³, a corrector with the
+//! second-order term Δs_aff∘Δλ_aff, and a common step to the boundary with the fraction [`FRACTION`].
+//! The cold start is the heuristic of Nocedal & Wright (16.6, p. 484): one affine step from s = λ = 1,
+//! then s, λ ← max(1, |·|).
+//!
+//! Two entry points: [`solve_fixed`] runs exactly a given number of iterations (what a fixed-iteration
+//! emitted controller will do), [`solve`] / [`solve_from`] run until the relative residuals, the gap
+//! and the complementarity are below a tolerance. Neither panics, and a non-finite iterate is never
+//! returned as a solution (see [`Status`]). A warm start ([`Start`]) helps when it carries the
+//! previous slacks and multipliers shifted by a step; a plan alone does not (`tests/ipm.rs` prints the
+//! counts). [`macs_per_iteration`] counts an iteration's cost by the calibration rule of issue 17.
+#![allow(non_snake_case)]
+
+use crate::lower::Qp;
+use nalgebra::{DMatrix, DVector};
+
+/// The fraction of the step to the boundary of s > 0, λ > 0 that an iteration takes.
+pub const FRACTION: f64 = 0.99;
+
+/// Slacks and multipliers of a warm start are raised to at least this, so the first step is not
+/// pinned to the boundary (the cold heuristic's floor). On the paper's closed loops (`tests/ipm.rs`)
+/// 1 did best for a shifted (z, s, λ) among 1e-4 … 100.
+pub const WARM_FLOOR: f64 = 1.0;
+
+/// The infeasibility certificate's tolerance: λ ≥ 0 with ‖Gᵀλ‖∞ ≤ this · (−hᵀλ) proves G z ≤ h empty
+/// (Farkas), for z of order one.
+pub const INFEASIBILITY_TOLERANCE: f64 = 1e-8;
+
+/// min ½zᵀHz + fᵀz subject to z_min ≤ z ≤ z_max and lower ≤ A z ≤ upper; ±∞ entries drop their side.
+#[derive(Clone, Debug)]
+pub struct InequalityQp {
+    /// The Hessian (n × n), symmetric positive semidefinite.
+    pub H: DMatrix<f64>,
+    /// The linear term (n).
+    pub f: DVector<f64>,
+    /// Lower bounds on z (n).
+    pub z_min: DVector<f64>,
+    /// Upper bounds on z (n).
+    pub z_max: DVector<f64>,
+    /// The general rows (m × n).
+    pub A: DMatrix<f64>,
+    /// Lower bounds of the rows (m).
+    pub lower: DVector<f64>,
+    /// Upper bounds of the rows (m).
+    pub upper: DVector<f64>,
+}
+
+impl InequalityQp {
+    /// Today's condensed QP: ½UᵀHU + fᵀU over the input box repeated for the N steps, no rows.
+    pub fn from_box(qp: &Qp, f: &DVector<f64>) -> Self {
+        let nu = qp.u_min.len();
+        let n = qp.N * nu;
+        InequalityQp {
+            H: qp.H.clone(),
+            f: f.clone(),
+            z_min: DVector::from_fn(n, |i, _| qp.u_min[i % nu]),
+            z_max: DVector::from_fn(n, |i, _| qp.u_max[i % nu]),
+            A: DMatrix::zeros(0, n),
+            lower: DVector::zeros(0),
+            upper: DVector::zeros(0),
+        }
+    }
+
+    /// The same problem with the rows lower ≤ A z ≤ upper appended.
+    pub fn with_rows(
+        mut self,
+        A: &DMatrix<f64>,
+        lower: &DVector<f64>,
+        upper: &DVector<f64>,
+    ) -> Self {
+        let (m0, m, n) = (self.A.nrows(), A.nrows(), self.A.ncols());
+        let mut stacked = DMatrix::zeros(m0 + m, n);
+        stacked.rows_mut(0, m0).copy_from(&self.A);
+        stacked.rows_mut(m0, m).copy_from(A);
+        self.A = stacked;
+        self.lower = DVector::from_iterator(m0 + m, self.lower.iter().chain(lower.iter()).copied());
+        self.upper = DVector::from_iterator(m0 + m, self.upper.iter().chain(upper.iter()).copied());
+        self
+    }
+
+    /// The number of unknowns n.
+    pub fn n(&self) -> usize {
+        self.H.nrows()
+    }
+
+    /// The number of finite sides: the length of s and λ.
+    pub fn sides(&self) -> usize {
+        Sides::new(self).len()
+    }
+
+    /// Whether the dimensions agree.
+    fn consistent(&self) -> bool {
+        let n = self.n();
+        let m = self.A.nrows();
+        self.H.ncols() == n
+            && self.f.len() == n
+            && self.z_min.len() == n
+            && self.z_max.len() == n
+            && self.A.ncols() == n
+            && self.lower.len() == m
+            && self.upper.len() == m
+    }
+
+    /// Whether the data can be iterated on: finite H, f, A, and bounds that are not NaN.
+    fn finite(&self) -> bool {
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        let not_nan = |v: &[f64]| v.iter().all(|x| !x.is_nan());
+        finite(self.H.as_slice())
+            && finite(self.f.as_slice())
+            && finite(self.A.as_slice())
+            && not_nan(self.z_min.as_slice())
+            && not_nan(self.z_max.as_slice())
+            && not_nan(self.lower.as_slice())
+            && not_nan(self.upper.as_slice())
+    }
+}
+
+/// The finite sides as G z ≤ h: the box sides first (one ±1 entry each, kept as index and sign so the
+/// normal matrix gains a diagonal), then the rows' sides (dense).
+struct Sides {
+    /// Box side k: sign·z_index ≤ h_k.
+    boxed: Vec<(usize, f64)>,
+    /// The rows' sides, ±A_r.
+    G: DMatrix<f64>,
+    /// All right-hand sides, box sides first.
+    h: DVector<f64>,
+}
+
+impl Sides {
+    fn new(qp: &InequalityQp) -> Self {
+        let n = qp.n();
+        let mut boxed = Vec::new();
+        let mut h = Vec::new();
+        for i in 0..n {
+            if qp.z_max[i].is_finite() {
+                boxed.push((i, 1.0));
+                h.push(qp.z_max[i]);
+            }
+            if qp.z_min[i].is_finite() {
+                boxed.push((i, -1.0));
+                h.push(-qp.z_min[i]);
+            }
+        }
+        let mut rows = Vec::new();
+        for r in 0..qp.A.nrows() {
+            if qp.upper[r].is_finite() {
+                rows.push(qp.A.row(r).into_owned());
+                h.push(qp.upper[r]);
+            }
+            if qp.lower[r].is_finite() {
+                rows.push(-qp.A.row(r));
+                h.push(-qp.lower[r]);
+            }
+        }
+        let G = if rows.is_empty() {
+            DMatrix::zeros(0, n)
+        } else {
+            DMatrix::from_rows(&rows)
+        };
+        Sides {
+            boxed,
+            G,
+            h: DVector::from_vec(h),
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.h.len()
+    }
+
+    /// G z.
+    fn mul(&self, z: &DVector<f64>) -> DVector<f64> {
+        let nb = self.boxed.len();
+        let mut out = DVector::zeros(self.len());
+        for (k, (i, sign)) in self.boxed.iter().enumerate() {
+            out[k] = sign * z[*i];
+        }
+        out.rows_mut(nb, self.G.nrows()).copy_from(&(&self.G * z));
+        out
+    }
+
+    /// Gᵀ v.
+    fn tmul(&self, v: &DVector<f64>) -> DVector<f64> {
+        let nb = self.boxed.len();
+        let mut out = self.G.tr_mul(&v.rows(nb, self.G.nrows()));
+        for (k, (i, sign)) in self.boxed.iter().enumerate() {
+            out[*i] += sign * v[k];
+        }
+        out
+    }
+
+    /// H + Gᵀ diag(d) G.
+    fn normal(&self, H: &DMatrix<f64>, d: &DVector<f64>) -> DMatrix<f64> {
+        let nb = self.boxed.len();
+        let mut M = H.clone();
+        for (k, (i, _)) in self.boxed.iter().enumerate() {
+            M[(*i, *i)] += d[k];
+        }
+        let mut DG = self.G.clone();
+        for (r, mut row) in DG.row_iter_mut().enumerate() {
+            row *= d[nb + r];
+        }
+        M += self.G.tr_mul(&DG);
+        M
+    }
+}
+
+/// Where the iteration starts.
+#[derive(Clone, Debug)]
+pub enum Start {
+    /// Nocedal & Wright's heuristic: one affine step from z = 0, s = λ = 1, then s, λ ← max(1, |·|).
+    Cold,
+    /// A plan z (e.g. the previous plan shifted): s = max(h − G z, [`WARM_FLOOR`]), λ = [`WARM_FLOOR`].
+    /// Without the multipliers' scale this saves little or nothing over [`Start::Cold`].
+    Primal(DVector<f64>),
+    /// A plan with its slacks and multipliers (e.g. a previous [`IpmResult`]'s), each raised to at
+    /// least [`WARM_FLOOR`].
+    PrimalDual {
+        /// The plan (n).
+        z: DVector<f64>,
+        /// The slacks (one per finite side).
+        s: DVector<f64>,
+        /// The multipliers (one per finite side).
+        lambda: DVector<f64>,
+    },
+}
+
+/// How a solve ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    /// The relative residuals, the gap and the complementarity are below the tolerance ([`solve`]
+    /// only).
+    Converged,
+    /// The iterations ran out: [`solve`] before the tolerance, or [`solve_fixed`] always (it checks no
+    /// tolerance; the residuals say how close it came).
+    IterationLimit,
+    /// The multipliers certify that the constraints admit no z (λ ≥ 0, Gᵀλ ≈ 0, hᵀλ < 0), or they
+    /// diverged.
+    Infeasible,
+    /// Non-finite or inconsistent data, a normal matrix that Cholesky refuses even regularised, or a
+    /// non-finite step: z is the start (or zero) or the last finite iterate.
+    NumericalFailure,
+}
+
+/// What a solve returns. z is always finite.
+#[derive(Clone, Debug)]
+pub struct IpmResult {
+    /// The plan.
+    pub z: DVector<f64>,
+    /// The multipliers, one per finite side (box sides first: upper then lower per entry, then the
+    /// rows' upper then lower sides).
+    pub lambda: DVector<f64>,
+    /// The slacks h − G z (at convergence), same layout.
+    pub s: DVector<f64>,
+    /// Iterations run (the start's factorisation not counted).
+    pub iterations: usize,
+    /// ‖G z + s − h‖∞ / (1 + max(‖h‖∞, ‖G z‖∞)).
+    pub primal_residual: f64,
+    /// ‖H z + f + Gᵀλ‖∞ / (1 + max(‖f‖∞, ‖H z‖∞, ‖Gᵀλ‖∞)).
+    pub dual_residual: f64,
+    /// The mean complementarity sᵀλ / (number of sides), in the objective's units.
+    pub gap: f64,
+    /// max_i min(s_i, λ_i): zero exactly at complementarity. Unlike the gap it shrinks only like √gap at
+    /// a degenerate side (s_i and λ_i both tending to zero), where z is off by as much, so [`solve`]
+    /// asks it to be below the tolerance too.
+    pub complementarity: f64,
+    /// How it ended.
+    pub status: Status,
+}
+
+/// Exactly `iterations` iterations from `start` (fewer only on infeasibility or a numerical failure).
+pub fn solve_fixed(qp: &InequalityQp, start: &Start, iterations: usize) -> IpmResult {
+    run(qp, start, None, iterations)
+}
+
+/// A cold solve until the relative residuals, the gap and the complementarity ([`IpmResult`]) are at
+/// most `tolerance`, at most `max_iterations` iterations.
+pub fn solve(qp: &InequalityQp, tolerance: f64, max_iterations: usize) -> IpmResult {
+    run(qp, &Start::Cold, Some(tolerance), max_iterations)
+}
+
+/// [`solve`] from a given start.
+pub fn solve_from(
+    qp: &InequalityQp,
+    start: &Start,
+    tolerance: f64,
+    max_iterations: usize,
+) -> IpmResult {
+    run(qp, start, Some(tolerance), max_iterations)
+}
+
+/// Multiply-adds of one iteration, by the calibration rule of issue 17 (mat-vec n², Cholesky n³/6,
+/// forming GᵀDG Σ_r nnz_r²/2 over the sides' nonzeros; a box side has one):
+/// - residuals: H z (n²), G z and Gᵀλ (nnz(G) each);
+/// - the normal matrix Σ_r nnz_r²/2 and its Cholesky n³/6;
+/// - two directions (predictor, corrector), each a right-hand side Gᵀ(·) (nnz(G)), two triangular
+///   solves (n²) and G Δz (nnz(G));
+/// - the element-wise work on s and λ, about 12 per side.
+///
+/// The cold start costs one more factorisation, of H + GᵀG, which does not depend on the data (a
+/// controller can precompute it) and one direction.
+pub fn macs_per_iteration(qp: &InequalityQp) -> usize {
+    let n = qp.n();
+    let sides = Sides::new(qp);
+    let nnz_rows: Vec<usize> = sides
+        .boxed
+        .iter()
+        .map(|_| 1)
+        .chain(
+            sides
+                .G
+                .row_iter()
+                .map(|r| r.iter().filter(|v| **v != 0.0).count()),
+        )
+        .collect();
+    let nnz: usize = nnz_rows.iter().sum();
+    let normal: usize = nnz_rows.iter().map(|k| k * k).sum::<usize>() / 2;
+    let residuals = n * n + 2 * nnz;
+    let direction = 2 * nnz + n * n;
+    residuals + normal + n * n * n / 6 + 2 * direction + 12 * sides.len()
+}
+
+/// The iterate.
+struct Point {
+    z: DVector<f64>,
+    s: DVector<f64>,
+    lambda: DVector<f64>,
+}
+
+impl Point {
+    fn finite(&self) -> bool {
+        self.z
+            .iter()
+            .chain(&self.s)
+            .chain(&self.lambda)
+            .all(|v| v.is_finite())
+    }
+}
+
+/// A direction (Δz, Δs, Δλ).
+struct Direction {
+    z: DVector<f64>,
+    s: DVector<f64>,
+    lambda: DVector<f64>,
+}
+
+/// The residuals at a point.
+struct Residuals {
+    /// H z + f + Gᵀλ.
+    dual: DVector<f64>,
+    /// G z + s − h.
+    primal: DVector<f64>,
+    relative_primal: f64,
+    relative_dual: f64,
+    gap: f64,
+    complementarity: f64,
+}
+
+impl Residuals {
+    fn below(&self, tol: f64) -> bool {
+        self.relative_primal <= tol
+            && self.relative_dual <= tol
+            && self.gap <= tol
+            && self.complementarity <= tol
+    }
+}
+
+fn residuals(qp: &InequalityQp, sides: &Sides, p: &Point) -> Residuals {
+    let Hz = &qp.H * &p.z;
+    let Gz = sides.mul(&p.z);
+    let Gl = sides.tmul(&p.lambda);
+    let dual = &Hz + &qp.f + &Gl;
+    let primal = &Gz + &p.s - &sides.h;
+    let amax = |v: &DVector<f64>| if v.is_empty() { 0.0 } else { v.amax() };
+    Residuals {
+        relative_primal: amax(&primal) / (1.0 + amax(&sides.h).max(amax(&Gz))),
+        relative_dual: amax(&dual) / (1.0 + amax(&qp.f).max(amax(&Hz)).max(amax(&Gl))),
+        gap: if p.s.is_empty() {
+            0.0
+        } else {
+            p.s.dot(&p.lambda) / p.s.len() as f64
+        },
+        complementarity: p
+            .s
+            .iter()
+            .zip(&p.lambda)
+            .map(|(s, l)| s.min(*l))
+            .fold(0.0, f64::max),
+        dual,
+        primal,
+    }
+}
+
+/// The Cholesky factor of the normal matrix, regularised by a growing multiple of I when it is
+/// refused (a semidefinite H with too few active sides).
+fn factor(M: DMatrix<f64>) -> Option<nalgebra::Cholesky<f64, nalgebra::Dyn>> {
+    let n = M.nrows();
+    let scale = 1.0 + (0..n).map(|i| M[(i, i)].abs()).fold(0.0, f64::max);
+    let mut delta = 0.0;
+    for _ in 0..4 {
+        let mut R = M.clone();
+        for i in 0..n {
+            R[(i, i)] += delta;
+        }
+        if let Some(c) = R.cholesky() {
+            return Some(c);
+        }
+        delta = if delta == 0.0 {
+            1e-12 * scale
+        } else {
+            delta * 1e3
+        };
+    }
+    None
+}
+
+/// The Newton direction for the complementarity right-hand side rc (Λ Δs + S Δλ = −rc): from
+/// (H + Gᵀ D G) Δz = −r_d − Gᵀ(D r_p − rc/s), D = λ/s.
+fn direction(
+    sides: &Sides,
+    chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>,
+    r: &Residuals,
+    p: &Point,
+    rc: &DVector<f64>,
+) -> Direction {
+    let d = p.lambda.component_div(&p.s);
+    let rc_s = rc.component_div(&p.s);
+    let rhs = -&r.dual - sides.tmul(&(d.component_mul(&r.primal) - &rc_s));
+    let dz = chol.solve(&rhs);
+    let dl = d.component_mul(&(sides.mul(&dz) + &r.primal)) - rc_s;
+    let ds = -(rc + p.s.component_mul(&dl)).component_div(&p.lambda);
+    Direction {
+        z: dz,
+        s: ds,
+        lambda: dl,
+    }
+}
+
+/// The largest α keeping s + αΔs ≥ 0 and λ + αΔλ ≥ 0 (∞ when nothing decreases).
+fn step_to_boundary(p: &Point, d: &Direction) -> f64 {
+    let mut alpha = f64::INFINITY;
+    for (v, dv) in p.s.iter().zip(&d.s).chain(p.lambda.iter().zip(&d.lambda)) {
+        if *dv < 0.0 {
+            alpha = alpha.min(-v / dv);
+        }
+    }
+    alpha
+}
+
+fn start_point(qp: &InequalityQp, sides: &Sides, start: &Start) -> Option<Point> {
+    let n = qp.n();
+    let m = sides.len();
+    let floor = |v: &DVector<f64>| v.map(|x| x.max(WARM_FLOOR));
+    let point = match start {
+        Start::Cold => {
+            let p = Point {
+                z: DVector::zeros(n),
+                s: DVector::from_element(m, 1.0),
+                lambda: DVector::from_element(m, 1.0),
+            };
+            let r = residuals(qp, sides, &p);
+            let chol = factor(sides.normal(&qp.H, &DVector::from_element(m, 1.0)))?;
+            let d = direction(sides, &chol, &r, &p, &p.s.component_mul(&p.lambda));
+            Point {
+                z: &p.z + &d.z,
+                s: (&p.s + &d.s).map(|x| x.abs().max(1.0)),
+                lambda: (&p.lambda + &d.lambda).map(|x| x.abs().max(1.0)),
+            }
+        }
+        Start::Primal(z) => {
+            if z.len() != n {
+                return None;
+            }
+            Point {
+                z: z.clone(),
+                s: floor(&(&sides.h - sides.mul(z))),
+                lambda: DVector::from_element(m, WARM_FLOOR),
+            }
+        }
+        Start::PrimalDual { z, s, lambda } => {
+            if z.len() != n || s.len() != m || lambda.len() != m {
+                return None;
+            }
+            Point {
+                z: z.clone(),
+                s: floor(s),
+                lambda: floor(lambda),
+            }
+        }
+    };
+    point.finite().then_some(point)
+}
+
+/// The fallback z of a failed solve: the start's plan when it is finite and of the right size, else 0.
+fn fallback_z(qp: &InequalityQp, start: &Start) -> DVector<f64> {
+    let z = match start {
+        Start::Cold => None,
+        Start::Primal(z) | Start::PrimalDual { z, .. } => Some(z),
+    };
+    match z {
+        Some(z) if z.len() == qp.n() && z.iter().all(|v| v.is_finite()) => z.clone(),
+        _ => DVector::zeros(qp.n()),
+    }
+}
+
+fn result(p: Point, r: &Residuals, iterations: usize, status: Status) -> IpmResult {
+    IpmResult {
+        z: p.z,
+        lambda: p.lambda,
+        s: p.s,
+        iterations,
+        primal_residual: r.relative_primal,
+        dual_residual: r.relative_dual,
+        gap: r.gap,
+        complementarity: r.complementarity,
+        status,
+    }
+}
+
+fn failure(qp: &InequalityQp, start: &Start, iterations: usize) -> IpmResult {
+    IpmResult {
+        z: fallback_z(qp, start),
+        lambda: DVector::zeros(0),
+        s: DVector::zeros(0),
+        iterations,
+        primal_residual: f64::INFINITY,
+        dual_residual: f64::INFINITY,
+        gap: f64::INFINITY,
+        complementarity: f64::INFINITY,
+        status: Status::NumericalFailure,
+    }
+}
+
+/// Whether λ certifies G z ≤ h infeasible (Farkas: λ ≥ 0, Gᵀλ = 0, hᵀλ < 0), or has diverged.
+fn infeasible(sides: &Sides, lambda: &DVector<f64>) -> bool {
+    let htl = sides.h.dot(lambda);
+    let certificate = htl < 0.0 && sides.tmul(lambda).amax() <= INFEASIBILITY_TOLERANCE * (-htl);
+    certificate || lambda.amax() > 1e15
+}
+
+fn run(qp: &InequalityQp, start: &Start, tolerance: Option<f64>, iterations: usize) -> IpmResult {
+    if !qp.consistent() || !qp.finite() {
+        return failure(qp, start, 0);
+    }
+    let sides = Sides::new(qp);
+    let m = sides.len();
+    if m == 0 {
+        // Unconstrained: one Newton step is the minimiser.
+        if iterations == 0 {
+            let p = Point {
+                z: fallback_z(qp, start),
+                s: DVector::zeros(0),
+                lambda: DVector::zeros(0),
+            };
+            let r = residuals(qp, &sides, &p);
+            return result(p, &r, 0, Status::IterationLimit);
+        }
+        let z = factor(qp.H.clone()).map(|c| c.solve(&-&qp.f));
+        return match z {
+            Some(z) if z.iter().all(|v| v.is_finite()) => {
+                let p = Point {
+                    z,
+                    s: DVector::zeros(0),
+                    lambda: DVector::zeros(0),
+                };
+                let r = residuals(qp, &sides, &p);
+                result(p, &r, 1, Status::Converged)
+            }
+            _ => failure(qp, start, 0),
+        };
+    }
+    let Some(mut p) = start_point(qp, &sides, start) else {
+        return failure(qp, start, 0);
+    };
+    let mut r = residuals(qp, &sides, &p);
+    for k in 0..iterations {
+        if tolerance.is_some_and(|tol| r.below(tol)) {
+            return result(p, &r, k, Status::Converged);
+        }
+        let mu = p.s.dot(&p.lambda) / m as f64;
+        let Some(chol) = factor(sides.normal(&qp.H, &p.lambda.component_div(&p.s))) else {
+            return result(p, &r, k, Status::NumericalFailure);
+        };
+        // Predictor: the affine-scaling direction (σ = 0).
+        let affine = direction(&sides, &chol, &r, &p, &p.s.component_mul(&p.lambda));
+        let alpha = step_to_boundary(&p, &affine).min(1.0);
+        let mu_affine =
+            (&p.s + &affine.s * alpha).dot(&(&p.lambda + &affine.lambda * alpha)) / m as f64;
+        let sigma = if mu > 0.0 {
+            (mu_affine / mu).clamp(0.0, 1.0).powi(3)
+        } else {
+            0.0
+        };
+        // Corrector: centering plus the second-order term of the complementarity.
+        let rc = p.s.component_mul(&p.lambda) + affine.s.component_mul(&affine.lambda)
+            - DVector::from_element(m, sigma * mu);
+        let d = direction(&sides, &chol, &r, &p, &rc);
+        let alpha = (FRACTION * step_to_boundary(&p, &d)).min(1.0);
+        let next = Point {
+            z: &p.z + &d.z * alpha,
+            s: &p.s + &d.s * alpha,
+            lambda: &p.lambda + &d.lambda * alpha,
+        };
+        if !next.finite() || next.s.iter().chain(&next.lambda).any(|v| *v <= 0.0) {
+            return result(p, &r, k, Status::NumericalFailure);
+        }
+        p = next;
+        r = residuals(qp, &sides, &p);
+        if infeasible(&sides, &p.lambda) {
+            return result(p, &r, k + 1, Status::Infeasible);
+        }
+    }
+    let status = if tolerance.is_some_and(|tol| r.below(tol)) {
+        Status::Converged
+    } else {
+        Status::IterationLimit
+    };
+    result(p, &r, iterations, status)
+}
