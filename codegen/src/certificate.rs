@@ -505,7 +505,7 @@ fn contraction(p: &Problem, plan: &Plan) -> f64 {
 /// input (ξ⁺ = [F G; 0 I]ξ + [G; I]Δu), stage cost xᵀQx + uᵀRu + ΔuᵀR_duΔu with u = u₋₁ + Δu, so R may be
 /// zero: the cross term ξᵀ[0; R]Δu is removed by the usual change of input before the Riccati recursion.
 fn lqr(p: &Problem) -> Lqr {
-    let (F, G, Q, N, R) = moves_system(p);
+    let LqrSystem { F, G, Q, N, R } = lqr_system(p);
     let nan = || Lqr {
         gain: DMatrix::from_element(p.nu, F.ncols(), f64::NAN),
         spectral_radius: f64::NAN,
@@ -535,28 +535,28 @@ fn lqr(p: &Problem) -> Lqr {
     }
 }
 
-/// The LQR problem (F, G, Q, N, R) with stage cost ξᵀQξ + 2ξᵀNv + vᵀRv: the plant's own (N = 0) without
-/// weighted moves; with them, the state (x, u₋₁) and the move as input.
-#[allow(clippy::type_complexity)]
-fn moves_system(
-    p: &Problem,
-) -> (
-    DMatrix<f64>,
-    DMatrix<f64>,
-    DMatrix<f64>,
-    DMatrix<f64>,
-    DMatrix<f64>,
-) {
+/// An LQR problem with stage cost ξᵀQξ + 2ξᵀNv + vᵀRv on ξ⁺ = Fξ + Gv.
+struct LqrSystem {
+    F: DMatrix<f64>,
+    G: DMatrix<f64>,
+    Q: DMatrix<f64>,
+    N: DMatrix<f64>,
+    R: DMatrix<f64>,
+}
+
+/// The plant's own LQR problem (N = 0) without weighted moves; with them, the state (x, u₋₁) and the move
+/// as input.
+fn lqr_system(p: &Problem) -> LqrSystem {
     let qp = &p.qp;
     let (nx, nu) = (p.nx, p.nu);
     if !p.has_moves() {
-        return (
-            p.F.clone(),
-            p.G.clone(),
-            qp.Q.clone(),
-            DMatrix::zeros(nx, nu),
-            qp.R.clone(),
-        );
+        return LqrSystem {
+            F: p.F.clone(),
+            G: p.G.clone(),
+            Q: qp.Q.clone(),
+            N: DMatrix::zeros(nx, nu),
+            R: qp.R.clone(),
+        };
     }
     let n = nx + nu;
     let mut F = DMatrix::identity(n, n);
@@ -570,7 +570,13 @@ fn moves_system(
     Q.view_mut((nx, nx), (nu, nu)).copy_from(&qp.R);
     let mut N = DMatrix::zeros(n, nu);
     N.view_mut((nx, 0), (nu, nu)).copy_from(&qp.R);
-    (F, G, Q, N, &qp.R + &qp.R_du)
+    LqrSystem {
+        F,
+        G,
+        Q,
+        N,
+        R: &qp.R + &qp.R_du,
+    }
 }
 
 /// The MPC's loops. With weighted moves the plan depends on (x, u₋₁), u₋₁ the previous command: the
@@ -591,8 +597,15 @@ fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
         Some(H) => (H.inverse() * &Fxu).rows(0, nu).into_owned(),
         None => DMatrix::from_element(nu, nx + moves, f64::NAN),
     };
-    let (F, G, ..) = moves_system(p);
-    let spectral = spectral_radius(&(&F - &G * &K - moves_offset(p, &K)));
+    // The MPC gives the input u = −K·ξ itself, not a move: on ξ = (x, u₋₁) the loop is [F G; 0 I]ξ +
+    // [G; I](u − u₋₁), so the move form's input matrix also takes u₋₁ off (columns nx.. of ξ).
+    let LqrSystem { F, G, .. } = lqr_system(p);
+    let mut closed = &F - &G * &K;
+    if moves > 0 {
+        let taken_off = &closed.columns(nx, nu) - &G;
+        closed.columns_mut(nx, nu).copy_from(&taken_off);
+    }
+    let spectral = spectral_radius(&closed);
     let affordable = nz <= MAX_SOLVER_ANALYSIS_SIZE
         && budget::solver_analysis_macs(nx, nz, qp.iterations) <= budget::SOLVER_ANALYSIS_MACS;
     let solver = affordable.then_some(()).and_then(|()| {
@@ -626,21 +639,6 @@ fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
         spectral_radius: spectral,
         solver_spectral_radius: solver,
     }
-}
-
-/// The MPC gives the input u = −K·ξ itself, not a move: on ξ = (x, u₋₁) the loop is ξ⁺ = [F·x + G·u; u],
-/// which is [F G; 0 I]ξ + [G; I](u − u₋₁). The returned term corrects `F − G·K` for the u₋₁ that the move
-/// form adds: [G; I]·[0 I]. Zero without weighted moves.
-fn moves_offset(p: &Problem, K: &DMatrix<f64>) -> DMatrix<f64> {
-    let (nx, nu) = (p.nx, p.nu);
-    let n = K.ncols();
-    if !p.has_moves() {
-        return DMatrix::zeros(n, n);
-    }
-    let (_, G, ..) = moves_system(p);
-    let mut select = DMatrix::zeros(nu, n);
-    select.view_mut((0, nx), (nu, nu)).fill_with_identity();
-    G * select
 }
 
 /// The numbers the module writes in tables and the multiply-adds it unrolls: the public matrices, the

@@ -229,11 +229,7 @@ pub fn injections(p: &Problem, emission: Emission) -> Injections {
             }
             // The predicted states reach f through 2 Suᵀ Q_blk: Fr itself without outputs.
             let states_map = if qp.Cz.is_some() {
-                let mut Q_blk = DMatrix::zeros(N * nx, N * nx);
-                for k in 0..N {
-                    let W = if k + 1 == N { &qp.Qf } else { &qp.Q };
-                    Q_blk.view_mut((k * nx, k * nx), (nx, nx)).copy_from(W);
-                }
+                let Q_blk = crate::lower::block_diagonal(N, &qp.Q, &qp.Qf);
                 first_rows_of_solve(&qp.H, &(qp.Su.transpose() * Q_blk * 2.0), nu)
             } else {
                 Mr.clone()

@@ -36,6 +36,15 @@ pub fn steady_state_filter(
     None
 }
 
+/// The Moore-Penrose pseudo-inverse, singular values below ε·max(rows, cols) of M's largest entry taken
+/// as zero (a tolerance relative to M's own scale); zeros if the SVD fails.
+pub fn pseudo_inverse(M: &DMatrix<f64>) -> DMatrix<f64> {
+    let scale = M.amax().max(f64::MIN_POSITIVE);
+    M.clone()
+        .pseudo_inverse(scale * f64::EPSILON * M.nrows().max(M.ncols()) as f64)
+        .unwrap_or_else(|_| DMatrix::zeros(M.ncols(), M.nrows()))
+}
+
 /// The gain K = P Cᵀ (C P Cᵀ + R)⁻¹ and the Joseph-form posterior (I − KC) P (I − KC)ᵀ + K R Kᵀ.
 pub fn kalman_gain_and_posterior(
     P: &DMatrix<f64>,

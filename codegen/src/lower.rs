@@ -5,7 +5,9 @@
 #![allow(non_snake_case)]
 
 use crate::discretize::{self, NotFinite};
-use crate::linalg::{dense, extreme_eigenvalues, project, steady_state_filter, symmetrize};
+use crate::linalg::{
+    dense, extreme_eigenvalues, project, pseudo_inverse, steady_state_filter, symmetrize,
+};
 use crate::numeric::Numeric;
 use crate::solver::Parameters;
 use mpc_spec::{
@@ -554,12 +556,7 @@ impl Weights {
         let Q = symmetrize(&(Cz.transpose() * &W * &Cz));
         let Qr = Cz.transpose() * &W;
         let (Qf, Qfr) = if m.qf_on_state {
-            let scale = Cz.amax().max(f64::MIN_POSITIVE);
-            let pinv = Cz
-                .clone()
-                .pseudo_inverse(scale * f64::EPSILON * Cz.nrows().max(Cz.ncols()) as f64)
-                .unwrap_or_else(|_| DMatrix::zeros(Cz.ncols(), Cz.nrows()));
-            let Qfr = &Wf * pinv;
+            let Qfr = &Wf * pseudo_inverse(&Cz);
             (Wf, Qfr)
         } else {
             (
@@ -651,7 +648,7 @@ impl Condensed {
 }
 
 /// N blocks on the diagonal: `stage` N − 1 times, then `last`.
-fn block_diagonal(N: usize, stage: &DMatrix<f64>, last: &DMatrix<f64>) -> DMatrix<f64> {
+pub(crate) fn block_diagonal(N: usize, stage: &DMatrix<f64>, last: &DMatrix<f64>) -> DMatrix<f64> {
     let (r, c) = stage.shape();
     let mut out = DMatrix::zeros(N * r, N * c);
     for k in 0..N {
@@ -856,14 +853,8 @@ fn filter(
     let S_inf_inv = (&Ca * &P_inf * Ca.transpose() + &Rn)
         .try_inverse()
         .unwrap_or_else(|| DMatrix::zeros(ny, ny));
-    // C has full row rank or a dependent measurement: the pseudo-inverse serves both (its tolerance is
-    // relative to C's own scale).
-    let c_scale = C.amax().max(f64::MIN_POSITIVE);
-    let C_pinv = C
-        .clone()
-        .pseudo_inverse(c_scale * f64::EPSILON * (nx.max(ny) as f64))
-        .unwrap_or_else(|_| DMatrix::zeros(nx, ny));
-    let C_pinv = C_pinv.resize_vertically(nx + nd, 0.0);
+    // C has full row rank or a dependent measurement: the pseudo-inverse serves both.
+    let C_pinv = pseudo_inverse(C).resize_vertically(nx + nd, 0.0);
     Some(Filter {
         nd,
         Fa,
