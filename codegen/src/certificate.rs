@@ -602,7 +602,7 @@ fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
     let LqrSystem { F, G, .. } = lqr_system(p);
     let mut closed = &F - &G * &K;
     if moves > 0 {
-        let taken_off = &closed.columns(nx, nu) - &G;
+        let taken_off = closed.columns(nx, nu) - &G;
         closed.columns_mut(nx, nu).copy_from(&taken_off);
     }
     let spectral = spectral_radius(&closed);
