@@ -277,6 +277,10 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
         qf_on_state,
         u_min: u_min?,
         u_max: u_max?,
+        // Filled from the keys of issue 17 by `check_constraints` (in progress).
+        constraints: Constraints::default(),
+        accuracy: DEFAULT_ACCURACY,
+        region: Region::default(),
     })
 }
 

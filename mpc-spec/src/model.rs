@@ -185,7 +185,102 @@ spelled! {
         Fgm = "fgm",
         /// Projected gradient, the paper's Algorithm 1.
         Gradient = "gradient",
+        /// A fixed-iteration primal-dual interior-point method (Mehrotra's predictor-corrector) in f64:
+        /// for state, output and rate constraints and ill-conditioned plants.
+        Ipm = "ipm",
     }
+}
+
+impl Method {
+    /// Whether the method solves the input box only (a first-order method), so that state rows,
+    /// rate bounds and soft constraints need another.
+    pub const fn box_only(self) -> bool {
+        matches!(self, Method::Fgm | Method::Gradient)
+    }
+}
+
+/// The accuracy `[mpc] accuracy` asks for when it is not written: the plan within 1e-3 of the input
+/// span of the exact solution, and rows violated by at most 1e-3 of their bound's scale.
+pub const DEFAULT_ACCURACY: f64 = 1e-3;
+
+/// The constraints of `[mpc]` besides the input box: `x_min`/`x_max` (with `x_soft`), `du_min`/`du_max`
+/// and the row groups `[[mpc.constraint]]`. Absent entries are ±∞.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Constraints {
+    /// Lower bounds on the predicted states x_1 … x_N (nx entries, −∞ where unbounded); empty when
+    /// `x_min` is not written.
+    pub x_min: Vec<f64>,
+    /// Upper bounds on the predicted states (nx, +∞ where unbounded); empty when not written.
+    pub x_max: Vec<f64>,
+    /// `x_soft`: the weight of the exact (L1) penalty on a violation of `x_min`/`x_max`; `None`: hard.
+    pub x_soft: Option<f64>,
+    /// Lower bounds on the moves u_k − u_{k−1}, k = 0 … N−1 (nu); empty when `du_min` is not written.
+    pub du_min: Vec<f64>,
+    /// Upper bounds on the moves (nu); empty when not written.
+    pub du_max: Vec<f64>,
+    /// `[[mpc.constraint]]`, in the order written.
+    pub rows: Vec<RowGroup>,
+}
+
+impl Constraints {
+    /// Whether anything besides the input box is constrained.
+    pub fn any(&self) -> bool {
+        self.has_state_bounds() || self.has_move_bounds() || !self.rows.is_empty()
+    }
+
+    /// Whether `x_min` or `x_max` bounds some state.
+    pub fn has_state_bounds(&self) -> bool {
+        self.x_min.iter().chain(&self.x_max).any(|b| b.is_finite())
+    }
+
+    /// Whether `du_min` or `du_max` bounds some move.
+    pub fn has_move_bounds(&self) -> bool {
+        self.du_min
+            .iter()
+            .chain(&self.du_max)
+            .any(|b| b.is_finite())
+    }
+
+    /// Whether some constraint is soft.
+    pub fn any_soft(&self) -> bool {
+        self.x_soft.is_some() || self.rows.iter().any(|r| r.soft.is_some())
+    }
+}
+
+/// One `[[mpc.constraint]]`: lower ≤ Ax·x_k + Au·u_k ≤ upper at every predicted step (the README states
+/// the stages: k = 0 … N−1 where the row has an `au`, and the terminal x_N through `ax` alone).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RowGroup {
+    /// rows × nx.
+    pub ax: Matrix,
+    /// rows × nu; zero when not written.
+    pub au: Matrix,
+    /// One per row, −∞ where unbounded below.
+    pub lower: Vec<f64>,
+    /// One per row, +∞ where unbounded above.
+    pub upper: Vec<f64>,
+    /// The exact penalty's weight on a violation; `None`: hard.
+    pub soft: Option<f64>,
+}
+
+/// `[mpc.region]`: where the compiler samples states, references (and the last input, the disturbance)
+/// to certify an interior-point method empirically. Absent entries default from the state bounds.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Region {
+    /// Lower corner of the sampled states (nx); empty: `x_min`.
+    pub x_min: Vec<f64>,
+    /// Upper corner of the sampled states (nx); empty: `x_max`.
+    pub x_max: Vec<f64>,
+    /// Lower corner of the sampled references (nz); empty: the tracked outputs over the state region.
+    pub reference_min: Vec<f64>,
+    /// Upper corner of the sampled references (nz); empty: likewise.
+    pub reference_max: Vec<f64>,
+    /// Seeded random draws (besides the corners); `None`: the compiler's default.
+    pub samples: Option<usize>,
+    /// Closed-loop sequences, warm-started, each of [`Region::steps`] steps; `None`: the default.
+    pub sequences: Option<usize>,
+    /// Steps per closed-loop sequence; `None`: the default.
+    pub steps: Option<usize>,
 }
 
 /// The solver's step size, `[mpc] step`.
@@ -233,6 +328,12 @@ pub struct Mpc {
     pub u_min: Vec<f64>,
     /// Upper input bound per input.
     pub u_max: Vec<f64>,
+    /// State, rate and general constraints beyond the input box.
+    pub constraints: Constraints,
+    /// `accuracy`: |U − U*|∞ ≤ accuracy·(u_max − u_min) and a row violation ≤ accuracy·max(1, |bound|).
+    pub accuracy: f64,
+    /// `[mpc.region]`, where an interior-point method is certified.
+    pub region: Region,
 }
 
 /// The filter's noise model, from `[kalman]`.

@@ -27,12 +27,17 @@ pub fn algorithm(method: Method) -> &'static dyn Algorithm {
     match method {
         Method::Fgm => &Fgm,
         Method::Gradient => &Gradient,
+        // The interior-point method is not a first-order iteration on the box (issue 17, in progress).
+        Method::Ipm => &Fgm,
     }
 }
 
 /// Every algorithm, in the order of [`Method`].
 pub fn all() -> impl Iterator<Item = &'static dyn Algorithm> {
-    Method::ALL.iter().map(|m| algorithm(*m))
+    Method::ALL
+        .iter()
+        .filter(|m| m.box_only())
+        .map(|m| algorithm(*m))
 }
 
 /// A bound Δ_k ≤ constant · factor^k · Δ_0 on the gap Δ_k = J(U_k) − J* of the box-constrained QP.
