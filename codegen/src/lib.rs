@@ -26,19 +26,20 @@
 
 pub mod budget;
 pub mod certificate;
+pub mod constraints;
 pub mod coordinates;
 pub mod cost;
 pub mod discretize;
 pub mod emit;
 pub mod form;
 pub mod input;
-pub mod ipm;
 pub mod linalg;
 pub mod lower;
 pub mod numeric;
 pub mod oracle;
 pub mod plan;
 pub mod render;
+pub mod sampling;
 pub mod solver;
 pub mod structure;
 
@@ -47,6 +48,7 @@ pub use emit::Origin;
 pub use lower::{lower, Problem};
 pub use mpc_spec::{Diagnostic, Diagnostics, Spec};
 pub use plan::{plan, Plan};
+pub use solver::ipm;
 
 use proc_macro2::{Ident, Span, TokenStream};
 

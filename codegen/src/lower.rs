@@ -4,6 +4,7 @@
 //! `cargo build` time and bakes into the emitted module, and what the generic solver runs with.
 #![allow(non_snake_case)]
 
+use crate::constraints::Rows;
 use crate::discretize::{self, NotFinite};
 use crate::linalg::{
     dense, extreme_eigenvalues, project, pseudo_inverse, steady_state_filter, symmetrize,
@@ -76,9 +77,22 @@ pub struct Qp {
     pub u_min: DVector<f64>,
     /// Upper input bounds (nu).
     pub u_max: DVector<f64>,
+    /// The constraints beyond the input box ([`crate::constraints`]); empty for the box alone.
+    pub rows: Rows,
+    /// `[mpc] accuracy`: the plan within accuracy·(u_max − u_min) of the exact solution.
+    pub accuracy: f64,
+    /// The interior-point method's certificate ([`crate::sampling`]); `None` for a first-order method.
+    pub evidence: Option<crate::sampling::Evidence>,
 }
 
 impl Qp {
+    /// The run-time limits of the interior-point method's residuals (none before it is certified).
+    pub fn ipm_limits(&self) -> crate::solver::ipm::Limits {
+        self.evidence
+            .as_ref()
+            .map_or(crate::solver::ipm::Limits::NONE, |e| e.limits)
+    }
+
     /// What the algorithm runs with.
     pub fn parameters(&self) -> Parameters {
         Parameters {
@@ -339,6 +353,7 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     let nd = filter.as_ref().map_or(0, |f| f.nd);
     let Fd = &H * DMatrix::from_fn(N * nu, nd, |i, j| if i % nu == j { 1.0 } else { 0.0 })
         + Fu.columns(0, nd);
+    let rows = crate::constraints::lower(&m.constraints, &Sx, &Su, nu);
     let qp = Qp {
         N,
         iterations,
@@ -365,13 +380,16 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         momentum,
         u_min: DVector::from_column_slice(&m.u_min),
         u_max: DVector::from_column_slice(&m.u_max),
+        rows,
+        accuracy: m.accuracy,
+        evidence: None,
     };
     check_ranges(spec, &qp, filter.as_ref(), &F, &G)?;
     // The lane sweeps know the state weights only: outputs and moves take the scalar ones.
     let model_lanes = (qp.Cz.is_none() && m.r_du.is_none())
         .then(|| model_lanes(&F, &G, &qp.Q, &qp.Qf, &qp.R))
         .flatten();
-    Ok(Problem {
+    let mut problem = Problem {
         nx,
         nu,
         ny,
@@ -383,7 +401,13 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         C,
         scalar: spec.codegen.scalar,
         model_lanes,
-    })
+    };
+    if m.method == Method::Ipm {
+        let evidence = crate::sampling::certify(spec, &problem)?;
+        problem.qp.iterations = evidence.iterations;
+        problem.qp.evidence = Some(evidence);
+    }
+    Ok(problem)
 }
 
 /// The double integrator's `dt` must give a discrete model that f64 resolves. Per axis the model moves
@@ -663,6 +687,14 @@ pub(crate) fn block_diagonal(N: usize, stage: &DMatrix<f64>, last: &DMatrix<f64>
 fn solver_parameters(spec: &Spec, mu: f64, L: f64, diags: &mut Diagnostics) -> (f64, f64, usize) {
     let m = &spec.mpc;
     let span = |key: &str| spec.spans.get(key);
+    // The interior-point method has no step; its count is fixed or certified by sampling.
+    if m.method == Method::Ipm {
+        let fixed = match m.iterations {
+            Iterations::Fixed(n) => n,
+            Iterations::Auto => 0,
+        };
+        return (1.0 / L, 0.0, fixed);
+    }
     let algorithm = crate::solver::algorithm(m.method);
     let step = match m.step {
         Step::Auto => 1.0 / L,

@@ -5,6 +5,7 @@
 
 use crate::linalg::{kalman_gain_and_posterior, project, symmetrize};
 use crate::lower::{Problem, Qp, Screening};
+use crate::solver::ipm::{control_step, shifted_start, Start, Step};
 use crate::solver::{algorithm, Algorithm, Fgm};
 use mpc_spec::{FilterKind, Method};
 use nalgebra::{DMatrix, DVector};
@@ -17,6 +18,10 @@ pub struct Mpc {
     plan: DVector<f64>,
     /// u₋₁, the last input returned (or set): what the first move Δu₀ is measured from.
     last: DVector<f64>,
+    /// The interior-point method's warm start (`Cold` for the first-order methods, unused).
+    start: Start,
+    /// The interior-point method's last step: its solve and fallback.
+    last_step: Option<Step>,
 }
 
 impl Mpc {
@@ -25,7 +30,19 @@ impl Mpc {
         let qp = problem.qp.clone();
         let plan = rest_plan(&qp);
         let last = qp.rest_input();
-        Mpc { qp, plan, last }
+        Mpc {
+            qp,
+            plan,
+            last,
+            start: Start::Cold,
+            last_step: None,
+        }
+    }
+
+    /// The interior-point method's last step (its residuals, iterations and fallback); `None` before
+    /// the first solve, after a reset, or for a first-order method.
+    pub fn last_step(&self) -> Option<&Step> {
+        self.last_step.as_ref()
     }
 
     /// The last input u₋₁ the moves are measured from.
@@ -56,6 +73,8 @@ impl Mpc {
     pub fn reset(&mut self) {
         self.plan = rest_plan(&self.qp);
         self.last = self.qp.rest_input();
+        self.start = Start::Cold;
+        self.last_step = None;
     }
 
     /// The gradient map f = Fx·x0 − Fr·Xref + Fu·u₋₁ (eq. 10 with the moves), `xref[k]` the reference of
@@ -87,8 +106,25 @@ impl Mpc {
             return self.qp.rest_input();
         }
         let f = self.linear_term(x0, xref) + &self.qp.Fd * d;
-        let start = self.warm_start();
-        self.plan = iterate(&self.qp, &f, start, self.qp.iterations);
+        if self.qp.method == Method::Ipm {
+            let offset = self.qp.rows.offset(x0, d, &self.last);
+            let limits = self.qp.ipm_limits();
+            let step = control_step(
+                &self.qp,
+                &f,
+                &offset,
+                &self.start,
+                &self.plan,
+                self.qp.iterations,
+                &limits,
+            );
+            self.start = shifted_start(&self.qp, &step);
+            self.plan = step.plan.clone();
+            self.last_step = Some(step);
+        } else {
+            let start = self.warm_start();
+            self.plan = iterate(&self.qp, &f, start, self.qp.iterations);
+        }
         self.last = self.plan.rows(0, nu).into_owned();
         self.last.clone()
     }

@@ -13,6 +13,7 @@
 
 mod fgm;
 mod gradient;
+pub mod ipm;
 
 pub use fgm::Fgm;
 pub use gradient::Gradient;

@@ -32,6 +32,10 @@ pub const FRACTION: f64 = 0.99;
 /// 1 did best for a shifted (z, s, λ) among 1e-4 … 100.
 pub const WARM_FLOOR: f64 = 1.0;
 
+/// A fixed-iteration solve stops moving once its relative residuals, and its gap relative to the
+/// objective, are below this: the point is optimal to rounding ([`Residuals::finished`]).
+pub const FINISHED: f64 = 1e-12;
+
 /// The infeasibility certificate's tolerance: λ ≥ 0 with ‖Gᵀλ‖∞ ≤ this · (−hᵀλ) proves G z ≤ h empty
 /// (Farkas), for z of order one.
 pub const INFEASIBILITY_TOLERANCE: f64 = 1e-8;
@@ -331,6 +335,7 @@ pub fn macs_per_iteration(qp: &InequalityQp) -> usize {
 }
 
 /// The iterate.
+#[derive(Clone)]
 struct Point {
     z: DVector<f64>,
     s: DVector<f64>,
@@ -364,9 +369,20 @@ struct Residuals {
     relative_dual: f64,
     gap: f64,
     complementarity: f64,
+    /// 1 + |½zᵀHz| + |fᵀz|: the objective's scale, which the gap is measured against.
+    objective_scale: f64,
 }
 
 impl Residuals {
+    /// Whether the point is optimal to rounding ([`FINISHED`]): further iterations would only drive s∘λ
+    /// towards underflow, where the normal matrix's weights λ/s span more than f64 and the direction
+    /// breaks down (observed: a solution found in 16 iterations lost at 28).
+    fn finished(&self) -> bool {
+        self.relative_primal <= FINISHED
+            && self.relative_dual <= FINISHED
+            && self.gap <= FINISHED * self.objective_scale
+    }
+
     fn below(&self, tol: f64) -> bool {
         self.relative_primal <= tol
             && self.relative_dual <= tol
@@ -390,6 +406,7 @@ fn residuals(qp: &InequalityQp, sides: &Sides, p: &Point) -> Residuals {
         } else {
             p.s.dot(&p.lambda) / p.s.len() as f64
         },
+        objective_scale: 1.0 + (0.5 * p.z.dot(&Hz)).abs() + qp.f.dot(&p.z).abs(),
         complementarity: p
             .s
             .iter()
@@ -549,6 +566,33 @@ fn infeasible(sides: &Sides, lambda: &DVector<f64>) -> bool {
 }
 
 fn run(qp: &InequalityQp, start: &Start, tolerance: Option<f64>, iterations: usize) -> IpmResult {
+    run_observed(qp, start, tolerance, iterations, &mut |_| {})
+}
+
+/// Every iterate of [`solve_fixed`] from `start`: element k is what `solve_fixed(qp, start, k)`
+/// returns, for k = 1 … (up to `iterations`; fewer when the solve stops early on infeasibility or a
+/// failure, whose result is then last). Element 0 is the start.
+pub fn trajectory(qp: &InequalityQp, start: &Start, iterations: usize) -> Vec<IpmResult> {
+    let mut out = Vec::with_capacity(iterations + 1);
+    let last = run_observed(qp, start, None, iterations, &mut |r| out.push(r));
+    // A solve that stopped on infeasibility or a failure ends with that result, in the place of the
+    // iterate it judged.
+    match out.last_mut() {
+        Some(r) if r.iterations == last.iterations => *r = last,
+        Some(r) if r.status == Status::Converged => {}
+        _ => out.push(last),
+    }
+    out
+}
+
+/// [`run`], reporting the iterate before the first iteration and after each.
+fn run_observed(
+    qp: &InequalityQp,
+    start: &Start,
+    tolerance: Option<f64>,
+    iterations: usize,
+    observe: &mut dyn FnMut(IpmResult),
+) -> IpmResult {
     if !qp.consistent() || !qp.finite() {
         return failure(qp, start, 0);
     }
@@ -583,8 +627,16 @@ fn run(qp: &InequalityQp, start: &Start, tolerance: Option<f64>, iterations: usi
         return failure(qp, start, 0);
     };
     let mut r = residuals(qp, &sides, &p);
+    observe(result(p.clone(), &r, 0, Status::IterationLimit));
     for k in 0..iterations {
         if tolerance.is_some_and(|tol| r.below(tol)) {
+            return result(p, &r, k, Status::Converged);
+        }
+        if r.finished() {
+            // The remaining iterations leave the point as it is.
+            for _ in k..iterations {
+                observe(result(p.clone(), &r, k, Status::Converged));
+            }
             return result(p, &r, k, Status::Converged);
         }
         let mu = p.s.dot(&p.lambda) / m as f64;
@@ -616,6 +668,7 @@ fn run(qp: &InequalityQp, start: &Start, tolerance: Option<f64>, iterations: usi
         }
         p = next;
         r = residuals(qp, &sides, &p);
+        observe(result(p.clone(), &r, k + 1, Status::IterationLimit));
         if infeasible(&sides, &p.lambda) {
             return result(p, &r, k + 1, Status::Infeasible);
         }
@@ -626,4 +679,174 @@ fn run(qp: &InequalityQp, start: &Start, tolerance: Option<f64>, iterations: usi
         Status::IterationLimit
     };
     result(p, &r, iterations, status)
+}
+
+/// The MPC's QP of one control step on z = (U, σ): ½zᵀ·blkdiag(H, diag(q_σ))·z + (f, w)ᵀz over the
+/// input box and σ ≥ 0, with the rows of [`crate::constraints`] shifted by their data `offset`
+/// (Wx·x0 + Wd·d + Wu·u₋₁).
+pub fn mpc_qp(qp: &Qp, f: &DVector<f64>, offset: &DVector<f64>) -> InequalityQp {
+    let rows = &qp.rows;
+    let (n, ns) = (f.len(), rows.slacks());
+    let nu = qp.u_min.len();
+    let nv = n + ns;
+    let mut H = DMatrix::zeros(nv, nv);
+    H.view_mut((0, 0), (n, n)).copy_from(&qp.H);
+    for j in 0..ns {
+        H[(n + j, n + j)] = rows.slack_quadratic[j];
+    }
+    let A = if rows.is_empty() {
+        DMatrix::zeros(0, nv)
+    } else {
+        rows.A.clone()
+    };
+    InequalityQp {
+        H,
+        f: DVector::from_iterator(nv, f.iter().chain(rows.slack_weight.iter()).copied()),
+        z_min: DVector::from_fn(nv, |i, _| if i < n { qp.u_min[i % nu] } else { 0.0 }),
+        z_max: DVector::from_fn(nv, |i, _| {
+            if i < n {
+                qp.u_max[i % nu]
+            } else {
+                f64::INFINITY
+            }
+        }),
+        A,
+        lower: &rows.lower - offset,
+        upper: &rows.upper - offset,
+    }
+}
+
+/// How an interior-point control step made its plan.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Fallback {
+    /// The iterate, projected onto the input box (a no-op but for rounding).
+    None,
+    /// The iteration failed (non-finite, infeasibility detected, or residuals above the limits): the
+    /// previous plan shifted by one step with the rest input appended, projected onto the box; the next
+    /// solve starts cold.
+    WarmStart,
+}
+
+/// The limits above which a fixed-iteration solve is not trusted and [`Fallback::WarmStart`] is used.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Limits {
+    /// On [`IpmResult::primal_residual`].
+    pub primal: f64,
+    /// On [`IpmResult::dual_residual`].
+    pub dual: f64,
+}
+
+impl Limits {
+    /// No limit: only failures and infeasibility fall back.
+    pub const NONE: Limits = Limits {
+        primal: f64::INFINITY,
+        dual: f64::INFINITY,
+    };
+}
+
+/// One interior-point control step: the plan and what happened.
+#[derive(Clone, Debug)]
+pub struct Step {
+    /// The plan U (N·nu), inside the input box.
+    pub plan: DVector<f64>,
+    /// The solve (its z includes the slacks).
+    pub result: IpmResult,
+    /// Whether the plan is the solve's.
+    pub fallback: Fallback,
+}
+
+/// The warm start of the next step: the solve's (z, s, λ) shifted by one slot (the plan's last step
+/// and the rows' last slot repeated, the slacks and their sides kept), or `Cold` after a fallback.
+pub fn shifted_start(qp: &Qp, previous: &Step) -> Start {
+    let r = &previous.result;
+    if previous.fallback != Fallback::None || r.s.is_empty() {
+        return Start::Cold;
+    }
+    let nu = qp.u_min.len();
+    let n = qp.N * nu;
+    let ns = qp.rows.slacks();
+    let sides_per_slot = (r.s.len() - 2 * n - ns) / qp.N;
+    let shift = |v: &DVector<f64>| -> DVector<f64> {
+        let mut out = v.clone();
+        shift_blocks(&mut out.as_mut_slice()[..2 * n], 2 * nu);
+        shift_blocks(&mut out.as_mut_slice()[2 * n + ns..], sides_per_slot);
+        out
+    };
+    let mut z = r.z.clone();
+    shift_blocks(&mut z.as_mut_slice()[..n], nu);
+    let rest = qp.rest_input();
+    z.rows_mut(n - nu, nu).copy_from(&rest);
+    Start::PrimalDual {
+        z,
+        s: shift(&r.s),
+        lambda: shift(&r.lambda),
+    }
+}
+
+/// Moves every block of `width` up by one, the last block kept.
+fn shift_blocks(v: &mut [f64], width: usize) {
+    if width == 0 || v.len() <= width {
+        return;
+    }
+    v.copy_within(width.., 0);
+}
+
+/// One control step: `iterations` from `start`, then the plan or the fallback to `previous_plan`
+/// shifted (rest input appended) when the solve failed, detected infeasibility, or ended with residuals
+/// above `limits`.
+pub fn control_step(
+    qp: &Qp,
+    f: &DVector<f64>,
+    offset: &DVector<f64>,
+    start: &Start,
+    previous_plan: &DVector<f64>,
+    iterations: usize,
+    limits: &Limits,
+) -> Step {
+    let problem = mpc_qp(qp, f, offset);
+    let result = solve_fixed(&problem, start, iterations);
+    let n = f.len();
+    let trusted = matches!(result.status, Status::IterationLimit | Status::Converged)
+        && result.primal_residual <= limits.primal
+        && result.dual_residual <= limits.dual;
+    let nu = qp.u_min.len();
+    let project = |v: &DVector<f64>| {
+        DVector::from_fn(n, |i, _| {
+            crate::linalg::project(v[i], qp.u_min[i % nu], qp.u_max[i % nu])
+        })
+    };
+    if trusted {
+        return Step {
+            plan: project(&result.z.rows(0, n).into_owned()),
+            result,
+            fallback: Fallback::None,
+        };
+    }
+    let mut warm = previous_plan.clone();
+    shift_blocks(warm.as_mut_slice(), nu);
+    warm.rows_mut(n - nu, nu).copy_from(&qp.rest_input());
+    Step {
+        plan: project(&warm),
+        result,
+        fallback: Fallback::WarmStart,
+    }
+}
+
+/// The largest violation of a hard row by the plan U (slacks zero), each relative to max(1, |bound|);
+/// and the largest slack of a soft row, in its row's units.
+pub fn violations(qp: &Qp, U: &DVector<f64>, offset: &DVector<f64>) -> (f64, f64) {
+    let rows = &qp.rows;
+    let n = U.len();
+    let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
+    for r in 0..rows.len() {
+        let a = rows.A.row(r).columns(0, n).transpose().dot(U) + offset[r];
+        let below = (rows.lower[r] - a).max(0.0) / rows.lower[r].abs().max(1.0);
+        let above = (a - rows.upper[r]).max(0.0) / rows.upper[r].abs().max(1.0);
+        if rows.soft[r] {
+            soft = soft.max((rows.lower[r] - a).max(a - rows.upper[r]).max(0.0));
+        } else {
+            hard = hard.max(below.max(above));
+        }
+    }
+    (hard, soft)
 }
