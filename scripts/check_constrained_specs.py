@@ -514,6 +514,9 @@ def report(path, samples):
 
 
 def main(argv):
+    if any(a.startswith("-") for a in argv[1:]):
+        print(__doc__)
+        return
     paths = argv[1:] or [str(ROOT / p) for p in DEFAULT_SPECS]
     for p in paths:
         report(p, samples=20)
