@@ -459,7 +459,7 @@ pub fn predicted(p: &Problem, plan: &Plan) -> (Resources, BuildCost) {
 /// Computes the certificate of a lowered and planned problem.
 pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
     let qp = &p.qp;
-    let rate = plan.algorithm.rate(&qp.parameters());
+    let rate = plan.algorithm.and_then(|a| a.rate(&qp.parameters()));
     let tolerance = qp.tolerance.unwrap_or(DEFAULT_TOLERANCE);
     let (resources, build_cost) = predicted(p, plan);
     Certificate {
@@ -495,9 +495,13 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
 
 fn contraction(p: &Problem, plan: &Plan) -> f64 {
     let qp = &p.qp;
+    // An interior-point method has no contraction per iteration.
+    let Some(algorithm) = plan.algorithm else {
+        return f64::NAN;
+    };
     let eig = nalgebra::SymmetricEigen::new(qp.H.clone()).eigenvalues;
     eig.iter()
-        .map(|lambda| plan.algorithm.contraction_at(&qp.parameters(), *lambda))
+        .map(|lambda| algorithm.contraction_at(&qp.parameters(), *lambda))
         .fold(0.0, f64::max)
 }
 
@@ -623,7 +627,7 @@ fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
             .copy_from(&qp.Fu.columns(0, moves));
         let step = |Y: &DMatrix<f64>| Y - (&qp.H * Y + &f) * qp.step;
         let U = plan
-            .algorithm
+            .algorithm?
             .reference_linear(&qp.parameters(), shift, qp.iterations, &step)?;
         let mut A = DMatrix::zeros(dim, dim);
         let x_next = &p.G * U.rows(0, nu);
@@ -673,7 +677,10 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
     let num = Numeric(p.scalar);
     let qp = &p.qp;
     let plan_entries = qp.N * plan.plan_lanes(p);
-    let per_iteration = plan.estimate().macs + plan.algorithm.update_macs(plan_entries);
+    let per_iteration = match plan.algorithm {
+        Some(a) => plan.estimate().macs + a.update_macs(plan_entries),
+        None => crate::solver::ipm::mpc_macs_per_iteration(qp),
+    };
     // f: unrolled over Fx, Fr and Fd, or one pass of the matrix-free sweeps (f = ∇J(0)).
     let (gradient_map, gradient_map_constants) =
         plan.form.gradient().gradient_map(p, &plan.estimates);

@@ -688,14 +688,13 @@ fn solver_parameters(spec: &Spec, mu: f64, L: f64, diags: &mut Diagnostics) -> (
     let m = &spec.mpc;
     let span = |key: &str| spec.spans.get(key);
     // The interior-point method has no step; its count is fixed or certified by sampling.
-    if m.method == Method::Ipm {
+    let Some(algorithm) = crate::solver::algorithm(m.method) else {
         let fixed = match m.iterations {
             Iterations::Fixed(n) => n,
             Iterations::Auto => 0,
         };
         return (1.0 / L, 0.0, fixed);
-    }
-    let algorithm = crate::solver::algorithm(m.method);
+    };
     let step = match m.step {
         Step::Auto => 1.0 / L,
         Step::Fixed(alpha) => alpha,

@@ -144,7 +144,10 @@ impl Mpc {
 /// algorithm's reference iteration ([`crate::solver::Algorithm::reference`]).
 pub fn iterate(qp: &Qp, f: &DVector<f64>, start: DVector<f64>, iterations: usize) -> DVector<f64> {
     let step = |y: &DVector<f64>| project_box(qp, &(y - (&qp.H * y + f) * qp.step));
-    algorithm(qp.method).reference(&qp.parameters(), start, iterations, &step)
+    // The interior-point method has its own step (`solve_with_disturbance`); FGM stands in for it here.
+    algorithm(qp.method)
+        .unwrap_or(&Fgm)
+        .reference(&qp.parameters(), start, iterations, &step)
 }
 
 /// The exact minimiser of the box-constrained QP ½UᵀHU + fᵀU, by projected gradient with step 1/L run

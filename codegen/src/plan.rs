@@ -16,8 +16,9 @@ use mpc_spec::{Diagnostic, Diagnostics, Emission, Span, Spec};
 /// The solver the module is made of.
 #[derive(Clone, Debug)]
 pub struct Plan {
-    /// The algorithm (the spec's `method`).
-    pub algorithm: &'static dyn Algorithm,
+    /// The first-order algorithm (the spec's `method`); `None` for the interior-point method, which
+    /// ignores the gradient form.
+    pub algorithm: Option<&'static dyn Algorithm>,
     /// How the gradient is emitted: the spec's forced choice, or the cost model's.
     pub form: Form,
     /// The cost model's estimate of every form, in the order of [`Emission`].

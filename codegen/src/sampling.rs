@@ -168,9 +168,13 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
         let (f, offset) = data(p, c);
         let problem = mpc_qp(qp, &f, &offset);
         let exact = solve(&problem, EXACT_TOLERANCE, 200);
-        if exact.status != Status::Converged {
-            infeasible_cases += 1;
-            continue;
+        match exact.status {
+            Status::Converged => {}
+            Status::Infeasible => {
+                infeasible_cases += 1;
+                continue;
+            }
+            _ => return Err(unresolved(spec, c).into()),
         }
         let run = trajectory(&problem, &Start::Cold, MAX_PROBE);
         let Some(k) = needed(qp, &run, &exact, &offset) else {
@@ -398,6 +402,15 @@ fn needed(qp: &Qp, run: &[IpmResult], exact: &IpmResult, offset: &DVector<f64>) 
 fn rest_plan(qp: &Qp) -> DVector<f64> {
     let rest = qp.rest_input();
     DVector::from_fn(qp.N * rest.len(), |i, _| rest[i % rest.len()])
+}
+
+fn unresolved(spec: &Spec, c: &Case) -> Diagnostic {
+    Diagnostic::new(
+        "the exact reference (the interior-point method run to a 1e-10 tolerance) does not converge on a case of `[mpc.region]`",
+        spec.spans.get("mpc.region").or(spec.spans.get("mpc.method")),
+    )
+    .label(format!("at x0 = {:?}", c.x0.as_slice()))
+    .note("hint: the QP is badly scaled there; scale the model's units, or narrow `[mpc.region]`")
 }
 
 fn not_reached(spec: &Spec, what: &str, c: &Case, region: &Region) -> Diagnostic {

@@ -80,3 +80,10 @@ fn debug_corner() {
         );
     }
 }
+
+#[test]
+fn dump_paper_limits() {
+    let spec = paper_limits();
+    let g = codegen::generate(&spec, &codegen::Opt::default()).unwrap();
+    std::fs::write("/tmp/paper_limits.rs", g.tokens.to_string()).unwrap();
+}

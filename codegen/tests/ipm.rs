@@ -546,7 +546,10 @@ fn fixed_iterations_meet_the_accuracy() {
         for k in [accuracy_max, tolerance_max] {
             for (i, (case, need)) in cases.iter().zip(&needs).enumerate() {
                 let r = ipm::solve_fixed(&case.qp, &case.start, k);
-                assert_eq!(r.iterations, k);
+                // Fewer only when the point was optimal to rounding, which it then holds.
+                assert!(
+                    r.iterations == k || (r.iterations < k && r.status == ipm::Status::Converged)
+                );
                 assert!(
                     accurate(case, &r.z, &need.exact, &span),
                     "{name} case {i}: {k} iterations leave {:e} of the span, violation {:e}",

@@ -5,9 +5,12 @@ use proc_macro2::TokenStream;
 use quote::quote;
 
 /// The `Controller` and `Status` types (API), and the saturation kernel.
-pub fn emit(p: &Problem) -> (TokenStream, TokenStream) {
+pub fn emit(p: &Problem, interior: bool) -> (TokenStream, TokenStream) {
     let row = crate::form::reference_row(p);
-    let moves = p.has_moves().then(|| {
+    // The interior-point method's own status, copied into the cycle's.
+    let solver = Solver::new(interior);
+    let keeps_last = p.has_moves() || (interior && super::interior::keeps_last_input(p));
+    let moves = keeps_last.then(|| {
         quote! {
             /// Sets the last input u₋₁ the first move is weighted from (see [`Mpc::set_last_input`]), for a
             /// vehicle flown by something else until now; `false`, and nothing changes, for a non-finite
@@ -28,8 +31,9 @@ pub fn emit(p: &Problem) -> (TokenStream, TokenStream) {
             out
         }
     };
+    let Solver { field, init, copy } = &solver;
     if p.filter.is_none() {
-        return (state_feedback(p, &row, moves), kernels);
+        return (state_feedback(p, &row, moves, &solver), kernels);
     }
     let (d_arg, d_doc) = if p.nd() > 0 {
         (
@@ -65,6 +69,7 @@ pub fn emit(p: &Problem) -> (TokenStream, TokenStream) {
             pub command: Command,
             /// Per input, whether the command is at U_MIN or U_MAX.
             pub saturated: [bool; NU],
+            #field
         }
 
         /// How a control cycle's command was made.
@@ -92,6 +97,7 @@ pub fn emit(p: &Problem) -> (TokenStream, TokenStream) {
                         filter: kalman.status,
                         command: Command::NoneYet,
                         saturated: [false; NU],
+                        #init
                     },
                     kalman,
                     mpc: Mpc::new(),
@@ -121,6 +127,7 @@ pub fn emit(p: &Problem) -> (TokenStream, TokenStream) {
                     filter: self.kalman.status,
                     command,
                     saturated: saturated(&u),
+                    #copy
                 };
                 u
             }
@@ -153,7 +160,13 @@ pub fn emit(p: &Problem) -> (TokenStream, TokenStream) {
 }
 
 /// The controller of a spec without `[kalman]`: the MPC on the measured state.
-fn state_feedback(p: &Problem, row: &TokenStream, moves: Option<TokenStream>) -> TokenStream {
+fn state_feedback(
+    p: &Problem,
+    row: &TokenStream,
+    moves: Option<TokenStream>,
+    solver: &Solver,
+) -> TokenStream {
+    let Solver { field, init, copy } = solver;
     let reference = if p.qp.Cz.is_some() {
         "the output references"
     } else {
@@ -180,6 +193,7 @@ fn state_feedback(p: &Problem, row: &TokenStream, moves: Option<TokenStream>) ->
             pub command: Command,
             /// Per input, whether the command is at U_MIN or U_MAX.
             pub saturated: [bool; NU],
+            #field
         }
 
         /// How a control cycle's command was made. The state is measured, not estimated: there is no
@@ -204,6 +218,7 @@ fn state_feedback(p: &Problem, row: &TokenStream, moves: Option<TokenStream>) ->
                     status: Status {
                         command: Command::NoneYet,
                         saturated: [false; NU],
+                        #init
                     },
                 }
             }
@@ -227,6 +242,7 @@ fn state_feedback(p: &Problem, row: &TokenStream, moves: Option<TokenStream>) ->
                 self.status = Status {
                     command,
                     saturated: saturated(&u),
+                    #copy
                 };
                 u
             }
@@ -248,6 +264,34 @@ fn state_feedback(p: &Problem, row: &TokenStream, moves: Option<TokenStream>) ->
             fn default() -> Self {
                 Self::new()
             }
+        }
+    }
+}
+
+/// The `solver` field of `Status` with the interior-point method: its declaration, its value in
+/// `Controller::new` and its copy after a cycle.
+struct Solver {
+    field: TokenStream,
+    init: TokenStream,
+    copy: TokenStream,
+}
+
+impl Solver {
+    fn new(interior: bool) -> Self {
+        if !interior {
+            return Solver {
+                field: quote!(),
+                init: quote!(),
+                copy: quote!(),
+            };
+        }
+        Solver {
+            field: quote! {
+                /// What the interior-point method did: iterations, residuals, violations, fallback.
+                pub solver: SolverStatus,
+            },
+            init: quote!(solver: Mpc::new().status,),
+            copy: quote!(solver: *self.mpc.solver_status(),),
         }
     }
 }

@@ -1,6 +1,7 @@
 //! The emitter: `quote!` only, no math. It turns a lowered [`Problem`] into the generated module.
 
 mod controller;
+mod interior;
 mod kalman;
 mod mpc;
 mod report;
@@ -75,9 +76,16 @@ pub fn module(
         .gradient()
         .uses_neon(p)
         .then(|| quote!(unexpected_cfgs,));
-    let largest_table = {
-        let (nz, nr, na) = (p.qp.N * p.nu, p.qp.N * p.qp.nz.max(p.nx), p.nx + p.nd());
-        nz.max(na) * nz.max(nr).max(na) * Numeric(p.scalar).bytes()
+    let largest_table = match plan.algorithm {
+        Some(_) => {
+            let (nz, nr, na) = (p.qp.N * p.nu, p.qp.N * p.qp.nz.max(p.nx), p.nx + p.nd());
+            nz.max(na) * nz.max(nr).max(na) * Numeric(p.scalar).bytes()
+        }
+        // The interior-point method's tables are f64, its largest H (NV × NV) or FR.
+        None => {
+            let nv = p.qp.N * p.nu + p.qp.rows.slacks();
+            nv * nv.max(p.qp.N * p.qp.nz) * 8
+        }
     };
     let large_tables = (largest_table > 16 * 1024).then(|| quote!(clippy::large_const_arrays,));
     let allow = quote!(#time_varying #neon_cfg #large_tables);
@@ -87,13 +95,25 @@ pub fn module(
     } else {
         " [`Controller::step`] runs one control cycle from the measured state (no filter); [`Mpc`] solves."
     };
-    let algorithm = plan.algorithm.title();
+    let (algorithm, shape) = match plan.algorithm {
+        Some(a) => (
+            a.title(),
+            format!(
+                " horizon {}, gradient form `{}` ([`EMISSION`]).",
+                p.qp.N,
+                plan.emission().name()
+            ),
+        ),
+        None => (
+            crate::solver::ipm::TITLE,
+            format!(
+                " horizon {}, dense on the condensed QP in f64 with {} constraint rows.",
+                p.qp.N,
+                p.qp.rows.len()
+            ),
+        ),
+    };
     let summary = format!(" {algorithm}: {} iterations per step,", p.qp.iterations);
-    let shape = format!(
-        " horizon {}, gradient form `{}` ([`EMISSION`]).",
-        p.qp.N,
-        plan.emission().name()
-    );
     let range = &certificate.coordinate_range;
     let coordinates = format!(
         " Absolute coordinates up to |{}| ≤ {:.1e} keep u₀ within {} % of the input span in {}",
@@ -158,7 +178,12 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     let u_min = num.vector(qp.u_min.iter().copied());
     let u_max = num.vector(qp.u_max.iter().copied());
     let u_rest = num.vector(qp.rest_input().iter().copied());
-    let (h, fx, fr) = (num.matrix(&qp.H), num.matrix(&qp.Fx), num.matrix(&qp.Fr));
+    // The interior-point method computes in f64 whatever `Real` is: its tables are f64.
+    let (wide, table) = match plan.algorithm {
+        Some(_) => (num, quote!(Real)),
+        None => (Num(mpc_spec::Scalar::F64), quote!(f64)),
+    };
+    let (h, fx, fr) = (num.matrix(&qp.H), wide.matrix(&qp.Fx), wide.matrix(&qp.Fr));
     let (f, g) = (num.matrix(&p.F), num.matrix(&p.G));
     let nd = p.nd();
     // The tracked outputs: NZ and C_z with `outputs`; without, the state is tracked and the reference
@@ -181,17 +206,17 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         None => (quote!(), quote!()),
     };
     let moves_table = p.has_moves().then(|| {
-        let fu = num.matrix(&qp.Fu);
+        let fu = wide.matrix(&qp.Fu);
         quote! {
             /// Fu = −2 Dᵀ R_du_blk E: the gradient's dependence on the last input, f gains Fu·u₋₁.
-            pub const FU: [[Real; NU]; #nz] = #fu;
+            pub const FU: [[#table; NU]; #nz] = #fu;
         }
     });
     // The filter's state: x, or (x, d) with a disturbance model.
     let ns = if nd > 0 { quote!(NA) } else { quote!(NX) };
     let (disturbance_dimensions, disturbance_table) = if nd > 0 {
         let nd_lit = Literal::usize_unsuffixed(nd);
-        let fd = num.matrix(&qp.Fd);
+        let fd = wide.matrix(&qp.Fd);
         (
             quote! {
                 /// Disturbance states: one constant input disturbance per input channel (offset-free MPC).
@@ -207,7 +232,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
                 };
                 quote! {
                     #[doc = #doc]
-                    pub const FD: [[Real; ND]; #nz] = #fd;
+                    pub const FD: [[#table; ND]; #nz] = #fd;
                 }
             },
         )
@@ -246,8 +271,16 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     } else {
         " Measurement dimension: the state, measured (no filter)."
     };
-    let step_doc = plan.algorithm.step_doc(&qp.parameters());
-    let momentum_doc = plan.algorithm.momentum_doc(&qp.parameters());
+    let first_order = plan.algorithm.map(|a| {
+        let step_doc = a.step_doc(&qp.parameters());
+        let momentum_doc = a.momentum_doc(&qp.parameters());
+        quote! {
+            #[doc = #step_doc]
+            pub const STEP: Real = #step;
+            #[doc = #momentum_doc]
+            pub const MOMENTUM: Real = #momentum;
+        }
+    });
     let fr_doc = if qp.Cz.is_some() {
         " Fr = 2 Suᵀ Qr_blk, Qr = C_zᵀ·W (eq. 10 for outputs), acting on the output references stacked."
     } else {
@@ -257,13 +290,23 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         " Hessian H = 2(Suᵀ Q_blk Su + R_blk), eq. 9; (N·NU)×(N·NU), L = {:.6e}, μ = {:.6e}.",
         qp.L, qp.mu
     );
-    let mpc = mpc::emit(p, plan, num);
+    // The interior-point method's H carries the slacks: its emitter writes it.
+    let h_table = plan.algorithm.is_some().then(|| {
+        quote! {
+            #[doc = #h_doc]
+            pub const H: [[Real; #nz]; #nz] = #h;
+        }
+    });
+    let mpc = match plan.algorithm {
+        Some(a) => mpc::emit(p, plan, a, num),
+        None => interior::emit(p, num),
+    };
     let kalman = p
         .filter
         .as_ref()
         .map(|f| kalman::emit(p, f, num))
         .unwrap_or_default();
-    let support = support::emit(p, plan);
+    let support = support::emit(p, plan, plan.algorithm.is_some());
     let Sections {
         constants: mpc_constants,
         api: mpc_api,
@@ -276,7 +319,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         kernels: kalman_kernels,
         tables: kalman_tables,
     } = kalman;
-    let (controller_api, controller_kernels) = controller::emit(p);
+    let (controller_api, controller_kernels) = controller::emit(p, plan.algorithm.is_none());
     quote! {
         /// The scalar type of this controller.
         pub type Real = #real;
@@ -292,10 +335,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         pub const ITERATIONS: usize = #iterations;
         /// Sampling time, s.
         pub const DT: Real = #dt;
-        #[doc = #step_doc]
-        pub const STEP: Real = #step;
-        #[doc = #momentum_doc]
-        pub const MOMENTUM: Real = #momentum;
+        #first_order
         /// Lower input bounds (eq. 6).
         pub const U_MIN: [Real; NU] = #u_min;
         /// Upper input bounds (eq. 6).
@@ -323,12 +363,11 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         pub const G: [[Real; NU]; NX] = #g;
         #measurement_table
         #output_table
-        #[doc = #h_doc]
-        pub const H: [[Real; #nz]; #nz] = #h;
+        #h_table
         /// Fx = 2 Suᵀ Q_blk Sx (eq. 10): f = Fx·x0 − Fr·Xref.
-        pub const FX: [[Real; NX]; #nz] = #fx;
+        pub const FX: [[#table; NX]; #nz] = #fx;
         #[doc = #fr_doc]
-        pub const FR: [[Real; #nr]; #nz] = #fr;
+        pub const FR: [[#table; #nr]; #nz] = #fr;
         #moves_table
         #disturbance_table
         #filter_tables

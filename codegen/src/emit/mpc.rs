@@ -6,15 +6,16 @@ use super::tokens::Num;
 use super::Sections;
 use crate::lower::Problem;
 use crate::plan::Plan;
+use crate::solver::Algorithm;
 use proc_macro2::Literal;
 use quote::quote;
 
 /// The `Mpc` type, its kernels and its tables.
-pub fn emit(p: &Problem, plan: &Plan, num: Num) -> Sections {
+pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Sections {
     let qp = &p.qp;
     let (nu, N) = (p.nu, qp.N);
     let nd = p.nd();
-    let (algorithm, form) = (plan.algorithm, plan.form.gradient());
+    let form = plan.form.gradient();
     let lanes = form.plan_lanes(p);
     let lanes_lit = Literal::usize_unsuffixed(lanes);
     let padded = |v: &nalgebra::DVector<f64>| {

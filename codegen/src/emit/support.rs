@@ -8,7 +8,7 @@ use proc_macro2::TokenStream;
 use quote::quote;
 
 /// `project` (where a portable kernel calls it), `all_finite`, `finite` (with a filter) and `flushed`.
-pub fn emit(p: &Problem, plan: &Plan) -> TokenStream {
+pub fn emit(p: &Problem, plan: &Plan, projects: bool) -> TokenStream {
     // The NEON `lanes` kernel projects with `project_lanes`; only its portable twin calls `project`.
     let cfg = match plan.form {
         Form::Lanes(_) if neon::applies(p) => neon::portable_cfg(),
@@ -29,14 +29,19 @@ pub fn emit(p: &Problem, plan: &Plan) -> TokenStream {
             }
         }
     });
-    quote! {
-        /// The projection onto [lo, hi]; NaN maps to `lo`, so the result is always finite and in the box.
-        #cfg
-        #[inline(always)]
-        fn project(v: Real, lo: Real, hi: Real) -> Real {
-            let v = if v > lo { v } else { lo };
-            if v < hi { v } else { hi }
+    let project = projects.then(|| {
+        quote! {
+            /// The projection onto [lo, hi]; NaN maps to `lo`, so the result is always finite and in the box.
+            #cfg
+            #[inline(always)]
+            fn project(v: Real, lo: Real, hi: Real) -> Real {
+                let v = if v > lo { v } else { lo };
+                if v < hi { v } else { hi }
+            }
         }
+    });
+    quote! {
+        #project
 
         /// Whether every entry is finite.
         #[inline(always)]

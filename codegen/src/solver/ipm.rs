@@ -24,6 +24,20 @@
 use crate::lower::Qp;
 use nalgebra::{DMatrix, DVector};
 
+/// Its name in prose.
+pub const TITLE: &str =
+    "A primal-dual interior-point method (Mehrotra's predictor-corrector, dense, f64)";
+
+/// [`macs_per_iteration`] of the MPC's QP ([`mpc_qp`]), whose structure does not depend on the data.
+pub fn mpc_macs_per_iteration(qp: &Qp) -> usize {
+    let n = qp.N * qp.u_min.len();
+    macs_per_iteration(&mpc_qp(
+        qp,
+        &DVector::zeros(n),
+        &DVector::zeros(qp.rows.len()),
+    ))
+}
+
 /// The fraction of the step to the boundary of s > 0, λ > 0 that an iteration takes.
 pub const FRACTION: f64 = 0.99;
 
@@ -140,39 +154,75 @@ struct Sides {
     h: DVector<f64>,
 }
 
-impl Sides {
-    fn new(qp: &InequalityQp) -> Self {
-        let n = qp.n();
+/// Which sides of an [`InequalityQp`] are finite, in the order the method stacks them: per entry of z
+/// its upper then its lower bound, then per row its upper then its lower side. Each side is an index
+/// (of z or of the rows) and a sign (+1 upper, −1 lower); its right-hand side is sign·bound.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layout {
+    /// Box sides: sign·z_index ≤ sign·bound.
+    pub boxed: Vec<(usize, f64)>,
+    /// Row sides: sign·A_row·z ≤ sign·bound.
+    pub rows: Vec<(usize, f64)>,
+}
+
+impl Layout {
+    /// The finite sides of `qp`.
+    pub fn of(qp: &InequalityQp) -> Self {
         let mut boxed = Vec::new();
-        let mut h = Vec::new();
-        for i in 0..n {
+        for i in 0..qp.n() {
             if qp.z_max[i].is_finite() {
                 boxed.push((i, 1.0));
-                h.push(qp.z_max[i]);
             }
             if qp.z_min[i].is_finite() {
                 boxed.push((i, -1.0));
-                h.push(-qp.z_min[i]);
             }
         }
         let mut rows = Vec::new();
         for r in 0..qp.A.nrows() {
             if qp.upper[r].is_finite() {
-                rows.push(qp.A.row(r).into_owned());
-                h.push(qp.upper[r]);
+                rows.push((r, 1.0));
             }
             if qp.lower[r].is_finite() {
-                rows.push(-qp.A.row(r));
-                h.push(-qp.lower[r]);
+                rows.push((r, -1.0));
             }
         }
+        Layout { boxed, rows }
+    }
+}
+
+/// A side's right-hand side: sign·bound.
+fn side_bound(sign: f64, lower: f64, upper: f64) -> f64 {
+    if sign > 0.0 {
+        upper
+    } else {
+        -lower
+    }
+}
+
+impl Sides {
+    fn new(qp: &InequalityQp) -> Self {
+        let n = qp.n();
+        let layout = Layout::of(qp);
+        let mut h: Vec<f64> = layout
+            .boxed
+            .iter()
+            .map(|&(i, sign)| side_bound(sign, qp.z_min[i], qp.z_max[i]))
+            .collect();
+        let rows: Vec<_> = layout
+            .rows
+            .iter()
+            .map(|&(r, sign)| {
+                h.push(side_bound(sign, qp.lower[r], qp.upper[r]));
+                qp.A.row(r) * sign
+            })
+            .collect();
         let G = if rows.is_empty() {
             DMatrix::zeros(0, n)
         } else {
             DMatrix::from_rows(&rows)
         };
         Sides {
-            boxed,
+            boxed: layout.boxed,
             G,
             h: DVector::from_vec(h),
         }
@@ -632,7 +682,8 @@ fn run_observed(
         if tolerance.is_some_and(|tol| r.below(tol)) {
             return result(p, &r, k, Status::Converged);
         }
-        if r.finished() {
+        // A fixed-iteration solve (no tolerance) holds a point optimal to rounding.
+        if tolerance.is_none() && r.finished() {
             // The remaining iterations leave the point as it is.
             for _ in k..iterations {
                 observe(result(p.clone(), &r, k, Status::Converged));

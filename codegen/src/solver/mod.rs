@@ -23,22 +23,19 @@ use nalgebra::{DMatrix, DVector};
 use proc_macro2::{Ident, Literal, TokenStream};
 use std::fmt::Debug;
 
-/// The algorithm that `method` names.
-pub fn algorithm(method: Method) -> &'static dyn Algorithm {
+/// The first-order algorithm that `method` names; `None` for the interior-point method ([`ipm`]),
+/// which is not an iteration on the box and has its own emitter (`emit/interior.rs`).
+pub fn algorithm(method: Method) -> Option<&'static dyn Algorithm> {
     match method {
-        Method::Fgm => &Fgm,
-        Method::Gradient => &Gradient,
-        // The interior-point method is not a first-order iteration on the box (issue 17, in progress).
-        Method::Ipm => &Fgm,
+        Method::Fgm => Some(&Fgm),
+        Method::Gradient => Some(&Gradient),
+        Method::Ipm => None,
     }
 }
 
-/// Every algorithm, in the order of [`Method`].
+/// Every first-order algorithm, in the order of [`Method`].
 pub fn all() -> impl Iterator<Item = &'static dyn Algorithm> {
-    Method::ALL
-        .iter()
-        .filter(|m| m.box_only())
-        .map(|m| algorithm(*m))
+    Method::ALL.iter().filter_map(|m| algorithm(*m))
 }
 
 /// A bound Δ_k ≤ constant · factor^k · Δ_0 on the gap Δ_k = J(U_k) − J* of the box-constrained QP.

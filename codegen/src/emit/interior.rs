@@ -1,0 +1,865 @@
+//! The fixed-iteration interior-point MPC: `Mpc`, its `SolverStatus`, and a dense Mehrotra
+//! predictor-corrector in f64 over constant tables, step for step the reference of
+//! [`crate::solver::ipm`] (which the oracle runs). The method computes in f64 whatever `Real` is: the
+//! data are widened where they enter and the command rounded where it leaves.
+//!
+//! The normal matrix H + Gᵀ·diag(λ/s)·G is factored as L·D·Lᵀ (no square root: `core` has none), where
+//! the reference takes a Cholesky factor; the two differ in rounding only.
+#![allow(non_snake_case)]
+
+use super::tokens::Num;
+use super::Sections;
+use crate::lower::Problem;
+use crate::solver::ipm::{mpc_qp, Layout, FINISHED, FRACTION, INFEASIBILITY_TOLERANCE, WARM_FLOOR};
+use mpc_spec::Scalar;
+use nalgebra::{DMatrix, DVector};
+use proc_macro2::Literal;
+use quote::quote;
+
+/// Whether the MPC keeps the last input: for weighted moves or bounded moves.
+pub fn keeps_last_input(p: &Problem) -> bool {
+    p.has_moves() || p.qp.rows.Wu.iter().any(|v| *v != 0.0)
+}
+
+/// The interior-point `Mpc`, its kernels and its tables.
+pub fn emit(p: &Problem, num: Num) -> Sections {
+    let qp = &p.qp;
+    let wide = Num(Scalar::F64);
+    let (nu, N) = (p.nu, qp.N);
+    let np = N * nu;
+    let zero = DVector::zeros(np);
+    let structure = mpc_qp(qp, &zero, &DVector::zeros(qp.rows.len()));
+    let layout = Layout::of(&structure);
+    let rows = &qp.rows;
+    let ns = rows.slacks();
+    let nv = np + ns;
+    let (nb, ng) = (layout.boxed.len(), layout.rows.len());
+    let per_slot = ng / N.max(1);
+    let lit = Literal::usize_unsuffixed;
+    let [nv_lit, ns_lit, nb_lit, ng_lit, per_slot_lit] = [nv, ns, nb, ng, per_slot].map(lit);
+    // Box sides: ±z_i ≤ ±bound, constant.
+    let box_index = layout.boxed.iter().map(|(i, _)| lit(*i));
+    let box_sign = wide.vector(layout.boxed.iter().map(|(_, s)| *s));
+    let box_h = wide.vector(layout.boxed.iter().map(|&(i, s)| {
+        if s > 0.0 {
+            structure.z_max[i]
+        } else {
+            -structure.z_min[i]
+        }
+    }));
+    // Row sides in compressed rows, columns ascending (the normal matrix fills its lower triangle).
+    let mut start = vec![0usize];
+    let mut cols = Vec::new();
+    let mut vals = Vec::new();
+    for &(r, sign) in &layout.rows {
+        for c in 0..nv {
+            let v = structure.A[(r, c)];
+            if v != 0.0 {
+                cols.push(c);
+                vals.push(sign * v);
+            }
+        }
+        start.push(cols.len());
+    }
+    let nnz = lit(cols.len());
+    let side = |M: &DMatrix<f64>| {
+        DMatrix::from_fn(ng, M.ncols(), |j, c| {
+            let (r, sign) = layout.rows[j];
+            sign * M[(r, c)]
+        })
+    };
+    let side_h = wide.vector(layout.rows.iter().map(|&(r, sign)| {
+        if sign > 0.0 {
+            rows.upper[r]
+        } else {
+            -rows.lower[r]
+        }
+    }));
+    let side_soft = layout.rows.iter().map(|&(r, _)| rows.soft[r]);
+    let side_x = wide.matrix(&side(&rows.Wx));
+    let nd = p.nd();
+    let uses_d = nd > 0 && rows.Wd.iter().any(|v| *v != 0.0);
+    let uses_last_rows = rows.Wu.iter().any(|v| *v != 0.0);
+    let keeps_last = keeps_last_input(p);
+    let side_d = uses_d.then(|| {
+        let m = wide.matrix(&side(&rows.Wd.columns(0, nd).into_owned()));
+        quote! {
+            /// The sides' dependence on the disturbance estimate: h −= SIDE_D·d.
+            const SIDE_D: [[f64; ND]; NG] = #m;
+        }
+    });
+    let side_u = uses_last_rows.then(|| {
+        let m = wide.matrix(&side(&rows.Wu));
+        quote! {
+            /// The sides' dependence on the last input (the first move): h −= SIDE_U·u₋₁.
+            const SIDE_U: [[f64; NU]; NG] = #m;
+        }
+    });
+    let h_d = uses_d.then(|| quote!(*hj -= dot(&SIDE_D[j], &d);));
+    let h_u = uses_last_rows.then(|| quote!(*hj -= dot(&SIDE_U[j], &last);));
+    let start_lit = start.iter().map(|s| lit(*s));
+    let col_lit = cols.iter().map(|c| lit(*c));
+    let val = wide.vector(vals.iter().copied());
+    let hv = wide.matrix(&structure.H);
+    let slack_weight = wide.vector(rows.slack_weight.iter().copied());
+    let limits = qp.ipm_limits();
+    let (primal_limit, dual_limit) = (wide.lit(limits.primal), wide.lit(limits.dual));
+    let accuracy = wide.lit(qp.accuracy);
+    let rest = wide.vector(qp.rest_input().iter().copied());
+    let lo = wide.vector(qp.u_min.iter().copied());
+    let hi = wide.vector(qp.u_max.iter().copied());
+    let (fraction, floor, finished, infeasibility) = (
+        wide.lit(FRACTION),
+        wide.lit(WARM_FLOOR),
+        wide.lit(FINISHED),
+        wide.lit(INFEASIBILITY_TOLERANCE),
+    );
+    let row = crate::form::reference_row(p);
+    let nr = lit(N * qp.nz);
+    // f's terms besides Fx·x0 − Fr·Xref.
+    let f_last = p.has_moves().then(|| quote!(+ dot(&FU[i], &last)));
+    let f_d = (nd > 0).then(|| quote!(+ dot(&FD[i], &d)));
+    let (d_param, d_wide) = if nd > 0 {
+        (quote!(d: &[Real; ND],), quote!(let d = widen(d);))
+    } else {
+        (quote!(), quote!())
+    };
+    let last_wide = keeps_last.then(|| quote!(let last = widen(&self.last);));
+    let set_last = keeps_last.then(|| quote!(self.last = first;));
+    let reference_doc = if qp.Cz.is_some() {
+        "`xref[k]` the reference of the outputs z = C_z·x at predicted step k+1"
+    } else {
+        "`xref[k]` the reference of predicted state k+1"
+    };
+    let solve_doc = format!(
+        " One control step: `x0` is the current state, {reference_doc}. Returns the first input\n \
+         of the plan, always finite and inside [U_MIN, U_MAX]; [`Mpc::solver_status`] says how the\n \
+         plan was made. A non-finite argument returns the rest input and resets the warm start."
+    );
+    let solve_doc: Vec<&str> = solve_doc.split('\n').collect();
+    let solve_fns = if nd > 0 {
+        quote! {
+            /// One control step with no disturbance estimate (d = 0); see [`Mpc::solve_with_disturbance`].
+            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                self.solve_with_disturbance(x0, &[0.0; ND], xref)
+            }
+
+            #(#[doc = #solve_doc])*
+            /// The prediction includes the estimated input disturbance `d` (offset-free MPC).
+            pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                match self.checked(x0, d, xref) {
+                    Some(u) => u,
+                    None => U_REST,
+                }
+            }
+        }
+    } else {
+        quote! {
+            #(#[doc = #solve_doc])*
+            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                match self.checked(x0, xref) {
+                    Some(u) => u,
+                    None => U_REST,
+                }
+            }
+        }
+    };
+    let d_finite = (nd > 0).then(|| quote!(&&all_finite(d)));
+    let d_flush = (nd > 0).then(|| quote!(let d = &flushed(d);));
+    let (last_field, last_init, last_fns) = if keeps_last {
+        (
+            quote!(last: [Real; NU],),
+            quote!(last: U_REST,),
+            quote! {
+                /// The last input u₋₁, from which the first move is measured: the last command returned,
+                /// or what [`Mpc::set_last_input`] set.
+                pub fn last_input(&self) -> &[Real; NU] {
+                    &self.last
+                }
+
+                /// Sets the last input u₋₁, for a vehicle flown by something else until now. A non-finite
+                /// entry is refused: nothing changes and the result is `false`.
+                pub fn set_last_input(&mut self, u: &[Real; NU]) -> bool {
+                    if !all_finite(u) {
+                        return false;
+                    }
+                    self.last = flushed(u);
+                    true
+                }
+            },
+        )
+    } else {
+        (quote!(), quote!(), quote!())
+    };
+    let evidence_doc = match &qp.evidence {
+        Some(e) => format!(
+            " Certified by sampling, not proved: {} cold cases ({} corners) and {} warm closed-loop steps of `[mpc.region]` needed at most {} (cold) and {} (warm) iterations to reach `accuracy`; `report::IPM_*` has the rest.",
+            e.cold_cases, e.corners, e.warm_steps, e.cold_worst, e.warm_worst
+        ),
+        None => " Not certified.".to_string(),
+    };
+    let _ = num;
+    Sections {
+        constants: quote! {
+            /// Entries of the plan, N·NU.
+            pub const NP: usize = N * NU;
+            /// The interior-point method's unknowns: the plan, then one slack per soft constraint component.
+            pub const NV: usize = #nv_lit;
+            /// Slacks of the soft constraints.
+            pub const NS: usize = #ns_lit;
+            /// Sides of the input box and of the slacks' floor σ ≥ 0 (constant).
+            pub const NB: usize = #nb_lit;
+            /// Finite sides of the constraint rows (their bounds move with the data).
+            pub const NG: usize = #ng_lit;
+            /// All sides: the length of the slacks s and multipliers λ.
+            pub const NSIDES: usize = NB + NG;
+            /// `[mpc] accuracy`: the plan within ACCURACY·(U_MAX − U_MIN) of the exact solution.
+            pub const ACCURACY: f64 = #accuracy;
+            /// Final relative primal residual above which the plan is not trusted ([`Fallback::WarmStart`]).
+            pub const PRIMAL_LIMIT: f64 = #primal_limit;
+            /// Final relative dual residual above which the plan is not trusted.
+            pub const DUAL_LIMIT: f64 = #dual_limit;
+        },
+        api: quote! {
+            /// What the interior-point method's last solve did ([`Mpc::solver_status`]).
+            #[derive(Clone, Copy, Debug, PartialEq)]
+            pub struct SolverStatus {
+                /// Iterations run (fewer than [`ITERATIONS`] only when the point was optimal to rounding,
+                /// or the method stopped on infeasibility or a numerical failure).
+                pub iterations: u32,
+                /// ‖G z + s − h‖∞ relative to the data's scale, at the end.
+                pub primal_residual: f64,
+                /// ‖H z + f + Gᵀλ‖∞ relative to the data's scale, at the end.
+                pub dual_residual: f64,
+                /// The mean complementarity sᵀλ / NSIDES, in the cost's units.
+                pub gap: f64,
+                /// The largest violation of a hard constraint row by the returned plan, relative to
+                /// max(1, |bound|).
+                pub violation: f64,
+                /// The largest violation of a soft row by the returned plan, in its row's units.
+                pub softened: f64,
+                /// The multipliers certified that the hard constraints admit no plan (or diverged).
+                pub infeasible: bool,
+                /// A factorisation was refused, or a step was not finite.
+                pub numerical_failure: bool,
+                /// Whether the plan is the solve's or the fallback's.
+                pub fallback: Fallback,
+            }
+
+            /// Where the plan came from.
+            #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+            pub enum Fallback {
+                /// No solve yet.
+                NoneYet,
+                /// The solve's plan, projected onto the input box (which changes it by rounding at most).
+                Solved,
+                /// The solve failed (infeasible, non-finite, or residuals above [`PRIMAL_LIMIT`] /
+                /// [`DUAL_LIMIT`]): the previous plan shifted by one step with the rest input appended,
+                /// projected onto the box. The next solve starts cold.
+                WarmStart,
+            }
+
+            /// Fixed-iteration, warm-started MPC with state, output and rate constraints: a dense
+            /// primal-dual interior-point method (Mehrotra's predictor-corrector) in f64.
+            #[doc = #evidence_doc]
+            #[derive(Clone, Debug, PartialEq)]
+            pub struct Mpc {
+                /// The plan, projected onto the box.
+                plan: [f64; NP],
+                /// The last solve's point (plan and slacks, sides' slacks, multipliers): the warm start.
+                z: [f64; NV],
+                s: [f64; NSIDES],
+                lambda: [f64; NSIDES],
+                /// Whether the point is a warm start (false after `new`, `reset` or a fallback).
+                warm: bool,
+                #last_field
+                status: SolverStatus,
+            }
+
+            impl Mpc {
+                /// A cold controller: its first solve starts from the method's cold start.
+                pub const fn new() -> Self {
+                    Mpc {
+                        plan: rest_plan(),
+                        z: [0.0; NV],
+                        s: [1.0; NSIDES],
+                        lambda: [1.0; NSIDES],
+                        warm: false,
+                        #last_init
+                        status: SolverStatus {
+                            iterations: 0,
+                            primal_residual: 0.0,
+                            dual_residual: 0.0,
+                            gap: 0.0,
+                            violation: 0.0,
+                            softened: 0.0,
+                            infeasible: false,
+                            numerical_failure: false,
+                            fallback: Fallback::NoneYet,
+                        },
+                    }
+                }
+
+                #solve_fns
+
+                /// The solve, with `None` (and a reset warm start) for a non-finite argument.
+                fn checked(&mut self, x0: &[Real; NX], #d_param xref: &[[Real; #row]; N]) -> Option<[Real; NU]> {
+                    if !(all_finite(x0) #d_finite && xref.iter().all(|r| all_finite(r))) {
+                        self.reset();
+                        return None;
+                    }
+                    let x0 = widen(&flushed(x0));
+                    #d_flush
+                    #d_wide
+                    #last_wide
+                    let mut reference = [0.0; #nr];
+                    for (r, row) in reference.chunks_exact_mut(xref[0].len()).zip(xref.iter()) {
+                        for (w, v) in r.iter_mut().zip(flushed(row).iter()) {
+                            *w = f64::from(*v);
+                        }
+                    }
+                    // f = Fx·x0 − Fr·Xref (+ Fu·u₋₁ + Fd·d) for the plan, the penalties' weights for the slacks.
+                    let mut f = [0.0; NV];
+                    for (i, fi) in f.iter_mut().enumerate().take(NP) {
+                        *fi = dot(&FX[i], &x0) - dot(&FR[i], &reference) #f_last #f_d;
+                    }
+                    for (fi, w) in f.iter_mut().skip(NP).zip(SLACK_WEIGHT.iter()) {
+                        *fi = *w;
+                    }
+                    // h: the box's sides, then the rows' sides moved by the data.
+                    let mut h = [0.0; NSIDES];
+                    h[..NB].copy_from_slice(&BOX_H);
+                    for (j, hj) in h[NB..].iter_mut().enumerate() {
+                        *hj = SIDE_H[j] - dot(&SIDE_X[j], &x0);
+                        #h_d
+                        #h_u
+                    }
+                    let (mut z, mut s, mut lambda) = (self.z, self.s, self.lambda);
+                    if self.warm {
+                        shift(&mut z[..NP], NU);
+                        z[NP - NU..NP].copy_from_slice(&REST);
+                        shift(&mut s[..2 * NP], 2 * NU);
+                        shift(&mut s[NB..], SIDES_PER_SLOT);
+                        shift(&mut lambda[..2 * NP], 2 * NU);
+                        shift(&mut lambda[NB..], SIDES_PER_SLOT);
+                    }
+                    let outcome = interior_point(&f, &h, &mut z, &mut s, &mut lambda, self.warm);
+                    let trusted = outcome.ended == Ended::Iterations
+                        && outcome.primal <= PRIMAL_LIMIT
+                        && outcome.dual <= DUAL_LIMIT;
+                    if trusted {
+                        for (i, (p, v)) in self.plan.iter_mut().zip(z.iter()).enumerate() {
+                            *p = clamp(*v, i);
+                        }
+                        self.z = z;
+                        self.s = s;
+                        self.lambda = lambda;
+                    } else {
+                        shift(&mut self.plan, NU);
+                        self.plan[NP - NU..].copy_from_slice(&REST);
+                        for (i, p) in self.plan.iter_mut().enumerate() {
+                            *p = clamp(*p, i);
+                        }
+                    }
+                    self.warm = trusted;
+                    let (violation, softened) = violations(&self.plan, &h);
+                    self.status = SolverStatus {
+                        iterations: outcome.iterations,
+                        primal_residual: outcome.primal,
+                        dual_residual: outcome.dual,
+                        gap: outcome.gap,
+                        violation,
+                        softened,
+                        infeasible: outcome.ended == Ended::Infeasible,
+                        numerical_failure: outcome.ended == Ended::Failure,
+                        fallback: if trusted { Fallback::Solved } else { Fallback::WarmStart },
+                    };
+                    let mut first = [0.0; NU];
+                    for (o, v) in first.iter_mut().zip(self.plan.iter()) {
+                        *o = *v as Real;
+                    }
+                    #set_last
+                    Some(first)
+                }
+
+                /// What the last solve did.
+                pub fn solver_status(&self) -> &SolverStatus {
+                    &self.status
+                }
+
+                #last_fns
+
+                /// The plan of the last solve, one input per predicted step.
+                pub fn plan(&self) -> [[Real; NU]; N] {
+                    let mut out = [[0.0; NU]; N];
+                    for (o, step) in out.iter_mut().zip(self.plan.chunks_exact(NU)) {
+                        for (a, v) in o.iter_mut().zip(step.iter()) {
+                            *a = *v as Real;
+                        }
+                    }
+                    out
+                }
+
+                /// Forgets the warm start (and the last input).
+                pub fn reset(&mut self) {
+                    *self = Self::new();
+                }
+            }
+
+            impl Default for Mpc {
+                fn default() -> Self {
+                    Self::new()
+                }
+            }
+        },
+        kernels: quote! {
+            /// The rest plan: U_REST at every step.
+            const fn rest_plan() -> [f64; NP] {
+                let mut out = [0.0; NP];
+                let mut i = 0;
+                while i < NP {
+                    out[i] = REST[i % NU];
+                    i += 1;
+                }
+                out
+            }
+
+            /// `v` in f64.
+            #[inline(always)]
+            fn widen<const M: usize>(v: &[Real; M]) -> [f64; M] {
+                let mut out = [0.0; M];
+                for (o, x) in out.iter_mut().zip(v.iter()) {
+                    *o = f64::from(*x);
+                }
+                out
+            }
+
+            /// a·b.
+            #[inline(always)]
+            fn dot(a: &[f64], b: &[f64]) -> f64 {
+                a.iter().zip(b.iter()).map(|(x, y)| x * y).sum()
+            }
+
+            /// Plan entry `i` projected onto its input's bounds; NaN maps to the lower bound.
+            #[inline(always)]
+            fn clamp(v: f64, i: usize) -> f64 {
+                let (lo, hi) = (LO[i % NU], HI[i % NU]);
+                let v = if v > lo { v } else { lo };
+                if v < hi { v } else { hi }
+            }
+
+            /// Moves every block of `width` up by one; the last block stays.
+            #[inline(always)]
+            fn shift(v: &mut [f64], width: usize) {
+                if width > 0 && v.len() > width {
+                    v.copy_within(width.., 0);
+                }
+            }
+
+            /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and the
+            /// largest soft-row violation in its row's units.
+            fn violations(plan: &[f64; NP], h: &[f64; NSIDES]) -> (f64, f64) {
+                let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
+                for j in 0..NG {
+                    let mut a = 0.0;
+                    for k in SIDE_START[j]..SIDE_START[j + 1] {
+                        let c = SIDE_COL[k];
+                        if c < NP {
+                            a += SIDE_VAL[k] * plan[c];
+                        }
+                    }
+                    let excess = a - h[NB + j];
+                    if excess > 0.0 {
+                        if SIDE_SOFT[j] {
+                            soft = soft.max(excess);
+                        } else {
+                            hard = hard.max(excess / SIDE_H[j].abs().max(1.0));
+                        }
+                    }
+                }
+                (hard, soft)
+            }
+
+            /// How the iteration ended.
+            #[derive(Clone, Copy, PartialEq, Eq)]
+            enum Ended {
+                /// Its iterations ran (or the point was optimal to rounding before).
+                Iterations,
+                /// The multipliers certify infeasibility, or diverged.
+                Infeasible,
+                /// A factorisation was refused or a step was not finite; the point is the last finite one.
+                Failure,
+            }
+
+            /// What the iteration reports.
+            struct Outcome {
+                ended: Ended,
+                iterations: u32,
+                primal: f64,
+                dual: f64,
+                gap: f64,
+            }
+
+            /// The residuals of a point.
+            struct Residuals {
+                /// H z + f + Gᵀλ.
+                dual: [f64; NV],
+                /// G z + s − h.
+                primal: [f64; NSIDES],
+                relative_primal: f64,
+                relative_dual: f64,
+                gap: f64,
+                objective_scale: f64,
+            }
+
+            /// max |v_i|.
+            #[inline(always)]
+            fn amax(v: &[f64]) -> f64 {
+                v.iter().fold(0.0, |m: f64, x| m.max(x.abs()))
+            }
+
+            /// G z: the box's sides, then the rows'.
+            fn g_mul(z: &[f64; NV], out: &mut [f64; NSIDES]) {
+                for k in 0..NB {
+                    out[k] = BOX_SIGN[k] * z[BOX_INDEX[k]];
+                }
+                for j in 0..NG {
+                    let mut a = 0.0;
+                    for k in SIDE_START[j]..SIDE_START[j + 1] {
+                        a += SIDE_VAL[k] * z[SIDE_COL[k]];
+                    }
+                    out[NB + j] = a;
+                }
+            }
+
+            /// Gᵀ v.
+            fn g_tmul(v: &[f64; NSIDES], out: &mut [f64; NV]) {
+                *out = [0.0; NV];
+                for j in 0..NG {
+                    for k in SIDE_START[j]..SIDE_START[j + 1] {
+                        out[SIDE_COL[k]] += SIDE_VAL[k] * v[NB + j];
+                    }
+                }
+                for k in 0..NB {
+                    out[BOX_INDEX[k]] += BOX_SIGN[k] * v[k];
+                }
+            }
+
+            fn residuals(f: &[f64; NV], h: &[f64; NSIDES], z: &[f64; NV], s: &[f64; NSIDES], lambda: &[f64; NSIDES]) -> Residuals {
+                let mut hz = [0.0; NV];
+                for (o, row) in hz.iter_mut().zip(H.iter()) {
+                    *o = dot(row, z);
+                }
+                let mut gz = [0.0; NSIDES];
+                g_mul(z, &mut gz);
+                let mut gl = [0.0; NV];
+                g_tmul(lambda, &mut gl);
+                let mut dual = [0.0; NV];
+                for i in 0..NV {
+                    dual[i] = hz[i] + f[i] + gl[i];
+                }
+                let mut primal = [0.0; NSIDES];
+                for k in 0..NSIDES {
+                    primal[k] = gz[k] + s[k] - h[k];
+                }
+                Residuals {
+                    relative_primal: amax(&primal) / (1.0 + amax(h).max(amax(&gz))),
+                    relative_dual: amax(&dual) / (1.0 + amax(f).max(amax(&hz)).max(amax(&gl))),
+                    gap: dot(s, lambda) / NSIDES as f64,
+                    objective_scale: 1.0 + (0.5 * dot(z, &hz)).abs() + dot(f, z).abs(),
+                    dual,
+                    primal,
+                }
+            }
+
+            /// Forms H + Gᵀ·diag(w)·G (lower triangle) and factors it as L·D·Lᵀ in place, adding a growing
+            /// multiple of I when a pivot is not positive (a semidefinite H with few active sides), as the
+            /// reference does; `false` when every attempt is refused.
+            fn factor(w: &[f64; NSIDES], m: &mut [[f64; NV]; NV]) -> bool {
+                let mut delta = 0.0;
+                for _ in 0..4 {
+                    *m = H;
+                    for k in 0..NB {
+                        let i = BOX_INDEX[k];
+                        m[i][i] += w[k];
+                    }
+                    for j in 0..NG {
+                        let wj = w[NB + j];
+                        for a in SIDE_START[j]..SIDE_START[j + 1] {
+                            let (ca, va) = (SIDE_COL[a], wj * SIDE_VAL[a]);
+                            for b in SIDE_START[j]..=a {
+                                m[ca][SIDE_COL[b]] += va * SIDE_VAL[b];
+                            }
+                        }
+                    }
+                    let scale = 1.0 + (0..NV).fold(0.0, |s: f64, i| s.max(m[i][i].abs()));
+                    for (i, row) in m.iter_mut().enumerate() {
+                        row[i] += delta;
+                    }
+                    if ldl(m) {
+                        return true;
+                    }
+                    delta = if delta == 0.0 { 1e-12 * scale } else { delta * 1e3 };
+                }
+                false
+            }
+
+            /// L·D·Lᵀ of the lower triangle of `m`, in place (D on the diagonal); `false` on a pivot that is
+            /// not positive and finite.
+            fn ldl(m: &mut [[f64; NV]; NV]) -> bool {
+                let mut v = [0.0; NV];
+                for j in 0..NV {
+                    let mut d = m[j][j];
+                    for k in 0..j {
+                        v[k] = m[j][k] * m[k][k];
+                        d -= m[j][k] * v[k];
+                    }
+                    if d.is_nan() || d <= 0.0 || d.is_infinite() {
+                        return false;
+                    }
+                    m[j][j] = d;
+                    for i in j + 1..NV {
+                        let mut a = m[i][j];
+                        for k in 0..j {
+                            a -= m[i][k] * v[k];
+                        }
+                        m[i][j] = a / d;
+                    }
+                }
+                true
+            }
+
+            /// Solves L·D·Lᵀ x = b in place.
+            fn ldl_solve(m: &[[f64; NV]; NV], b: &mut [f64; NV]) {
+                for i in 0..NV {
+                    let mut a = b[i];
+                    for k in 0..i {
+                        a -= m[i][k] * b[k];
+                    }
+                    b[i] = a;
+                }
+                for i in 0..NV {
+                    b[i] /= m[i][i];
+                }
+                for i in (0..NV).rev() {
+                    let mut a = b[i];
+                    for k in i + 1..NV {
+                        a -= m[k][i] * b[k];
+                    }
+                    b[i] = a;
+                }
+            }
+
+            /// The Newton direction for the complementarity right-hand side rc (Λ·Δs + S·Δλ = −rc): from
+            /// (H + Gᵀ·D·G)·Δz = −r_d − Gᵀ(D·r_p − rc/s), D = λ/s.
+            #[allow(clippy::too_many_arguments)]
+            fn direction(
+                m: &[[f64; NV]; NV],
+                r: &Residuals,
+                s: &[f64; NSIDES],
+                lambda: &[f64; NSIDES],
+                rc: &[f64; NSIDES],
+                dz: &mut [f64; NV],
+                ds: &mut [f64; NSIDES],
+                dl: &mut [f64; NSIDES],
+            ) {
+                let mut t = [0.0; NSIDES];
+                for k in 0..NSIDES {
+                    t[k] = lambda[k] / s[k] * r.primal[k] - rc[k] / s[k];
+                }
+                g_tmul(&t, dz);
+                for i in 0..NV {
+                    dz[i] = -r.dual[i] - dz[i];
+                }
+                ldl_solve(m, dz);
+                let mut gdz = [0.0; NSIDES];
+                g_mul(dz, &mut gdz);
+                for k in 0..NSIDES {
+                    dl[k] = lambda[k] / s[k] * (gdz[k] + r.primal[k]) - rc[k] / s[k];
+                    ds[k] = -(rc[k] + s[k] * dl[k]) / lambda[k];
+                }
+            }
+
+            /// The largest α keeping s + αΔs ≥ 0 and λ + αΔλ ≥ 0 (infinite when nothing decreases).
+            fn step_to_boundary(s: &[f64; NSIDES], lambda: &[f64; NSIDES], ds: &[f64; NSIDES], dl: &[f64; NSIDES]) -> f64 {
+                let mut alpha = f64::INFINITY;
+                for k in 0..NSIDES {
+                    if ds[k] < 0.0 {
+                        alpha = alpha.min(-s[k] / ds[k]);
+                    }
+                    if dl[k] < 0.0 {
+                        alpha = alpha.min(-lambda[k] / dl[k]);
+                    }
+                }
+                alpha
+            }
+
+            /// Whether every entry is finite.
+            #[inline(always)]
+            fn finite64(v: &[f64]) -> bool {
+                v.iter().all(|x| x.is_finite())
+            }
+
+            /// The fixed-iteration Mehrotra predictor-corrector from (z, s, λ) (a warm start, its slacks and
+            /// multipliers raised to at least WARM_FLOOR) or from the cold start (one affine step from z = 0,
+            /// s = λ = 1, then s, λ ← max(1, |·|)). Leaves the last finite point in (z, s, λ).
+            fn interior_point(
+                f: &[f64; NV],
+                h: &[f64; NSIDES],
+                z: &mut [f64; NV],
+                s: &mut [f64; NSIDES],
+                lambda: &mut [f64; NSIDES],
+                warm: bool,
+            ) -> Outcome {
+                let mut m = [[0.0; NV]; NV];
+                let (mut dz, mut ds, mut dl) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
+                let failure = |iterations: u32| Outcome {
+                    ended: Ended::Failure,
+                    iterations,
+                    primal: f64::INFINITY,
+                    dual: f64::INFINITY,
+                    gap: f64::INFINITY,
+                };
+                if warm {
+                    for v in s.iter_mut().chain(lambda.iter_mut()) {
+                        *v = v.max(WARM_FLOOR);
+                    }
+                } else {
+                    *z = [0.0; NV];
+                    *s = [1.0; NSIDES];
+                    *lambda = [1.0; NSIDES];
+                    let r = residuals(f, h, z, s, lambda);
+                    if !factor(&[1.0; NSIDES], &mut m) {
+                        return failure(0);
+                    }
+                    let mut rc = [0.0; NSIDES];
+                    for k in 0..NSIDES {
+                        rc[k] = s[k] * lambda[k];
+                    }
+                    direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl);
+                    for i in 0..NV {
+                        z[i] += dz[i];
+                    }
+                    for k in 0..NSIDES {
+                        s[k] = (s[k] + ds[k]).abs().max(1.0);
+                        lambda[k] = (lambda[k] + dl[k]).abs().max(1.0);
+                    }
+                }
+                if !(finite64(z) && finite64(s) && finite64(lambda)) {
+                    return failure(0);
+                }
+                let mut r = residuals(f, h, z, s, lambda);
+                let mut ended = Ended::Iterations;
+                let mut iterations = 0;
+                while iterations < ITERATIONS as u32 {
+                    // A point optimal to rounding is held: further steps only underflow s∘λ.
+                    if r.relative_primal <= FINISHED
+                        && r.relative_dual <= FINISHED
+                        && r.gap <= FINISHED * r.objective_scale
+                    {
+                        break;
+                    }
+                    let mu = dot(s, lambda) / NSIDES as f64;
+                    let mut w = [0.0; NSIDES];
+                    for k in 0..NSIDES {
+                        w[k] = lambda[k] / s[k];
+                    }
+                    if !factor(&w, &mut m) {
+                        ended = Ended::Failure;
+                        break;
+                    }
+                    // Predictor: the affine-scaling direction.
+                    let mut rc = [0.0; NSIDES];
+                    for k in 0..NSIDES {
+                        rc[k] = s[k] * lambda[k];
+                    }
+                    direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl);
+                    let alpha = step_to_boundary(s, lambda, &ds, &dl).min(1.0);
+                    let mut mu_affine = 0.0;
+                    for k in 0..NSIDES {
+                        mu_affine += (s[k] + alpha * ds[k]) * (lambda[k] + alpha * dl[k]);
+                    }
+                    mu_affine /= NSIDES as f64;
+                    let sigma = if mu > 0.0 {
+                        let ratio = (mu_affine / mu).clamp(0.0, 1.0);
+                        ratio * ratio * ratio
+                    } else {
+                        0.0
+                    };
+                    // Corrector: centering and the second-order term of the complementarity.
+                    for k in 0..NSIDES {
+                        rc[k] = s[k] * lambda[k] + ds[k] * dl[k] - sigma * mu;
+                    }
+                    direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl);
+                    let alpha = (FRACTION * step_to_boundary(s, lambda, &ds, &dl)).min(1.0);
+                    let (mut zn, mut sn, mut ln) = (*z, *s, *lambda);
+                    for i in 0..NV {
+                        zn[i] += alpha * dz[i];
+                    }
+                    for k in 0..NSIDES {
+                        sn[k] += alpha * ds[k];
+                        ln[k] += alpha * dl[k];
+                    }
+                    let positive = sn.iter().chain(ln.iter()).all(|v| *v > 0.0);
+                    if !(finite64(&zn) && finite64(&sn) && finite64(&ln) && positive) {
+                        ended = Ended::Failure;
+                        break;
+                    }
+                    (*z, *s, *lambda) = (zn, sn, ln);
+                    r = residuals(f, h, z, s, lambda);
+                    iterations += 1;
+                    // Infeasible: λ ≥ 0 with Gᵀλ ≈ 0 and hᵀλ < 0 (Farkas), or diverged multipliers.
+                    let htl = dot(h, lambda);
+                    let mut gl = [0.0; NV];
+                    g_tmul(lambda, &mut gl);
+                    if (htl < 0.0 && amax(&gl) <= INFEASIBILITY_TOLERANCE * -htl) || amax(lambda) > 1e15 {
+                        ended = Ended::Infeasible;
+                        break;
+                    }
+                }
+                Outcome {
+                    ended,
+                    iterations,
+                    primal: r.relative_primal,
+                    dual: r.relative_dual,
+                    gap: r.gap,
+                }
+            }
+        },
+        tables: quote! {
+            /// Tuning of the method, as in the reference (`codegen::ipm`): the fraction of the step to the
+            /// boundary, the warm start's floor on s and λ, the rounding level at which a point is held,
+            /// and the infeasibility certificate's tolerance.
+            const FRACTION: f64 = #fraction;
+            const WARM_FLOOR: f64 = #floor;
+            const FINISHED: f64 = #finished;
+            const INFEASIBILITY_TOLERANCE: f64 = #infeasibility;
+            /// Row sides per slot: a warm start shifts them by this.
+            const SIDES_PER_SLOT: usize = #per_slot_lit;
+            /// U_MIN, U_MAX and U_REST in f64.
+            const LO: [f64; NU] = #lo;
+            const HI: [f64; NU] = #hi;
+            const REST: [f64; NU] = #rest;
+            /// The slacks' penalty weights w (the linear term of the slacks).
+            const SLACK_WEIGHT: [f64; NS] = #slack_weight;
+            /// Box sides: BOX_SIGN·z[BOX_INDEX] ≤ BOX_H (upper then lower bound per plan entry, then σ ≥ 0).
+            const BOX_INDEX: [usize; NB] = [#(#box_index),*];
+            const BOX_SIGN: [f64; NB] = #box_sign;
+            const BOX_H: [f64; NB] = #box_h;
+            /// Row sides in compressed rows: side j is Σ SIDE_VAL[k]·z[SIDE_COL[k]] ≤ h_j over
+            /// k ∈ SIDE_START[j]..SIDE_START[j + 1], with h_j = SIDE_H[j] − SIDE_X[j]·x0 (− …).
+            const SIDE_START: [usize; NG + 1] = [#(#start_lit),*];
+            const SIDE_COL: [usize; #nnz] = [#(#col_lit),*];
+            const SIDE_VAL: [f64; #nnz] = #val;
+            const SIDE_H: [f64; NG] = #side_h;
+            /// Whether a side belongs to a soft row (its violation is priced, not forbidden).
+            const SIDE_SOFT: [bool; NG] = [#(#side_soft),*];
+            /// The sides' dependence on the state: h −= SIDE_X·x0.
+            const SIDE_X: [[f64; NX]; NG] = #side_x;
+            #side_d
+            #side_u
+            /// The method's Hessian blkdiag(H, diag(q_σ)): eq. 9's H, then the slacks' quadratic weights.
+            pub const H: [[f64; NV]; NV] = #hv;
+        },
+    }
+}
