@@ -751,7 +751,11 @@ fn check_row_group(
     diags: &mut Diagnostics,
 ) -> Option<RowGroup> {
     let p = &g.path;
-    let has = |key: &str| raw.has(&format!("{p}.{key}"));
+    // Written (and maybe reported), or offered for a misspelled key (reported).
+    let has = |key: &str| {
+        let path = format!("{p}.{key}");
+        raw.has(&path) || raw.suggested.contains(&path)
+    };
     let mut ok = true;
     if g.lower.is_none() && g.upper.is_none() && !has("lower") && !has("upper") {
         ok = false;

@@ -120,6 +120,8 @@ pub struct Raw {
     /// Every table and key written, readable or not (`"kalman"`, `"kalman.sigma_a"`), so that a value
     /// already reported as wrong is not reported again as missing.
     pub present: BTreeSet<String>,
+    /// Keys offered as "did you mean" for a misspelled one: not reported again as missing.
+    pub suggested: BTreeSet<String>,
     /// The top-level tables that are tables (`kalman = 3` is present, and reported, but not one).
     pub tables: BTreeSet<String>,
 }
@@ -336,6 +338,7 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
     }
     raw.spans = p.spans;
     raw.present = p.present;
+    raw.suggested = p.suggested;
     raw.tables = p.tables;
     raw
 }
