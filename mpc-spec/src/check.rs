@@ -2,7 +2,7 @@
 
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::model::*;
-use crate::parse::{Located, MatrixInput, Raw};
+use crate::parse::{entries, Located, MatrixInput, Raw, RawRowGroup};
 
 /// Checks `raw` as a whole and builds the spec; `None` when anything was reported (here or while parsing).
 pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
@@ -228,8 +228,8 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
         (None, Some(scale)) => q.as_ref().map(|q| q.scaled(scale.value)),
         (None, None) => q.clone(),
     };
-    let u_min = bound(diags, "mpc.u_min", raw.u_min.as_ref(), nu);
-    let u_max = bound(diags, "mpc.u_max", raw.u_max.as_ref(), nu);
+    let u_min = sized(diags, "mpc.u_min", raw.u_min.as_ref(), nu, "nu");
+    let u_max = sized(diags, "mpc.u_max", raw.u_max.as_ref(), nu, "nu");
     if let (Some(lo), Some(hi)) = (&u_min, &u_max) {
         for (j, (l, h)) in lo.iter().zip(hi).enumerate() {
             if l >= h {
@@ -244,7 +244,9 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
             }
         }
     }
-    if let (Some(it), None) = (&raw.iterations, &raw.tolerance) {
+    let method = spelled(&raw.method, Method::Fgm, Method::from_name);
+    // An interior-point method's "auto" is certified on `[mpc.region]` against `accuracy`.
+    if let (Some(it), None, true) = (&raw.iterations, &raw.tolerance, method.box_only()) {
         if it.value.is_none() && !raw.has("mpc.tolerance") {
             diags.push(
                 Diagnostic::new("`iterations = \"auto\"` needs `tolerance`", it.span.clone())
@@ -253,7 +255,14 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
             );
         }
     }
-    let method = spelled(&raw.method, Method::Fgm, Method::from_name);
+    check_method_keys(raw, method, diags);
+    let constraints = check_constraints(raw, nx, nu, diags);
+    let z = match &outputs {
+        Some(Some(c)) => Some((c.rows, "nz, the rows of `outputs`")),
+        Some(None) => Some((nx, "nx")),
+        None => None,
+    };
+    let region = check_region(raw, nx, z, diags);
     let step = match raw.step.as_ref().and_then(|s| s.value) {
         Some(alpha) => Step::Fixed(alpha),
         None => Step::Auto,
@@ -277,10 +286,9 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
         qf_on_state,
         u_min: u_min?,
         u_max: u_max?,
-        // Filled from the keys of issue 17 by `check_constraints` (in progress).
-        constraints: Constraints::default(),
-        accuracy: DEFAULT_ACCURACY,
-        region: Region::default(),
+        constraints: constraints?,
+        accuracy: raw.accuracy.as_ref().map_or(DEFAULT_ACCURACY, |a| a.value),
+        region: region?,
     })
 }
 
@@ -477,28 +485,466 @@ fn square(
     }
 }
 
-fn bound(
+/// A list of `n` entries (`dim` names n: `"nu"`).
+fn sized(
     diags: &mut Diagnostics,
     path: &str,
     v: Option<&Located<Vec<f64>>>,
-    nu: usize,
+    n: usize,
+    dim: &str,
 ) -> Option<Vec<f64>> {
     let v = v?;
-    if v.value.len() != nu {
+    if v.value.len() != n {
         diags.push(
             Diagnostic::new(
                 format!(
-                    "`{path}` must have {} (nu = {nu}), found {}",
-                    crate::parse::entries(nu),
+                    "`{path}` must have {} ({dim} = {n}), found {}",
+                    entries(n),
                     v.value.len()
                 ),
                 v.span.clone(),
             )
-            .label(format!("expected {}", crate::parse::entries(nu))),
+            .label(format!("expected {}", entries(n))),
         );
         return None;
     }
     Some(v.value.clone())
+}
+
+/// An optional list of `n` entries: empty when not written, `None` when written and wrong (reported).
+fn optional_list(
+    diags: &mut Diagnostics,
+    raw: &Raw,
+    path: &str,
+    v: Option<&Located<Vec<f64>>>,
+    n: usize,
+    dim: &str,
+) -> Option<Vec<f64>> {
+    match v {
+        Some(_) => sized(diags, path, v, n, dim),
+        None if raw.has(path) => None,
+        None => Some(Vec::new()),
+    }
+}
+
+/// The span of entry `i` of the list at `path`, else of the whole list.
+fn entry_span(raw: &Raw, path: &str, i: usize, whole: &Span) -> Span {
+    raw.spans
+        .get(&format!("{path}[{i}]"))
+        .cloned()
+        .unwrap_or_else(|| whole.clone())
+}
+
+/// One pair of lower and upper bounds, entrywise ordered: `lower[i] ≤ upper[i]`.
+struct Ordered<'a> {
+    /// The lower bounds' path (`mpc.x_min`) and what is written in messages (`x_min`).
+    lower: (&'a str, &'a str),
+    /// Likewise the upper bounds'.
+    upper: (&'a str, &'a str),
+    /// What entry i bounds: "state 2".
+    entry: &'a dyn Fn(usize) -> String,
+}
+
+impl Ordered<'_> {
+    /// Reports every entry whose lower bound is above its upper bound, at the upper bound's entry. Empty
+    /// lists (not written) are unbounded.
+    fn check(&self, raw: &Raw, lo: &[f64], hi: &[f64], diags: &mut Diagnostics) -> bool {
+        let Some(whole) = raw.spans.get(self.upper.0) else {
+            return true;
+        };
+        let (lo_key, hi_key) = (self.lower.1, self.upper.1);
+        let mut ok = true;
+        for (i, (l, h)) in lo.iter().zip(hi).enumerate() {
+            if l > h {
+                ok = false;
+                diags.push(
+                    Diagnostic::new(
+                        format!("{} has `{lo_key}` {l} above `{hi_key}` {h}", (self.entry)(i)),
+                        entry_span(raw, self.upper.0, i, whole),
+                    )
+                    .label(format!("below entry {i} of `{lo_key}`"))
+                    .note(format!(
+                        "hint: each entry of `{lo_key}` must be at most the same entry of `{hi_key}`: no value lies between them"
+                    )),
+                );
+            }
+        }
+        ok
+    }
+}
+
+/// What the first-order methods cannot solve needs `method = "ipm"`: `x_min`, `x_max`, `du_min`, `du_max`
+/// and `[[mpc.constraint]]` (and with them `x_soft` and `soft`); `ipm` in turn takes no gradient `step`
+/// nor `tolerance`, its accuracy being `accuracy`.
+fn check_method_keys(raw: &Raw, method: Method, diags: &mut Diagnostics) {
+    let name = method.name();
+    if method.box_only() {
+        let solver = if raw.method.is_some() {
+            format!("`method = \"{name}\"`")
+        } else {
+            format!("the default method, `{name}`,")
+        };
+        let span = |v: &Option<Located<Vec<f64>>>| v.as_ref().map(|v| v.span.clone());
+        let keys = [
+            ("x_min", "a bound on the predicted states", span(&raw.x_min)),
+            ("x_max", "a bound on the predicted states", span(&raw.x_max)),
+            (
+                "du_min",
+                "a bound on the moves u_k − u_{k−1}",
+                span(&raw.du_min),
+            ),
+            (
+                "du_max",
+                "a bound on the moves u_k − u_{k−1}",
+                span(&raw.du_max),
+            ),
+            (
+                "[[mpc.constraint]]",
+                "a group of constraint rows",
+                raw.constraints.first().map(|g| g.span.clone()),
+            ),
+        ];
+        for (key, what, span) in keys {
+            let Some(span) = span else { continue };
+            diags.push(
+                Diagnostic::new(format!("`{key}` needs `method = \"ipm\"`"), span)
+                    .label(what)
+                    .note(format!("hint: {solver} solves the input box only (a projection per iteration); write `method = \"ipm\"` in `[mpc]`, the interior-point method, for state, move and row constraints")),
+            );
+        }
+        return;
+    }
+    if let Some(step) = raw.step.as_ref().filter(|s| s.value.is_some()) {
+        diags.push(
+            Diagnostic::new(
+                format!("`step` is a setting of the first-order methods, not of `method = \"{name}\"`"),
+                step.span.clone(),
+            )
+            .label("a gradient step size")
+            .note("hint: the interior-point method takes Newton steps, each as long as the boundary allows; remove `step`"),
+        );
+    }
+    if let Some(tolerance) = &raw.tolerance {
+        diags.push(
+            Diagnostic::new(
+                format!("`tolerance` is a setting of the first-order methods, not of `method = \"{name}\"`"),
+                tolerance.span.clone(),
+            )
+            .label("the a priori bound of `fgm` and `gradient`")
+            .note(format!("hint: the interior-point method is certified on `[mpc.region]` against `accuracy` (default {DEFAULT_ACCURACY}): write `accuracy` instead of `tolerance`")),
+        );
+    }
+}
+
+/// `x_min`/`x_max` have nx entries and `du_min`/`du_max` nu, each lower bound at most its upper one, and
+/// `du_min ≤ 0 ≤ du_max` with room to move; `x_soft` softens written state bounds; each
+/// `[[mpc.constraint]]` is checked by [`check_row_group`].
+fn check_constraints(
+    raw: &Raw,
+    nx: usize,
+    nu: usize,
+    diags: &mut Diagnostics,
+) -> Option<Constraints> {
+    let x_min = optional_list(diags, raw, "mpc.x_min", raw.x_min.as_ref(), nx, "nx");
+    let x_max = optional_list(diags, raw, "mpc.x_max", raw.x_max.as_ref(), nx, "nx");
+    let mut ok = true;
+    if let (Some(lo), Some(hi)) = (&x_min, &x_max) {
+        let order = Ordered {
+            lower: ("mpc.x_min", "x_min"),
+            upper: ("mpc.x_max", "x_max"),
+            entry: &|i| format!("state {i}"),
+        };
+        ok &= order.check(raw, lo, hi, diags);
+    }
+    if let Some(soft) = &raw.x_soft {
+        if !raw.has("mpc.x_min") && !raw.has("mpc.x_max") {
+            ok = false;
+            diags.push(
+                Diagnostic::new(
+                    "`x_soft` softens `x_min` and `x_max`, and neither is written",
+                    soft.span.clone(),
+                )
+                .label("a penalty on no constraint")
+                .note("hint: add `x_min` or `x_max` to `[mpc]`, or remove `x_soft`; a `[[mpc.constraint]]` is softened by its own `soft`"),
+            );
+        }
+    }
+    let du_min = optional_list(diags, raw, "mpc.du_min", raw.du_min.as_ref(), nu, "nu");
+    let du_max = optional_list(diags, raw, "mpc.du_max", raw.du_max.as_ref(), nu, "nu");
+    if let (Some(lo), Some(hi)) = (&du_min, &du_max) {
+        ok &= check_moves(raw, lo, hi, diags);
+    }
+    let mut rows = Vec::with_capacity(raw.constraints.len());
+    for group in &raw.constraints {
+        match check_row_group(raw, group, nx, nu, diags) {
+            Some(g) => rows.push(g),
+            None => ok = false,
+        }
+    }
+    if !ok {
+        return None;
+    }
+    Some(Constraints {
+        x_min: x_min?,
+        x_max: x_max?,
+        x_soft: raw.x_soft.as_ref().map(|s| s.value),
+        du_min: du_min?,
+        du_max: du_max?,
+        rows,
+    })
+}
+
+/// `du_min ≤ 0 ≤ du_max` entrywise, not both zero: holding the last input (a zero move) must be allowed,
+/// and an input must be able to move.
+fn check_moves(raw: &Raw, lo: &[f64], hi: &[f64], diags: &mut Diagnostics) -> bool {
+    const HOLD: &str = "hint: `du_min ≤ 0 ≤ du_max` entrywise, so that holding the last input (a zero move) is always allowed; write `-inf`/`inf` for an input whose moves are free";
+    let mut ok = true;
+    for (path, list, sign) in [("mpc.du_min", lo, 1.0), ("mpc.du_max", hi, -1.0)] {
+        let Some(whole) = raw.spans.get(path) else {
+            continue;
+        };
+        for (j, d) in list.iter().enumerate() {
+            if sign * d > 0.0 {
+                ok = false;
+                let (rule, way) = if sign > 0.0 {
+                    ("positive", "upward")
+                } else {
+                    ("negative", "downward")
+                };
+                diags.push(
+                    Diagnostic::new(
+                        format!("`{path}` must not be {rule}, found {d} for input {j}"),
+                        entry_span(raw, path, j, whole),
+                    )
+                    .label(format!("forces every move of input {j} {way}"))
+                    .note(HOLD),
+                );
+            }
+        }
+    }
+    if let Some(whole) = raw.spans.get("mpc.du_max") {
+        for (j, (l, h)) in lo.iter().zip(hi).enumerate() {
+            if *l == 0.0 && *h == 0.0 {
+                ok = false;
+                diags.push(
+                    Diagnostic::new(
+                        format!("input {j} cannot move: its `du_min` and `du_max` are both 0"),
+                        entry_span(raw, "mpc.du_max", j, whole),
+                    )
+                    .label("pins the input to its last value forever")
+                    .note("hint: give the moves of this input a range, or fix it with `u_min`/`u_max` of the model instead"),
+                );
+            }
+        }
+    }
+    ok
+}
+
+/// One `[[mpc.constraint]]`: `ax` rows × nx; `au` rows × nu (zero when absent); `lower` and/or `upper`
+/// with one entry per row (the absent one ∓∞), `lower ≤ upper`; every row with a finite bound and a
+/// nonzero entry in `ax` or `au`.
+fn check_row_group(
+    raw: &Raw,
+    g: &RawRowGroup,
+    nx: usize,
+    nu: usize,
+    diags: &mut Diagnostics,
+) -> Option<RowGroup> {
+    let p = &g.path;
+    // Written (and maybe reported), or offered for a misspelled key (reported).
+    let has = |key: &str| {
+        let path = format!("{p}.{key}");
+        raw.has(&path) || raw.suggested.contains(&path)
+    };
+    let mut ok = true;
+    if g.lower.is_none() && g.upper.is_none() && !has("lower") && !has("upper") {
+        ok = false;
+        diags.push(
+            Diagnostic::new("`[[mpc.constraint]]` needs `lower` or `upper`", g.span.clone())
+                .label("a group of rows without bounds")
+                .note("hint: `lower` and `upper` hold one entry per row of `ax`; write the one you need, the other is then unbounded (`-inf` or `inf`)"),
+        );
+    }
+    // A missing `ax` was reported where it was parsed.
+    let ax = g.ax.as_ref()?;
+    let rows = ax.value.rows;
+    if ax.value.cols != nx {
+        ok = false;
+        diags.push(
+            Diagnostic::new(
+                format!(
+                    "`{p}.ax` must have nx = {nx} columns, found {}×{}",
+                    rows, ax.value.cols
+                ),
+                ax.span.clone(),
+            )
+            .label("wrong shape")
+            .note("hint: `ax` maps the state to the group's rows: one row per constraint, one column per state"),
+        );
+    }
+    let au = match &g.au {
+        Some(au) if au.value.rows != rows || au.value.cols != nu => {
+            diags.push(
+                Diagnostic::new(
+                    format!(
+                        "`{p}.au` must be {rows}×{nu} (a row per row of `ax`, nu = {nu} columns), found {}×{}",
+                        au.value.rows, au.value.cols
+                    ),
+                    au.span.clone(),
+                )
+                .label("wrong shape")
+                .note("hint: `au` maps the input to the group's rows, beside `ax`; leave it out for rows on the state alone"),
+            );
+            None
+        }
+        Some(au) => Some(au.value.clone()),
+        None if has("au") => None,
+        None => Some(Matrix {
+            rows,
+            cols: nu,
+            data: vec![0.0; rows * nu],
+        }),
+    };
+    let side =
+        |key: &str, v: &Option<Located<Vec<f64>>>, free: f64, diags: &mut Diagnostics| match v {
+            Some(v) if v.value.len() != rows => {
+                diags.push(
+                    Diagnostic::new(
+                        format!(
+                            "`{p}.{key}` must have {} (one per row of `ax`), found {}",
+                            entries(rows),
+                            v.value.len()
+                        ),
+                        v.span.clone(),
+                    )
+                    .label(format!("expected {}", entries(rows))),
+                );
+                None
+            }
+            Some(v) => Some(v.value.clone()),
+            None if has(key) => None,
+            None => Some(vec![free; rows]),
+        };
+    let lower = side("lower", &g.lower, f64::NEG_INFINITY, diags);
+    let upper = side("upper", &g.upper, f64::INFINITY, diags);
+    let (Some(au), Some(lower), Some(upper), true) = (au, lower, upper, ok) else {
+        return None;
+    };
+    if ax.value.cols != nx {
+        return None;
+    }
+    for i in 0..rows {
+        if lower[i] == f64::NEG_INFINITY && upper[i] == f64::INFINITY {
+            ok = false;
+            let (key, bound) = match &g.lower {
+                Some(l) => ("lower", l),
+                None => ("upper", g.upper.as_ref()?),
+            };
+            diags.push(
+                Diagnostic::new(format!("row {i} of `{p}` has no finite bound"), entry_span(raw, &format!("{p}.{key}"), i, &bound.span))
+                    .label("unbounded on both sides")
+                    .note("hint: a row without a finite `lower` or `upper` constrains nothing; give it a bound or remove the row"),
+            );
+        }
+        let zero =
+            (0..nx).all(|j| ax.value.get(i, j) == 0.0) && (0..nu).all(|j| au.get(i, j) == 0.0);
+        if zero {
+            ok = false;
+            diags.push(
+                Diagnostic::new(format!("row {i} of `{p}` is zero in `ax` and `au`"), entry_span(raw, &format!("{p}.ax"), i, &ax.span))
+                    .label("bounds the constant 0")
+                    .note("hint: a zero row is always satisfied or never, whatever the controller does; remove it, or give it the states and inputs it constrains"),
+            );
+        }
+    }
+    let lower_path = format!("{p}.lower");
+    let upper_path = format!("{p}.upper");
+    let order = Ordered {
+        lower: (&lower_path, "lower"),
+        upper: (&upper_path, "upper"),
+        entry: &|i| format!("row {i} of `{p}`"),
+    };
+    ok &= order.check(raw, &lower, &upper, diags);
+    ok.then(|| RowGroup {
+        ax: ax.value.clone(),
+        au,
+        lower,
+        upper,
+        soft: g.soft.as_ref().map(|s| s.value),
+    })
+}
+
+/// `[mpc.region]`: `x_min`/`x_max` of nx finite entries, `reference_min`/`reference_max` of nz (`z` is nz
+/// and its name, `None` when `outputs` is wrong), each lower corner at most the upper one.
+fn check_region(
+    raw: &Raw,
+    nx: usize,
+    z: Option<(usize, &str)>,
+    diags: &mut Diagnostics,
+) -> Option<Region> {
+    let x_min = optional_list(
+        diags,
+        raw,
+        "mpc.region.x_min",
+        raw.region_x_min.as_ref(),
+        nx,
+        "nx",
+    );
+    let x_max = optional_list(
+        diags,
+        raw,
+        "mpc.region.x_max",
+        raw.region_x_max.as_ref(),
+        nx,
+        "nx",
+    );
+    let (nz, z_name) = z?;
+    let reference_min = optional_list(
+        diags,
+        raw,
+        "mpc.region.reference_min",
+        raw.reference_min.as_ref(),
+        nz,
+        z_name,
+    );
+    let reference_max = optional_list(
+        diags,
+        raw,
+        "mpc.region.reference_max",
+        raw.reference_max.as_ref(),
+        nz,
+        z_name,
+    );
+    let mut ok = true;
+    if let (Some(lo), Some(hi)) = (&x_min, &x_max) {
+        let order = Ordered {
+            lower: ("mpc.region.x_min", "x_min"),
+            upper: ("mpc.region.x_max", "x_max"),
+            entry: &|i| format!("state {i}"),
+        };
+        ok &= order.check(raw, lo, hi, diags);
+    }
+    if let (Some(lo), Some(hi)) = (&reference_min, &reference_max) {
+        let order = Ordered {
+            lower: ("mpc.region.reference_min", "reference_min"),
+            upper: ("mpc.region.reference_max", "reference_max"),
+            entry: &|i| format!("reference {i}"),
+        };
+        ok &= order.check(raw, lo, hi, diags);
+    }
+    if !ok {
+        return None;
+    }
+    let count = |c: &Option<Located<usize>>| c.as_ref().map(|c| c.value);
+    Some(Region {
+        x_min: x_min?,
+        x_max: x_max?,
+        reference_min: reference_min?,
+        reference_max: reference_max?,
+        samples: count(&raw.samples),
+        sequences: count(&raw.sequences),
+        steps: count(&raw.steps),
+    })
 }
 
 fn expect_shape(

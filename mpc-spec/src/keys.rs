@@ -31,6 +31,30 @@ pub const MPC_KEYS: &[&str] = &[
     "r_du",
     "u_min",
     "u_max",
+    "x_min",
+    "x_max",
+    "x_soft",
+    "du_min",
+    "du_max",
+    CONSTRAINT,
+    "accuracy",
+    REGION,
+];
+/// `[[mpc.constraint]]`: a group of rows lower ≤ Ax·x_k + Au·u_k ≤ upper, an array of tables in `[mpc]`.
+pub const CONSTRAINT: &str = "constraint";
+/// Keys of each `[[mpc.constraint]]`.
+pub const CONSTRAINT_KEYS: &[&str] = &["ax", "au", "lower", "upper", "soft"];
+/// `[mpc.region]`: where the compiler certifies an interior-point method, a table in `[mpc]`.
+pub const REGION: &str = "region";
+/// Keys of `[mpc.region]`.
+pub const REGION_KEYS: &[&str] = &[
+    "x_min",
+    "x_max",
+    "reference_min",
+    "reference_max",
+    "samples",
+    "sequences",
+    "steps",
 ];
 /// Keys of `[kalman]`.
 pub const KALMAN_KEYS: &[&str] = &[

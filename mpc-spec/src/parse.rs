@@ -80,6 +80,24 @@ pub struct Raw {
     pub r_du: Option<Located<MatrixInput>>,
     pub u_min: Option<Located<Vec<f64>>>,
     pub u_max: Option<Located<Vec<f64>>>,
+    /// ±∞ entries allowed on the unbounded side, here and in the other bounds of issue 17.
+    pub x_min: Option<Located<Vec<f64>>>,
+    pub x_max: Option<Located<Vec<f64>>>,
+    pub x_soft: Option<Located<f64>>,
+    pub du_min: Option<Located<Vec<f64>>>,
+    pub du_max: Option<Located<Vec<f64>>>,
+    /// `[[mpc.constraint]]`, one per table written, with what could be read of each.
+    pub constraints: Vec<RawRowGroup>,
+    pub accuracy: Option<Located<f64>>,
+    /// The key `region` of `[mpc.region]`, when it is a table.
+    pub region_span: Option<Span>,
+    pub region_x_min: Option<Located<Vec<f64>>>,
+    pub region_x_max: Option<Located<Vec<f64>>>,
+    pub reference_min: Option<Located<Vec<f64>>>,
+    pub reference_max: Option<Located<Vec<f64>>>,
+    pub samples: Option<Located<usize>>,
+    pub sequences: Option<Located<usize>>,
+    pub steps: Option<Located<usize>>,
 
     pub kalman_span: Span,
     pub sigma_a: Option<Located<f64>>,
@@ -102,8 +120,33 @@ pub struct Raw {
     /// Every table and key written, readable or not (`"kalman"`, `"kalman.sigma_a"`), so that a value
     /// already reported as wrong is not reported again as missing.
     pub present: BTreeSet<String>,
+    /// Keys offered as "did you mean" for a misspelled one: not reported again as missing.
+    pub suggested: BTreeSet<String>,
     /// The top-level tables that are tables (`kalman = 3` is present, and reported, but not one).
     pub tables: BTreeSet<String>,
+}
+
+/// One `[[mpc.constraint]]` as written; `None` where a key is absent or unreadable.
+#[derive(Debug)]
+pub struct RawRowGroup {
+    /// `mpc.constraint[i]`: the prefix of its keys in [`Raw::spans`] and [`Raw::present`].
+    pub path: String,
+    /// Its header `[[mpc.constraint]]` (or the inline table).
+    pub span: Span,
+    pub ax: Option<Located<Matrix>>,
+    pub au: Option<Located<Matrix>>,
+    pub lower: Option<Located<Vec<f64>>>,
+    pub upper: Option<Located<Vec<f64>>>,
+    pub soft: Option<Located<f64>>,
+}
+
+/// Which side of a bound a list is: the side whose infinity means "unbounded".
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Side {
+    /// A lower bound: `-inf` is unbounded, `inf` admits nothing.
+    Lower,
+    /// An upper bound: `inf` is unbounded, `-inf` admits nothing.
+    Upper,
 }
 
 impl Raw {
@@ -205,6 +248,45 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.u_max = p
             .required(t, "mpc", "u_max", &span)
             .and_then(|v| p.vector(v, "mpc.u_max"));
+        raw.x_min = t
+            .get("x_min")
+            .and_then(|v| p.bounds(v, "mpc.x_min", Side::Lower));
+        raw.x_max = t
+            .get("x_max")
+            .and_then(|v| p.bounds(v, "mpc.x_max", Side::Upper));
+        raw.x_soft = t.get("x_soft").and_then(|v| p.positive(v, "mpc.x_soft"));
+        raw.du_min = t
+            .get("du_min")
+            .and_then(|v| p.bounds(v, "mpc.du_min", Side::Lower));
+        raw.du_max = t
+            .get("du_max")
+            .and_then(|v| p.bounds(v, "mpc.du_max", Side::Upper));
+        if let Some(v) = t.get(keys::CONSTRAINT) {
+            raw.constraints = p.row_groups(v);
+        }
+        raw.accuracy = t.get("accuracy").and_then(|v| p.accuracy(v));
+        if let Some(r) = p.sub_table(t, "mpc", keys::REGION) {
+            raw.region_span = Some(r.0);
+            let r = r.1;
+            p.unknown_keys(r, keys::REGION_KEYS, "mpc.region", "key");
+            raw.region_x_min = r.get("x_min").and_then(|v| p.listed(v, "mpc.region.x_min"));
+            raw.region_x_max = r.get("x_max").and_then(|v| p.listed(v, "mpc.region.x_max"));
+            raw.reference_min = r
+                .get("reference_min")
+                .and_then(|v| p.listed(v, "mpc.region.reference_min"));
+            raw.reference_max = r
+                .get("reference_max")
+                .and_then(|v| p.listed(v, "mpc.region.reference_max"));
+            raw.samples = r
+                .get("samples")
+                .and_then(|v| p.count_at_most(v, "mpc.region.samples", 0, 10_000, SAMPLES_LIMIT));
+            raw.sequences = r
+                .get("sequences")
+                .and_then(|v| p.count_at_most(v, "mpc.region.sequences", 0, 100, SEQUENCES_LIMIT));
+            raw.steps = r
+                .get("steps")
+                .and_then(|v| p.count_at_most(v, "mpc.region.steps", 1, 1000, STEPS_LIMIT));
+        }
     }
     // `[kalman]` is optional: without it the controller takes the measured state.
     if let Some((span, t)) = p.table(root, keys::KALMAN, &root_span, false) {
@@ -256,6 +338,7 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
     }
     raw.spans = p.spans;
     raw.present = p.present;
+    raw.suggested = p.suggested;
     raw.tables = p.tables;
     raw
 }
@@ -328,6 +411,18 @@ impl Parser<'_> {
         } else {
             format!("`[{table}]`")
         };
+        self.unknown_keys_in(t, allowed, table, &place, what);
+    }
+
+    /// [`Self::unknown_keys`] of the table at `table` (`mpc.constraint[0]`), called `place` in messages.
+    fn unknown_keys_in(
+        &mut self,
+        t: &DeTable<'_>,
+        allowed: &[&str],
+        table: &str,
+        place: &str,
+        what: &str,
+    ) {
         for (k, _) in t.iter() {
             let key: &str = k.get_ref();
             self.present.insert(if table.is_empty() {
@@ -369,12 +464,24 @@ impl Parser<'_> {
         key: &str,
         table_span: &Span,
     ) -> Option<&'a Value<'i>> {
+        self.required_in(t, table, &format!("`[{table}]`"), key, table_span)
+    }
+
+    /// [`Self::required`] in the table at `table`, called `place` in messages.
+    fn required_in<'a, 'i>(
+        &mut self,
+        t: &'a DeTable<'i>,
+        table: &str,
+        place: &str,
+        key: &str,
+        table_span: &Span,
+    ) -> Option<&'a Value<'i>> {
         let v = t.get(key);
         // A misspelled key was reported with this one as its suggestion: once is enough.
         if v.is_none() && !self.suggested.contains(&format!("{table}.{key}")) {
             self.err(
                 Diagnostic::new(
-                    format!("missing key `{key}` in `[{table}]`"),
+                    format!("missing key `{key}` in {place}"),
                     table_span.clone(),
                 )
                 .label(format!("`{key}` is required in this table")),
@@ -733,15 +840,229 @@ impl Parser<'_> {
         }
         Some(self.located(path, v, input))
     }
+
+    /// The table `key` of `parent` (at `parent_path`) and the span of its key; reports it when it is not a
+    /// table.
+    fn sub_table<'a, 'i>(
+        &mut self,
+        parent: &'a DeTable<'i>,
+        parent_path: &str,
+        key: &str,
+    ) -> Option<(Span, &'a DeTable<'i>)> {
+        let (k, v) = parent.get_key_value(key)?;
+        let path = format!("{parent_path}.{key}");
+        self.spans.insert(path.clone(), k.span());
+        match v.get_ref() {
+            DeValue::Table(t) => Some((k.span(), t)),
+            other => {
+                self.err(
+                    Diagnostic::new(
+                        format!("`{path}` must be a table, found {}", other.type_str()),
+                        v.span(),
+                    )
+                    .label("expected a table")
+                    .note(format!(
+                        "hint: write `[{path}]` on a line of its own, followed by its keys"
+                    )),
+                );
+                None
+            }
+        }
+    }
+
+    /// Records the span of every item of the list `v` as `path[i]`, for diagnostics on one entry or row.
+    fn item_spans(&mut self, v: &Value<'_>, path: &str) {
+        if let DeValue::Array(items) = v.get_ref() {
+            for (i, item) in items.iter().enumerate() {
+                self.spans.insert(format!("{path}[{i}]"), item.span());
+            }
+        }
+    }
+
+    /// A list of finite numbers, each entry located as `path[i]`.
+    fn listed(&mut self, v: &Value<'_>, path: &str) -> Option<Located<Vec<f64>>> {
+        let list = self.vector(v, path)?;
+        self.item_spans(v, path);
+        Some(list)
+    }
+
+    /// A list of bounds: finite numbers, or the TOML infinity of the unbounded side (`-inf` for a lower
+    /// bound, `inf` for an upper one); each entry located as `path[i]`.
+    fn bounds(&mut self, v: &Value<'_>, path: &str, side: Side) -> Option<Located<Vec<f64>>> {
+        let items = self.array(v, path, "a list of numbers")?;
+        let (free, wrong) = match side {
+            Side::Lower => ("-inf", "inf"),
+            Side::Upper => ("inf", "-inf"),
+        };
+        let mut ok = true;
+        let mut out = Vec::with_capacity(items.len());
+        for item in items {
+            let x = match item.get_ref() {
+                DeValue::Float(f) => {
+                    let text = f.as_str().replace('_', "");
+                    let x = text.parse::<f64>().ok();
+                    // Only the literal `inf` is an infinity: `1e999` overflowed.
+                    let literal = text.trim_start_matches(['+', '-']) == "inf";
+                    match x {
+                        Some(x) if x.is_finite() || (literal && x.is_infinite()) => Some(x),
+                        Some(x) if x.is_nan() => {
+                            self.err(
+                                Diagnostic::new(format!("`{path}` must not be nan"), item.span())
+                                    .label("not a number")
+                                    .note(format!(
+                                        "hint: write `{free}` for an entry without a bound"
+                                    )),
+                            );
+                            None
+                        }
+                        _ => {
+                            self.err(
+                                Diagnostic::new(
+                                    format!("`{path}` must be a finite number or `{free}`"),
+                                    item.span(),
+                                )
+                                .label("beyond the range of f64")
+                                .note(format!("hint: write `{free}` for an entry without a bound")),
+                            );
+                            None
+                        }
+                    }
+                }
+                _ => self.number_of(item, path),
+            };
+            let x = match x {
+                Some(x) if x.is_infinite() && (x < 0.0) != (side == Side::Lower) => {
+                    let what = match side {
+                        Side::Lower => "a lower bound of +∞ admits no value",
+                        Side::Upper => "an upper bound of −∞ admits no value",
+                    };
+                    self.err(
+                        Diagnostic::new(format!("`{path}` cannot be `{wrong}`"), item.span())
+                            .label(what)
+                            .note(format!(
+                                "hint: `{free}` leaves an entry of `{path}` unbounded"
+                            )),
+                    );
+                    None
+                }
+                x => x,
+            };
+            ok &= x.is_some();
+            out.push(x.unwrap_or(0.0));
+        }
+        if !ok {
+            return None;
+        }
+        self.item_spans(v, path);
+        Some(self.located(path, v, out))
+    }
+
+    /// `[[mpc.constraint]]`: an array of tables, each read as far as it goes.
+    fn row_groups(&mut self, v: &Value<'_>) -> Vec<RawRowGroup> {
+        let path = "mpc.constraint";
+        self.spans.insert(path.to_string(), v.span());
+        let DeValue::Array(items) = v.get_ref() else {
+            self.err(
+                Diagnostic::new(
+                    format!(
+                        "`{path}` must be an array of tables, found {}",
+                        v.get_ref().type_str()
+                    ),
+                    v.span(),
+                )
+                .label("expected `[[mpc.constraint]]` tables")
+                .note("hint: write each group of rows as a table of its own: `[[mpc.constraint]]` on a line, then its `ax`, `au`, `lower`, `upper`"),
+            );
+            return Vec::new();
+        };
+        let place = "`[[mpc.constraint]]`";
+        let mut out = Vec::new();
+        for (i, item) in items.iter().enumerate() {
+            let group = format!("{path}[{i}]");
+            self.spans.insert(group.clone(), item.span());
+            self.present.insert(group.clone());
+            let DeValue::Table(t) = item.get_ref() else {
+                self.err(
+                    Diagnostic::new(
+                        format!(
+                            "`{group}` must be a table, found {}",
+                            item.get_ref().type_str()
+                        ),
+                        item.span(),
+                    )
+                    .label("expected a table")
+                    .note("hint: write `[[mpc.constraint]]` on a line of its own, followed by the group's keys"),
+                );
+                continue;
+            };
+            self.unknown_keys_in(t, keys::CONSTRAINT_KEYS, &group, place, "key");
+            let span = item.span();
+            let ax = self
+                .required_in(t, &group, place, "ax", &span)
+                .and_then(|v| self.rows(v, &format!("{group}.ax")));
+            let au = t
+                .get("au")
+                .and_then(|v| self.rows(v, &format!("{group}.au")));
+            let lower = t
+                .get("lower")
+                .and_then(|v| self.bounds(v, &format!("{group}.lower"), Side::Lower));
+            let upper = t
+                .get("upper")
+                .and_then(|v| self.bounds(v, &format!("{group}.upper"), Side::Upper));
+            let soft = t
+                .get("soft")
+                .and_then(|v| self.positive(v, &format!("{group}.soft")));
+            out.push(RawRowGroup {
+                path: group,
+                span,
+                ax,
+                au,
+                lower,
+                upper,
+                soft,
+            });
+        }
+        out
+    }
+
+    /// A matrix whose rows are located as `path[i]`.
+    fn rows(&mut self, v: &Value<'_>, path: &str) -> Option<Located<Matrix>> {
+        let m = self.matrix(v, path)?;
+        self.item_spans(v, path);
+        Some(m)
+    }
+
+    /// `accuracy`: a number in (0, 0.5].
+    fn accuracy(&mut self, v: &Value<'_>) -> Option<Located<f64>> {
+        let path = "mpc.accuracy";
+        let x = self.number(v, path)?;
+        if x.value > 0.0 && x.value <= 0.5 {
+            return Some(x);
+        }
+        self.err(
+            Diagnostic::new(
+                format!("`{path}` must be above 0 and at most 0.5, found {}", x.value),
+                v.span(),
+            )
+            .label("out of range")
+            .note(format!("hint: `accuracy` is relative: the plan within accuracy·(u_max − u_min) of the exact solution, a row violated by at most accuracy·max(1, |bound|); the default is {}", crate::DEFAULT_ACCURACY)),
+        );
+        None
+    }
 }
 
-/// Why the number of axes is bounded.
 /// The largest cycle count `[kalman]` takes: the emitted counters are `u32`.
 const COUNT_MAX: i64 = u32::MAX as i64;
 const GATE_HINT: &str = "hint: the gate is a threshold on the normalized innovation squared (χ² with ny degrees of freedom), e.g. 30.7 for ny = 3 at a false-rejection probability of 1e-6; write \"off\" to fuse every finite reading";
 const STUCK_HINT: &str = "hint: the number of bit-identical readings in a row after which the sensor is taken as stuck (at least 2), or \"off\"";
 const REACQUIRE_HINT: &str = "hint: the number of consecutive gated, changing readings after which the filter re-acquires from the measurement";
+/// Why the number of axes is bounded.
 const AXES_LIMIT: &str = "hint: each axis adds two states, and every weight and covariance is a dense matrix over all of them; a controller this large is refused by the build budgets anyway";
+
+/// Why the region's sample counts are bounded: the compiler runs them all at build time.
+const SAMPLES_LIMIT: &str = "hint: the compiler solves every sampled QP at build time to certify the interior-point method, in the macro's compilation; 10000 draws (besides the corners) already take seconds";
+const SEQUENCES_LIMIT: &str = "hint: the compiler runs every closed-loop sequence at build time to certify the interior-point method warm-started, in the macro's compilation; keep it to a few dozen";
+const STEPS_LIMIT: &str = "hint: each step of a closed-loop sequence is one QP the compiler solves at build time; 1000 steps per sequence are far past any transient";
 
 /// Why the horizon is bounded.
 const HORIZON_LIMIT: &str = "hint: the emitted code unrolls the products with H (N·nu × N·nu) and Fr (N·nu × N·nx), which grow as N²; beyond this the generated source and its compile time grow past what is sensible for a fixed-iteration controller";
