@@ -129,6 +129,11 @@ pub struct Certificate {
     /// The absolute coordinates each scalar type can carry with u₀ within 1 % of the smallest input span
     /// ([`crate::coordinates`]).
     pub coordinate_range: CoordinateRange,
+    /// The interior-point method's sampled evidence ([`crate::sampling`]); `None` for a first-order
+    /// method, whose bound is a priori.
+    pub interior: Option<crate::sampling::Evidence>,
+    /// `[mpc] accuracy`.
+    pub accuracy: f64,
 }
 
 /// A number of the certificate.
@@ -208,6 +213,9 @@ pub mod section {
         "absolute coordinates (rounding; first-order, worst case over signs)";
     /// The code's cost.
     pub const RESOURCES: &str = "resources";
+    /// The interior-point method's certificate.
+    pub const INTERIOR: &str =
+        "interior-point method: evidence sampled on [mpc.region], not a proof";
     /// The build's predicted cost ([`crate::budget`]); not in the `report` module.
     pub const BUILD: &str = "build cost (predicted; limits in codegen::budget)";
 }
@@ -233,7 +241,7 @@ impl Certificate {
         let percent = format!("{}", range.accuracy * 100.0);
         let keeps =
             |scalar: &str| format!("{scalar} keeps u₀ within {percent} % of the input span");
-        vec![
+        let mut fields = vec![
             field("lipschitz", "LIPSCHITZ", "L, the largest eigenvalue of the Hessian H.", QP, "L = λmax(H)", Plain, Real(self.lipschitz)),
             field("strong_convexity", "STRONG_CONVEXITY", "μ, the smallest eigenvalue of H.", QP, "μ = λmin(H)", Plain, Real(self.strong_convexity)),
             field("condition_number", "CONDITION_NUMBER", "L/μ.", QP, "condition number L/μ", Plain, Real(self.condition_number)),
@@ -269,7 +277,52 @@ impl Certificate {
             field("build_cost.source_bytes", "", "", BUILD, "emitted: source", Bytes, Real(b.source_bytes)),
             field("build_cost.rustc_seconds", "", "", BUILD, "rustc on the module: time", Seconds, Real(b.rustc_seconds)),
             field("build_cost.rustc_bytes", "", "", BUILD, "rustc on the module: memory", Bytes, Real(b.rustc_bytes)),
-        ]
+        ];
+        let Some(e) = &self.interior else {
+            return fields;
+        };
+        // The first-order method's step, contraction and a priori bound do not exist here.
+        const FIRST_ORDER: &[&str] = &[
+            "step",
+            "momentum",
+            "contraction",
+            "rate.factor",
+            "tolerance",
+            "iterations_bound",
+            "guaranteed_gap",
+            "mpc.solver_spectral_radius",
+        ];
+        fields.retain(|f| !FIRST_ORDER.contains(&f.json));
+        let at = fields
+            .iter()
+            .position(|f| f.section == LQR)
+            .unwrap_or(fields.len());
+        let how = if e.auto {
+            format!(
+                "iterations: worst observed + {} (margin)",
+                e.iterations - e.cold_worst.max(e.warm_worst)
+            )
+        } else {
+            "iterations: as written".to_string()
+        };
+        let evidence = [
+            field("accuracy", "ACCURACY", "`[mpc] accuracy`: |U − U*|∞ ≤ ACCURACY·(u_max − u_min), hard-row violation ≤ ACCURACY·max(1, |bound|).", INTERIOR, "accuracy asked (of the input span)", Plain, Real(self.accuracy)),
+            field("interior.cold_cases", "IPM_COLD_CASES", "Cold cases sampled (corners and draws) that have a solution.", INTERIOR, "cold cases with a solution", Plain, Count(e.cold_cases)),
+            field("interior.corners", "IPM_CORNERS", "Corners of the state region among them.", INTERIOR, "of which corners of the region", Plain, Count(e.corners)),
+            field("interior.infeasible_cases", "IPM_INFEASIBLE_CASES", "Draws without an exact solution (infeasible hard rows, or unresolved), left out: the fallback covers them.", INTERIOR, "draws without a solution (hard rows)", Plain, Count(e.infeasible_cases)),
+            field("interior.warm_steps", "IPM_WARM_STEPS", "Warm-started closed-loop steps sampled.", INTERIOR, &format!("warm closed-loop steps ({} sequences)", e.sequences), Plain, Count(e.warm_steps)),
+            field("interior.cold_median", "IPM_COLD_MEDIAN", "Iterations a cold case needed to reach ACCURACY: median.", INTERIOR, "iterations needed cold: median", Plain, Count(e.cold_median)),
+            field("interior.cold_worst", "IPM_COLD_WORST", "Iterations a cold case needed: worst.", INTERIOR, "iterations needed cold: worst", Plain, Count(e.cold_worst)),
+            field("interior.warm_median", "IPM_WARM_MEDIAN", "Iterations a warm step needed: median.", INTERIOR, "iterations needed warm: median", Plain, Count(e.warm_median)),
+            field("interior.warm_worst", "IPM_WARM_WORST", "Iterations a warm step needed: worst.", INTERIOR, "iterations needed warm: worst", Plain, Count(e.warm_worst)),
+            field("interior.iterations", "", "", INTERIOR, &how, Plain, Count(e.iterations)),
+            field("interior.worst_error", "IPM_WORST_ERROR", "The worst |U − U*|∞ / span over the sample at ITERATIONS.", INTERIOR, "worst |U − U*|∞ / span at the count", Plain, Real(e.worst_error)),
+            field("interior.worst_violation", "IPM_WORST_VIOLATION", "The worst hard-row violation (relative) over the sample at ITERATIONS.", INTERIOR, "worst hard-row violation at the count", Plain, Real(e.worst_violation)),
+            field("interior.limits.primal", "IPM_PRIMAL_LIMIT", "Final relative primal residual above which the solve falls back.", INTERIOR, "fallback above relative primal residual", Plain, Real(e.limits.primal)),
+            field("interior.limits.dual", "IPM_DUAL_LIMIT", "Final relative dual residual above which the solve falls back.", INTERIOR, "fallback above relative dual residual", Plain, Real(e.limits.dual)),
+        ];
+        fields.splice(at..at, evidence);
+        fields
     }
 }
 
@@ -485,6 +538,8 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
             plan.emission(),
             crate::coordinates::DEFAULT_ACCURACY,
         ),
+        interior: qp.evidence.clone(),
+        accuracy: qp.accuracy,
         disturbance_time_constant: p.filter.as_ref().filter(|f| f.nd > 0).map(|f| {
             let na = p.nx + f.nd;
             let error = &f.Fa * (DMatrix::identity(na, na) - &f.K_inf * &f.Ca);

@@ -40,42 +40,51 @@ fn paper_limits_is_certified() {
 }
 
 #[test]
-fn debug_corner() {
+fn debug_stall() {
     use codegen::ipm::*;
     use nalgebra::DVector;
-    let mut spec = paper_limits();
+    let Ok(text) = std::fs::read_to_string("/tmp/pl_1e4.toml") else {
+        return;
+    };
+    let mut spec = mpc_spec::load(&text).unwrap();
     spec.mpc.iterations = mpc_spec::Iterations::Fixed(20);
-    spec.mpc.method = Method::Fgm;
     let p = codegen::lower(&spec).unwrap();
     let qp = &p.qp;
-    let x0 = DVector::from_vec(vec![-3.0, 3.0, 0.0, 2.0, -2.0, -2.0]);
-    let r = DVector::from_vec(vec![1.0, 1.0, 1.0, 0.0, 0.0, 0.0]);
+    let x0 = DVector::from_vec(vec![
+        -4.310226894718191,
+        9.309832979083481,
+        7.453580386041817,
+        2.970445582084357,
+        -2.7028752090439765,
+        1.4909262447842864,
+    ]);
+    let r = DVector::from_vec(vec![
+        0.38845574505576685,
+        0.6098273055917902,
+        8.017065425355336,
+        -2.414200370618728,
+        -2.7238415837622894,
+        1.0961748188415994,
+    ]);
     let Xref = DVector::from_fn(qp.N * 6, |i, _| r[i % 6]);
     let last = qp.rest_input();
     let f = &qp.Fx * &x0 - &qp.Fr * Xref;
     let off = qp.rows.offset(&x0, &DVector::zeros(0), &last);
     let prob = mpc_qp(qp, &f, &off);
-    let exact = solve(&prob, 1e-10, 200);
-    eprintln!(
-        "exact {:?} it {} res {} {} gap {} compl {}",
-        exact.status,
-        exact.iterations,
-        exact.primal_residual,
-        exact.dual_residual,
-        exact.gap,
-        exact.complementarity
-    );
     let run = trajectory(&prob, &Start::Cold, 60);
     for r in &run {
-        let e = (&r.z - &exact.z).rows(0, 45).amax();
+        let smin = r.s.iter().cloned().fold(f64::INFINITY, f64::min);
+        let lmax = r.lambda.amax();
         eprintln!(
-            "{} {:?} err {:.3e} p {:.2e} d {:.2e} gap {:.2e} slack {:?}",
+            "{} {:?} p {:.2e} d {:.2e} gap {:.2e} compl {:.2e} smin {:.2e} lmax {:.2e} slack {:?}",
             r.iterations,
             r.status,
-            e,
             r.primal_residual,
             r.dual_residual,
             r.gap,
+            r.complementarity,
+            smin,
+            lmax,
             r.z.rows(45, r.z.len() - 45).as_slice()
         );
     }
