@@ -457,6 +457,28 @@ pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> 
             }
         }
     }
+    // A written count below what the interior-point method's sample needed: evidence it misses
+    // `accuracy` there (the run-time residual limits then make those solves fall back).
+    if let Some(e) = c
+        .interior
+        .as_ref()
+        .filter(|e| !e.auto && e.iterations < e.worst_needed)
+    {
+        let d = Diagnostic::new(
+            format!(
+                "`iterations = {}` is below the {} the sampled cases of `[mpc.region]` needed to reach `accuracy = {:e}`",
+                e.iterations, e.worst_needed, c.accuracy
+            ),
+            spec.spans.get("mpc.iterations"),
+        )
+        .label(format!("the sample needed {}", e.worst_needed))
+        .note("hint: write `iterations = \"auto\"`, or raise the count; a truncated interior-point solve is not graceful, and where its residuals exceed the certified limits the controller falls back to the shifted previous plan");
+        if spec.mpc.strict {
+            errors.push(d);
+        } else {
+            warnings.push(d);
+        }
+    }
     if errors.is_empty() {
         Ok(warnings)
     } else {

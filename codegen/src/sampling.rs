@@ -90,6 +90,9 @@ pub struct Evidence {
     pub iterations: usize,
     /// Whether `iterations` came from `"auto"`.
     pub auto: bool,
+    /// The most iterations any case needed (cold or warm): a written `iterations` below it misses
+    /// `accuracy` on part of the sample.
+    pub worst_needed: usize,
     /// The worst |U − U*|∞ / span over every case at `iterations`.
     pub worst_error: f64,
     /// The worst hard-row violation (relative to max(1, |bound|)) at `iterations`.
@@ -228,22 +231,28 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
         )
         .into());
     }
-    // At the count used: the worst error, violation and residuals, cold and warm.
-    let mut worst_error = 0.0_f64;
-    let mut worst_violation = 0.0_f64;
-    let (mut primal, mut dual) = (0.0_f64, 0.0_f64);
+    // At the count used: the worst error and violation, cold and warm.
+    let mut worst_error = warm.worst_error;
+    let mut worst_violation = warm.worst_violation;
     for (run, exact, offset) in &cold_runs {
-        let r = at(run, count);
-        let (e, v) = accuracy_of(qp, r, exact, offset);
+        let (e, v) = accuracy_of(qp, at(run, count), exact, offset);
         worst_error = worst_error.max(e);
         worst_violation = worst_violation.max(v);
-        primal = primal.max(r.primal_residual);
-        dual = dual.max(r.dual_residual);
     }
-    worst_error = worst_error.max(warm.worst_error);
-    worst_violation = worst_violation.max(warm.worst_violation);
-    primal = primal.max(warm.primal);
-    dual = dual.max(warm.dual);
+    // The residual limits, at the count that reaches the accuracy on every case (a fixed count below
+    // it is then flagged at run time by its residuals, not accepted by them).
+    let worst_needed = cold_worst.max(warm.counts.iter().copied().max().unwrap_or(0));
+    let at_limit = count.max(worst_needed);
+    let (mut primal, mut dual) = (0.0_f64, 0.0_f64);
+    for s in cold_runs
+        .iter()
+        .map(|(run, _, _)| series(run))
+        .chain(warm.series.iter().cloned())
+    {
+        let (p, d) = s[at_limit.min(s.len() - 1)];
+        primal = primal.max(p);
+        dual = dual.max(d);
+    }
     let limits = Limits {
         primal: (LIMIT_FACTOR * primal).max(f64::EPSILON),
         dual: (LIMIT_FACTOR * dual).max(f64::EPSILON),
@@ -267,6 +276,7 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
         warm_median: median(&mut warm_counts),
         iterations: count,
         auto: fixed.is_none(),
+        worst_needed,
         worst_error,
         worst_violation,
         limits,
@@ -280,9 +290,16 @@ struct Warm {
     counts: Vec<usize>,
     worst_error: f64,
     worst_violation: f64,
-    primal: f64,
-    dual: f64,
+    /// Per step, the relative (primal, dual) residuals after each iteration.
+    series: Vec<Vec<(f64, f64)>>,
     fallbacks: usize,
+}
+
+/// The relative (primal, dual) residuals of a run, iteration by iteration.
+fn series(run: &[IpmResult]) -> Vec<(f64, f64)> {
+    run.iter()
+        .map(|r| (r.primal_residual, r.dual_residual))
+        .collect()
 }
 
 /// Closed loops on the nominal model x⁺ = F x + G (u + d), each solve warm-started from the previous
@@ -325,13 +342,12 @@ fn warm_sequences(
                 .into());
             };
             warm.counts.push(k);
+            warm.series.push(series(&run));
             let step = control_step(qp, &f, &offset, &start, &plan, count, &Limits::NONE);
             let r = &step.result;
             let (e, v) = accuracy_of(qp, r, &exact, &offset);
             warm.worst_error = warm.worst_error.max(e);
             warm.worst_violation = warm.worst_violation.max(v);
-            warm.primal = warm.primal.max(r.primal_residual);
-            warm.dual = warm.dual.max(r.dual_residual);
             if step.fallback != Fallback::None {
                 warm.fallbacks += 1;
             }

@@ -10,7 +10,9 @@
 use super::tokens::Num;
 use super::Sections;
 use crate::lower::Problem;
-use crate::solver::ipm::{mpc_qp, Layout, FINISHED, FRACTION, INFEASIBILITY_TOLERANCE, WARM_FLOOR};
+use crate::solver::ipm::{
+    mpc_qp, Layout, FINISHED, FRACTION, INFEASIBILITY_TOLERANCE, REFINEMENT, WARM_FLOOR,
+};
 use mpc_spec::Scalar;
 use nalgebra::{DMatrix, DVector};
 use proc_macro2::Literal;
@@ -108,6 +110,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     let rest = wide.vector(qp.rest_input().iter().copied());
     let lo = wide.vector(qp.u_min.iter().copied());
     let hi = wide.vector(qp.u_max.iter().copied());
+    let refinement = lit(REFINEMENT);
     let (fraction, floor, finished, infeasibility) = (
         wide.lit(FRACTION),
         wide.lit(WARM_FLOOR),
@@ -662,6 +665,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 dz: &mut [f64; NV],
                 ds: &mut [f64; NSIDES],
                 dl: &mut [f64; NSIDES],
+                refinement: usize,
             ) {
                 let mut t = [0.0; NSIDES];
                 for k in 0..NSIDES {
@@ -677,6 +681,25 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 for k in 0..NSIDES {
                     dl[k] = lambda[k] / s[k] * (gdz[k] + r.primal[k]) - rc[k] / s[k];
                     ds[k] = -(rc[k] + s[k] * dl[k]) / lambda[k];
+                }
+                // Iterative refinement on H·Δz + Gᵀ·Δλ = −r_d, whose digits the normal matrix loses when
+                // λ/s spans many orders of magnitude.
+                for _ in 0..refinement {
+                    let mut e = [0.0; NV];
+                    g_tmul(dl, &mut e);
+                    for i in 0..NV {
+                        e[i] = -r.dual[i] - (dot(&H[i], dz) + e[i]);
+                    }
+                    ldl_solve(m, &mut e);
+                    g_mul(&e, &mut gdz);
+                    for i in 0..NV {
+                        dz[i] += e[i];
+                    }
+                    for k in 0..NSIDES {
+                        let cl = lambda[k] / s[k] * gdz[k];
+                        dl[k] += cl;
+                        ds[k] += -(s[k] * cl) / lambda[k];
+                    }
                 }
             }
 
@@ -736,7 +759,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     for k in 0..NSIDES {
                         rc[k] = s[k] * lambda[k];
                     }
-                    direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl);
+                    direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl, 0);
                     for i in 0..NV {
                         z[i] += dz[i];
                     }
@@ -773,7 +796,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     for k in 0..NSIDES {
                         rc[k] = s[k] * lambda[k];
                     }
-                    direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl);
+                    direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl, 0);
                     let alpha = step_to_boundary(s, lambda, &ds, &dl).min(1.0);
                     let mut mu_affine = 0.0;
                     for k in 0..NSIDES {
@@ -790,7 +813,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     for k in 0..NSIDES {
                         rc[k] = s[k] * lambda[k] + ds[k] * dl[k] - sigma * mu;
                     }
-                    direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl);
+                    direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl, REFINEMENT);
                     let alpha = (FRACTION * step_to_boundary(s, lambda, &ds, &dl)).min(1.0);
                     let (mut zn, mut sn, mut ln) = (*z, *s, *lambda);
                     for i in 0..NV {
@@ -834,6 +857,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             const WARM_FLOOR: f64 = #floor;
             const FINISHED: f64 = #finished;
             const INFEASIBILITY_TOLERANCE: f64 = #infeasibility;
+            const REFINEMENT: usize = #refinement;
             /// Row sides per slot: a warm start shifts them by this.
             const SIDES_PER_SLOT: usize = #per_slot_lit;
             /// U_MIN, U_MAX and U_REST in f64.
