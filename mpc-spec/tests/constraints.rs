@@ -477,9 +477,9 @@ fn references_follow_the_tracked_outputs() {
 
 #[test]
 fn every_mistake_is_reported_at_once() {
-    let src = ipm(&format!(
-        "x_min = [0, inf]\ndu_min = [1]\naccuracy = 2\n\n[[mpc.constraint]]\nax = [[0, 0]]\nupper = [1]\n\n[mpc.region]\nsteps = 0\n"
-    ));
+    let src = ipm(
+        "x_min = [0, inf]\ndu_min = [1]\naccuracy = 2\n\n[[mpc.constraint]]\nax = [[0, 0]]\nupper = [1]\n\n[mpc.region]\nsteps = 0\n",
+    );
     let errs = errors(&src);
     let messages: Vec<_> = errs.iter().map(|e| e.0.as_str()).collect();
     assert_eq!(
