@@ -787,7 +787,7 @@ fn check_row_group(
             diags.push(
                 Diagnostic::new(
                     format!(
-                        "`{p}.au` must be {rows}×{nu} (a row per row of `ax`, nu = {nu} columns), found {}×{}",
+                        "`{p}.au` must be {rows}×{nu} (a row per row of `ax`, a column per input), found {}×{}",
                         au.value.rows, au.value.cols
                     ),
                     au.span.clone(),
@@ -918,16 +918,16 @@ fn check_region(
     let mut ok = true;
     if let (Some(lo), Some(hi)) = (&x_min, &x_max) {
         let order = Ordered {
-            lower: ("mpc.region.x_min", "x_min"),
-            upper: ("mpc.region.x_max", "x_max"),
+            lower: ("mpc.region.x_min", "mpc.region.x_min"),
+            upper: ("mpc.region.x_max", "mpc.region.x_max"),
             entry: &|i| format!("state {i}"),
         };
         ok &= order.check(raw, lo, hi, diags);
     }
     if let (Some(lo), Some(hi)) = (&reference_min, &reference_max) {
         let order = Ordered {
-            lower: ("mpc.region.reference_min", "reference_min"),
-            upper: ("mpc.region.reference_max", "reference_max"),
+            lower: ("mpc.region.reference_min", "mpc.region.reference_min"),
+            upper: ("mpc.region.reference_max", "mpc.region.reference_max"),
             entry: &|i| format!("reference {i}"),
         };
         ok &= order.check(raw, lo, hi, diags);

@@ -224,7 +224,7 @@ fn row_groups_are_shaped_like_their_ax() {
     let (msg, at, _) = only_error(&group("ax = [[1, 0]]\nau = [[1], [2]]\nupper = [1]\n"));
     assert_eq!(
         msg,
-        "`mpc.constraint[0].au` must be 1×1 (a row per row of `ax`, nu = 1 columns), found 2×1"
+        "`mpc.constraint[0].au` must be 1×1 (a row per row of `ax`, a column per input), found 2×1"
     );
     assert_eq!(at, "[[1], [2]]");
     let (msg, at, _) = only_error(&group("ax = [[1, 0]]\nlower = [1, 2]\n"));
@@ -430,12 +430,15 @@ fn the_region_is_sized_finite_ordered_and_bounded() {
     assert_eq!(msg, "`mpc.region.x_max` must be a finite number");
     assert_eq!(at, "inf");
     let (msg, at, _) = only_error(&region("x_min = [0, 0]\nx_max = [-1, 1]\n"));
-    assert_eq!(msg, "state 0 has `x_min` 0 above `x_max` -1");
+    assert_eq!(
+        msg,
+        "state 0 has `mpc.region.x_min` 0 above `mpc.region.x_max` -1"
+    );
     assert_eq!(at, "-1");
     let (msg, at, _) = only_error(&region("reference_min = [1, 0]\nreference_max = [0, 0]\n"));
     assert_eq!(
         msg,
-        "reference 0 has `reference_min` 1 above `reference_max` 0"
+        "reference 0 has `mpc.region.reference_min` 1 above `mpc.region.reference_max` 0"
     );
     assert_eq!(at, "0");
     for (key, max) in [("samples", 10_000), ("sequences", 100), ("steps", 1000)] {
@@ -474,9 +477,9 @@ fn references_follow_the_tracked_outputs() {
 
 #[test]
 fn every_mistake_is_reported_at_once() {
-    let src = ipm(&format!(
-        "x_min = [0, inf]\ndu_min = [1]\naccuracy = 2\n\n[[mpc.constraint]]\nax = [[0, 0]]\nupper = [1]\n\n[mpc.region]\nsteps = 0\n"
-    ));
+    let src = ipm(
+        "x_min = [0, inf]\ndu_min = [1]\naccuracy = 2\n\n[[mpc.constraint]]\nax = [[0, 0]]\nupper = [1]\n\n[mpc.region]\nsteps = 0\n",
+    );
     let errs = errors(&src);
     let messages: Vec<_> = errs.iter().map(|e| e.0.as_str()).collect();
     assert_eq!(

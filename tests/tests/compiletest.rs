@@ -30,6 +30,7 @@ const FAMILIES: &[&str] = &[
     "outputs",
     "moves",
     "time",
+    "constraints",
 ];
 
 #[test]

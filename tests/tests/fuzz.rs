@@ -62,9 +62,19 @@ fn fragments() -> Vec<String> {
         .iter()
         .flat_map(|t| [format!("[{t}]\n"), format!("[[{t}]]\n"), format!("{t}.")])
         .collect();
+    // The tables inside `[mpc]`: `[[mpc.constraint]]` and `[mpc.region]`, each also written the wrong way.
+    for t in [keys::CONSTRAINT, keys::REGION] {
+        out.extend([
+            format!("[mpc.{t}]\n"),
+            format!("[[mpc.{t}]]\n"),
+            format!("mpc.{t}."),
+        ]);
+    }
     for key in keys::MODEL_KEYS
         .iter()
         .chain(keys::MPC_KEYS)
+        .chain(keys::CONSTRAINT_KEYS)
+        .chain(keys::REGION_KEYS)
         .chain(keys::KALMAN_KEYS)
         .chain(keys::CODEGEN_KEYS)
     {
@@ -403,11 +413,19 @@ fn token_soup() -> impl Strategy<Value = String> {
 /// Tables of `key = value` lines from the spec's vocabulary: mostly well-formed TOML with wrong content.
 fn spec_like() -> impl Strategy<Value = String> {
     use mpc_spec::keys;
-    let table = select(keys::TABLES.to_vec());
+    let table = select(
+        keys::TABLES
+            .iter()
+            .copied()
+            .chain(["[mpc.constraint]", "mpc.region"])
+            .collect::<Vec<_>>(),
+    );
     let key = select(
         keys::MODEL_KEYS
             .iter()
             .chain(keys::MPC_KEYS)
+            .chain(keys::CONSTRAINT_KEYS)
+            .chain(keys::REGION_KEYS)
             .chain(keys::KALMAN_KEYS)
             .chain(keys::CODEGEN_KEYS)
             .copied()

@@ -1,0 +1,22 @@
+// `du_max` bounds the moves: `gradient` solves the input box only.
+mpc_macros::mpc!(mod controller {
+    r#"
+    [model]
+    type = "linear"
+    dt = 0.1
+    a = [[1, 0.1], [0, 1]]
+    b = [[0.005], [0.1]]
+
+    [mpc]
+    horizon = 10
+    iterations = 20
+    method = "gradient"
+    q = 1
+    r = 0.1
+    u_min = [-1]
+    u_max = [1]
+    du_max = [0.2]
+    "#
+});
+
+fn main() {}

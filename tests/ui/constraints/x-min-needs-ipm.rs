@@ -1,0 +1,21 @@
+// `x_min` bounds the states: the default method, `fgm`, solves the input box only.
+mpc_macros::mpc!(mod controller {
+    r#"
+    [model]
+    type = "linear"
+    dt = 0.1
+    a = [[1, 0.1], [0, 1]]
+    b = [[0.005], [0.1]]
+
+    [mpc]
+    horizon = 10
+    iterations = 20
+    q = 1
+    r = 0.1
+    u_min = [-1]
+    u_max = [1]
+    x_min = [-5, -2]
+    "#
+});
+
+fn main() {}
