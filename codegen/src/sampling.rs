@@ -13,8 +13,8 @@
 //! A case needs k iterations when every iterate from the k-th on (up to [`MAX_PROBE`]) has
 //! |U − U*|∞ ≤ accuracy·(u_max − u_min) per input and violates no hard row by more than
 //! accuracy·max(1, |bound|). `iterations = "auto"` is the worst count observed plus [`margin`]. At the
-//! count used, the worst final residuals set the run-time [`Limits`]: [`LIMIT_FACTOR`] times them, above
-//! which the emitted solver falls back.
+//! count used, the worst final residuals set the run-time [`Limits`]: [`LIMIT_FACTOR`] times them (at
+//! least [`LIMIT_FLOOR`]), above which the emitted solver falls back.
 #![allow(non_snake_case)]
 
 use crate::lower::{Problem, Qp};
@@ -41,6 +41,9 @@ pub const MAX_PROBE: usize = 60;
 pub const EXACT_TOLERANCE: f64 = 1e-10;
 /// The run-time limits are this many times the worst final residuals of the sample.
 pub const LIMIT_FACTOR: f64 = 100.0;
+/// The limits are at least this: below it a residual is converged whatever the sample's rounding was
+/// (a limit at 100× a rounding-level residual would reject solves for their rounding alone).
+pub const LIMIT_FLOOR: f64 = 1e-6;
 /// The seed of the sample: the same spec gives the same evidence on every machine.
 pub const SEED: u64 = 17;
 
@@ -254,8 +257,8 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
         dual = dual.max(d);
     }
     let limits = Limits {
-        primal: (LIMIT_FACTOR * primal).max(f64::EPSILON),
-        dual: (LIMIT_FACTOR * dual).max(f64::EPSILON),
+        primal: (LIMIT_FACTOR * primal).max(LIMIT_FLOOR),
+        dual: (LIMIT_FACTOR * dual).max(LIMIT_FLOOR),
     };
     let median = |v: &mut Vec<usize>| {
         v.sort_unstable();

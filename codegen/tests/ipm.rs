@@ -35,77 +35,10 @@ impl Stream {
     }
 }
 
-/// Clarabel on the same QP, its finite sides stacked as G z + s = h, s ≥ 0.
-fn clarabel(qp: &InequalityQp) -> DVector<f64> {
-    use clarabel::algebra::CscMatrix;
-    use clarabel::solver::{
-        DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
-    };
-    let n = qp.n();
-    let csc = |M: &DMatrix<f64>, upper_only: bool| {
-        let (mut colptr, mut rowval, mut nzval) = (vec![0], Vec::new(), Vec::new());
-        for j in 0..M.ncols() {
-            let rows = if upper_only { j + 1 } else { M.nrows() };
-            for i in 0..rows {
-                if M[(i, j)] != 0.0 {
-                    rowval.push(i);
-                    nzval.push(M[(i, j)]);
-                }
-            }
-            colptr.push(rowval.len());
-        }
-        CscMatrix::new(M.nrows(), M.ncols(), colptr, rowval, nzval)
-    };
-    let mut rows: Vec<(DVector<f64>, f64)> = Vec::new();
-    for i in 0..n {
-        let e = DVector::from_fn(n, |j, _| if i == j { 1.0 } else { 0.0 });
-        if qp.z_max[i].is_finite() {
-            rows.push((e.clone(), qp.z_max[i]));
-        }
-        if qp.z_min[i].is_finite() {
-            rows.push((-e, -qp.z_min[i]));
-        }
-    }
-    for r in 0..qp.A.nrows() {
-        let a = qp.A.row(r).transpose();
-        if qp.upper[r].is_finite() {
-            rows.push((a.clone(), qp.upper[r]));
-        }
-        if qp.lower[r].is_finite() {
-            rows.push((-a, -qp.lower[r]));
-        }
-    }
-    let m = rows.len();
-    let G = DMatrix::from_fn(m, n, |r, j| rows[r].0[j]);
-    let h: Vec<f64> = rows.iter().map(|r| r.1).collect();
-    // The tightest tolerance Clarabel reaches with `Solved`: at 1e-10 its plan can be 5e-6 of the span
-    // off on the two-mass QP, and where it stalls at 1e-13 it returns `AlmostSolved` with the reduced
-    // tolerances (5e-3 of the span off on a velocity-and-altitude case).
-    for tol in [1e-13, 1e-12, 1e-11, 1e-10] {
-        let settings = DefaultSettings {
-            verbose: false,
-            tol_gap_abs: tol,
-            tol_gap_rel: tol,
-            tol_feas: tol,
-            tol_ktratio: 1e3 * tol,
-            ..DefaultSettings::default()
-        };
-        let mut solver = DefaultSolver::new(
-            &csc(&qp.H, true),
-            qp.f.as_slice(),
-            &csc(&G, false),
-            &h,
-            &[SupportedConeT::NonnegativeConeT(m)],
-            settings,
-        )
-        .expect("Clarabel set-up");
-        solver.solve();
-        if solver.solution.status == SolverStatus::Solved {
-            return DVector::from_column_slice(&solver.solution.x);
-        }
-    }
-    panic!("Clarabel solved the QP to none of 1e-13 … 1e-10");
-}
+// Clarabel on an `InequalityQp`, shared with the integration tests.
+#[path = "../../tests/benches/exact.rs"]
+mod exact;
+use exact::clarabel;
 
 /// The span u_max − u_min of each entry of U.
 fn span(qp: &Qp) -> DVector<f64> {
@@ -686,9 +619,16 @@ fn a_small_problem_with_an_equality_and_unbounded_sides() {
 fn macs_follow_the_calibration_rule() {
     let (_, cases) = box_cases(PAPER, 1, 1);
     let (n, sides) = (45, 90);
-    // Residuals n² + 2 nnz, GᵀDG Σ 1/2, Cholesky n³/6, two directions of n² + 2 nnz, 12 per side.
-    let expected =
-        n * n + 2 * sides + sides / 2 + n * n * n / 6 + 2 * (n * n + 2 * sides) + 12 * sides;
+    // Residuals n² + 2 nnz, GᵀDG Σ 1/2, Cholesky n³/6, two directions of n² + 2 nnz, the corrector's
+    // refinement 2n² + 3 nnz, 12 per side.
+    let refinement = ipm::REFINEMENT;
+    let expected = n * n
+        + 2 * sides
+        + sides / 2
+        + n * n * n / 6
+        + 2 * (n * n + 2 * sides)
+        + refinement * (2 * n * n + 3 * sides)
+        + 12 * sides;
     assert_eq!(ipm::macs_per_iteration(&cases[0]), expected);
     // A dense row adds nnz²/2 to forming GᵀDG, and its nonzeros to the mat-vecs.
     let row = DMatrix::from_fn(1, n, |_, j| if j < 10 { 1.0 } else { 0.0 });
@@ -696,6 +636,6 @@ fn macs_follow_the_calibration_rule() {
     let with_row = cases[0].clone().with_rows(&row, &-&one, &one);
     assert_eq!(
         ipm::macs_per_iteration(&with_row),
-        expected + 2 * (10 * 10 / 2) + 6 * 2 * 10 + 12 * 2
+        expected + 2 * (10 * 10 / 2) + (6 + 3 * refinement) * 2 * 10 + 12 * 2
     );
 }
