@@ -1,98 +1,172 @@
-//! The constraints of issue 17 lowered and solved: rows against the prediction, the interior-point
-//! method's certificate against Clarabel.
+//! The constraints of `[mpc]` lowered onto the condensed QP (`codegen::constraints`) and the interior-point
+//! method's sampled certificate (`codegen::sampling`).
 #![allow(non_snake_case)]
 
-use mpc_spec::{Constraints, Method, Region};
+use nalgebra::DVector;
 
-/// specs/paper.toml with |v| ≤ 2 per axis and z ≥ 0 (soft), solved by the interior-point method.
-pub fn paper_limits() -> mpc_spec::Spec {
-    let mut spec = mpc_spec::load(include_str!("../../specs/paper.toml")).unwrap();
-    let inf = f64::INFINITY;
-    spec.mpc.method = Method::Ipm;
-    spec.mpc.iterations = mpc_spec::Iterations::Auto;
-    spec.mpc.constraints = Constraints {
-        x_min: vec![-inf, -inf, 0.0, -2.0, -2.0, -2.0],
-        x_max: vec![inf, inf, inf, 2.0, 2.0, 2.0],
-        x_soft: Some(1e4),
-        ..Default::default()
-    };
-    spec.mpc.region = Region {
-        x_min: vec![-3.0, -3.0, 0.0, -2.0, -2.0, -2.0],
-        x_max: vec![3.0, 3.0, 3.0, 2.0, 2.0, 2.0],
-        ..Default::default()
-    };
-    spec
-}
+/// A two-input plant with every kind of row: state bounds (one soft pair), move bounds, a group on the
+/// state and input (with `au`) and a soft group on the state only, and an offset-free filter.
+const ROWS: &str = r#"
+[model]
+type = "linear"
+dt = 0.1
+a = [[1, 0.1, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0.1], [0, 0, 0, 0.9]]
+b = [[0.005, 0], [0.1, 0], [0, 0.005], [0, 0.1]]
+c = [[1, 0, 0, 0], [0, 0, 1, 0]]
+[mpc]
+horizon = 6
+iterations = "auto"
+method = "ipm"
+q = [10, 1, 5, 1]
+r = [0.1, 0.3]
+u_min = [-1, -2]
+u_max = [1, 0.5]
+x_min = [-inf, -1.5, -inf, -inf]
+x_max = [2, 1.5, inf, inf]
+x_soft = 100
+du_min = [-0.5, -inf]
+du_max = [0.5, 1]
 
+[[mpc.constraint]]
+ax = [[1, 0, 1, 0]]
+au = [[0, 1]]
+lower = [-3]
+upper = [3]
+
+[[mpc.constraint]]
+ax = [[0, 1, 0, -1], [0, 0, 1, 0]]
+upper = [2, inf]
+lower = [-inf, -2]
+soft = 50
+
+[mpc.region]
+x_min = [-1, -1, -1, -1]
+x_max = [1, 1, 1, 1]
+samples = 10
+sequences = 1
+steps = 10
+
+[kalman]
+q = [[0.01, 0, 0, 0], [0, 0.01, 0, 0], [0, 0, 0.01, 0], [0, 0, 0, 0.01]]
+r = [[0.04, 0], [0, 0.04]]
+disturbance = [0.01, 0.01]
+[codegen]
+scalar = "f64"
+"#;
+
+/// Each row's value A·(U, 0) + Wx·x0 + Wd·d + Wu·u₋₁ is what it constrains along a simulated prediction
+/// (x⁺ = F x + G (u + d)), at the stage its slot stands for.
 #[test]
-fn paper_limits_is_certified() {
-    let spec = paper_limits();
-    let t = std::time::Instant::now();
+fn rows_are_the_constrained_quantities_of_the_prediction() {
+    let spec = mpc_spec::load(ROWS).unwrap();
     let p = codegen::lower(&spec).unwrap();
-    let e = p.qp.evidence.as_ref().unwrap();
-    eprintln!("{:#?} in {:?}", e, t.elapsed());
-    eprintln!(
-        "rows {} per slot {} slacks {}",
-        p.qp.rows.len(),
-        p.qp.rows.per_slot,
-        p.qp.rows.slacks()
-    );
-}
-
-#[test]
-fn debug_stall() {
-    use codegen::ipm::*;
-    use nalgebra::DVector;
-    let Ok(text) = std::fs::read_to_string("/tmp/pl_1e4.toml") else {
-        return;
+    let rows = &p.qp.rows;
+    let (nx, nu, N) = (p.nx, p.nu, p.qp.N);
+    let n = N * nu;
+    assert_eq!(rows.len(), rows.per_slot * N);
+    // Slacks: the two bounded states (x0 by x_max, x1 by both) and the two rows of the soft group.
+    assert_eq!(rows.slacks(), 4);
+    let x0 = DVector::from_vec(vec![0.3, -0.2, 0.5, 0.1]);
+    let d = DVector::from_vec(vec![0.05, -0.1]);
+    let last = DVector::from_vec(vec![0.2, -0.4]);
+    let U = DVector::from_fn(n, |i, _| ((i * 7) % 5) as f64 * 0.1 - 0.2);
+    let mut x = vec![x0.clone()];
+    for k in 0..N {
+        let u = U.rows(k * nu, nu);
+        x.push(&p.F * &x[k] + &p.G * (u + &d));
+    }
+    let input = |k: isize| -> DVector<f64> {
+        if k < 0 {
+            last.clone()
+        } else {
+            U.rows(k as usize * nu, nu).into_owned()
+        }
     };
-    let mut spec = mpc_spec::load(&text).unwrap();
-    spec.mpc.iterations = mpc_spec::Iterations::Fixed(20);
-    let p = codegen::lower(&spec).unwrap();
-    let qp = &p.qp;
-    let x0 = DVector::from_vec(vec![
-        -4.310226894718191,
-        9.309832979083481,
-        7.453580386041817,
-        2.970445582084357,
-        -2.7028752090439765,
-        1.4909262447842864,
-    ]);
-    let r = DVector::from_vec(vec![
-        0.38845574505576685,
-        0.6098273055917902,
-        8.017065425355336,
-        -2.414200370618728,
-        -2.7238415837622894,
-        1.0961748188415994,
-    ]);
-    let Xref = DVector::from_fn(qp.N * 6, |i, _| r[i % 6]);
-    let last = qp.rest_input();
-    let f = &qp.Fx * &x0 - &qp.Fr * Xref;
-    let off = qp.rows.offset(&x0, &DVector::zeros(0), &last);
-    let prob = mpc_qp(qp, &f, &off);
-    let run = trajectory(&prob, &Start::Cold, 60);
-    for r in &run {
-        let smin = r.s.iter().cloned().fold(f64::INFINITY, f64::min);
-        let lmax = r.lambda.amax();
-        eprintln!(
-            "{} {:?} p {:.2e} d {:.2e} gap {:.2e} compl {:.2e} smin {:.2e} lmax {:.2e} slack {:?}",
-            r.iterations,
-            r.status,
-            r.primal_residual,
-            r.dual_residual,
-            r.gap,
-            r.complementarity,
-            smin,
-            lmax,
-            r.z.rows(45, r.z.len() - 45).as_slice()
+    let groups = &spec.mpc.constraints.rows;
+    let offset = rows.offset(&x0, &d, &last);
+    for r in 0..rows.len() {
+        let (slot, kind) = (r / rows.per_slot, &rows.kinds[r % rows.per_slot]);
+        let value = rows.A.row(r).columns(0, n).transpose().dot(&U) + offset[r];
+        let expected = match kind {
+            codegen::constraints::RowKind::State { index, .. } => x[slot + 1][*index],
+            codegen::constraints::RowKind::Move { index } => {
+                input(slot as isize)[*index] - input(slot as isize - 1)[*index]
+            }
+            codegen::constraints::RowKind::Group { group, row, .. } => {
+                let g = &groups[*group];
+                let ax = DVector::from_fn(nx, |j, _| g.ax.get(*row, j));
+                let au = DVector::from_fn(nu, |j, _| g.au.get(*row, j));
+                if au.iter().any(|v| *v != 0.0) {
+                    ax.dot(&x[slot]) + au.dot(&input(slot as isize))
+                } else {
+                    ax.dot(&x[slot + 1])
+                }
+            }
+        };
+        assert!(
+            (value - expected).abs() <= 1e-12,
+            "row {r} ({}) at slot {slot}: {value} against {expected}",
+            kind.name()
         );
+        // A soft row's slack enters with the sign that relaxes it.
+        let slack = rows.A.row(r).columns(n, rows.slacks()).into_owned();
+        assert_eq!(rows.soft[r], slack.iter().any(|v| *v != 0.0));
+        if rows.soft[r] {
+            let sign = slack.iter().copied().find(|v| *v != 0.0).unwrap();
+            if rows.upper[r].is_finite() {
+                assert_eq!(sign, -1.0);
+            } else {
+                assert_eq!(sign, 1.0);
+            }
+        }
     }
 }
 
+/// `iterations = "auto"` is the worst count the sample needed plus the stated margin, and the sample
+/// reaches the accuracy at it.
 #[test]
-fn dump_paper_limits() {
-    let spec = paper_limits();
-    let g = codegen::generate(&spec, &codegen::Opt::default()).unwrap();
-    std::fs::write("/tmp/paper_limits.rs", g.tokens.to_string()).unwrap();
+fn auto_iterations_are_the_worst_observed_plus_the_margin() {
+    let p = codegen::lower(&mpc_spec::load(ROWS).unwrap()).unwrap();
+    let e = p.qp.evidence.as_ref().unwrap();
+    let worst = e.cold_worst.max(e.warm_worst);
+    assert_eq!(e.worst_needed, worst);
+    assert_eq!(p.qp.iterations, worst + codegen::sampling::margin(worst));
+    assert!(e.auto && e.worst_error <= p.qp.accuracy && e.worst_violation <= p.qp.accuracy);
+    // 16 corners (nx = 4), 10 draws, one sequence of 10 steps.
+    assert_eq!((e.corners, e.cold_cases + e.infeasible_cases), (16, 26));
+    assert_eq!(e.warm_steps, 10);
+    // The region's references default to the tracked outputs (the state) over the state region.
+    assert_eq!(e.region.reference_min, vec![-1.0; 4]);
+}
+
+/// A state without a range (no bounds on both sides, no `[mpc.region]` entry) is refused, located.
+#[test]
+fn a_state_without_a_range_is_a_located_error() {
+    let text = ROWS.replace(
+        "[mpc.region]\nx_min = [-1, -1, -1, -1]\nx_max = [1, 1, 1, 1]\n",
+        "[mpc.region]\n",
+    );
+    assert_ne!(text, ROWS);
+    let spec = mpc_spec::load(&text).unwrap();
+    let diags = codegen::lower(&spec).unwrap_err();
+    let d = &diags.0[0];
+    assert!(d.message.contains("state 0 has no range"), "{}", d.message);
+    assert_eq!(&text[d.span.clone().unwrap()], "region");
+}
+
+/// The exact reference of the sample agrees with a direct dense solve where no row is active: the
+/// unconstrained minimiser −H⁻¹f.
+#[test]
+fn inactive_rows_leave_the_unconstrained_solution() {
+    let p = codegen::lower(&mpc_spec::load(ROWS).unwrap()).unwrap();
+    let qp = &p.qp;
+    let n = qp.N * p.nu;
+    let f = DVector::from_fn(n, |i, _| 0.01 * (i as f64 - 3.0));
+    let U = -qp.H.clone().cholesky().unwrap().solve(&f);
+    let offset = DVector::zeros(qp.rows.len());
+    let problem = codegen::ipm::mpc_qp(qp, &f, &offset);
+    let r = codegen::ipm::solve(&problem, 1e-10, 100);
+    assert_eq!(r.status, codegen::ipm::Status::Converged);
+    assert!((r.z.rows(0, n) - &U).amax() <= 1e-8);
+    assert!(r.z.rows(n, qp.rows.slacks()).amax() <= 1e-8);
 }

@@ -132,6 +132,18 @@ fn variants() -> Vec<(String, String)> {
             out.push((format!("{base}_{emission}"), text));
         }
     }
+    // The interior-point method with an f32 API and filter (the method itself runs in f64), with move
+    // bounds, a soft row group and an offset-free filter, which the checked-in constrained specs lack.
+    let limits = read("paper-limits.toml").replace("scalar = \"f64\"", "scalar = \"f32\"");
+    let rows = limits.replace(
+        "x_soft = 1e5",
+        "x_soft = 1e5\ndu_min = [-4, -4, -4]\ndu_max = [4, 4, 4]\n\n[[mpc.constraint]]\nax = [[1, 1, 0, 0, 0, 0]]\nupper = [30]\nsoft = 1e3",
+    );
+    assert_ne!(rows, limits, "paper-limits.toml: no `x_soft = 1e5`");
+    let offset_free = rows.replace("[kalman]", "[kalman]\ndisturbance = [0.05, 0.05, 0.05]");
+    assert_ne!(offset_free, rows, "paper-limits.toml: no `[kalman]`");
+    out.push(("interior_f32_rows".to_string(), rows));
+    out.push(("interior_f32_offset_free".to_string(), offset_free));
     out
 }
 

@@ -201,7 +201,11 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
         ),
         None => " Not certified.".to_string(),
     };
-    let _ = num;
+    // Real to f64: exact for f32, nothing to do for f64.
+    let (wide_of_v, wide_of_x) = match num.0 {
+        Scalar::F32 => (quote!(f64::from(*v)), quote!(f64::from(*x))),
+        Scalar::F64 => (quote!(*v), quote!(*x)),
+    };
     Sections {
         constants: quote! {
             /// Entries of the plan, N·NU.
@@ -318,7 +322,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     let mut reference = [0.0; #nr];
                     for (r, row) in reference.chunks_exact_mut(xref[0].len()).zip(xref.iter()) {
                         for (w, v) in r.iter_mut().zip(flushed(row).iter()) {
-                            *w = f64::from(*v);
+                            *w = #wide_of_v;
                         }
                     }
                     // f = Fx·x0 − Fr·Xref (+ Fu·u₋₁ + Fd·d) for the plan, the penalties' weights for the slacks.
@@ -432,7 +436,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             fn widen<const M: usize>(v: &[Real; M]) -> [f64; M] {
                 let mut out = [0.0; M];
                 for (o, x) in out.iter_mut().zip(v.iter()) {
-                    *o = f64::from(*x);
+                    *o = #wide_of_x;
                 }
                 out
             }
@@ -621,12 +625,12 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                         return false;
                     }
                     m[j][j] = d;
-                    for i in j + 1..NV {
-                        let mut a = m[i][j];
-                        for k in 0..j {
-                            a -= m[i][k] * v[k];
+                    for row in m.iter_mut().skip(j + 1) {
+                        let mut a = row[j];
+                        for (l, w) in row.iter().zip(v.iter()).take(j) {
+                            a -= l * w;
                         }
-                        m[i][j] = a / d;
+                        row[j] = a / d;
                     }
                 }
                 true
@@ -672,8 +676,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     t[k] = lambda[k] / s[k] * r.primal[k] - rc[k] / s[k];
                 }
                 g_tmul(&t, dz);
-                for i in 0..NV {
-                    dz[i] = -r.dual[i] - dz[i];
+                for (v, rd) in dz.iter_mut().zip(r.dual.iter()) {
+                    *v = -rd - *v;
                 }
                 ldl_solve(m, dz);
                 let mut gdz = [0.0; NSIDES];
