@@ -250,7 +250,7 @@ pub fn lower(c: &Constraints, Sx: &DMatrix<f64>, Su: &DMatrix<f64>, nu: usize) -
                     }
                 }
             };
-        for i in 0..nx {
+        for (i, slack) in state_slack.iter().enumerate() {
             let lo = c.x_min.get(i).copied().unwrap_or(f64::NEG_INFINITY);
             let hi = c.x_max.get(i).copied().unwrap_or(f64::INFINITY);
             if !lo.is_finite() && !hi.is_finite() {
@@ -266,10 +266,7 @@ pub fn lower(c: &Constraints, Sx: &DMatrix<f64>, Su: &DMatrix<f64>, nu: usize) -
                 upper: hi,
                 slack: None,
             };
-            push_sided(row, state_slack[i], &|upper| RowKind::State {
-                index: i,
-                upper,
-            });
+            push_sided(row, *slack, &|upper| RowKind::State { index: i, upper });
         }
         for i in 0..nu {
             let lo = c.du_min.get(i).copied().unwrap_or(f64::NEG_INFINITY);
@@ -296,9 +293,9 @@ pub fn lower(c: &Constraints, Sx: &DMatrix<f64>, Su: &DMatrix<f64>, nu: usize) -
             };
             push_sided(row, None, &|_| RowKind::Move { index: i });
         }
-        for (g, group) in c.rows.iter().enumerate() {
+        for (g, (group, slacks)) in c.rows.iter().zip(&group_slack).enumerate() {
             let with_input = group.au.data.iter().any(|v| *v != 0.0);
-            for r in 0..group.ax.rows {
+            for (r, slack) in slacks.iter().enumerate() {
                 let a = DVector::from_fn(nx, |i, _| group.ax.get(r, i));
                 let k = if with_input { j } else { j + 1 };
                 let (mut u, x, d) = prediction.of(&a, k);
@@ -316,7 +313,7 @@ pub fn lower(c: &Constraints, Sx: &DMatrix<f64>, Su: &DMatrix<f64>, nu: usize) -
                     upper: group.upper[r],
                     slack: None,
                 };
-                push_sided(row, group_slack[g][r], &|upper| RowKind::Group {
+                push_sided(row, *slack, &|upper| RowKind::Group {
                     group: g,
                     row: r,
                     upper,

@@ -351,7 +351,7 @@ fn warm_sequences(
             let (e, v) = accuracy_of(qp, r, &exact, &offset);
             warm.worst_error = warm.worst_error.max(e);
             warm.worst_violation = warm.worst_violation.max(v);
-            if step.fallback != Fallback::None {
+            if step.fallback != Fallback::Solved {
                 warm.fallbacks += 1;
             }
             start = shifted_start(qp, &step);

@@ -86,7 +86,10 @@ fn a_priori_bound_holds_along_real_iterations() {
     ] {
         let p = lower(&load(src).unwrap()).unwrap();
         let qp = &p.qp;
-        let rate = algorithm(qp.method).rate(&qp.parameters()).unwrap();
+        let rate = algorithm(qp.method)
+            .unwrap()
+            .rate(&qp.parameters())
+            .unwrap();
         let nz = qp.N * p.nu;
         let J = |U: &DVector<f64>, f: &DVector<f64>| 0.5 * U.dot(&(&qp.H * U)) + f.dot(U);
         let mut seed = 1u64;

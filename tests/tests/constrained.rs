@@ -21,7 +21,12 @@ mod exact;
 mpc_macros::mpc!(mod quadcopter = "../specs/quadcopter.toml");
 mpc_macros::mpc!(mod hover = "../specs/hover.toml");
 mpc_macros::mpc!(mod paper_limits = "../specs/paper-limits.toml");
-mpc_macros::mpc!(mod truncated = "specs/quadcopter-truncated.toml");
+// Three iterations, below what the region needs: the build warns (a deprecated item), as it should.
+#[allow(deprecated)]
+mod short {
+    mpc_macros::mpc!(pub mod truncated = "specs/quadcopter-truncated.toml");
+}
+use short::truncated;
 
 fn problem(text: &str) -> codegen::Problem {
     codegen::lower(&mpc_spec::load(text).unwrap()).unwrap()
@@ -208,7 +213,7 @@ fn meets_the_accuracy(name: &str, text: &str) {
         }
         let (problem, offset) = qp_of(&p, &mpc, &c);
         let u = mpc.solve(&c.x0, &window(&p, &c.reference));
-        assert_eq!(mpc.last_step().unwrap().fallback, Fallback::None);
+        assert_eq!(mpc.last_step().unwrap().fallback, Fallback::Solved);
         worst = worst.max(check(&mpc, &problem, &offset, "warm step"));
         c.x0 = &p.F * &c.x0 + &p.G * &u;
     }

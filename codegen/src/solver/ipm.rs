@@ -831,7 +831,7 @@ pub fn mpc_qp(qp: &Qp, f: &DVector<f64>, offset: &DVector<f64>) -> InequalityQp 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum Fallback {
     /// The iterate, projected onto the input box (a no-op but for rounding).
-    None,
+    Solved,
     /// The iteration failed (non-finite, infeasibility detected, or residuals above the limits): the
     /// previous plan shifted by one step with the rest input appended, projected onto the box; the next
     /// solve starts cold.
@@ -870,7 +870,7 @@ pub struct Step {
 /// and the rows' last slot repeated, the slacks and their sides kept), or `Cold` after a fallback.
 pub fn shifted_start(qp: &Qp, previous: &Step) -> Start {
     let r = &previous.result;
-    if previous.fallback != Fallback::None || r.s.is_empty() {
+    if previous.fallback != Fallback::Solved || r.s.is_empty() {
         return Start::Cold;
     }
     let nu = qp.u_min.len();
@@ -930,7 +930,7 @@ pub fn control_step(
         return Step {
             plan: project(&result.z.rows(0, n).into_owned()),
             result,
-            fallback: Fallback::None,
+            fallback: Fallback::Solved,
         };
     }
     let mut warm = previous_plan.clone();
