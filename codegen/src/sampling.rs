@@ -19,8 +19,8 @@
 
 use crate::lower::{Problem, Qp};
 use crate::solver::ipm::{
-    control_step, mpc_qp, shifted_start, solve, trajectory, violations, Fallback, IpmResult,
-    Limits, Start, Status,
+    control_step, mpc_macs_per_iteration, mpc_qp, shifted_start, solve, trajectory, violations,
+    Fallback, IpmResult, Limits, Start, Status,
 };
 use mpc_spec::{Diagnostic, Diagnostics, Iterations, Spec, MAX_ITERATIONS};
 use nalgebra::{DMatrix, DVector};
@@ -119,6 +119,7 @@ struct Case {
 /// [`MAX_PROBE`] iterations.
 pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
     let region = resolve_region(spec, p)?;
+    check_budget(spec, p)?;
     let qp = &p.qp;
     let nx = p.nx;
     let written = &spec.mpc.region;
@@ -296,6 +297,35 @@ struct Warm {
     /// Per step, the relative (primal, dual) residuals after each iteration.
     series: Vec<Vec<(f64, f64)>>,
     fallbacks: usize,
+}
+
+/// The sample's cost, predicted before it is spent: every case runs [`MAX_PROBE`] iterations and the
+/// exact reference (about as many again; warm candidates up to four rounds), each iteration
+/// [`mpc_macs_per_iteration`]. It counts against the build budget of lowering
+/// ([`crate::budget::LOWERING_MACS`]), and a sample above it is refused at `[mpc.region]`.
+fn check_budget(spec: &Spec, p: &Problem) -> Result<(), Diagnostics> {
+    let written = &spec.mpc.region;
+    let corners = 1usize
+        .checked_shl(p.nx as u32)
+        .unwrap_or(usize::MAX)
+        .min(MAX_CORNERS);
+    let cold = corners + written.samples.unwrap_or(DEFAULT_SAMPLES);
+    let warm =
+        4 * written.sequences.unwrap_or(DEFAULT_SEQUENCES) * written.steps.unwrap_or(DEFAULT_STEPS);
+    let macs = ((cold + warm) * 2 * MAX_PROBE) as f64 * mpc_macs_per_iteration(&p.qp) as f64;
+    if macs <= crate::budget::LOWERING_MACS {
+        return Ok(());
+    }
+    Err(Diagnostic::new(
+        format!(
+            "the interior-point method's certificate would take {macs:.2e} multiply-adds to sample, above the build's limit of {:.0e}",
+            crate::budget::LOWERING_MACS
+        ),
+        spec.spans.get("mpc.region").or(spec.spans.get("mpc.method")),
+    )
+    .label(format!("{cold} cold cases and {warm} warm steps (up to four rounds), {} multiply-adds an iteration", mpc_macs_per_iteration(&p.qp)))
+    .note("hint: fewer `samples`, `sequences` or `steps` in `[mpc.region]`, or a smaller problem")
+    .into())
 }
 
 /// The relative (primal, dual) residuals of a run, iteration by iteration.

@@ -170,3 +170,26 @@ fn inactive_rows_leave_the_unconstrained_solution() {
     assert!((r.z.rows(0, n) - &U).amax() <= 1e-8);
     assert!(r.z.rows(n, qp.rows.slacks()).amax() <= 1e-8);
 }
+
+/// The certificate's sample counts against the build budget: one too large to run is refused at
+/// `[mpc.region]` before it is spent.
+#[test]
+fn a_sample_above_the_build_budget_is_refused() {
+    let text = ROWS.replace(
+        "samples = 10\nsequences = 1\nsteps = 10",
+        "samples = 10000\nsequences = 100\nsteps = 1000",
+    );
+    assert_ne!(text, ROWS);
+    let spec = mpc_spec::load(&text).unwrap();
+    let t = std::time::Instant::now();
+    let diags = codegen::lower(&spec).unwrap_err();
+    let d = &diags.0[0];
+    assert!(
+        d.message.contains("certificate would take"),
+        "{}",
+        d.message
+    );
+    assert_eq!(&text[d.span.clone().unwrap()], "region");
+    // Refused from the prediction, not after running it.
+    assert!(t.elapsed().as_secs() < 5);
+}
