@@ -131,7 +131,7 @@ pub struct Certificate {
     pub coordinate_range: CoordinateRange,
     /// The interior-point method's sampled evidence ([`crate::sampling`]); `None` for a first-order
     /// method, whose bound is a priori.
-    pub interior: Option<crate::sampling::Evidence>,
+    pub interior: Option<crate::evidence::Evidence>,
     /// `[mpc] accuracy`.
     pub accuracy: f64,
 }

@@ -53,7 +53,7 @@ pub enum RowKind {
 }
 
 impl RowKind {
-    /// The spec's name for the row: "x_max[3]", "du_min[0]", "constraint[1] row 0".
+    /// The spec's name for the row: `x_max[3]`, `du_min/du_max[0]`, `constraint[1] row 0`.
     pub fn name(&self) -> String {
         let side = |upper: &Option<bool>, lo: &str, hi: &str| match upper {
             Some(true) => hi.to_string(),

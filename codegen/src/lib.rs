@@ -1,7 +1,8 @@
 //! Code generation for `mpc!`, as a plain library that the proc macro and the `mpcc` command call.
 //!
 //! The phases are gated, as in cxx: [`mpc_spec::load`] parses and checks the spec; [`lower()`] computes the
-//! condensed QP, its solver's parameters and the filter in f64 with nalgebra; [`plan()`] resolves the
+//! condensed QP, its constraint rows ([`constraints`]), its solver's parameters and the filter in f64 with
+//! nalgebra, and certifies an interior-point method's count by sampling ([`sampling`]); [`plan()`] resolves the
 //! algorithm and the gradient form once (no `auto` after it); [`certify`] proves and counts; the [`emit`]
 //! module turns it all into a module with `quote!`. The [`oracle`] runs the same algorithms at run time over
 //! nalgebra matrices: the generic solver every generated controller is tested against.
@@ -12,8 +13,9 @@
 //!   iteration;
 //! - [`form`]: one file per gradient form (`unrolled.rs`, `table.rs`, `lanes.rs`, `matrix_free.rs`) behind
 //!   [`form::GradientForm`], each with its cost estimate; the Cortex-A9's NEON kernels in `form/neon.rs`;
-//! - [`ipm`]: a dense primal-dual interior-point method for QPs with inequality rows, in f64 (not yet
-//!   behind the seam: the reference the constrained problems of issue 17 will be checked against);
+//! - [`ipm`] (`solver/ipm.rs`): the dense primal-dual interior-point method for the constrained QPs, in
+//!   f64: its reference iteration, the MPC's control step with its fallback, and its cost; it is not a
+//!   first-order [`solver::Algorithm`], and `emit/interior.rs` emits it;
 //! - [`linalg`] the build-time linear algebra, [`numeric`] the emitted scalar's numbers, [`structure`] the
 //!   structure read off the matrices, [`cost`] the cost model's weights.
 //!
@@ -31,6 +33,7 @@ pub mod coordinates;
 pub mod cost;
 pub mod discretize;
 pub mod emit;
+pub mod evidence;
 pub mod form;
 pub mod input;
 pub mod linalg;
@@ -45,7 +48,7 @@ pub mod structure;
 
 pub use certificate::{certify, Certificate};
 pub use emit::Origin;
-pub use lower::{lower, Problem};
+pub use lower::Problem;
 pub use mpc_spec::{Diagnostic, Diagnostics, Spec};
 pub use plan::{plan, Plan};
 pub use solver::ipm;
@@ -111,6 +114,18 @@ impl Generated {
             prettyplease::unparse(&file)
         )
     }
+}
+
+/// Lowers `spec` ([`lower::uncertified`]) and, for the interior-point method, certifies its iteration
+/// count on a sample of `[mpc.region]` ([`sampling::certify`]): the problem every later phase works on.
+pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
+    let mut problem = lower::uncertified(spec)?;
+    if spec.mpc.method == mpc_spec::Method::Ipm {
+        let evidence = sampling::certify(spec, &problem)?;
+        problem.qp.iterations = evidence.iterations;
+        problem.qp.evidence = Some(evidence);
+    }
+    Ok(problem)
 }
 
 /// Lowers `spec`, plans its solver, certifies it and emits its module.

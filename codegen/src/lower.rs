@@ -82,15 +82,15 @@ pub struct Qp {
     /// `[mpc] accuracy`: the plan within accuracy·(u_max − u_min) of the exact solution.
     pub accuracy: f64,
     /// The interior-point method's certificate ([`crate::sampling`]); `None` for a first-order method.
-    pub evidence: Option<crate::sampling::Evidence>,
+    pub evidence: Option<crate::evidence::Evidence>,
 }
 
 impl Qp {
     /// The run-time limits of the interior-point method's residuals (none before it is certified).
-    pub fn ipm_limits(&self) -> crate::solver::ipm::Limits {
+    pub fn ipm_limits(&self) -> crate::evidence::Limits {
         self.evidence
             .as_ref()
-            .map_or(crate::solver::ipm::Limits::NONE, |e| e.limits)
+            .map_or(crate::evidence::Limits::NONE, |e| e.limits)
     }
 
     /// What the algorithm runs with.
@@ -277,8 +277,9 @@ fn model_lanes(
 
 /// Computes the QP, its solver's parameters and the filter of `spec`. Fails, with located diagnostics,
 /// when a weight or covariance is not (semi)definite, the step makes the iteration diverge, the filter has
-/// no steady state, or a number does not exist in the emitted scalar type.
-pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
+/// no steady state, or a number does not exist in the emitted scalar type. The interior-point method's
+/// count is not certified yet ([`crate::lower()`] does it): `iterations = "auto"` is 0 here.
+pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
     crate::budget::before_lowering(spec)?;
     let mut diags = Diagnostics::default();
     let dt = spec.model.dt;
@@ -389,7 +390,7 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     let model_lanes = (qp.Cz.is_none() && m.r_du.is_none())
         .then(|| model_lanes(&F, &G, &qp.Q, &qp.Qf, &qp.R))
         .flatten();
-    let mut problem = Problem {
+    Ok(Problem {
         nx,
         nu,
         ny,
@@ -401,13 +402,7 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
         C,
         scalar: spec.codegen.scalar,
         model_lanes,
-    };
-    if m.method == Method::Ipm {
-        let evidence = crate::sampling::certify(spec, &problem)?;
-        problem.qp.iterations = evidence.iterations;
-        problem.qp.evidence = Some(evidence);
-    }
-    Ok(problem)
+    })
 }
 
 /// The double integrator's `dt` must give a discrete model that f64 resolves. Per axis the model moves

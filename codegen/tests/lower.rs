@@ -1,7 +1,8 @@
 //! The compile-time linear algebra on the paper's problem, against the paper's equations and figures.
 #![allow(non_snake_case)]
 
-use codegen::lower::{lower, prediction_matrices, white_acceleration_noise};
+use codegen::lower;
+use codegen::lower::{prediction_matrices, white_acceleration_noise};
 use mpc_spec::load;
 use nalgebra::DMatrix;
 

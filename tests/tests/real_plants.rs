@@ -21,7 +21,7 @@ mpc_macros::mpc!(mod filtered_unrolled = "specs/emission/two-mass-filtered-unrol
 mpc_macros::mpc!(mod filtered_matrix_free = "specs/emission/two-mass-filtered-matrix-free.toml");
 
 fn problem(text: &str) -> codegen::Problem {
-    codegen::lower::lower(&mpc_spec::load(text).unwrap()).unwrap()
+    codegen::lower(&mpc_spec::load(text).unwrap()).unwrap()
 }
 
 fn outputs_problem() -> codegen::Problem {

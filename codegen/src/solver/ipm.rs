@@ -21,6 +21,7 @@
 //! counts). [`macs_per_iteration`] counts an iteration's cost by the calibration rule of issue 17.
 #![allow(non_snake_case)]
 
+use crate::evidence::Limits;
 use crate::lower::Qp;
 use nalgebra::{DMatrix, DVector};
 
@@ -836,23 +837,6 @@ pub enum Fallback {
     /// previous plan shifted by one step with the rest input appended, projected onto the box; the next
     /// solve starts cold.
     WarmStart,
-}
-
-/// The limits above which a fixed-iteration solve is not trusted and [`Fallback::WarmStart`] is used.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct Limits {
-    /// On [`IpmResult::primal_residual`].
-    pub primal: f64,
-    /// On [`IpmResult::dual_residual`].
-    pub dual: f64,
-}
-
-impl Limits {
-    /// No limit: only failures and infeasibility fall back.
-    pub const NONE: Limits = Limits {
-        primal: f64::INFINITY,
-        dual: f64::INFINITY,
-    };
 }
 
 /// One interior-point control step: the plan and what happened.

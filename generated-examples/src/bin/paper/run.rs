@@ -187,7 +187,7 @@ impl Oracle {
     /// The oracle of the controller generated from `spec`.
     pub fn new(spec: &str) -> Result<Self, String> {
         let spec = mpc_spec::load(spec).map_err(|d| d.to_string())?;
-        let problem = codegen::lower::lower(&spec).map_err(|d| d.to_string())?;
+        let problem = codegen::lower(&spec).map_err(|d| d.to_string())?;
         let mpc = codegen::oracle::Mpc::new(&problem);
         Ok(Self {
             qp: problem.qp,

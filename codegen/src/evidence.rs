@@ -1,0 +1,74 @@
+//! What the interior-point method's sampled certificate found ([`crate::sampling`] computes it): plain
+//! data, so that the lowered problem can carry it and the emitter and the certificate read it, without
+//! their depending on the sampling.
+
+/// The operating region the sample is drawn from.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Region {
+    /// Lower corner of the states (nx).
+    pub x_min: Vec<f64>,
+    /// Upper corner of the states.
+    pub x_max: Vec<f64>,
+    /// Lower corner of the references (nz).
+    pub reference_min: Vec<f64>,
+    /// Upper corner of the references.
+    pub reference_max: Vec<f64>,
+}
+
+/// What the sample showed.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Evidence {
+    /// Where the sample was drawn.
+    pub region: Region,
+    /// Cold cases run (corners and draws) that have an exact solution.
+    pub cold_cases: usize,
+    /// Corners among them.
+    pub corners: usize,
+    /// Draws without an exact solution (the hard rows admit no plan there, or the reference did not
+    /// converge in its 200 iterations), left out of the counts.
+    pub infeasible_cases: usize,
+    /// Warm closed-loop steps run (sequences × steps).
+    pub warm_steps: usize,
+    /// Closed-loop sequences.
+    pub sequences: usize,
+    /// The most iterations a cold case needed.
+    pub cold_worst: usize,
+    /// The median a cold case needed.
+    pub cold_median: usize,
+    /// The most iterations a warm step needed.
+    pub warm_worst: usize,
+    /// The median a warm step needed.
+    pub warm_median: usize,
+    /// The iterations per control step: `iterations` as written, or the worst observed plus the margin.
+    pub iterations: usize,
+    /// Whether `iterations` came from `"auto"`.
+    pub auto: bool,
+    /// The most iterations any case needed (cold or warm): a written `iterations` below it misses
+    /// `accuracy` on part of the sample.
+    pub worst_needed: usize,
+    /// The worst |U − U*|∞ / span over every case at `iterations`.
+    pub worst_error: f64,
+    /// The worst hard-row violation (relative to max(1, |bound|)) at `iterations`.
+    pub worst_violation: f64,
+    /// The run-time limits on the final residuals.
+    pub limits: Limits,
+    /// Cases at `iterations` that fell back (none within the region, as far as the sample shows).
+    pub fallbacks: usize,
+}
+
+/// The limits above which a fixed-iteration solve is not trusted and [`Fallback::WarmStart`] is used.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Limits {
+    /// On [`IpmResult::primal_residual`].
+    pub primal: f64,
+    /// On [`IpmResult::dual_residual`].
+    pub dual: f64,
+}
+
+impl Limits {
+    /// No limit: only failures and infeasibility fall back.
+    pub const NONE: Limits = Limits {
+        primal: f64::INFINITY,
+        dual: f64::INFINITY,
+    };
+}
