@@ -56,12 +56,12 @@ pub struct Evidence {
     pub fallbacks: usize,
 }
 
-/// The limits above which a fixed-iteration solve is not trusted and [`Fallback::WarmStart`] is used.
+/// The limits above which a fixed-iteration solve is not trusted and [`crate::ipm::Fallback::WarmStart`] is used.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Limits {
-    /// On [`IpmResult::primal_residual`].
+    /// On [`crate::ipm::IpmResult::primal_residual`].
     pub primal: f64,
-    /// On [`IpmResult::dual_residual`].
+    /// On [`crate::ipm::IpmResult::dual_residual`].
     pub dual: f64,
 }
 

@@ -47,12 +47,12 @@ pub const FRACTION: f64 = 0.99;
 /// 1 did best for a shifted (z, s, λ) among 1e-4 … 100.
 pub const WARM_FLOOR: f64 = 1.0;
 
-/// Iterative refinement steps of the corrector's direction ([`direction`]; the predictor only sets
+/// Iterative refinement steps of the corrector's direction (the predictor only sets
 /// the centering and is not refined).
 pub const REFINEMENT: usize = 1;
 
 /// A fixed-iteration solve stops moving once its relative residuals, and its gap relative to the
-/// objective, are below this: the point is optimal to rounding ([`Residuals::finished`]).
+/// objective, are below this: the point is optimal to rounding.
 pub const FINISHED: f64 = 1e-12;
 
 /// The infeasibility certificate's tolerance: λ ≥ 0 with ‖Gᵀλ‖∞ ≤ this · (−hᵀλ) proves G z ≤ h empty
