@@ -93,6 +93,15 @@ impl Qp {
             .map_or(crate::evidence::Limits::NONE, |e| e.limits)
     }
 
+    /// The rest plan: [`Qp::rest_input`] at every step (a cold start, and what warm starts append).
+    pub fn rest_plan(&self) -> DVector<f64> {
+        let rest = self.rest_input();
+        DVector::from_iterator(
+            self.N * rest.len(),
+            (0..self.N).flat_map(|_| rest.iter().copied()),
+        )
+    }
+
     /// What the algorithm runs with.
     pub fn parameters(&self) -> Parameters {
         Parameters {
@@ -233,6 +242,11 @@ impl Problem {
     /// Whether the moves Δu are weighted, so that the MPC depends on the last input.
     pub fn has_moves(&self) -> bool {
         self.qp.R_du.iter().any(|v| *v != 0.0)
+    }
+
+    /// Whether the MPC keeps the last input u₋₁: for weighted moves, or for move bounds (rows on u₋₁).
+    pub fn keeps_last_input(&self) -> bool {
+        self.has_moves() || self.qp.rows.Wu.iter().any(|v| *v != 0.0)
     }
 }
 

@@ -28,7 +28,7 @@ impl Mpc {
     /// A cold controller: its first solve starts from the rest input, which is also its last input.
     pub fn new(problem: &Problem) -> Self {
         let qp = problem.qp.clone();
-        let plan = rest_plan(&qp);
+        let plan = qp.rest_plan();
         let last = qp.rest_input();
         Mpc {
             qp,
@@ -71,7 +71,7 @@ impl Mpc {
 
     /// Forgets the warm start and the last input.
     pub fn reset(&mut self) {
-        self.plan = rest_plan(&self.qp);
+        self.plan = self.qp.rest_plan();
         self.last = self.qp.rest_input();
         self.start = Start::Cold;
         self.last_step = None;
@@ -157,7 +157,7 @@ pub fn exact_solution(qp: &Qp, f: &DVector<f64>, tol: f64, max_iterations: usize
     fast.method = Method::Fgm;
     fast.step = 1.0 / qp.L;
     fast.momentum = Fgm.momentum(fast.step, qp.mu);
-    let mut u = rest_plan(qp);
+    let mut u = qp.rest_plan();
     for _ in 0..max_iterations / 100 {
         u = iterate(&fast, f, u, 100);
         if kkt_residual(qp, f, &u) <= tol * (1.0 + f.amax()) {
@@ -182,14 +182,6 @@ fn project_box(qp: &Qp, v: &DVector<f64>) -> DVector<f64> {
         v.iter()
             .enumerate()
             .map(|(i, x)| project(*x, qp.u_min[i % nu], qp.u_max[i % nu])),
-    )
-}
-
-fn rest_plan(qp: &Qp) -> DVector<f64> {
-    let rest = qp.rest_input();
-    DVector::from_iterator(
-        qp.N * rest.len(),
-        (0..qp.N).flat_map(|_| rest.iter().copied()),
     )
 }
 

@@ -55,6 +55,7 @@ pub fn margin(worst: usize) -> usize {
 }
 
 /// A case's data: the state, the reference (per stage), the disturbance, the last input.
+#[derive(Clone)]
 struct Case {
     x0: DVector<f64>,
     reference: DVector<f64>,
@@ -88,7 +89,7 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
         x0,
         reference: draw(rng, &region.reference_min, &region.reference_max),
         d: draw(rng, &d_lo, &d_hi),
-        last: if p.has_moves() || qp.rows.Wu.iter().any(|v| *v != 0.0) {
+        last: if p.keeps_last_input() {
             draw(rng, &u_lo, &u_hi)
         } else {
             qp.rest_input()
@@ -96,7 +97,7 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
     };
     // Cold cases: corners, then draws.
     let corners_all = 1usize.checked_shl(nx as u32).unwrap_or(usize::MAX);
-    let corners = corners_all.min(MAX_CORNERS);
+    let corners = corner_count(nx);
     let mut cases = Vec::new();
     for c in 0..corners {
         let bits: u64 = if corners_all <= MAX_CORNERS {
@@ -132,7 +133,7 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
         }
         let run = trajectory(&problem, &Start::Cold, MAX_PROBE);
         let Some(k) = needed(qp, &run, &exact, &offset) else {
-            return Err(not_reached(spec, "a cold case", c, &region).into());
+            return Err(not_reached(spec, "a cold case", c).into());
         };
         cold_counts.push(k);
         cold_runs.push((run, exact, offset));
@@ -247,16 +248,21 @@ struct Warm {
     fallbacks: usize,
 }
 
+/// The corners of the state region the sample uses: all 2^nx, at most [`MAX_CORNERS`].
+fn corner_count(nx: usize) -> usize {
+    1usize
+        .checked_shl(nx as u32)
+        .unwrap_or(usize::MAX)
+        .min(MAX_CORNERS)
+}
+
 /// The sample's cost, predicted before it is spent: every case runs [`MAX_PROBE`] iterations and the
 /// exact reference (about as many again; warm candidates up to four rounds), each iteration
 /// [`mpc_macs_per_iteration`]. It counts against the build budget of lowering
 /// ([`crate::budget::LOWERING_MACS`]), and a sample above it is refused at `[mpc.region]`.
 fn check_budget(spec: &Spec, p: &Problem) -> Result<(), Diagnostics> {
     let written = &spec.mpc.region;
-    let corners = 1usize
-        .checked_shl(p.nx as u32)
-        .unwrap_or(usize::MAX)
-        .min(MAX_CORNERS);
+    let corners = corner_count(p.nx);
     let cold = corners + written.samples.unwrap_or(DEFAULT_SAMPLES);
     let warm =
         4 * written.sequences.unwrap_or(DEFAULT_SEQUENCES) * written.steps.unwrap_or(DEFAULT_STEPS);
@@ -296,14 +302,9 @@ fn warm_sequences(
     let qp = &p.qp;
     let mut warm = Warm::default();
     for start_case in starts {
-        let mut c = Case {
-            x0: start_case.x0.clone(),
-            reference: start_case.reference.clone(),
-            d: start_case.d.clone(),
-            last: start_case.last.clone(),
-        };
+        let mut c = start_case.clone();
         let mut start = Start::Cold;
-        let mut plan = rest_plan(qp);
+        let mut plan = qp.rest_plan();
         for _ in 0..steps {
             let (f, offset) = data(p, &c);
             let problem = mpc_qp(qp, &f, &offset);
@@ -314,13 +315,7 @@ fn warm_sequences(
             }
             let run = trajectory(&problem, &start, MAX_PROBE.max(count));
             let Some(k) = needed(qp, &run, &exact, &offset) else {
-                return Err(not_reached(
-                    spec,
-                    "a warm closed-loop step",
-                    &c,
-                    &resolve_region(spec, p)?,
-                )
-                .into());
+                return Err(not_reached(spec, "a warm closed-loop step", &c).into());
             };
             warm.counts.push(k);
             warm.series.push(series(&run));
@@ -395,13 +390,7 @@ fn needed(qp: &Qp, run: &[IpmResult], exact: &IpmResult, offset: &DVector<f64>) 
     Some(first_bad_from_end.map_or(0, |i| i + 1).max(1))
 }
 
-fn rest_plan(qp: &Qp) -> DVector<f64> {
-    let rest = qp.rest_input();
-    DVector::from_fn(qp.N * rest.len(), |i, _| rest[i % rest.len()])
-}
-
-fn not_reached(spec: &Spec, what: &str, c: &Case, region: &Region) -> Diagnostic {
-    let _ = region;
+fn not_reached(spec: &Spec, what: &str, c: &Case) -> Diagnostic {
     Diagnostic::new(
         format!(
             "the interior-point method does not reach `accuracy = {:e}` within {MAX_PROBE} iterations on {what} of `[mpc.region]`",

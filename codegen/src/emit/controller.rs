@@ -9,7 +9,7 @@ pub fn emit(p: &Problem, interior: bool) -> (TokenStream, TokenStream) {
     let row = crate::form::reference_row(p);
     // The interior-point method's own status, copied into the cycle's.
     let solver = Solver::new(interior);
-    let keeps_last = p.has_moves() || (interior && super::interior::keeps_last_input(p));
+    let keeps_last = p.keeps_last_input();
     let moves = keeps_last.then(|| {
         quote! {
             /// Sets the last input u₋₁ the first move is weighted from (see [`Mpc::set_last_input`]), for a

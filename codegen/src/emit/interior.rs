@@ -11,17 +11,12 @@ use super::tokens::Num;
 use super::Sections;
 use crate::lower::Problem;
 use crate::solver::ipm::{
-    mpc_qp, Layout, FINISHED, FRACTION, INFEASIBILITY_TOLERANCE, REFINEMENT, WARM_FLOOR,
+    mpc_qp, side_bound, Layout, FINISHED, FRACTION, INFEASIBILITY_TOLERANCE, REFINEMENT, WARM_FLOOR,
 };
 use mpc_spec::Scalar;
 use nalgebra::{DMatrix, DVector};
 use proc_macro2::Literal;
 use quote::quote;
-
-/// Whether the MPC keeps the last input: for weighted moves or bounded moves.
-pub fn keeps_last_input(p: &Problem) -> bool {
-    p.has_moves() || p.qp.rows.Wu.iter().any(|v| *v != 0.0)
-}
 
 /// The interior-point `Mpc`, its kernels and its tables.
 pub fn emit(p: &Problem, num: Num) -> Sections {
@@ -42,13 +37,12 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     // Box sides: ±z_i ≤ ±bound, constant.
     let box_index = layout.boxed.iter().map(|(i, _)| lit(*i));
     let box_sign = wide.vector(layout.boxed.iter().map(|(_, s)| *s));
-    let box_h = wide.vector(layout.boxed.iter().map(|&(i, s)| {
-        if s > 0.0 {
-            structure.z_max[i]
-        } else {
-            -structure.z_min[i]
-        }
-    }));
+    let box_h = wide.vector(
+        layout
+            .boxed
+            .iter()
+            .map(|&(i, s)| side_bound(s, structure.z_min[i], structure.z_max[i])),
+    );
     // Row sides in compressed rows, columns ascending (the normal matrix fills its lower triangle).
     let mut start = vec![0usize];
     let mut cols = Vec::new();
@@ -70,19 +64,18 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             sign * M[(r, c)]
         })
     };
-    let side_h = wide.vector(layout.rows.iter().map(|&(r, sign)| {
-        if sign > 0.0 {
-            rows.upper[r]
-        } else {
-            -rows.lower[r]
-        }
-    }));
+    let side_h = wide.vector(
+        layout
+            .rows
+            .iter()
+            .map(|&(r, sign)| side_bound(sign, rows.lower[r], rows.upper[r])),
+    );
     let side_soft = layout.rows.iter().map(|&(r, _)| rows.soft[r]);
     let side_x = wide.matrix(&side(&rows.Wx));
     let nd = p.nd();
     let uses_d = nd > 0 && rows.Wd.iter().any(|v| *v != 0.0);
     let uses_last_rows = rows.Wu.iter().any(|v| *v != 0.0);
-    let keeps_last = keeps_last_input(p);
+    let keeps_last = p.keeps_last_input();
     let side_d = uses_d.then(|| {
         let m = wide.matrix(&side(&rows.Wd.columns(0, nd).into_owned()));
         quote! {

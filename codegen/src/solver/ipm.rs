@@ -195,8 +195,8 @@ impl Layout {
     }
 }
 
-/// A side's right-hand side: sign·bound.
-fn side_bound(sign: f64, lower: f64, upper: f64) -> f64 {
+/// A side's right-hand side: sign·bound (the upper bound, or minus the lower one).
+pub fn side_bound(sign: f64, lower: f64, upper: f64) -> f64 {
     if sign > 0.0 {
         upper
     } else {
