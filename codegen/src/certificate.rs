@@ -129,9 +129,9 @@ pub struct Certificate {
     /// The absolute coordinates each scalar type can carry with u₀ within 1 % of the smallest input span
     /// ([`crate::coordinates`]).
     pub coordinate_range: CoordinateRange,
-    /// The interior-point method's sampled evidence ([`crate::sampling`]); `None` for a first-order
-    /// method, whose bound is a priori.
-    pub interior: Option<crate::evidence::Evidence>,
+    /// The sampled evidence of `[mpc.region]` ([`crate::sampling`]): always for the interior-point
+    /// method, for a first-order method when the spec has a region (its a priori bound stays beside it).
+    pub sampled: Option<crate::evidence::Evidence>,
     /// `[mpc] accuracy`.
     pub accuracy: f64,
 }
@@ -213,9 +213,8 @@ pub mod section {
         "absolute coordinates (rounding; first-order, worst case over signs)";
     /// The code's cost.
     pub const RESOURCES: &str = "resources";
-    /// The interior-point method's certificate.
-    pub const INTERIOR: &str =
-        "interior-point method: evidence sampled on [mpc.region], not a proof";
+    /// The sampled certificate of `[mpc.region]`.
+    pub const SAMPLED: &str = "evidence sampled on [mpc.region], not a proof";
     /// The build's predicted cost ([`crate::budget`]); not in the `report` module.
     pub const BUILD: &str = "build cost (predicted; limits in codegen::budget)";
 }
@@ -278,7 +277,7 @@ impl Certificate {
             field("build_cost.rustc_seconds", "", "", BUILD, "rustc on the module: time", Seconds, Real(b.rustc_seconds)),
             field("build_cost.rustc_bytes", "", "", BUILD, "rustc on the module: memory", Bytes, Real(b.rustc_bytes)),
         ];
-        let Some(e) = &self.interior else {
+        let Some(e) = &self.sampled else {
             return fields;
         };
         // The first-order method's step, contraction and a priori bound do not exist here.
@@ -292,7 +291,9 @@ impl Certificate {
             "guaranteed_gap",
             "mpc.solver_spectral_radius",
         ];
-        fields.retain(|f| !FIRST_ORDER.contains(&f.json));
+        if e.method == mpc_spec::Method::Ipm {
+            fields.retain(|f| !FIRST_ORDER.contains(&f.json));
+        }
         let at = fields
             .iter()
             .position(|f| f.section == LQR)
@@ -306,20 +307,20 @@ impl Certificate {
             "iterations: as written".to_string()
         };
         let evidence = [
-            field("accuracy", "ACCURACY", "`[mpc] accuracy`: |U − U*|∞ ≤ ACCURACY·(u_max − u_min), hard-row violation ≤ ACCURACY·max(1, |bound|).", INTERIOR, "accuracy asked (of the input span)", Plain, Real(self.accuracy)),
-            field("interior.cold_cases", "IPM_COLD_CASES", "Cold cases sampled (corners and draws) that have a solution.", INTERIOR, "cold cases with a solution", Plain, Count(e.cold_cases)),
-            field("interior.corners", "IPM_CORNERS", "Corners of the state region among them.", INTERIOR, "of which corners of the region", Plain, Count(e.corners)),
-            field("interior.infeasible_cases", "IPM_INFEASIBLE_CASES", "Draws without an exact solution (infeasible hard rows, or unresolved), left out: the fallback covers them.", INTERIOR, "draws without a solution (hard rows)", Plain, Count(e.infeasible_cases)),
-            field("interior.warm_steps", "IPM_WARM_STEPS", "Warm-started closed-loop steps sampled.", INTERIOR, &format!("warm closed-loop steps ({} sequences)", e.sequences), Plain, Count(e.warm_steps)),
-            field("interior.cold_median", "IPM_COLD_MEDIAN", "Iterations a cold case needed to reach ACCURACY: median.", INTERIOR, "iterations needed cold: median", Plain, Count(e.cold_median)),
-            field("interior.cold_worst", "IPM_COLD_WORST", "Iterations a cold case needed: worst.", INTERIOR, "iterations needed cold: worst", Plain, Count(e.cold_worst)),
-            field("interior.warm_median", "IPM_WARM_MEDIAN", "Iterations a warm step needed: median.", INTERIOR, "iterations needed warm: median", Plain, Count(e.warm_median)),
-            field("interior.warm_worst", "IPM_WARM_WORST", "Iterations a warm step needed: worst.", INTERIOR, "iterations needed warm: worst", Plain, Count(e.warm_worst)),
-            field("interior.iterations", "", "", INTERIOR, &how, Plain, Count(e.iterations)),
-            field("interior.worst_error", "IPM_WORST_ERROR", "The worst |U − U*|∞ / span over the sample at ITERATIONS.", INTERIOR, "worst |U − U*|∞ / span at the count", Plain, Real(e.worst_error)),
-            field("interior.worst_violation", "IPM_WORST_VIOLATION", "The worst hard-row violation (relative) over the sample at ITERATIONS.", INTERIOR, "worst hard-row violation at the count", Plain, Real(e.worst_violation)),
-            field("interior.limits.primal", "IPM_PRIMAL_LIMIT", "Final relative primal residual above which the solve falls back.", INTERIOR, "fallback above relative primal residual", Plain, Real(e.limits.primal)),
-            field("interior.limits.dual", "IPM_DUAL_LIMIT", "Final relative dual residual above which the solve falls back.", INTERIOR, "fallback above relative dual residual", Plain, Real(e.limits.dual)),
+            field("accuracy", "ACCURACY", "`[mpc] accuracy`: |U − U*|∞ ≤ ACCURACY·(u_max − u_min), hard-row violation ≤ ACCURACY·max(1, |bound|).", SAMPLED, "accuracy asked (of the input span)", Plain, Real(self.accuracy)),
+            field("sampled.cold_cases", "SAMPLED_COLD_CASES", "Cold cases sampled (corners and draws) that have a solution.", SAMPLED, "cold cases with a solution", Plain, Count(e.cold_cases)),
+            field("sampled.corners", "SAMPLED_CORNERS", "Corners of the state region among them.", SAMPLED, "of which corners of the region", Plain, Count(e.corners)),
+            field("sampled.infeasible_cases", "SAMPLED_INFEASIBLE_CASES", "Draws without an exact solution (infeasible hard rows, or unresolved), left out: the fallback covers them.", SAMPLED, "draws without a solution (hard rows)", Plain, Count(e.infeasible_cases)),
+            field("sampled.warm_steps", "SAMPLED_WARM_STEPS", "Warm-started closed-loop steps sampled.", SAMPLED, &format!("warm closed-loop steps ({} sequences)", e.sequences), Plain, Count(e.warm_steps)),
+            field("sampled.cold_median", "SAMPLED_COLD_MEDIAN", "Iterations a cold case needed to reach ACCURACY: median.", SAMPLED, "iterations needed cold: median", Plain, Count(e.cold_median)),
+            field("sampled.cold_worst", "SAMPLED_COLD_WORST", "Iterations a cold case needed: worst.", SAMPLED, "iterations needed cold: worst", Plain, Count(e.cold_worst)),
+            field("sampled.warm_median", "SAMPLED_WARM_MEDIAN", "Iterations a warm step needed: median.", SAMPLED, "iterations needed warm: median", Plain, Count(e.warm_median)),
+            field("sampled.warm_worst", "SAMPLED_WARM_WORST", "Iterations a warm step needed: worst.", SAMPLED, "iterations needed warm: worst", Plain, Count(e.warm_worst)),
+            field("sampled.iterations", "", "", SAMPLED, &how, Plain, Count(e.iterations)),
+            field("sampled.worst_error", "SAMPLED_WORST_ERROR", "The worst |U − U*|∞ / span over the sample at ITERATIONS.", SAMPLED, "worst |U − U*|∞ / span at the count", Plain, Real(e.worst_error)),
+            field("sampled.worst_violation", "SAMPLED_WORST_VIOLATION", "The worst hard-row violation (relative) over the sample at ITERATIONS.", SAMPLED, "worst hard-row violation at the count", Plain, Real(e.worst_violation)),
+            field("sampled.limits.primal", "SAMPLED_PRIMAL_LIMIT", "Final relative primal residual above which the solve falls back.", SAMPLED, "fallback above relative primal residual", Plain, Real(e.limits.primal)),
+            field("sampled.limits.dual", "SAMPLED_DUAL_LIMIT", "Final relative dual residual above which the solve falls back.", SAMPLED, "fallback above relative dual residual", Plain, Real(e.limits.dual)),
         ];
         fields.splice(at..at, evidence);
         fields
@@ -357,6 +358,18 @@ pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> 
                 .label("symmetrized"),
             );
         }
+    }
+    // `accuracy` is a promise only where a sample measured it: a first-order method without
+    // `[mpc.region]` counts its iterations from `tolerance`'s a priori bound.
+    if c.sampled.is_none() && spec.spans.get("mpc.accuracy").is_some() {
+        warnings.push(
+            Diagnostic::new(
+                format!("`accuracy` is not certified without `[mpc.region]`: `method = \"{}\"` counts its iterations from `tolerance`'s a priori bound", spec.mpc.method.name()),
+                spec.spans.get("mpc.accuracy"),
+            )
+            .label("not checked")
+            .note("hint: add `[mpc.region]` with the states and references the controller meets, and the compiler measures the iterations that reach `accuracy` there"),
+        );
     }
     // One finding per cause: the solver's loop is only reported when the exactly solved MPC is stable.
     let unstable = |rho: f64| rho.is_nan() || rho >= 1.0;
@@ -457,10 +470,10 @@ pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> 
             }
         }
     }
-    // A written count below what the interior-point method's sample needed: evidence it misses
-    // `accuracy` there (the run-time residual limits then make those solves fall back).
+    // A written count below what the sample needed: evidence it misses `accuracy` there (for the
+    // interior-point method the run-time residual limits then make those solves fall back).
     if let Some(e) = c
-        .interior
+        .sampled
         .as_ref()
         .filter(|e| !e.auto && e.iterations < e.worst_needed)
     {
@@ -472,7 +485,11 @@ pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> 
             spec.spans.get("mpc.iterations"),
         )
         .label(format!("the sample needed {}", e.worst_needed))
-        .note("hint: write `iterations = \"auto\"`, or raise the count; a truncated interior-point solve is not graceful, and where its residuals exceed the certified limits the controller falls back to the shifted previous plan");
+        .note(if e.method == mpc_spec::Method::Ipm {
+            "hint: write `iterations = \"auto\"`, or raise the count; a truncated interior-point solve is not graceful, and where its residuals exceed the certified limits the controller falls back to the shifted previous plan"
+        } else {
+            "hint: write `iterations = \"auto\"`, or raise the count; a truncated first-order solve is feasible for the box but farther from the optimum than `accuracy`"
+        });
         if spec.mpc.strict {
             errors.push(d);
         } else {
@@ -560,7 +577,7 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
             plan.emission(),
             crate::coordinates::DEFAULT_ACCURACY,
         ),
-        interior: qp.evidence.clone(),
+        sampled: qp.evidence.clone(),
         accuracy: qp.accuracy,
         disturbance_time_constant: p.filter.as_ref().filter(|f| f.nd > 0).map(|f| {
             let na = p.nx + f.nd;

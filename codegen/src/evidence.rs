@@ -1,6 +1,6 @@
-//! What the interior-point method's sampled certificate found ([`crate::sampling`] computes it): plain
-//! data, so that the lowered problem can carry it and the emitter and the certificate read it, without
-//! their depending on the sampling.
+//! What a method's sampled certificate found ([`crate::sampling`] computes it): plain data, so that the
+//! lowered problem can carry it and the emitter and the certificate read it, without their depending
+//! on the sampling.
 
 /// The operating region the sample is drawn from.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -18,6 +18,8 @@ pub struct Region {
 /// What the sample showed.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Evidence {
+    /// The method sampled.
+    pub method: mpc_spec::Method,
     /// Where the sample was drawn.
     pub region: Region,
     /// Cold cases run (corners and draws) that have an exact solution.
@@ -54,6 +56,8 @@ pub struct Evidence {
     pub limits: Limits,
     /// Cases at `iterations` that fell back (none within the region, as far as the sample shows).
     pub fallbacks: usize,
+    /// Multiply-adds the sample took at build time (against [`crate::budget::LOWERING_MACS`]).
+    pub sample_macs: f64,
 }
 
 /// The limits above which a fixed-iteration solve is not trusted and [`crate::ipm::Fallback::WarmStart`] is used.

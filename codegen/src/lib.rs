@@ -116,12 +116,36 @@ impl Generated {
     }
 }
 
-/// Lowers `spec` ([`lower::uncertified`]) and, for the interior-point method, certifies its iteration
-/// count on a sample of `[mpc.region]` ([`sampling::certify`]): the problem every later phase works on.
+/// Lowers `spec` ([`lower::uncertified`]) and certifies its iteration count on a sample of
+/// `[mpc.region]` ([`sampling::certify`]) where there is one to sample: always for the interior-point
+/// method, and for a first-order method when `[mpc.region]` is written (its `iterations = "auto"` is
+/// then at least the sample's need for `accuracy`, and at least what `tolerance` guarantees): the
+/// problem every later phase works on.
 pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     let mut problem = lower::uncertified(spec)?;
-    if spec.mpc.method == mpc_spec::Method::Ipm {
-        let evidence = sampling::certify(spec, &problem)?;
+    let evidence = match solver::algorithm(spec.mpc.method) {
+        None => Some(sampling::certify(
+            spec,
+            &problem,
+            &sampling::InteriorPoint,
+            0,
+        )?),
+        Some(algorithm) if spec.spans.get("mpc.region").is_some() => {
+            // The a priori count of `tolerance` (zero without one) is the floor of `auto`.
+            let floor = match spec.mpc.iterations {
+                mpc_spec::Iterations::Auto => problem.qp.iterations,
+                mpc_spec::Iterations::Fixed(_) => 0,
+            };
+            Some(sampling::certify(
+                spec,
+                &problem,
+                &sampling::FirstOrder(algorithm),
+                floor,
+            )?)
+        }
+        Some(_) => None,
+    };
+    if let Some(evidence) = evidence {
         problem.qp.iterations = evidence.iterations;
         problem.qp.evidence = Some(evidence);
     }

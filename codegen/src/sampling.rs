@@ -1,8 +1,10 @@
-//! The interior-point method's certificate: evidence, not a proof. A fixed-iteration IPM has no
-//! practical a priori bound (short-step theory asks 32-122× the counts observed), so the compiler runs
-//! the method at build time, in f64, on a seeded sample of the operating region `[mpc.region]` and
-//! measures how many iterations reach `accuracy` against the exact solution (the same IPM run to a
-//! 1e-10 tolerance, cross-checked against Clarabel in the tests):
+//! Sampled certificates: evidence, not a proof. A fixed-iteration interior-point method has no
+//! practical a priori bound (short-step theory asks 32-122× the counts observed), and a first-order
+//! method's bound is on the gap of the cost, not on |U − U*|∞, and 2.4-3.6× the counts observed. So the
+//! compiler runs the method ([`Sampled`]: [`InteriorPoint`], [`FirstOrder`]) at build time, in f64, on a
+//! seeded sample of the operating region `[mpc.region]` and measures how many iterations reach
+//! `accuracy` against the exact solution (the interior-point method run to a 1e-10 tolerance,
+//! cross-checked against Clarabel in the tests):
 //! - **cold** cases: the region's corners (all of them up to [`MAX_CORNERS`], else that many drawn) and
 //!   `samples` uniform draws of the state, the reference (constant over the horizon), the last input
 //!   and the disturbance estimate;
@@ -10,11 +12,13 @@
 //!   state towards a drawn reference, each solve warm-started from the previous one as the emitted
 //!   controller does (a warm solve can need more iterations than a cold one).
 //!
-//! A case needs k iterations when every iterate from the k-th on (up to [`MAX_PROBE`]) has
-//! |U − U*|∞ ≤ accuracy·(u_max − u_min) per input and violates no hard row by more than
-//! accuracy·max(1, |bound|). `iterations = "auto"` is the worst count observed plus [`margin`]. At the
-//! count used, the worst final residuals set the run-time [`Limits`]: [`LIMIT_FACTOR`] times them (at
-//! least [`LIMIT_FLOOR`]), above which the emitted solver falls back.
+//! A case needs k iterations when every iterate from the k-th on has |U − U*|∞ ≤
+//! accuracy·(u_max − u_min) per input and violates no hard row by more than accuracy·max(1, |bound|),
+//! over a run at least twice k long (up to the method's most, [`Sampled::probe`]: [`MAX_PROBE`] for
+//! the interior-point method, [`FIRST_ORDER_PROBE`] for a first-order one). `iterations = "auto"` is
+//! the worst count observed plus [`margin`]. At the count used, the interior-point method's worst
+//! final residuals set the run-time [`Limits`]: [`LIMIT_FACTOR`] times them (at least
+//! [`LIMIT_FLOOR`]), above which the emitted solver falls back.
 #![allow(non_snake_case)]
 
 use crate::evidence::Limits;
@@ -22,8 +26,9 @@ pub use crate::evidence::{Evidence, Region};
 use crate::lower::{Problem, Qp};
 use crate::solver::ipm::{
     control_step, mpc_macs_per_iteration, mpc_qp, shifted_start, solve, trajectory, violations,
-    Fallback, IpmResult, Start, Status,
+    Fallback, InequalityQp, IpmResult, Start, Status,
 };
+use crate::solver::Algorithm;
 use mpc_spec::{Diagnostic, Diagnostics, Iterations, Spec, MAX_ITERATIONS};
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
@@ -63,12 +68,305 @@ struct Case {
     last: DVector<f64>,
 }
 
-/// Certifies the interior-point method of `p` on the region of `spec`, and resolves its iteration
-/// count. Fails where the region cannot be resolved or a case does not reach `accuracy` within
-/// [`MAX_PROBE`] iterations.
-pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
+/// What the certificate needs of a method: its iterates on one control step's QP ([`mpc_qp`]), and
+/// its control step as the emitted controller runs it. One adapter per method below.
+pub trait Sampled {
+    /// What one control step hands the next as its warm start.
+    type Start: Clone;
+    /// Its name in prose, for the diagnostics: "the interior-point method".
+    fn title(&self) -> &'static str;
+    /// The start after `new`, `reset` or a fallback.
+    fn cold(&self, qp: &Qp) -> Self::Start;
+    /// Iterations a case is first run for, and at most: a run is doubled until the count it needs is
+    /// at most half its length (every iterate from the count on, to at least twice it, meets
+    /// `accuracy`), or the most is reached.
+    fn probe(&self) -> (usize, usize);
+    /// The start (element 0) and the iterates after 1 … `iterations` iterations (fewer where the method
+    /// stopped on a failure, which is then last).
+    fn trajectory(
+        &self,
+        qp: &Qp,
+        problem: &InequalityQp,
+        start: &Self::Start,
+        iterations: usize,
+    ) -> Vec<Iterate>;
+    /// One control step of `count` iterations: the plan, what it hands the next step, and whether it
+    /// fell back.
+    fn control_step(
+        &self,
+        qp: &Qp,
+        f: &DVector<f64>,
+        offset: &DVector<f64>,
+        start: &Self::Start,
+        previous_plan: &DVector<f64>,
+        count: usize,
+    ) -> Stepped<Self::Start>;
+    /// Multiply-adds of one iteration.
+    fn macs_per_iteration(&self, qp: &Qp) -> usize;
+    /// Whether the method's final residuals are limited at run time ([`Limits`]).
+    fn limits_residuals(&self) -> bool;
+}
+
+/// One iterate of a sampled method.
+#[derive(Clone, Debug)]
+pub struct Iterate {
+    /// The plan (with the soft slacks after it, where the method has them).
+    pub z: DVector<f64>,
+    /// The relative primal residual (zero for a method without one).
+    pub primal: f64,
+    /// The relative dual residual (zero for a method without one).
+    pub dual: f64,
+    /// Whether the method failed here (its plan is then not judged).
+    pub failed: bool,
+}
+
+/// One control step of a sampled method.
+pub struct Stepped<S> {
+    /// The solve's last iterate.
+    pub iterate: Iterate,
+    /// The plan the controller applies, inside the input box.
+    pub plan: DVector<f64>,
+    /// The next step's warm start.
+    pub next: S,
+    /// Whether the plan is a fallback rather than the solve's.
+    pub fell_back: bool,
+}
+
+/// The interior-point method ([`crate::solver::ipm`]): Mehrotra from the shifted (z, s, λ).
+pub struct InteriorPoint;
+
+impl Sampled for InteriorPoint {
+    type Start = Start;
+
+    fn title(&self) -> &'static str {
+        "the interior-point method"
+    }
+
+    fn cold(&self, _qp: &Qp) -> Start {
+        Start::Cold
+    }
+
+    fn probe(&self) -> (usize, usize) {
+        (MAX_PROBE, MAX_PROBE)
+    }
+
+    fn trajectory(
+        &self,
+        _qp: &Qp,
+        problem: &InequalityQp,
+        start: &Start,
+        iterations: usize,
+    ) -> Vec<Iterate> {
+        trajectory(problem, start, iterations)
+            .into_iter()
+            .map(|r| interior_iterate(&r))
+            .collect()
+    }
+
+    fn control_step(
+        &self,
+        qp: &Qp,
+        f: &DVector<f64>,
+        offset: &DVector<f64>,
+        start: &Start,
+        previous_plan: &DVector<f64>,
+        count: usize,
+    ) -> Stepped<Start> {
+        let step = control_step(qp, f, offset, start, previous_plan, count, &Limits::NONE);
+        Stepped {
+            iterate: interior_iterate(&step.result),
+            next: shifted_start(qp, &step),
+            fell_back: step.fallback != Fallback::Solved,
+            plan: step.plan,
+        }
+    }
+
+    fn macs_per_iteration(&self, qp: &Qp) -> usize {
+        mpc_macs_per_iteration(qp)
+    }
+
+    fn limits_residuals(&self) -> bool {
+        true
+    }
+}
+
+fn interior_iterate(r: &IpmResult) -> Iterate {
+    Iterate {
+        z: r.z.clone(),
+        primal: r.primal_residual,
+        dual: r.dual_residual,
+        failed: r.status == Status::NumericalFailure,
+    }
+}
+
+/// A first-order method on the input box ([`crate::solver::Algorithm`]): its reference iteration with
+/// the spec's step, warm-started from the previous plan shifted with the rest input appended.
+pub struct FirstOrder(pub &'static dyn Algorithm);
+
+/// The most iterations a first-order case is run for when its count is measured.
+pub const FIRST_ORDER_PROBE: usize = 20_000;
+
+impl FirstOrder {
+    /// `iterations` reference iterations from `start`, reporting every plan.
+    fn run(
+        &self,
+        qp: &Qp,
+        f: &DVector<f64>,
+        start: &DVector<f64>,
+        iterations: usize,
+        observe: &mut dyn FnMut(&DVector<f64>),
+    ) -> DVector<f64> {
+        let nu = qp.u_min.len();
+        let observe = std::cell::RefCell::new(observe);
+        let step = |y: &DVector<f64>| {
+            let stepped = y - (&qp.H * y + f) * qp.step;
+            let u = DVector::from_fn(stepped.len(), |i, _| {
+                crate::linalg::project(stepped[i], qp.u_min[i % nu], qp.u_max[i % nu])
+            });
+            (observe.borrow_mut())(&u);
+            u
+        };
+        self.0
+            .reference(&qp.parameters(), start.clone(), iterations, &step)
+    }
+}
+
+impl Sampled for FirstOrder {
+    type Start = DVector<f64>;
+
+    fn title(&self) -> &'static str {
+        self.0.title()
+    }
+
+    fn cold(&self, qp: &Qp) -> DVector<f64> {
+        qp.rest_plan()
+    }
+
+    fn probe(&self) -> (usize, usize) {
+        (64, FIRST_ORDER_PROBE)
+    }
+
+    fn trajectory(
+        &self,
+        qp: &Qp,
+        problem: &InequalityQp,
+        start: &DVector<f64>,
+        iterations: usize,
+    ) -> Vec<Iterate> {
+        let mut out = vec![plain_iterate(start.clone())];
+        self.run(qp, &problem.f, start, iterations, &mut |u| {
+            out.push(plain_iterate(u.clone()))
+        });
+        out
+    }
+
+    fn control_step(
+        &self,
+        qp: &Qp,
+        f: &DVector<f64>,
+        _offset: &DVector<f64>,
+        start: &DVector<f64>,
+        _previous_plan: &DVector<f64>,
+        count: usize,
+    ) -> Stepped<DVector<f64>> {
+        let plan = self.run(qp, f, start, count, &mut |_| {});
+        let nu = qp.u_min.len();
+        let mut next = plan.clone();
+        let n = next.len();
+        next.as_mut_slice().copy_within(nu.., 0);
+        next.rows_mut(n - nu, nu).copy_from(&qp.rest_input());
+        Stepped {
+            iterate: plain_iterate(plan.clone()),
+            plan,
+            next,
+            fell_back: false,
+        }
+    }
+
+    fn macs_per_iteration(&self, qp: &Qp) -> usize {
+        let n = qp.H.nrows();
+        n * n + self.0.update_macs(n)
+    }
+
+    fn limits_residuals(&self) -> bool {
+        false
+    }
+}
+
+fn plain_iterate(z: DVector<f64>) -> Iterate {
+    Iterate {
+        z,
+        primal: 0.0,
+        dual: 0.0,
+        failed: false,
+    }
+}
+
+/// The multiply-adds the sample has spent, against the build's budget.
+struct Spent {
+    macs: f64,
+}
+
+impl Spent {
+    fn add(&mut self, macs: f64, spec: &Spec, title: &str) -> Result<(), Diagnostics> {
+        self.macs += macs;
+        if self.macs <= crate::budget::LOWERING_MACS {
+            return Ok(());
+        }
+        Err(Diagnostic::new(
+            format!(
+                "sampling {title}'s certificate has taken more than the build's limit of {:.0e} multiply-adds",
+                crate::budget::LOWERING_MACS
+            ),
+            spec.spans.get("mpc.region").or(spec.spans.get("mpc.method")),
+        )
+        .note("hint: fewer `samples`, `sequences` or `steps` in `[mpc.region]`, a looser `accuracy`, or a method that needs fewer iterations")
+        .into())
+    }
+}
+
+/// A case run until its need is measured: the run and the count, `None` where it does not reach
+/// `accuracy` within the method's most ([`Sampled::probe`]). The run is at least `at_least` long.
+#[allow(clippy::too_many_arguments)]
+fn measure<M: Sampled>(
+    method: &M,
+    qp: &Qp,
+    problem: &InequalityQp,
+    start: &M::Start,
+    exact: &IpmResult,
+    offset: &DVector<f64>,
+    at_least: usize,
+    spent: &mut Spent,
+    spec: &Spec,
+) -> Result<Option<(Vec<Iterate>, usize)>, Diagnostics> {
+    let (first, most) = method.probe();
+    let mut length = first.max(at_least);
+    let per_iteration = method.macs_per_iteration(qp) as f64;
+    loop {
+        let run = method.trajectory(qp, problem, start, length);
+        spent.add(length as f64 * per_iteration, spec, method.title())?;
+        let k = needed(qp, &run, exact, offset);
+        match k {
+            Some(k) if 2 * k <= length || length >= most => return Ok(Some((run, k))),
+            None if length >= most => return Ok(None),
+            _ => length = (2 * length).min(most.max(at_least)),
+        }
+    }
+}
+
+/// Certifies `method` on the region of `spec` for the lowered `p`, and resolves its iteration count
+/// (`iterations = "auto"`: the worst need plus [`margin`], at least `floor`). Fails where the region
+/// cannot be resolved, the sample would exceed the build's budget, or a case does not reach
+/// `accuracy` within the method's most iterations.
+pub fn certify<M: Sampled>(
+    spec: &Spec,
+    p: &Problem,
+    method: &M,
+    floor: usize,
+) -> Result<Evidence, Diagnostics> {
     let region = resolve_region(spec, p)?;
-    check_budget(spec, p)?;
+    check_budget(spec, p, method)?;
+    let mut spent = Spent { macs: 0.0 };
     let qp = &p.qp;
     let nx = p.nx;
     let written = &spec.mpc.region;
@@ -121,6 +419,7 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
     let mut cold_counts = Vec::new();
     let mut infeasible_cases = 0;
     let mut cold_runs = Vec::new();
+    let cold = method.cold(qp);
     for c in &cases {
         let (f, offset) = data(p, c);
         let problem = mpc_qp(qp, &f, &offset);
@@ -131,9 +430,11 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
             infeasible_cases += 1;
             continue;
         }
-        let run = trajectory(&problem, &Start::Cold, MAX_PROBE);
-        let Some(k) = needed(qp, &run, &exact, &offset) else {
-            return Err(not_reached(spec, "a cold case", c).into());
+        let measured = measure(
+            method, qp, &problem, &cold, &exact, &offset, 0, &mut spent, spec,
+        )?;
+        let Some((run, k)) = measured else {
+            return Err(not_reached(spec, method, "a cold case", c).into());
         };
         cold_counts.push(k);
         cold_runs.push((run, exact, offset));
@@ -160,10 +461,10 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
         Iterations::Fixed(n) => Some(n),
         Iterations::Auto => None,
     };
-    let mut count = fixed.unwrap_or(cold_worst + margin(cold_worst));
+    let mut count = fixed.unwrap_or((cold_worst + margin(cold_worst)).max(floor));
     let mut warm = Warm::default();
     for _ in 0..4 {
-        warm = warm_sequences(p, &starts, steps, count, spec)?;
+        warm = warm_sequences(p, method, &starts, steps, count, spec, &mut spent)?;
         let worst = warm
             .counts
             .iter()
@@ -171,7 +472,7 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
             .max()
             .unwrap_or(0)
             .max(cold_worst);
-        let wanted = worst + margin(worst);
+        let wanted = (worst + margin(worst)).max(floor);
         if fixed.is_some() || wanted <= count {
             break;
         }
@@ -179,7 +480,7 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
     }
     if count > MAX_ITERATIONS {
         return Err(Diagnostic::new(
-            format!("the interior-point method would need {count} iterations"),
+            format!("{} would need {count} iterations", method.title()),
             span("mpc.iterations"),
         )
         .into());
@@ -196,19 +497,23 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
     // it is then flagged at run time by its residuals, not accepted by them).
     let worst_needed = cold_worst.max(warm.counts.iter().copied().max().unwrap_or(0));
     let at_limit = count.max(worst_needed);
-    let (mut primal, mut dual) = (0.0_f64, 0.0_f64);
-    for s in cold_runs
-        .iter()
-        .map(|(run, _, _)| series(run))
-        .chain(warm.series.iter().cloned())
-    {
-        let (p, d) = s[at_limit.min(s.len() - 1)];
-        primal = primal.max(p);
-        dual = dual.max(d);
-    }
-    let limits = Limits {
-        primal: (LIMIT_FACTOR * primal).max(LIMIT_FLOOR),
-        dual: (LIMIT_FACTOR * dual).max(LIMIT_FLOOR),
+    let limits = if method.limits_residuals() {
+        let (mut primal, mut dual) = (0.0_f64, 0.0_f64);
+        for s in cold_runs
+            .iter()
+            .map(|(run, _, _)| series(run))
+            .chain(warm.series.iter().cloned())
+        {
+            let (p, d) = s[at_limit.min(s.len() - 1)];
+            primal = primal.max(p);
+            dual = dual.max(d);
+        }
+        Limits {
+            primal: (LIMIT_FACTOR * primal).max(LIMIT_FLOOR),
+            dual: (LIMIT_FACTOR * dual).max(LIMIT_FLOOR),
+        }
+    } else {
+        Limits::NONE
     };
     let median = |v: &mut Vec<usize>| {
         v.sort_unstable();
@@ -217,6 +522,7 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
     let mut warm_counts = warm.counts.clone();
     let cold_cases = cold_counts.len();
     Ok(Evidence {
+        method: spec.mpc.method,
         region,
         cold_cases,
         corners,
@@ -234,6 +540,7 @@ pub fn certify(spec: &Spec, p: &Problem) -> Result<Evidence, Diagnostics> {
         worst_violation,
         limits,
         fallbacks: warm.fallbacks,
+        sample_macs: spent.macs,
     })
 }
 
@@ -256,54 +563,58 @@ fn corner_count(nx: usize) -> usize {
         .min(MAX_CORNERS)
 }
 
-/// The sample's cost, predicted before it is spent: every case runs [`MAX_PROBE`] iterations and the
-/// exact reference (about as many again; warm candidates up to four rounds), each iteration
-/// [`mpc_macs_per_iteration`]. It counts against the build budget of lowering
-/// ([`crate::budget::LOWERING_MACS`]), and a sample above it is refused at `[mpc.region]`.
-fn check_budget(spec: &Spec, p: &Problem) -> Result<(), Diagnostics> {
+/// The sample's cost, predicted before it is spent: every case runs the method's first probe
+/// ([`Sampled::probe`]) and the exact reference (about as many iterations again; warm candidates up to
+/// four rounds), each iteration [`Sampled::macs_per_iteration`]. It counts against the build budget of
+/// lowering ([`crate::budget::LOWERING_MACS`]), and a sample above it is refused at `[mpc.region]`
+/// (what a probe doubles past the first is counted as it is spent, against the same limit).
+fn check_budget<M: Sampled>(spec: &Spec, p: &Problem, method: &M) -> Result<(), Diagnostics> {
     let written = &spec.mpc.region;
     let corners = corner_count(p.nx);
     let cold = corners + written.samples.unwrap_or(DEFAULT_SAMPLES);
     let warm =
         4 * written.sequences.unwrap_or(DEFAULT_SEQUENCES) * written.steps.unwrap_or(DEFAULT_STEPS);
-    let macs = ((cold + warm) * 2 * MAX_PROBE) as f64 * mpc_macs_per_iteration(&p.qp) as f64;
+    let per_iteration = method.macs_per_iteration(&p.qp);
+    let macs = ((cold + warm) * 2 * method.probe().0) as f64 * per_iteration as f64;
     if macs <= crate::budget::LOWERING_MACS {
         return Ok(());
     }
     Err(Diagnostic::new(
         format!(
-            "the interior-point method's certificate would take {macs:.2e} multiply-adds to sample, above the build's limit of {:.0e}",
+            "{}'s certificate would take {macs:.2e} multiply-adds to sample, above the build's limit of {:.0e}",
+            method.title(),
             crate::budget::LOWERING_MACS
         ),
         spec.spans.get("mpc.region").or(spec.spans.get("mpc.method")),
     )
-    .label(format!("{cold} cold cases and {warm} warm steps (up to four rounds), {} multiply-adds an iteration", mpc_macs_per_iteration(&p.qp)))
+    .label(format!("{cold} cold cases and {warm} warm steps (up to four rounds), {per_iteration} multiply-adds an iteration"))
     .note("hint: fewer `samples`, `sequences` or `steps` in `[mpc.region]`, or a smaller problem")
     .into())
 }
 
 /// The relative (primal, dual) residuals of a run, iteration by iteration.
-fn series(run: &[IpmResult]) -> Vec<(f64, f64)> {
-    run.iter()
-        .map(|r| (r.primal_residual, r.dual_residual))
-        .collect()
+fn series(run: &[Iterate]) -> Vec<(f64, f64)> {
+    run.iter().map(|r| (r.primal, r.dual)).collect()
 }
 
 /// Closed loops on the nominal model x⁺ = F x + G (u + d), each solve warm-started from the previous
 /// one and run for `count` iterations, as the emitted controller does; every step's need is measured
 /// from the same warm start.
-fn warm_sequences(
+fn warm_sequences<M: Sampled>(
     p: &Problem,
+    method: &M,
     starts: &[Case],
     steps: usize,
     count: usize,
     spec: &Spec,
+    spent: &mut Spent,
 ) -> Result<Warm, Diagnostics> {
     let qp = &p.qp;
     let mut warm = Warm::default();
+    let per_iteration = method.macs_per_iteration(qp) as f64;
     for start_case in starts {
         let mut c = start_case.clone();
-        let mut start = Start::Cold;
+        let mut start = method.cold(qp);
         let mut plan = qp.rest_plan();
         for _ in 0..steps {
             let (f, offset) = data(p, &c);
@@ -313,22 +624,24 @@ fn warm_sequences(
                 // Infeasible from here: the fallback takes over; the sequence ends.
                 break;
             }
-            let run = trajectory(&problem, &start, MAX_PROBE.max(count));
-            let Some(k) = needed(qp, &run, &exact, &offset) else {
-                return Err(not_reached(spec, "a warm closed-loop step", &c).into());
+            let measured = measure(
+                method, qp, &problem, &start, &exact, &offset, count, spent, spec,
+            )?;
+            let Some((run, k)) = measured else {
+                return Err(not_reached(spec, method, "a warm closed-loop step", &c).into());
             };
             warm.counts.push(k);
             warm.series.push(series(&run));
-            let step = control_step(qp, &f, &offset, &start, &plan, count, &Limits::NONE);
-            let r = &step.result;
-            let (e, v) = accuracy_of(qp, r, &exact, &offset);
+            let step = method.control_step(qp, &f, &offset, &start, &plan, count);
+            spent.add(count as f64 * per_iteration, spec, method.title())?;
+            let (e, v) = accuracy_of(qp, &step.iterate, &exact, &offset);
             warm.worst_error = warm.worst_error.max(e);
             warm.worst_violation = warm.worst_violation.max(v);
-            if step.fallback != Fallback::Solved {
+            if step.fell_back {
                 warm.fallbacks += 1;
             }
-            start = shifted_start(qp, &step);
-            plan = step.plan.clone();
+            start = step.next;
+            plan = step.plan;
             let u = plan.rows(0, p.nu).into_owned();
             let mut push = u.clone();
             for i in 0..c.d.len() {
@@ -353,15 +666,15 @@ fn data(p: &Problem, c: &Case) -> (DVector<f64>, DVector<f64>) {
 }
 
 /// The iterate after `count` iterations (the last one when the run stopped early).
-fn at(run: &[IpmResult], count: usize) -> &IpmResult {
+fn at(run: &[Iterate], count: usize) -> &Iterate {
     &run[count.min(run.len() - 1)]
 }
 
 /// |U − U*|∞ / span (worst input) and the worst hard-row violation of an iterate.
-fn accuracy_of(qp: &Qp, r: &IpmResult, exact: &IpmResult, offset: &DVector<f64>) -> (f64, f64) {
+fn accuracy_of(qp: &Qp, r: &Iterate, exact: &IpmResult, offset: &DVector<f64>) -> (f64, f64) {
     let nu = qp.u_min.len();
     let n = qp.N * nu;
-    if r.z.len() < n || r.status == Status::NumericalFailure {
+    if r.z.len() < n || r.failed {
         return (f64::INFINITY, f64::INFINITY);
     }
     let U = DVector::from_fn(n, |i, _| {
@@ -375,7 +688,7 @@ fn accuracy_of(qp: &Qp, r: &IpmResult, exact: &IpmResult, offset: &DVector<f64>)
 }
 
 /// The iterations a run needs: the first k from which every iterate meets the accuracy.
-fn needed(qp: &Qp, run: &[IpmResult], exact: &IpmResult, offset: &DVector<f64>) -> Option<usize> {
+fn needed(qp: &Qp, run: &[Iterate], exact: &IpmResult, offset: &DVector<f64>) -> Option<usize> {
     let ok: Vec<bool> = run
         .iter()
         .map(|r| {
@@ -390,16 +703,18 @@ fn needed(qp: &Qp, run: &[IpmResult], exact: &IpmResult, offset: &DVector<f64>) 
     Some(first_bad_from_end.map_or(0, |i| i + 1).max(1))
 }
 
-fn not_reached(spec: &Spec, what: &str, c: &Case) -> Diagnostic {
+fn not_reached<M: Sampled>(spec: &Spec, method: &M, what: &str, c: &Case) -> Diagnostic {
+    let most = method.probe().1;
     Diagnostic::new(
         format!(
-            "the interior-point method does not reach `accuracy = {:e}` within {MAX_PROBE} iterations on {what} of `[mpc.region]`",
+            "{} does not reach `accuracy = {:e}` within {most} iterations on {what} of `[mpc.region]`",
+            method.title(),
             spec.mpc.accuracy
         ),
-        spec.spans.get("mpc.accuracy").or(spec.spans.get("mpc.method")),
+        spec.spans.get("mpc.accuracy").or(spec.spans.get("mpc.method")).or(spec.spans.get("mpc.region")),
     )
     .label(format!("at x0 = {:?}", c.x0.as_slice()))
-    .note("hint: loosen `accuracy`, scale the model's units so the Hessian is better conditioned, or narrow `[mpc.region]`")
+    .note("hint: loosen `accuracy`, scale the model's units so the Hessian is better conditioned, narrow `[mpc.region]`, or choose another `method`")
 }
 
 /// The region: `[mpc.region]`, else the state bounds, else an error naming the unbounded state; the

@@ -137,7 +137,7 @@ fn auto_iterations_are_the_bound() {
     let diags = load(&missing).unwrap_err();
     assert_eq!(
         diags.iter().next().unwrap().message,
-        "`iterations = \"auto\"` needs `tolerance`"
+        "`iterations = \"auto\"` needs `tolerance` or `[mpc.region]`"
     );
 }
 

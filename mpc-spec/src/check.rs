@@ -245,13 +245,14 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
         }
     }
     let method = spelled(&raw.method, Method::Fgm, Method::from_name);
-    // An interior-point method's "auto" is certified on `[mpc.region]` against `accuracy`.
+    // An interior-point method's "auto" is certified on `[mpc.region]` against `accuracy`; a
+    // first-order method's by its a priori bound for `tolerance`, or on `[mpc.region]` when written.
     if let (Some(it), None, true) = (&raw.iterations, &raw.tolerance, method.box_only()) {
-        if it.value.is_none() && !raw.has("mpc.tolerance") {
+        if it.value.is_none() && !raw.has("mpc.tolerance") && !raw.has("mpc.region") {
             diags.push(
-                Diagnostic::new("`iterations = \"auto\"` needs `tolerance`", it.span.clone())
-                    .label("picks the iterations that guarantee `tolerance`")
-                    .note("hint: add `tolerance = 1e-4` to `[mpc]`: J(U_k) − J* ≤ tolerance·(J(U_0) − J*)"),
+                Diagnostic::new("`iterations = \"auto\"` needs `tolerance` or `[mpc.region]`", it.span.clone())
+                    .label("picks the iterations that guarantee `tolerance`, or that reach `accuracy` on the region's sample")
+                    .note("hint: add `tolerance = 1e-4` to `[mpc]` (J(U_k) − J* ≤ tolerance·(J(U_0) − J*), an a priori bound), or `[mpc.region]` with the states and references the controller meets (certified by sampling against `accuracy`)"),
             );
         }
     }

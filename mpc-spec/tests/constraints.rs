@@ -361,12 +361,18 @@ fn ipm_takes_no_step_nor_tolerance() {
 }
 
 #[test]
-fn auto_iterations_need_tolerance_only_for_first_order_methods() {
+fn auto_iterations_need_tolerance_or_a_region_for_first_order_methods() {
     let src = ipm("").replace("iterations = 20", "iterations = \"auto\"");
     assert_eq!(load(&src).unwrap().mpc.iterations, Iterations::Auto);
     let src = with_method("", "").replace("iterations = 20", "iterations = \"auto\"");
     let (msg, _, _) = only_error(&src);
-    assert_eq!(msg, "`iterations = \"auto\"` needs `tolerance`");
+    assert_eq!(
+        msg,
+        "`iterations = \"auto\"` needs `tolerance` or `[mpc.region]`"
+    );
+    // A region certifies a first-order method's count by sampling instead.
+    let region = format!("{src}\n[mpc.region]\nx_min = [-1, -1]\nx_max = [1, 1]\n");
+    assert_eq!(load(&region).unwrap().mpc.iterations, Iterations::Auto);
 }
 
 #[test]

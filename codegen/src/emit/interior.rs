@@ -189,7 +189,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     };
     let evidence_doc = match &qp.evidence {
         Some(e) => format!(
-            " Certified by sampling, not proved: {} cold cases ({} corners) and {} warm closed-loop steps of `[mpc.region]` needed at most {} (cold) and {} (warm) iterations to reach `accuracy`; `report::IPM_*` has the rest.",
+            " Certified by sampling, not proved: {} cold cases ({} corners) and {} warm closed-loop steps of `[mpc.region]` needed at most {} (cold) and {} (warm) iterations to reach `accuracy`; `report::SAMPLED_*` has the rest.",
             e.cold_cases, e.corners, e.warm_steps, e.cold_worst, e.warm_worst
         ),
         None => " Not certified.".to_string(),
