@@ -134,6 +134,10 @@ pub struct Certificate {
     pub sampled: Option<crate::evidence::Evidence>,
     /// `[mpc] accuracy`.
     pub accuracy: f64,
+    /// The method as written (`auto` when it was not); the method used is the problem's.
+    pub method_requested: mpc_spec::Method,
+    /// What `method = "auto"` weighed ([`crate::choice`]); empty for a written method.
+    pub candidates: Vec<crate::evidence::Candidate>,
 }
 
 /// A number of the certificate.
@@ -579,6 +583,8 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
         ),
         sampled: qp.evidence.clone(),
         accuracy: qp.accuracy,
+        method_requested: p.requested,
+        candidates: p.candidates.clone(),
         disturbance_time_constant: p.filter.as_ref().filter(|f| f.nd > 0).map(|f| {
             let na = p.nx + f.nd;
             let error = &f.Fa * (DMatrix::identity(na, na) - &f.K_inf * &f.Ca);

@@ -76,3 +76,27 @@ impl Limits {
         dual: f64::INFINITY,
     };
 }
+
+/// One method `method = "auto"` weighed ([`crate::choice`]).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Candidate {
+    /// The method.
+    pub method: mpc_spec::Method,
+    /// Why it could not be used, if it could not (the first finding of its lowering or certificate,
+    /// or the rule that excludes it).
+    pub unavailable: Option<String>,
+    /// Its iterations per control step.
+    pub iterations: usize,
+    /// Multiply-adds of one iteration.
+    pub macs_per_iteration: usize,
+    /// Multiply-adds of one solve (iterations × per iteration).
+    pub macs_per_solve: usize,
+    /// How its count is certified: `"sampled"` on `[mpc.region]`, `"a priori"` (the bound of
+    /// `tolerance`) or `"as written"`.
+    pub certified: &'static str,
+    /// Whether its certificate shows it reaching `accuracy` at its count (`None`: no sample to show
+    /// it, for a first-order method certified a priori or as written).
+    pub reaches_accuracy: Option<bool>,
+    /// Whether it was chosen.
+    pub chosen: bool,
+}

@@ -28,6 +28,7 @@
 
 pub mod budget;
 pub mod certificate;
+pub mod choice;
 pub mod constraints;
 pub mod coordinates;
 pub mod cost;
@@ -116,12 +117,19 @@ impl Generated {
     }
 }
 
-/// Lowers `spec` ([`lower::uncertified`]) and certifies its iteration count on a sample of
+/// Lowers `spec` with its method resolved ([`choice::resolve`]: `method = "auto"` becomes the cheapest
+/// method whose certificate reaches `accuracy`) and its iteration count certified: the problem every
+/// later phase works on.
+pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
+    choice::resolve(spec).map(|(_, problem)| problem)
+}
+
+/// Lowers `spec`, whose method is not `auto`, ([`lower::uncertified`]) and certifies its iteration count on a sample of
 /// `[mpc.region]` ([`sampling::certify`]) where there is one to sample: always for the interior-point
 /// method, and for a first-order method when `[mpc.region]` is written (its `iterations = "auto"` is
 /// then at least the sample's need for `accuracy`, and at least what `tolerance` guarantees): the
 /// problem every later phase works on.
-pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
+pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
     let mut problem = lower::uncertified(spec)?;
     let evidence = match solver::algorithm(spec.mpc.method) {
         None => Some(sampling::certify(
@@ -154,7 +162,8 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
 
 /// Lowers `spec`, plans its solver, certifies it and emits its module.
 pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
-    let problem = lower(spec)?;
+    let (resolved, problem) = choice::resolve(spec)?;
+    let spec = &resolved;
     let plan = plan(spec, &problem)?;
     // The build's cost is counted before the certificate's analyses, which take seconds on a large H.
     let (resources, build_cost) = certificate::predicted(&problem, &plan);

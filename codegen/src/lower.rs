@@ -231,6 +231,10 @@ pub struct Problem {
     pub scalar: Scalar,
     /// The model per input lane, when F, G, Q, Qf and R are all `A ⊗ I_nu` ([`ModelLanes`]).
     pub model_lanes: Option<ModelLanes>,
+    /// The method as the spec wrote it (`Auto` when it did not); [`Qp::method`] is the one used.
+    pub requested: Method,
+    /// What `method = "auto"` weighed ([`crate::choice`]); empty for a written method.
+    pub candidates: Vec<crate::evidence::Candidate>,
 }
 
 impl Problem {
@@ -416,6 +420,8 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
         C,
         scalar: spec.codegen.scalar,
         model_lanes,
+        requested: spec.mpc.method_requested,
+        candidates: Vec::new(),
     })
 }
 

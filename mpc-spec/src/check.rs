@@ -244,10 +244,19 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
             }
         }
     }
-    let method = spelled(&raw.method, Method::Fgm, Method::from_name);
+    let method_requested = spelled(&raw.method, Method::Auto, Method::from_name);
+    // Keys only a first-order method takes make `auto` choose the fast gradient method.
+    let fgm_keys = raw.step.as_ref().is_some_and(|s| s.value.is_some()) || raw.tolerance.is_some();
+    let method = match method_requested {
+        Method::Auto if fgm_keys => Method::Fgm,
+        m => m,
+    };
+    let constrained = CONSTRAINT_KEYS.iter().any(|k| raw.has(k)) || !raw.constraints.is_empty();
     // An interior-point method's "auto" is certified on `[mpc.region]` against `accuracy`; a
     // first-order method's by its a priori bound for `tolerance`, or on `[mpc.region]` when written.
-    if let (Some(it), None, true) = (&raw.iterations, &raw.tolerance, method.box_only()) {
+    // Under `auto` without constraints only a first-order method is certain to be a candidate.
+    let first_order = method.box_only() || (method == Method::Auto && !constrained);
+    if let (Some(it), None, true) = (&raw.iterations, &raw.tolerance, first_order) {
         if it.value.is_none() && !raw.has("mpc.tolerance") && !raw.has("mpc.region") {
             diags.push(
                 Diagnostic::new("`iterations = \"auto\"` needs `tolerance` or `[mpc.region]`", it.span.clone())
@@ -256,7 +265,7 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
             );
         }
     }
-    check_method_keys(raw, method, diags);
+    check_method_keys(raw, method, method_requested, diags);
     let constraints = check_constraints(raw, nx, nu, diags);
     let z = match &outputs {
         Some(Some(c)) => Some((c.rows, "nz, the rows of `outputs`")),
@@ -278,6 +287,7 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
         strict: raw.strict.as_ref().is_some_and(|s| s.value),
         accept_unstable: raw.accept_unstable.as_ref().is_some_and(|s| s.value),
         method,
+        method_requested,
         step,
         outputs: outputs?,
         q: q?,
@@ -292,6 +302,9 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
         region: region?,
     })
 }
+
+/// The keys of `[mpc]` that constrain more than the input box (with `[[mpc.constraint]]`).
+const CONSTRAINT_KEYS: &[&str] = &["mpc.x_min", "mpc.x_max", "mpc.du_min", "mpc.du_max"];
 
 /// Either `sigma_a` with `sigma_meas` (double integrator only) or `q` with `r`; the covariances are
 /// symmetric of sizes nx and ny; `p0` is nx × nx.
@@ -577,13 +590,21 @@ impl Ordered<'_> {
 /// What the first-order methods cannot solve needs `method = "ipm"`: `x_min`, `x_max`, `du_min`, `du_max`
 /// and `[[mpc.constraint]]` (and with them `x_soft` and `soft`); `ipm` in turn takes no gradient `step`
 /// nor `tolerance`, its accuracy being `accuracy`.
-fn check_method_keys(raw: &Raw, method: Method, diags: &mut Diagnostics) {
+fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut Diagnostics) {
     let name = method.name();
+    if method == Method::Auto {
+        return;
+    }
     if method.box_only() {
-        let solver = if raw.method.is_some() {
-            format!("`method = \"{name}\"`")
+        let solver = if requested == Method::Auto {
+            let key = if raw.tolerance.is_some() {
+                "`tolerance`"
+            } else {
+                "a numeric `step`"
+            };
+            format!("`method = \"auto\"` chooses `{name}` for {key}, which only a first-order method takes, and `{name}`")
         } else {
-            format!("the default method, `{name}`,")
+            format!("`method = \"{name}\"`")
         };
         let span = |v: &Option<Located<Vec<f64>>>| v.as_ref().map(|v| v.span.clone());
         let keys = [
@@ -605,12 +626,22 @@ fn check_method_keys(raw: &Raw, method: Method, diags: &mut Diagnostics) {
                 raw.constraints.first().map(|g| g.span.clone()),
             ),
         ];
+        let fix = if requested == Method::Auto {
+            "remove it so that `auto` chooses among the methods that take constraints, or write `method = \"ipm\"`"
+        } else {
+            "write `method = \"auto\"` (the default: the compiler's choice) or `method = \"ipm\"` in `[mpc]` for state, move and row constraints"
+        };
         for (key, what, span) in keys {
             let Some(span) = span else { continue };
             diags.push(
-                Diagnostic::new(format!("`{key}` needs `method = \"ipm\"`"), span)
-                    .label(what)
-                    .note(format!("hint: {solver} solves the input box only (a projection per iteration); write `method = \"ipm\"` in `[mpc]`, the interior-point method, for state, move and row constraints")),
+                Diagnostic::new(
+                    format!("`{key}` is a constraint, which `method = \"{name}\"` cannot take"),
+                    span,
+                )
+                .label(what)
+                .note(format!(
+                    "hint: {solver} solves the input box only (a projection per iteration); {fix}"
+                )),
             );
         }
         return;

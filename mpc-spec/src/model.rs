@@ -188,6 +188,10 @@ spelled! {
         /// A fixed-iteration primal-dual interior-point method (Mehrotra's predictor-corrector) in f64:
         /// for state, output and rate constraints and ill-conditioned plants.
         Ipm = "ipm",
+        /// The compiler's choice (the default): the cheapest method that its certificate shows
+        /// reaching `accuracy`, resolved at build time; FGM-only keys (a numeric `step`, `tolerance`)
+        /// choose `fgm`.
+        Auto = "auto",
     }
 }
 
@@ -220,6 +224,17 @@ pub struct Constraints {
     pub du_max: Vec<f64>,
     /// `[[mpc.constraint]]`, in the order written.
     pub rows: Vec<RowGroup>,
+}
+
+impl Constraints {
+    /// Whether nothing beyond the input box is constrained.
+    pub fn is_empty(&self) -> bool {
+        self.x_min.is_empty()
+            && self.x_max.is_empty()
+            && self.du_min.is_empty()
+            && self.du_max.is_empty()
+            && self.rows.is_empty()
+    }
 }
 
 impl Constraints {
@@ -306,8 +321,11 @@ pub struct Mpc {
     pub strict: bool,
     /// Whether a closed loop found unstable is accepted.
     pub accept_unstable: bool,
-    /// The solver.
+    /// The solver: as written, or `fgm` where `method = "auto"` (the default) meets FGM-only keys;
+    /// `Auto` is resolved by the compiler.
     pub method: Method,
+    /// The method as written (`Auto` when not written).
+    pub method_requested: Method,
     /// The step size.
     pub step: Step,
     /// The tracked outputs z = C_z x, `outputs` (nz × nx); `None`: the whole state is tracked (C_z = I).

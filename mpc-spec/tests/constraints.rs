@@ -55,7 +55,9 @@ fn without_the_new_keys_nothing_is_constrained() {
     assert!(!spec.mpc.constraints.any());
     assert_eq!(spec.mpc.accuracy, DEFAULT_ACCURACY);
     assert_eq!(spec.mpc.region, Region::default());
-    assert_eq!(spec.mpc.method, Method::Fgm);
+    // The default is the compiler's choice.
+    assert_eq!(spec.mpc.method, Method::Auto);
+    assert_eq!(spec.mpc.method_requested, Method::Auto);
 }
 
 #[test]
@@ -298,7 +300,7 @@ fn row_group_keys_are_spelled_and_the_groups_are_tables() {
 #[test]
 fn x_min_is_a_key_now() {
     // It used to be an unknown key with "did you mean `u_min`?".
-    let diags = load(&with_method("", "x_min = [0, 0]\n")).unwrap_err();
+    let diags = load(&with_method("method = \"fgm\"\n", "x_min = [0, 0]\n")).unwrap_err();
     assert!(
         diags.iter().all(|d| !d.message.starts_with("unknown key")),
         "{diags:?}"
@@ -310,7 +312,7 @@ fn x_min_is_a_key_now() {
 }
 
 #[test]
-fn constraints_need_ipm() {
+fn constraints_need_a_method_that_takes_them() {
     for (extra, key, at) in [
         ("x_min = [0, 0]\n", "x_min", "[0, 0]"),
         ("x_max = [1, 1]\n", "x_max", "[1, 1]"),
@@ -318,15 +320,18 @@ fn constraints_need_ipm() {
         ("du_max = [1]\n", "du_max", "[1]"),
         (GROUP, "[[mpc.constraint]]", "[[mpc.constraint]]"),
     ] {
-        for method in ["", "method = \"fgm\"\n", "method = \"gradient\"\n"] {
+        // The default, `auto`, takes them.
+        assert_eq!(load(&with_method("", extra)).unwrap().mpc.method, Method::Auto);
+        for method in ["method = \"fgm\"\n", "method = \"gradient\"\n", "step = 0.5\n"] {
             let (msg, span, note) = only_error(&with_method(method, extra));
-            assert_eq!(msg, format!("`{key}` needs `method = \"ipm\"`"));
+            let name = if method.contains("gradient") { "gradient" } else { "fgm" };
+            assert_eq!(msg, format!("`{key}` is a constraint, which `method = \"{name}\"` cannot take"));
             assert_eq!(span, at);
             let note = note.unwrap();
             assert!(note.contains("solves the input box only"), "{note}");
-            if method.is_empty() {
+            if method.starts_with("step") {
                 assert!(
-                    note.starts_with("hint: the default method, `fgm`,"),
+                    note.starts_with("hint: `method = \"auto\"` chooses `fgm` for a numeric `step`"),
                     "{note}"
                 );
             }
@@ -334,7 +339,7 @@ fn constraints_need_ipm() {
     }
     // Both bounds written: one error each.
     let errs = errors(&with_method(
-        "",
+        "method = \"fgm\"\n",
         "x_min = [0, 0]\nx_max = [1, 1]\nx_soft = 3\n",
     ));
     assert_eq!(errs.len(), 2, "{errs:?}");

@@ -148,6 +148,15 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
     {
         lines.insert(0, ("gap Δ_k = J(U_k) − J*".to_string(), form));
     }
+    if !c.candidates.is_empty() {
+        sections.insert(
+            0,
+            (
+                "method = \"auto\": the candidates (cheapest that reaches `accuracy`; force with [mpc] method)",
+                candidate_lines(c),
+            ),
+        );
+    }
     sections.push((
         "emission of the gradient (cost model; force with [codegen] emission)",
         emission_lines(c),
@@ -157,14 +166,14 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
         .flat_map(|(_, lines)| lines.iter().map(|(what, _)| what.chars().count()))
         .max()
         .unwrap_or(0);
+    let method = if p.requested == mpc_spec::Method::Auto {
+        format!("{} (auto)", p.qp.method.name())
+    } else {
+        p.qp.method.name().to_string()
+    };
     let mut out = format!(
-        "{shown}: {}, horizon {}, {} iterations, nx = {}, nu = {}, ny = {}",
-        p.qp.method.name(),
-        p.qp.N,
-        c.iterations,
-        p.nx,
-        p.nu,
-        p.ny
+        "{shown}: {method}, horizon {}, {} iterations, nx = {}, nu = {}, ny = {}",
+        p.qp.N, c.iterations, p.nx, p.nu, p.ny
     );
     if p.qp.Cz.is_some() {
         let _ = write!(out, ", nz = {} tracked outputs", p.qp.nz);
@@ -193,6 +202,36 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
         );
     }
     out
+}
+
+/// One line per candidate of `method = "auto"`: its count, how it is certified and its cost, or why it
+/// could not be used.
+fn candidate_lines(c: &Certificate) -> Vec<(String, String)> {
+    c.candidates
+        .iter()
+        .map(|k| {
+            let what = format!(
+                "{}{}",
+                k.method.name(),
+                if k.chosen { " (chosen)" } else { "" }
+            );
+            let value = match &k.unavailable {
+                Some(why) => format!("unavailable: {why}"),
+                None => {
+                    let reach = match k.reaches_accuracy {
+                        Some(true) => ", reaches `accuracy` on the sample",
+                        Some(false) => ", misses `accuracy` on the sample",
+                        None => "",
+                    };
+                    format!(
+                        "{} iterations ({}{reach}) × {} = {} multiply-adds a solve",
+                        k.iterations, k.certified, k.macs_per_iteration, k.macs_per_solve
+                    )
+                }
+            };
+            (what, value)
+        })
+        .collect()
 }
 
 /// A value as a plain number, `-` where it is absent.

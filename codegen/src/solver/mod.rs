@@ -30,6 +30,8 @@ pub fn algorithm(method: Method) -> Option<&'static dyn Algorithm> {
         Method::Fgm => Some(&Fgm),
         Method::Gradient => Some(&Gradient),
         Method::Ipm => None,
+        // Resolved before any phase asks (`crate::choice`).
+        Method::Auto => None,
     }
 }
 

@@ -1,0 +1,177 @@
+//! `method = "auto"`, the default (`codegen::choice`): the candidates weighed, the choice for every
+//! shipped spec pinned, FGM-only keys choosing FGM, and no choice that misses `accuracy` on its sample.
+#![allow(non_snake_case)]
+
+use codegen::{generate_from_source, lower, Opt};
+use mpc_spec::{load, Method};
+
+/// `src` with its `method = …` line removed: the default, `auto`.
+fn without_method(src: &str) -> String {
+    src.lines()
+        .filter(|l| !l.trim_start().starts_with("method ="))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+const PAPER: &str = include_str!("../../specs/paper.toml");
+
+#[test]
+fn the_paper_without_its_method_line_is_fgm_and_emits_the_same_module() {
+    let auto = without_method(PAPER);
+    assert!(!auto.contains("method ="));
+    let spec = load(&auto).unwrap();
+    assert_eq!(spec.mpc.method, Method::Auto);
+    let a = generate_from_source(&auto, &Opt::default()).unwrap();
+    let written = generate_from_source(PAPER, &Opt::default()).unwrap();
+    assert_eq!(a.problem.qp.method, Method::Fgm);
+    assert_eq!(a.problem.requested, Method::Auto);
+    assert_eq!(a.tokens.to_string(), written.tokens.to_string());
+    // Both candidates were weighed; the interior-point method has no region to be certified on.
+    let c = &a.certificate.candidates;
+    assert_eq!(c.len(), 2);
+    assert!(c[0].chosen && c[0].method == Method::Fgm && c[0].certified == "as written");
+    assert!(
+        c[1].unavailable.as_deref().unwrap().contains("no range"),
+        "{c:?}"
+    );
+    assert!(written.certificate.candidates.is_empty());
+}
+
+#[test]
+fn fgm_only_keys_choose_fgm() {
+    let stepped = without_method(PAPER).replace("step = \"auto\"", "step = 0.04");
+    let spec = load(&stepped).unwrap();
+    assert_eq!(
+        (spec.mpc.method, spec.mpc.method_requested),
+        (Method::Fgm, Method::Auto)
+    );
+    let tolerance =
+        without_method(PAPER).replace("iterations = 30", "iterations = \"auto\"\ntolerance = 1e-4");
+    assert_eq!(load(&tolerance).unwrap().mpc.method, Method::Fgm);
+    // With a constraint as well, the error says why the constraint cannot be taken.
+    let constrained = stepped.replace(
+        "u_max = [10, 10, 10]",
+        "u_max = [10, 10, 10]\nx_max = [inf, inf, inf, 2, 2, 2]",
+    );
+    let err = load(&constrained).unwrap_err();
+    let d = err.iter().next().unwrap();
+    assert!(
+        d.message.contains("`x_max` is a constraint"),
+        "{}",
+        d.message
+    );
+    let note = d.note.as_deref().unwrap();
+    assert!(
+        note.contains("a numeric `step`") && note.contains("remove it"),
+        "{note}"
+    );
+}
+
+/// The choice of every shipped spec with its method line removed, pinned.
+#[test]
+fn shipped_specs_under_auto() {
+    let specs: &[(&str, &str, Method)] = &[
+        ("paper", include_str!("../../specs/paper.toml"), Method::Fgm),
+        (
+            "paper-faithful",
+            include_str!("../../specs/paper-faithful.toml"),
+            Method::Gradient,
+        ),
+        (
+            "paper-initial",
+            include_str!("../../specs/paper-initial.toml"),
+            Method::Gradient,
+        ),
+        (
+            "paper-offset-free",
+            include_str!("../../specs/paper-offset-free.toml"),
+            Method::Fgm,
+        ),
+        (
+            "afti16",
+            include_str!("../../specs/afti16.toml"),
+            Method::Ipm,
+        ),
+        (
+            "quadcopter",
+            include_str!("../../specs/quadcopter.toml"),
+            Method::Ipm,
+        ),
+        ("hover", include_str!("../../specs/hover.toml"), Method::Ipm),
+        (
+            "paper-limits",
+            include_str!("../../specs/paper-limits.toml"),
+            Method::Ipm,
+        ),
+    ];
+    for (name, src, expected) in specs {
+        let written = load(src).unwrap().mpc.method;
+        let auto = without_method(src);
+        let spec = load(&auto).unwrap();
+        let p = lower(&spec).unwrap();
+        // `gradient` is never auto's choice: FGM dominates it; the paper's faithful specs keep their
+        // written method, and under auto their FGM-only `step` chooses FGM.
+        let chosen = p.qp.method;
+        println!("{name}: written {written:?}, auto {chosen:?}");
+        let expected = if *expected == Method::Gradient {
+            Method::Fgm
+        } else {
+            *expected
+        };
+        assert_eq!(chosen, expected, "{name}");
+    }
+}
+
+/// A box-only, ill-conditioned plant (OSQP's quadcopter without its state bounds) with a region: both
+/// methods are sampled, and a written count that FGM cannot meet leaves only the interior-point method.
+#[test]
+fn a_candidate_that_misses_accuracy_at_a_written_count_is_never_chosen() {
+    let box_only: String = include_str!("../../specs/quadcopter.toml")
+        .lines()
+        // The state bounds of `[mpc]` (those of `[mpc.region]` stay).
+        .filter(|l| {
+            !l.starts_with("x_min = [-0.52")
+                && !l.starts_with("x_max = [0.52")
+                && !l.starts_with("method =")
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let fixed = box_only.replace("iterations = \"auto\"", "iterations = 30");
+    assert!(fixed.contains("iterations = 30"), "the spec writes `auto`");
+    let g = generate_from_source(&fixed, &Opt::default()).unwrap();
+    let c = &g.certificate.candidates;
+    let fgm = c.iter().find(|k| k.method == Method::Fgm).unwrap();
+    let ipm = c.iter().find(|k| k.method == Method::Ipm).unwrap();
+    assert_eq!(fgm.reaches_accuracy, Some(false), "{fgm:?}");
+    assert_eq!(ipm.reaches_accuracy, Some(true), "{ipm:?}");
+    assert!(ipm.chosen && !fgm.chosen);
+    assert!(
+        fgm.macs_per_solve < ipm.macs_per_solve,
+        "FGM is cheaper but misses"
+    );
+    assert_eq!(g.problem.qp.method, Method::Ipm);
+}
+
+/// With a region, FGM on the well-conditioned paper is sampled too and is far cheaper than the
+/// interior-point method.
+#[test]
+fn the_cheapest_candidate_that_reaches_accuracy_wins() {
+    let src = without_method(PAPER)
+        .replace("iterations = 30", "iterations = \"auto\"")
+        .replace(
+            "[kalman]",
+            "[mpc.region]\nx_min = [-7.0, -5.0, 0.0, -4.0, -4.0, -4.0]\nx_max = [11.0, 11.0, 16.0, 4.0, 4.0, 4.0]\n\n[kalman]",
+        );
+    let g = generate_from_source(&src, &Opt::default()).unwrap();
+    let c = &g.certificate.candidates;
+    assert!(
+        c.iter()
+            .all(|k| k.unavailable.is_none() && k.reaches_accuracy == Some(true)),
+        "{c:?}"
+    );
+    let (fgm, ipm) = (&c[0], &c[1]);
+    assert!(
+        fgm.chosen && fgm.macs_per_solve * 3 < ipm.macs_per_solve,
+        "{c:?}"
+    );
+}
