@@ -16,6 +16,8 @@
 //! - [`ipm`] (`solver/ipm.rs`): the dense primal-dual interior-point method for the constrained QPs, in
 //!   f64: its reference iteration, the MPC's control step with its fallback, and its cost; it is not a
 //!   first-order [`solver::Algorithm`], and `emit/interior.rs` emits it;
+//! - [`admm`] (`solver/admm.rs`): OSQP's ADMM on the same QPs, dense on the condensed QP, in f32 or f64
+//!   (the method for targets without f64 hardware), with ρ measured on a sample; `emit/admm.rs` emits it;
 //! - [`linalg`] the build-time linear algebra, [`numeric`] the emitted scalar's numbers, [`structure`] the
 //!   structure read off the matrices, [`cost`] the cost model's weights.
 //!
@@ -52,6 +54,7 @@ pub use emit::Origin;
 pub use lower::Problem;
 pub use mpc_spec::{Diagnostic, Diagnostics, Spec};
 pub use plan::{plan, Plan};
+pub use solver::admm;
 pub use solver::ipm;
 
 use proc_macro2::{Ident, Span, TokenStream};

@@ -11,6 +11,7 @@
 //! `mpc_spec::model`) and one arm in [`algorithm`].
 #![allow(non_snake_case)]
 
+pub mod admm;
 mod fgm;
 mod gradient;
 pub mod ipm;
