@@ -318,7 +318,7 @@ impl Spent {
                 "sampling {title}'s certificate has taken more than the build's limit of {:.0e} multiply-adds",
                 crate::budget::LOWERING_MACS
             ),
-            spec.spans.get("mpc.region").or(spec.spans.get("mpc.method")),
+            region_span(spec),
         )
         .note("hint: fewer `samples`, `sequences` or `steps` in `[mpc.region]`, a looser `accuracy`, or a method that needs fewer iterations")
         .into())
@@ -585,7 +585,7 @@ fn check_budget<M: Sampled>(spec: &Spec, p: &Problem, method: &M) -> Result<(), 
             method.title(),
             crate::budget::LOWERING_MACS
         ),
-        spec.spans.get("mpc.region").or(spec.spans.get("mpc.method")),
+        region_span(spec),
     )
     .label(format!("{cold} cold cases and {warm} warm steps (up to four rounds), {per_iteration} multiply-adds an iteration"))
     .note("hint: fewer `samples`, `sequences` or `steps` in `[mpc.region]`, or a smaller problem")
@@ -711,10 +711,27 @@ fn not_reached<M: Sampled>(spec: &Spec, method: &M, what: &str, c: &Case) -> Dia
             method.title(),
             spec.mpc.accuracy
         ),
-        spec.spans.get("mpc.accuracy").or(spec.spans.get("mpc.method")).or(spec.spans.get("mpc.region")),
+        spec.spans.get("mpc.accuracy").or_else(|| region_span(spec)),
     )
     .label(format!("at x0 = {:?}", c.x0.as_slice()))
     .note("hint: loosen `accuracy`, scale the model's units so the Hessian is better conditioned, narrow `[mpc.region]`, or choose another `method`")
+}
+
+/// Where a finding about the sample points: `[mpc.region]`, else `method`, else the first constraint key
+/// (under the default `auto` neither may be written), else `[mpc]`.
+fn region_span(spec: &Spec) -> Option<mpc_spec::Span> {
+    [
+        "mpc.region",
+        "mpc.method",
+        "mpc.x_min",
+        "mpc.x_max",
+        "mpc.du_min",
+        "mpc.du_max",
+        "mpc.constraint",
+        "mpc",
+    ]
+    .iter()
+    .find_map(|k| spec.spans.get(k))
 }
 
 /// The region: `[mpc.region]`, else the state bounds, else an error naming the unbounded state; the
@@ -745,7 +762,7 @@ pub fn resolve_region(spec: &Spec, p: &Problem) -> Result<Region, Diagnostics> {
             _ => diags.push(
                 Diagnostic::new(
                     format!("the interior-point method is certified on a sampled region, and state {i} has no range"),
-                    spec.spans.get("mpc.region").or(spec.spans.get("mpc.method")),
+                    region_span(spec),
                 )
                 .label(format!("x[{i}] is not bounded on both sides by `x_min`/`x_max`"))
                 .note("hint: write `[mpc.region]` with `x_min` and `x_max` (nx entries each): the states the controller is expected to meet"),

@@ -1,4 +1,4 @@
-// `x_min` bounds the states: the default method, `fgm`, solves the input box only.
+// `x_min` bounds the states: `fgm` solves the input box only.
 mpc_macros::mpc!(mod controller {
     r#"
     [model]
@@ -10,6 +10,7 @@ mpc_macros::mpc!(mod controller {
     [mpc]
     horizon = 10
     iterations = 20
+    method = "fgm"
     q = 1
     r = 0.1
     u_min = [-1]
