@@ -201,3 +201,106 @@ mod tests {
         assert!(kronecker_identity(&M, 2).is_err());
     }
 }
+
+/// The envelope (profile) of a symmetric sparsity pattern, after an ordering that puts each connected
+/// component's indices together (the drone's independent axes become diagonal blocks). An L·D·Lᵀ
+/// factorisation fills nothing outside the envelope, so it and its triangular solves only visit row p's
+/// columns `first[p]..p` (A. George and J. W. Liu, *Computer Solution of Large Sparse Positive Definite
+/// Systems*, 1981, ch. 4). The ordering keeps the original order within a component, and the components
+/// in the order of their first index; without independent components it is the identity.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Envelope {
+    /// `order[p]`: the original index at position p.
+    pub order: Vec<usize>,
+    /// `position[i]`: the position of original index i (the inverse of `order`).
+    pub position: Vec<usize>,
+    /// `first[p]`: the first column (in positions) of row p's envelope, at most p.
+    pub first: Vec<usize>,
+}
+
+impl Envelope {
+    /// The envelope of the symmetric `pattern` (only its lower triangle and diagonal are read, both
+    /// triangles are assumed alike).
+    pub fn of(pattern: &DMatrix<bool>) -> Self {
+        let n = pattern.nrows();
+        // Connected components by union-find over the off-diagonal entries.
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn root(parent: &mut [usize], mut i: usize) -> usize {
+            while parent[i] != i {
+                parent[i] = parent[parent[i]];
+                i = parent[i];
+            }
+            i
+        }
+        for i in 0..n {
+            for j in 0..i {
+                if pattern[(i, j)] || pattern[(j, i)] {
+                    let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+                    if a != b {
+                        parent[a.max(b)] = a.min(b);
+                    }
+                }
+            }
+        }
+        let roots: Vec<usize> = (0..n).map(|i| root(&mut parent, i)).collect();
+        let mut order: Vec<usize> = (0..n).collect();
+        // Stable: within a component the original order; components by their smallest index (the root).
+        order.sort_by_key(|&i| roots[i]);
+        let mut position = vec![0; n];
+        for (p, &i) in order.iter().enumerate() {
+            position[i] = p;
+        }
+        let first = (0..n)
+            .map(|p| {
+                let i = order[p];
+                (0..=p)
+                    .find(|&q| {
+                        let j = order[q];
+                        q == p || pattern[(i, j)] || pattern[(j, i)]
+                    })
+                    .unwrap_or(p)
+            })
+            .collect();
+        Envelope {
+            order,
+            position,
+            first,
+        }
+    }
+
+    /// The number of indices.
+    pub fn len(&self) -> usize {
+        self.order.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.order.is_empty()
+    }
+
+    /// Entries of the lower triangle inside the envelope, diagonal included.
+    pub fn entries(&self) -> usize {
+        self.first.iter().enumerate().map(|(p, f)| p - f + 1).sum()
+    }
+
+    /// Multiply-adds of L·D·Lᵀ within the envelope: per column j, the pivot's j − first[j] and, per row
+    /// p > j whose envelope reaches j, j − max(first[p], first[j]).
+    pub fn ldl_macs(&self) -> usize {
+        let n = self.len();
+        let mut macs = 0;
+        for j in 0..n {
+            macs += j - self.first[j];
+            for p in j + 1..n {
+                if self.first[p] <= j {
+                    macs += j - self.first[p].max(self.first[j]) + 1;
+                }
+            }
+        }
+        macs
+    }
+
+    /// Multiply-adds of the two triangular solves and the diagonal within the envelope.
+    pub fn solve_macs(&self) -> usize {
+        2 * (self.entries() - self.len()) + self.len()
+    }
+}

@@ -39,6 +39,23 @@ pub fn mpc_macs_per_iteration(qp: &Qp) -> usize {
     ))
 }
 
+/// Where the normal matrix H + Gᵀ·diag(d)·G can be nonzero, whatever the weights d: H's nonzeros, the
+/// diagonal, and each row's outer product of its nonzero columns. Its [`crate::structure::Envelope`]
+/// is what the emitted factorisation visits.
+pub fn normal_pattern(qp: &InequalityQp) -> DMatrix<bool> {
+    let n = qp.n();
+    let mut pattern = DMatrix::from_fn(n, n, |i, j| i == j || qp.H[(i, j)] != 0.0);
+    for r in 0..qp.A.nrows() {
+        let cols: Vec<usize> = (0..n).filter(|&c| qp.A[(r, c)] != 0.0).collect();
+        for &a in &cols {
+            for &b in &cols {
+                pattern[(a, b)] = true;
+            }
+        }
+    }
+    pattern
+}
+
 /// The fraction of the step to the boundary of s > 0, λ > 0 that an iteration takes.
 pub const FRACTION: f64 = 0.99;
 
