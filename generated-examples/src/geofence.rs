@@ -172,6 +172,15 @@ pub struct WorstOf {
 }
 
 impl WorstOf {
+    /// The three values, without their times.
+    pub fn values(&self) -> Violations {
+        Violations {
+            wall: self.wall.value,
+            speed: self.speed.value,
+            floor: self.floor.value,
+        }
+    }
+
     fn push(&mut self, t: f64, v: &Violations) {
         self.wall.push(t, v.wall);
         self.speed.push(t, v.speed);
@@ -188,6 +197,8 @@ pub struct Solve {
     pub softened: f64,
     /// Whether the plan is the solve's (`Fallback::Solved`), not the fallback's.
     pub solved: bool,
+    /// `SolverStatus::dual_residual`: the final relative dual residual.
+    pub dual_residual: f64,
     /// Iterations run.
     pub iterations: u32,
 }
@@ -199,6 +210,7 @@ impl Solve {
             violation: s.violation,
             softened: s.softened,
             solved: s.fallback == spec::Fallback::Solved,
+            dual_residual: s.dual_residual,
             iterations: s.iterations,
         }
     }
@@ -217,8 +229,11 @@ pub struct Tally {
     pub estimate: WorstOf,
     /// The plan's predicted states' (x_1 … x_N).
     pub plan: WorstOf,
-    /// The plan's excess over [`Violations::unavoidable`] from the same estimate.
+    /// The plan's excess over [`Violations::unavoidable`] from the same estimate, over the solves whose
+    /// plan is the method's (`Fallback::Solved`): zero within `accuracy` when the penalty is exact.
     pub excess: WorstOf,
+    /// The same over the solves that fell back (their plan is the previous one, shifted).
+    pub fallback_excess: WorstOf,
     /// The largest `SolverStatus::violation` (hard rows, relative).
     pub hard_violation: f64,
     /// The largest `SolverStatus::softened` (soft rows, their units).
@@ -228,6 +243,8 @@ pub struct Tally {
     pub softened_mismatch: f64,
     /// Solves whose plan is the fallback's.
     pub fallbacks: usize,
+    /// The largest final relative dual residual of a solve that fell back (0 without one).
+    pub fallback_dual_residual: f64,
     /// The most iterations a solve ran.
     pub iterations_max: u32,
 }
@@ -245,8 +262,13 @@ impl Tally {
         self.estimate.push(t, &Violations::of_state(estimate));
         let planned = Violations::of_plan(estimate, plan);
         self.plan.push(t, &planned);
-        self.excess
-            .push(t, &planned.excess_over(&Violations::unavoidable(estimate)));
+        let excess = planned.excess_over(&Violations::unavoidable(estimate));
+        if solve.solved {
+            self.excess.push(t, &excess);
+        } else {
+            self.fallback_excess.push(t, &excess);
+            self.fallback_dual_residual = self.fallback_dual_residual.max(solve.dual_residual);
+        }
         self.hard_violation = self.hard_violation.max(solve.violation);
         self.softened = self.softened.max(solve.softened);
         self.softened_mismatch = self
@@ -256,13 +278,9 @@ impl Tally {
         self.iterations_max = self.iterations_max.max(solve.iterations);
     }
 
-    /// The plan's worst excess, as [`Violations`].
+    /// The solved plans' worst excess, as [`Violations`].
     pub fn worst_excess(&self) -> Violations {
-        Violations {
-            wall: self.excess.wall.value,
-            speed: self.excess.speed.value,
-            floor: self.excess.floor.value,
-        }
+        self.excess.values()
     }
 }
 
