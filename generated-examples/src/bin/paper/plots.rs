@@ -534,7 +534,7 @@ pub fn geofence(out: &Path, rows: &[Row], plain: Option<&[Row]>) -> Result<(), S
         &format!("flight path, xy projection; the wall y = {WALL_Y} m dashed"),
         ("x (m)", "y (m)"),
         &curves,
-        Some((-5.5, 15.0)),
+        Some((-7.0, 16.0)),
         &[],
         &[WALL_Y],
     )?;

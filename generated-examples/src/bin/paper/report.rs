@@ -426,7 +426,7 @@ fn geofence(out: &mut String, summary: &Value) {
         out,
         "\nSolved plans within `accuracy` of the unavoidable, every cycle of every seed: {} (worst \
          excess / tolerance {}). Fallbacks (residuals above the method's limits: the plan is the \
-         previous one shifted): {} a flight of {} cycles, the largest final dual residual among them \
+         previous one shifted): {} in a flight of {} cycles, the largest final dual residual among them \
          {}. `SolverStatus`: `softened` at most {} (the largest of the plan's three; it agrees with the \
          prediction to {}), `violation` {} (the spec has no hard row), at most {} iterations. Tracking \
          RMSE [x, y, z] {} m; computation per step {} µs mean, {} µs max (this host).",
