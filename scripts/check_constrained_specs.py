@@ -376,7 +376,7 @@ def constrained_qp(spec, x0, ref, soft_weight=None, u_prev=None):
                 rows.append(cur); b.append(spec.du_max[c_] + prev); tags.append(None)
             if math.isfinite(spec.du_min[c_]):
                 rows.append([(j, -a) for j, a in cur]); b.append(-spec.du_min[c_] - prev); tags.append(None)
-    for ax, au, lower, upper, _soft in spec.groups:
+    for g_, (ax, au, lower, upper, _soft) in enumerate(spec.groups):
         for r_ in range(len(ax)):
             with_u = any(x != 0.0 for x in au[r_])
             stages = range(0, N) if with_u else range(1, N + 1)
@@ -396,9 +396,10 @@ def constrained_qp(spec, x0, ref, soft_weight=None, u_prev=None):
                         coef[k * nu + c_] += au[r_][c_]
                 sparse = [(j, a) for j, a in enumerate(coef) if a != 0.0]
                 if math.isfinite(upper[r_]):
-                    rows.append(sparse); b.append(upper[r_] - const); tags.append(None)
+                    rows.append(sparse); b.append(upper[r_] - const); tags.append((k, ("row", g_, r_), +1))
                 if math.isfinite(lower[r_]):
-                    rows.append([(j, -a) for j, a in sparse]); b.append(const - lower[r_]); tags.append(None)
+                    rows.append([(j, -a) for j, a in sparse]); b.append(const - lower[r_])
+                    tags.append((k, ("row", g_, r_), -1))
     for j in slack_of.values():
         rows.append([(j, -1.0)]); b.append(0.0); tags.append(None)
     v, lam, ok = ipm(P, c, rows, b)
@@ -411,7 +412,8 @@ def constrained_qp(spec, x0, ref, soft_weight=None, u_prev=None):
 
 
 def multiplier_sums(spec, mult):
-    """Σ_k (λ⁺_{k,i} + λ⁻_{k,i}) per state component i: what a shared slack's weight must exceed."""
+    """Σ_k (λ⁺_{k,i} + λ⁻_{k,i}) per state component i, and per row ("row", group, row) of the
+    `[[mpc.constraint]]` groups: what a shared slack's weight must exceed."""
     sums = {}
     for (k, i, _side), l in mult.items():
         sums[i] = sums.get(i, 0.0) + l
@@ -445,7 +447,9 @@ def region_points(spec, count, seed):
     """Points (x0, reference) of `[mpc.region]`: `count` seeded draws inside it, `count` random vertices,
     the two opposite corners (every state at one end, the reference at the other) and, for a
     `double_integrator` (decoupled axes), the 16 vertices that give every axis the same pattern of
-    (position, velocity, reference position, reference velocity) ends."""
+    (position, velocity, reference position, reference velocity) ends; and, for every side of a state row
+    (a `[[mpc.constraint]]` row without `au`), `count` draws moved to within a metre inside that side with
+    the reference moved beyond it, where the row is active (the draws above rarely reach a wall)."""
     rng = random.Random(seed)
     lo, hi = spec.region_min, spec.region_max
     rlo = spec.ref_min or lo
@@ -465,6 +469,28 @@ def region_points(spec, count, seed):
             x = [(hi if ends[i // axes] else lo)[i] for i in range(spec.nx)]
             r = [(rhi if ends[2 + i // axes] else rlo)[i] for i in range(spec.nx)]
             points.append((x, r))
+    clip = lambda v, a, b: [min(max(x, l), h) for x, l, h in zip(v, a, b)]
+    for ax, au, lower, upper, _soft in spec.groups:
+        for r_, row in enumerate(ax):
+            if any(a != 0.0 for a in au[r_]):
+                continue
+            norm2 = sum(a * a for a in row)
+            # The row's reach over the reference box: how far beyond the side a reference can be.
+            reach_hi = sum(a * (h if a > 0 else l) for a, l, h in zip(row, rlo, rhi))
+            reach_lo = sum(a * (l if a > 0 else h) for a, l, h in zip(row, rlo, rhi))
+            for sign, bound, reach in [(+1, upper[r_], reach_hi), (-1, lower[r_], reach_lo)]:
+                if not math.isfinite(bound):
+                    continue
+                for _ in range(count):
+                    x = [rng.uniform(a, b) for a, b in zip(lo, hi)]
+                    r = [rng.uniform(a, b) for a, b in zip(rlo, rhi)]
+                    inside = bound - sign * rng.uniform(0.0, 1.0)
+                    beyond = bound + sign * rng.uniform(0.0, max(0.0, sign * (reach - bound)))
+                    ax_x = sum(a * v for a, v in zip(row, x))
+                    ax_r = sum(a * v for a, v in zip(row, r))
+                    x = [v + (inside - ax_x) * a / norm2 for v, a in zip(x, row)]
+                    r = [v + (beyond - ax_r) * a / norm2 for v, a in zip(r, row)]
+                    points.append((clip(x, lo, hi), clip(r, rlo, rhi)))
     return points
 
 
@@ -480,7 +506,8 @@ def report(path, samples):
           f"region x ∈ [{', '.join(f'{a:g}' for a in spec.region_min)}] .. "
           f"[{', '.join(f'{a:g}' for a in spec.region_max)}]")
     stem = Path(path).stem
-    loop = {"quadcopter": QUADCOPTER_LOOP, "hover": HOVER_LOOP, "paper-limits": PAPER_STEP}.get(stem)
+    loop = {"quadcopter": QUADCOPTER_LOOP, "hover": HOVER_LOOP, "paper-limits": PAPER_STEP,
+            "paper-geofence": PAPER_STEP}.get(stem)
     if loop:
         x0, ref, steps = loop
         x, peak, worst = closed_loop(spec, x0, ref, steps)
@@ -491,7 +518,7 @@ def report(path, samples):
               f"[{', '.join(f'{v:.3g}' for v in x)}]")
         print(f"    peak |x_i| = [{', '.join(f'{v:.3g}' for v in peak)}]; largest multiplier sum {worst:.4g}")
         print(f"    region covers it: {'yes' if not outside else 'NO, components ' + str(outside)}")
-    infeasible, unsolved, worst = 0, 0, 0.0
+    infeasible, unsolved, worst, by_key = 0, 0, 0.0, {}
     points = region_points(spec, samples, seed=17)
     for x0, ref in points:
         U, slacks, mult, ok = constrained_qp(spec, x0, ref, soft_weight=1e9)
@@ -502,14 +529,24 @@ def report(path, samples):
         if not ok:
             unsolved += 1
             continue
-        worst = max([worst] + list(multiplier_sums(spec, mult).values()))
+        sums = multiplier_sums(spec, mult)
+        worst = max([worst] + list(sums.values()))
+        for key, v in sums.items():
+            by_key[key] = max(by_key.get(key, 0.0), v)
     print(f"  region: {len(points)} points, hard problem infeasible "
           f"at {infeasible}{f', not solved at {unsolved}' if unsolved else ''}; largest multiplier sum where "
           f"feasible {worst:.4g}")
+    states = max([v for k, v in by_key.items() if not isinstance(k, tuple)], default=0.0)
     if spec.x_soft is not None:
-        verdict = "exact" if spec.x_soft > worst else "NOT exact"
+        verdict = "exact" if spec.x_soft > states else "NOT exact"
         print(f"  x_soft = {spec.x_soft:g}: {verdict} at every feasible point checked "
-              f"(threshold {worst:.4g})")
+              f"(threshold {states:.4g}, the largest state component's)")
+    for g, (ax, _au, _lower, _upper, soft) in enumerate(spec.groups):
+        for r in range(len(ax)):
+            t = by_key.get(("row", g, r), 0.0)
+            verdict = "" if soft is None else (
+                f"; soft = {soft:g}: {'exact' if soft > t else 'NOT exact'} at every feasible point checked")
+            print(f"  [[mpc.constraint]] {g + 1}, row {r + 1}: largest multiplier sum {t:.4g}{verdict}")
     return spec
 
 

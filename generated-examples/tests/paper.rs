@@ -1,5 +1,6 @@
 //! The `paper` binary end to end on a short flight: its options, its files and the shape of
-//! `summary.json` that issue 5 specifies.
+//! `summary.json` that issue 5 specifies, and the geofence scenario's figures (issue 18; its
+//! controller is checked in `tests/geofence.rs`).
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -97,6 +98,58 @@ fn check_shape(summary: &Value, number: &dyn Fn(&Value) -> bool) {
     assert!(c["mpc"]["qp_gap"].is_object() && c["pid"].get("qp_gap").is_none());
 }
 
+/// Checks the geofence scenario's figures, `number` checking each leaf figure.
+fn check_geofence(summary: &Value, number: &dyn Fn(&Value) -> bool) {
+    let g = &summary["geofence"];
+    let cfg = &g["config"];
+    assert_eq!(cfg["spec"], "specs/paper-geofence.toml");
+    assert_eq!(
+        (cfg["wall_y_m"].as_f64(), cfg["speed_limit_m_s"].as_f64()),
+        (Some(8.0), Some(2.0))
+    );
+    assert_eq!(cfg["tolerance"]["wall_m"].as_f64(), Some(8e-3));
+    let f = &g["flight"];
+    for state in ["true_state", "estimate"] {
+        for key in [
+            "wall_m",
+            "wall_t_s",
+            "speed_m_s",
+            "speed_t_s",
+            "floor_m",
+            "floor_t_s",
+        ] {
+            assert!(number(&f[state][key]), "geofence.flight.{state}.{key}");
+        }
+    }
+    for block in ["worst", "excess", "fallback_excess"] {
+        for key in ["wall_m", "speed_m_s", "floor_m"] {
+            assert!(
+                number(&f["plan"][block][key]),
+                "geofence.flight.plan.{block}.{key}"
+            );
+        }
+    }
+    for key in [
+        "excess_over_tolerance",
+        "solver_violation_max",
+        "solver_softened_max",
+        "softened_mismatch",
+        "fallbacks",
+        "iterations_max",
+    ] {
+        assert!(number(&f["plan"][key]), "geofence.flight.plan.{key}");
+    }
+    let a = f["rmse_m"].as_array().expect("per-axis RMSE");
+    assert!(a.len() == 3 && a.iter().all(number));
+    // Over the seeds, plain numbers: the solved plans are within `accuracy` of what no plan avoids,
+    // and the drone goes beyond the wall by centimetres (the reference by 2 m).
+    let w = &g["worst_over_seeds"];
+    let ratio = w["plan_excess_over_tolerance"].as_f64().unwrap();
+    assert!(ratio <= 1.0, "{ratio}");
+    let wall = w["true_state"]["wall_m"].as_f64().unwrap();
+    assert!((0.0..0.3).contains(&wall), "{wall}");
+}
+
 #[test]
 fn one_seed_writes_every_file_and_plain_numbers() {
     let out = out_dir("one");
@@ -118,6 +171,7 @@ fn one_seed_writes_every_file_and_plain_numbers() {
         "Wind",
         "Offset-free targets",
         "exact optimum",
+        "Geofence",
     ] {
         assert!(
             stdout.contains(heading),
@@ -139,6 +193,7 @@ fn one_seed_writes_every_file_and_plain_numbers() {
     assert_eq!(cfg["wind"]["speed_m_s"].as_f64(), Some(6.0));
     assert_eq!(cfg["wind"]["tau_s"].as_array().map(Vec::len), Some(3));
     check_shape(&summary, &|v| v.as_f64().is_some_and(f64::is_finite));
+    check_geofence(&summary, &|v| v.as_f64().is_some_and(f64::is_finite));
     for file in [
         "summary.md",
         "table2.csv",
@@ -158,6 +213,9 @@ fn one_seed_writes_every_file_and_plain_numbers() {
         "gust.svg",
         "wind.svg",
         "computation_time.svg",
+        "geofence.svg",
+        "geofence.csv",
+        "trace_mpc-geofence_flight.csv",
     ] {
         let meta = std::fs::metadata(out.join(file)).unwrap_or_else(|_| panic!("{file} written"));
         assert!(meta.len() > 100, "{file} is empty");
@@ -167,6 +225,8 @@ fn one_seed_writes_every_file_and_plain_numbers() {
     assert_eq!(trace.lines().count(), 1 + (45.0f64 / 0.0128) as usize);
     let svg = std::fs::read_to_string(out.join("step.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("pid"));
+    let svg = std::fs::read_to_string(out.join("geofence.svg")).unwrap();
+    assert!(svg.contains("mpc-geofence") && svg.contains("mpc (no wall)"));
     let _ = std::fs::remove_dir_all(&out);
 }
 
@@ -191,10 +251,12 @@ fn several_seeds_give_mean_and_std_and_differ_from_one_seed() {
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["config"]["seeds"].as_u64(), Some(2));
-    check_shape(&summary, &|v| {
+    let spread = |v: &Value| {
         v["mean"].as_f64().is_some_and(f64::is_finite)
             && v["std"].as_f64().is_some_and(|s| s >= 0.0)
-    });
+    };
+    check_shape(&summary, &spread);
+    check_geofence(&summary, &spread);
     // Two seeds meet different noise: the RMSE spreads.
     assert!(
         summary["controllers"]["pid"]["rmse"][0]["std"]
@@ -220,6 +282,7 @@ fn help_explains_every_option_and_bad_values_are_refused() {
         "--duration",
         "--pid-derivative",
         "--wind-speed",
+        "--no-geofence",
         "mpc-offset-free",
     ] {
         assert!(help.contains(opt), "{opt} missing from --help");
@@ -243,6 +306,7 @@ fn a_chosen_set_of_controllers_is_flown_and_reported() {
         "pid,mpc-initial",
         "--oracle-stride",
         "100",
+        "--no-geofence",
         "--quiet",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -262,5 +326,8 @@ fn a_chosen_set_of_controllers_is_flown_and_reported() {
         .skip(1)
         .all(|l| l.starts_with("mpc-initial,") || l.starts_with("pid,")));
     assert!(out.join("path.svg").exists() && out.join("trace_mpc-initial_step.csv").exists());
+    // Without the geofence scenario: no figures, no files.
+    assert!(summary.get("geofence").is_none());
+    assert!(!out.join("geofence.svg").exists() && !out.join("geofence.csv").exists());
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -9,7 +9,9 @@ use clap::{Parser, ValueEnum};
 /// with the PID baseline, all fed by the same generated Kalman filter, and with the offset-free
 /// MPC of `specs/paper-offset-free.toml` (its own filter estimates a disturbance), and reproduces
 /// Table 2 (tracking and control-signal metrics), Table 3 (step responses) and the gust test, and
-/// flies a wind scenario (mean wind plus Dryden-like gusts).
+/// flies a wind scenario (mean wind plus Dryden-like gusts) and a constrained scenario, the flight with
+/// the interior-point MPC of `specs/paper-geofence.toml` (a speed limit and a wall at y = 8 m that the
+/// square and the circle cross).
 ///
 /// Prints the tables as Markdown and writes them as CSV, `summary.json`, per-cycle traces and
 /// SVG plots into the output folder.
@@ -85,6 +87,11 @@ pub struct Args {
     #[arg(long, default_value_t = 6.0)]
     pub wind_speed: f64,
 
+    /// Do not fly the geofence scenario (`specs/paper-geofence.toml`: the flight with the speed limit
+    /// |v_i| ≤ 2 m/s and the wall y ≤ 8 m, on the interior-point method).
+    #[arg(long)]
+    pub no_geofence: bool,
+
     /// Do not write the SVG plots.
     #[arg(long)]
     pub no_plots: bool,
@@ -145,5 +152,7 @@ mod tests {
         let a = Args::parse_from(["paper", "--controllers", "pid,mpc-initial"]);
         assert_eq!(a.controllers, [Kind::Pid, Kind::MpcInitial]);
         assert!(Args::try_parse_from(["paper", "--controllers", "lqr"]).is_err());
+        assert!(!Args::parse_from(["paper"]).no_geofence);
+        assert!(Args::parse_from(["paper", "--no-geofence"]).no_geofence);
     }
 }

@@ -8,6 +8,9 @@
 //! `specs/paper-offset-free.toml`, whose own filter also estimates a disturbance (issue 8). It
 //! reports Table 2, Table 3, the gust and wind figures and how far each MPC's command is from the
 //! exact optimum of its own QP, as Markdown, CSV, `summary.json`, per-cycle traces and SVG plots.
+//! The geofence scenario (issue 18) flies the same flight with the interior-point MPC of
+//! `specs/paper-geofence.toml`, a speed limit and a wall, and reports the plan's and the true
+//! state's violations of each constraint.
 //!
 //! `cargo run --release -p generated-examples --bin paper -- --help`
 
@@ -79,10 +82,11 @@ fn try_main(args: Args) -> Result<(), String> {
     // The slowest first (flights with the oracle), so that the cores stay busy to the end.
     jobs.sort_by_key(|&(kind, test, _)| (test != Test::Flight, kind == Kind::Pid));
 
+    let fence_seeds: &[u64] = if args.no_geofence { &[] } else { &seeds };
     let bar = if args.quiet {
         ProgressBar::hidden()
     } else {
-        ProgressBar::new(jobs.len() as u64).with_style(
+        ProgressBar::new((jobs.len() + fence_seeds.len()) as u64).with_style(
             ProgressStyle::with_template(
                 "{spinner} {msg} [{elapsed_precise}] {wide_bar} {pos}/{len} runs (eta {eta})",
             )
@@ -95,11 +99,25 @@ fn try_main(args: Args) -> Result<(), String> {
         kinds.len()
     ));
     let first = seeds[0];
-    let runs: Vec<Run> = jobs
-        .par_iter()
-        .progress_with(bar.clone())
-        .map(|&(kind, test, seed)| run::run(kind, test, seed, &settings, seed == first))
-        .collect();
+    // The geofence flights (the interior-point method: the slowest runs) alongside the others.
+    let (runs, fences): (Vec<Run>, Vec<run::GeofenceRun>) = rayon::join(
+        || {
+            jobs.par_iter()
+                .progress_with(bar.clone())
+                .map(|&(kind, test, seed)| run::run(kind, test, seed, &settings, seed == first))
+                .collect()
+        },
+        || {
+            fence_seeds
+                .par_iter()
+                .map(|&seed| {
+                    let r = run::geofence(seed, &settings, seed == first);
+                    bar.inc(1);
+                    r
+                })
+                .collect()
+        },
+    );
     bar.finish_and_clear();
 
     let mut by: HashMap<(Kind, Test, u64), Run> = HashMap::new();
@@ -123,7 +141,7 @@ fn try_main(args: Args) -> Result<(), String> {
             .collect();
         controllers.insert(kind.key().to_string(), summary::aggregate(&per_seed));
     }
-    let summary = json!({
+    let mut summary = json!({
         "config": {
             "seed": args.seed,
             "seeds": args.seeds,
@@ -136,6 +154,14 @@ fn try_main(args: Args) -> Result<(), String> {
         },
         "controllers": controllers,
     });
+    if !fences.is_empty() {
+        let per_seed: Vec<serde_json::Value> = fences.iter().map(summary::geofence).collect();
+        summary["geofence"] = json!({
+            "config": summary::geofence_config(),
+            "flight": summary::aggregate(&per_seed),
+            "worst_over_seeds": summary::geofence_worst(&fences),
+        });
+    }
 
     let markdown = report::markdown(&summary);
     say(&markdown)?;
@@ -171,7 +197,17 @@ fn try_main(args: Args) -> Result<(), String> {
             )?;
         }
     }
+    let fence_rows = fences.first().map(|r| r.rows.as_slice());
+    if let Some(rows) = fence_rows {
+        write(out, "trace_mpc-geofence_flight.csv", &trace_csv(rows))?;
+    }
     if !args.no_plots {
+        if let Some(rows) = fence_rows {
+            let plain = kinds
+                .contains(&Kind::Mpc)
+                .then(|| by[&(Kind::Mpc, Test::Flight, first)].rows.as_slice());
+            plots::geofence(out, rows, plain)?;
+        }
         plots::all(
             out,
             &traces(Test::Flight),

@@ -492,3 +492,139 @@ impl StepBand {
         }
     }
 }
+
+/// The geofence controller's color.
+const GEOFENCE: RGBColor = RGBColor(214, 39, 140);
+/// Its estimate's, lighter.
+const GEOFENCE_ESTIMATE: RGBColor = RGBColor(240, 160, 205);
+
+/// `geofence.svg`: the geofence scenario of the first seed. The path in the plane with the wall (and,
+/// when `plain` is given, the `mpc` of `paper.toml` without it); how far beyond the wall the drone and
+/// its estimate are along the square's crossing; y over the two crossings; and the speed, the largest
+/// |v_i| over the axes, against its limit.
+pub fn geofence(out: &Path, rows: &[Row], plain: Option<&[Row]>) -> Result<(), String> {
+    use generated_examples::geofence::{SPEED_LIMIT, WALL_Y};
+    let path = out.join("geofence.svg");
+    let root = SVGBackend::new(&path, (1600, 1100)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let areas = root.split_evenly((2, 2));
+
+    // The path in the plane.
+    let mut curves = vec![Curve {
+        name: "reference".into(),
+        color: REFERENCE,
+        points: every(rows, 2)
+            .map(|r| (r.reference[0], r.reference[1]))
+            .collect(),
+    }];
+    if let Some(plain) = plain {
+        curves.push(Curve {
+            name: format!("{} (no wall)", Kind::Mpc.key()),
+            color: color(Kind::Mpc),
+            points: every(plain, 2).map(|r| (r.state[0], r.state[1])).collect(),
+        });
+    }
+    curves.push(Curve {
+        name: "mpc-geofence".into(),
+        color: GEOFENCE,
+        points: every(rows, 2).map(|r| (r.state[0], r.state[1])).collect(),
+    });
+    panel(
+        &areas[0],
+        &format!("flight path, xy projection; the wall y = {WALL_Y} m dashed"),
+        ("x (m)", "y (m)"),
+        &curves,
+        Some((-7.0, 16.0)),
+        &[],
+        &[WALL_Y],
+    )?;
+
+    // How far beyond the wall, while the square's reference is beyond it (20-24 s) and a little
+    // around.
+    let (a, b) = (19.8, 24.6);
+    let curves = vec![
+        Curve {
+            name: "mpc-geofence: estimate".into(),
+            color: GEOFENCE_ESTIMATE,
+            points: window(rows, a, b)
+                .map(|r| (r.t, r.estimate[1] - WALL_Y))
+                .collect(),
+        },
+        Curve {
+            name: "mpc-geofence: true".into(),
+            color: GEOFENCE,
+            points: window(rows, a, b)
+                .map(|r| (r.t, r.state[1] - WALL_Y))
+                .collect(),
+        },
+    ];
+    panel(
+        &areas[1],
+        &format!("y − {WALL_Y} m along the wall, t = {a}-{b} s (the reference is 2 m beyond from 20 to 24 s)"),
+        ("t (s)", "y − wall (m)"),
+        &curves,
+        Some((a, b + 1.6)),
+        &[],
+        &[0.0],
+    )?;
+
+    // y against time over the two crossings (the axis runs on to leave the legend room).
+    let (a, b) = (15.0, 50.0);
+    let mut curves = vec![Curve {
+        name: "reference".into(),
+        color: REFERENCE,
+        points: window(rows, a, b).map(|r| (r.t, r.reference[1])).collect(),
+    }];
+    if let Some(plain) = plain {
+        curves.push(Curve {
+            name: format!("{} (no wall)", Kind::Mpc.key()),
+            color: color(Kind::Mpc),
+            points: window(plain, a, b).map(|r| (r.t, r.state[1])).collect(),
+        });
+    }
+    curves.push(Curve {
+        name: "mpc-geofence: estimate".into(),
+        color: GEOFENCE_ESTIMATE,
+        points: window(rows, a, b).map(|r| (r.t, r.estimate[1])).collect(),
+    });
+    curves.push(Curve {
+        name: "mpc-geofence: true".into(),
+        color: GEOFENCE,
+        points: window(rows, a, b).map(|r| (r.t, r.state[1])).collect(),
+    });
+    panel(
+        &areas[2],
+        &format!("y: the square (19-25 s) and the circle (43-48 s) cross the wall y = {WALL_Y} m"),
+        ("t (s)", "y (m)"),
+        &curves,
+        Some((a, b + 12.0)),
+        &[],
+        &[WALL_Y],
+    )?;
+
+    // The speed against its limit: the largest |v_i| over the axes, as the limit is per axis.
+    let speed = |x: &[f64; 6]| x[3..6].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let curves = vec![
+        Curve {
+            name: "reference".into(),
+            color: REFERENCE,
+            points: every(rows, 2).map(|r| (r.t, speed(&r.reference))).collect(),
+        },
+        Curve {
+            name: "mpc-geofence: true".into(),
+            color: GEOFENCE,
+            points: every(rows, 2).map(|r| (r.t, speed(&r.state))).collect(),
+        },
+    ];
+    panel(
+        &areas[3],
+        &format!("speed, maxᵢ |v_i|, against the limit {SPEED_LIMIT} m/s per axis (dashed)"),
+        ("t (s)", "max |v_i| (m/s)"),
+        &curves,
+        Some((0.0, 1.3 * rows.last().map_or(1.0, |r| r.t))),
+        &[],
+        &[SPEED_LIMIT],
+    )?;
+    root.present().map_err(err)?;
+    Ok(())
+}

@@ -319,7 +319,145 @@ pub fn markdown(summary: &Value) -> String {
             let _ = writeln!(out, "| {label} | {} |", cells.join(" | "));
         }
     }
+    geofence(&mut out, summary);
     out
+}
+
+/// The rows of the geofence table: the label, and the path under `geofence.flight` of the object whose
+/// `wall_m`, `speed_m_s`, `floor_m` fill the three columns (`@t`: its `*_t_s`, when they happened).
+const GEOFENCE: [(&str, &str); 6] = [
+    ("true state: worst violation", "true_state"),
+    ("true state: when (t, s)", "true_state@t"),
+    ("estimate x̂₀: worst violation", "estimate"),
+    ("plan x₁ … x_N: worst violation", "plan.worst"),
+    (
+        "plan: worst excess over the unavoidable, solved plans",
+        "plan.excess",
+    ),
+    ("plan: worst excess, fallback plans", "plan.fallback_excess"),
+];
+
+/// The three columns of a row of [`GEOFENCE`].
+fn geofence_cells(flight: &Value, path: &str) -> [Value; 3] {
+    let (path, times) = match path.strip_suffix("@t") {
+        Some(p) => (p, true),
+        None => (path, false),
+    };
+    let v = path.split('.').fold(flight, |v, k| &v[k]);
+    if times {
+        [
+            v["wall_t_s"].clone(),
+            v["speed_t_s"].clone(),
+            v["floor_t_s"].clone(),
+        ]
+    } else {
+        [
+            v["wall_m"].clone(),
+            v["speed_m_s"].clone(),
+            v["floor_m"].clone(),
+        ]
+    }
+}
+
+/// A count as an integer (one seed); otherwise as [`cell`] shows a figure.
+fn count(v: &Value) -> String {
+    match v.as_f64() {
+        Some(x) if x.fract() == 0.0 && x.abs() < 1e15 => format!("{}", x as i64),
+        _ => cell(v),
+    }
+}
+
+/// The geofence scenario (issue 18), when it was flown.
+fn geofence(out: &mut String, summary: &Value) {
+    let g = &summary["geofence"];
+    if g.is_null() {
+        return;
+    }
+    let (cfg, f) = (&g["config"], &g["flight"]);
+    let _ = writeln!(
+        out,
+        "\n#### Geofence: `{}`, the flight with the wall y ≤ {} m, |v_i| ≤ {} m/s and z ≥ {} m \
+         (soft, interior-point method)\n",
+        cfg["spec"].as_str().unwrap_or(""),
+        cfg["wall_y_m"],
+        cfg["speed_limit_m_s"],
+        cfg["floor_m"],
+    );
+    let _ = writeln!(
+        out,
+        "The reference crosses the wall by 2 m along the square (t = 19.2-24.8 s) and the circle \
+         (43.3-47.7 s). A violation is 0 where the constraint holds; the wall and the floor in m, the \
+         speed in m/s (its worst axis). The plan is the states x₁ … x_N the controller predicts from its \
+         estimate x̂₀ with the inputs it returned; its excess is what it violates beyond the least any \
+         plan in the input box reaches from the same x̂₀ (an estimate beyond the wall, or too fast to \
+         stop before it), and is 0 within `accuracy` when it is at most the tolerance.\n"
+    );
+    let _ = writeln!(
+        out,
+        "| figure | wall, y ≤ {} (m) | speed, \\|v_i\\| ≤ {} (m/s) | floor, z ≥ {} (m) |",
+        cfg["wall_y_m"], cfg["speed_limit_m_s"], cfg["floor_m"]
+    );
+    let _ = writeln!(out, "|---|---|---|---|");
+    for (label, path) in GEOFENCE {
+        let cells = geofence_cells(f, path).map(|v| cell(&v));
+        let _ = writeln!(out, "| {label} | {} |", cells.join(" | "));
+    }
+    let t = &cfg["tolerance"];
+    let _ = writeln!(
+        out,
+        "| tolerance: accuracy {} × max(1, \\|bound\\|) | {} | {} | {} |",
+        cfg["accuracy"],
+        cell(&t["wall_m"]),
+        cell(&t["speed_m_s"]),
+        cell(&t["floor_m"])
+    );
+    let tb = &f["true_state_time_beyond_s"];
+    let _ = writeln!(
+        out,
+        "| true state: time beyond (s) | {} | {} | {} |",
+        cell(&tb["wall"]),
+        cell(&tb["speed"]),
+        cell(&tb["floor"])
+    );
+    let p = &f["plan"];
+    let worst = &g["worst_over_seeds"];
+    let ratio = number(&worst["plan_excess_over_tolerance"]).map_or(f64::NAN, |x| x.0);
+    let _ = writeln!(
+        out,
+        "\nSolved plans within `accuracy` of the unavoidable, every cycle of every seed: {} (worst \
+         excess / tolerance {}). Fallbacks (residuals above the method's limits: the plan is the \
+         previous one shifted): {} in a flight of {} cycles, the largest final dual residual among them \
+         {}. `SolverStatus`: `softened` at most {} (the largest of the plan's three; it agrees with the \
+         prediction to {}), `violation` {} (the spec has no hard row), at most {} iterations. Tracking \
+         RMSE [x, y, z] {} m; computation per step {} µs mean, {} µs max (this host).",
+        if ratio <= 1.0 { "yes" } else { "no" },
+        fmt(ratio),
+        count(&p["fallbacks"]),
+        count(&f["cycles"]),
+        cell(&p["fallback_dual_residual_max"]),
+        cell(&p["solver_softened_max"]),
+        cell(&p["softened_mismatch"]),
+        cell(&p["solver_violation_max"]),
+        count(&p["iterations_max"]),
+        cell(&f["rmse_m"]),
+        cell(&f["solve_time_us"]["mean"]),
+        cell(&f["solve_time_us"]["max"]),
+    );
+    if summary["config"]["seeds"].as_u64().unwrap_or(1) > 1 {
+        let (s, e) = (&worst["true_state"], &worst["estimate"]);
+        let _ = writeln!(
+            out,
+            "\nWorst over the seeds: the true state {} m beyond the wall, {} m/s over the speed \
+             limit, {} m below the floor; the estimate {} m, {} m/s, {} m; {} fallbacks in one flight.",
+            cell(&s["wall_m"]),
+            cell(&s["speed_m_s"]),
+            cell(&s["floor_m"]),
+            cell(&e["wall_m"]),
+            cell(&e["speed_m_s"]),
+            cell(&e["floor_m"]),
+            count(&worst["fallbacks"]),
+        );
+    }
 }
 
 /// The targets of issue 8, when both the plain and the offset-free MPC were flown: the offset-free
@@ -365,7 +503,8 @@ fn targets(out: &mut String, summary: &Value) {
     }
 }
 
-/// CSV files `(name, contents)`: Table 2 (with the computation time), Table 3, gust and QP gap.
+/// CSV files `(name, contents)`: Table 2 (with the computation time), Table 3, gust, wind, QP gap and
+/// the geofence scenario's violations (when it was flown).
 /// Per-axis figures have columns x, y, z; with several seeds each is a mean and a std column.
 pub fn csv(summary: &Value) -> Vec<(&'static str, String)> {
     let c = &summary["controllers"];
@@ -447,14 +586,27 @@ pub fn csv(summary: &Value) -> Vec<(&'static str, String)> {
             }
         }
     }
-    vec![
+    let fence = &summary["geofence"]["flight"];
+    let mut geofence = head(&["wall_m", "speed_m_s", "floor_m"]);
+    if !fence.is_null() {
+        for (_, path) in GEOFENCE {
+            let metric = path.replace('.', "_").replace("@t", "_t_s");
+            let cells: Vec<String> = geofence_cells(fence, path).iter().map(value).collect();
+            let _ = writeln!(geofence, "mpc-geofence,{metric},{}", cells.join(","));
+        }
+    }
+    let mut files = vec![
         ("table2.csv", table2),
         ("computation_time.csv", time),
         ("table3.csv", table3),
         ("gust.csv", gust),
         ("wind.csv", wind),
         ("qp_gap.csv", gap),
-    ]
+    ];
+    if !fence.is_null() {
+        files.push(("geofence.csv", geofence));
+    }
+    files
 }
 
 #[cfg(test)]

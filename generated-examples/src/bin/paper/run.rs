@@ -1,5 +1,6 @@
 //! The runs: each controller on the flight, on the flight with the gust, on the flight in wind,
-//! and on the step.
+//! and on the step; and the geofence scenario, the flight with the constrained controller of
+//! `specs/paper-geofence.toml`.
 
 use std::time::Instant;
 
@@ -9,6 +10,7 @@ use flight_sim::{
     fly_with, Controller, Disturbance, DisturbanceModel, Dryden, NoiseConfig, Pid, PidController,
     Reference, Scenario, Step, Trajectory, Wind, DT,
 };
+use generated_examples::geofence::{Solve, Tally};
 use nalgebra::DVector;
 
 flight_sim::mpc_controller!(
@@ -27,6 +29,11 @@ flight_sim::mpc_controller!(
     /// `specs/paper-offset-free.toml`: `paper.toml` with a disturbance estimate (offset-free MPC).
     pub struct OffsetFreeMpc(generated_examples::paper_offset_free),
     disturbance
+);
+flight_sim::mpc_controller!(
+    /// `specs/paper-geofence.toml`: `paper-limits.toml` (the speed limit and the floor) plus the wall
+    /// y ≤ 8 m, all soft, on the interior-point method.
+    pub struct GeofenceMpc(generated_examples::paper_geofence)
 );
 flight_sim::generated_kalman!(
     /// The generated filter of `specs/paper.toml`, feeding the PID.
@@ -458,5 +465,75 @@ impl Context<'_> {
             rows,
             rejected: timed.rejected_measurements(),
         }
+    }
+}
+
+/// The outcome of the geofence scenario for one seed.
+#[derive(Debug)]
+pub struct GeofenceRun {
+    /// The constraints along the flight: the true state's, the estimate's and the plan's violations,
+    /// and what the solver reported.
+    pub tally: Tally,
+    pub table2: Table2,
+    pub solve_us_mean: f64,
+    pub solve_us_max: f64,
+    /// Per-cycle rows, kept for the first seed only.
+    pub rows: Vec<Row>,
+    pub rejected: usize,
+}
+
+/// Flies the reference flight with the geofence controller: the flight of [`Test::Flight`] (same
+/// duration, noise and seed, no disturbance), the controller wired as the other MPCs are, its filter
+/// its own (the same parameters as `paper.toml`'s). Keeps per-cycle rows if `keep_rows`.
+pub fn geofence(seed: u64, settings: &Settings, keep_rows: bool) -> GeofenceRun {
+    let trajectory = Trajectory::paper();
+    let scenario = Scenario {
+        seed,
+        cycles: Scenario::cycles_for(settings.duration),
+        noise: settings.noise,
+        disturbance: Disturbance::NONE,
+    };
+    let mut timed = Timed {
+        inner: GeofenceMpc::new(&trajectory.start()),
+        last_ns: 0,
+    };
+    let mut tally = Tally::default();
+    let mut tracking = Tracking::new(DT);
+    let mut rows = Vec::with_capacity(if keep_rows { scenario.cycles } else { 0 });
+    let (mut sum_ns, mut max_ns) = (0u128, 0u128);
+    let mut none = Disturbance::NONE;
+    fly_with(&mut timed, &trajectory, &scenario, &mut none, |s, c| {
+        let estimate = c.estimate();
+        let status = c.inner.status();
+        tally.push(
+            s.t,
+            &s.state,
+            &estimate,
+            &c.inner.mpc().plan(),
+            &Solve::of(&status.solver),
+        );
+        tracking.push(s.t, &s.error(), &s.command);
+        sum_ns += c.last_ns;
+        max_ns = max_ns.max(c.last_ns);
+        if keep_rows {
+            rows.push(Row {
+                t: s.t,
+                reference: s.reference,
+                state: s.state,
+                estimate,
+                command: s.command,
+                solve_us: c.last_ns as f64 / 1e3,
+                disturbance: s.disturbance,
+                disturbance_estimate: None,
+            });
+        }
+    });
+    GeofenceRun {
+        tally,
+        table2: tracking.finish(),
+        solve_us_mean: sum_ns as f64 / scenario.cycles.max(1) as f64 / 1e3,
+        solve_us_max: max_ns as f64 / 1e3,
+        rows,
+        rejected: timed.rejected_measurements(),
     }
 }

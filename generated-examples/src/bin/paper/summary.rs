@@ -5,7 +5,9 @@ use flight_sim::metrics::{gust, gust_settling, rms_over, StepMetrics, GUST_SETTL
 use flight_sim::{Disturbance, DT};
 use serde_json::{json, Map, Value};
 
-use crate::run::Run;
+use generated_examples::geofence::{self as fence, Violations, WorstOf};
+
+use crate::run::{GeofenceRun, Run};
 
 fn axes<T>(f: impl Fn(usize) -> T) -> [T; 3] {
     core::array::from_fn(f)
@@ -80,6 +82,99 @@ pub fn per_seed(flight: &Run, gusty: &Run, windy: &Run, step: &Run, wind: (f64, 
         });
     }
     v
+}
+
+/// Violations as JSON, each in its unit.
+fn violations(v: &Violations) -> Value {
+    json!({ "wall_m": v.wall, "speed_m_s": v.speed, "floor_m": v.floor })
+}
+
+/// The worst violations and when, as JSON.
+fn worst(w: &WorstOf) -> Value {
+    json!({
+        "wall_m": w.wall.value,
+        "wall_t_s": w.wall.t,
+        "speed_m_s": w.speed.value,
+        "speed_t_s": w.speed.t,
+        "floor_m": w.floor.value,
+        "floor_t_s": w.floor.t,
+    })
+}
+
+/// What the geofence scenario measures, and against what: the spec's constraints and the tolerance
+/// its `accuracy` gives each.
+pub fn geofence_config() -> Value {
+    json!({
+        "spec": "specs/paper-geofence.toml",
+        "method": "ipm",
+        "wall": "y ≤ wall_y_m on the predicted positions y_1 … y_N, soft (exact L1 penalty)",
+        "wall_y_m": fence::WALL_Y,
+        "speed_limit": "|v_i| ≤ speed_limit_m_s per axis on v_1 … v_N, soft",
+        "speed_limit_m_s": fence::SPEED_LIMIT,
+        "floor": "z ≥ floor_m on z_1 … z_N, soft",
+        "floor_m": fence::FLOOR,
+        "accuracy": fence::ACCURACY,
+        "tolerance": violations(&Violations::tolerance()),
+        "states": {
+            "true_state": "the simulated drone, every cycle",
+            "estimate": "the filter's estimate x̂_0 each solve started from",
+            "plan": "the states x_1 … x_N predicted from x̂_0 with the returned plan (the module's F, G)",
+            "excess": "the plan's violation minus the least any plan in the input box reaches from the same x̂_0, over the solves whose plan is the method's (Fallback::Solved); within `tolerance` means 0 within `accuracy`",
+        },
+    })
+}
+
+/// The figures of the geofence scenario for one seed.
+pub fn geofence(run: &GeofenceRun) -> Value {
+    let t = &run.tally;
+    let excess = t.worst_excess();
+    let dt_beyond = |n: usize| n as f64 * DT;
+    json!({
+        "cycles": t.cycles,
+        "plan": {
+            "worst": worst(&t.plan),
+            "excess": worst(&t.excess),
+            "excess_over_tolerance": excess.over_tolerance(),
+            "solver_violation_max": t.hard_violation,
+            "solver_softened_max": t.softened,
+            "softened_mismatch": t.softened_mismatch,
+            "fallbacks": t.fallbacks,
+            "fallback_excess": worst(&t.fallback_excess),
+            "fallback_dual_residual_max": t.fallback_dual_residual,
+            "iterations_max": t.iterations_max,
+        },
+        "estimate": worst(&t.estimate),
+        "true_state": worst(&t.state),
+        "true_state_time_beyond_s": {
+            "wall": dt_beyond(t.beyond[0]),
+            "speed": dt_beyond(t.beyond[1]),
+            "floor": dt_beyond(t.beyond[2]),
+        },
+        "rmse_m": run.table2.rmse,
+        "max_abs_error_m": run.table2.max_abs_error,
+        "solve_time_us": { "mean": run.solve_us_mean, "max": run.solve_us_max },
+        "rejected_measurements": run.rejected,
+    })
+}
+
+/// The worst over seeds of the geofence figures a safety case reads: the plan's excess (against the
+/// tolerance), the fallbacks, the true state's and the estimate's violations.
+pub fn geofence_worst(runs: &[GeofenceRun]) -> Value {
+    let most = |f: &dyn Fn(&GeofenceRun) -> f64| runs.iter().map(f).fold(0.0, f64::max);
+    json!({
+        "plan_excess_over_tolerance": most(&|r| r.tally.worst_excess().over_tolerance()),
+        "fallbacks": most(&|r| r.tally.fallbacks as f64),
+        "true_state": violations(&Violations {
+            wall: most(&|r| r.tally.state.wall.value),
+            speed: most(&|r| r.tally.state.speed.value),
+            floor: most(&|r| r.tally.state.floor.value),
+        }),
+        "estimate": violations(&Violations {
+            wall: most(&|r| r.tally.estimate.wall.value),
+            speed: most(&|r| r.tally.estimate.speed.value),
+            floor: most(&|r| r.tally.estimate.floor.value),
+        }),
+    })
 }
 
 /// Merges same-shaped values over seeds: every number becomes `{mean, std}` (sample standard
