@@ -195,7 +195,7 @@ pub mod paper_geofence {
     }
     /// Fixed-iteration, warm-started MPC with state, output and rate constraints: a dense
     /// primal-dual interior-point method (Mehrotra's predictor-corrector) in f64.
-    /// Certified by sampling, not proved: 114 cold cases (64 corners) and 200 warm closed-loop steps of `[mpc.region]` needed at most 20 (cold) and 19 (warm) iterations to reach `accuracy`; `report::IPM_*` has the rest.
+    /// Certified by sampling, not proved: 114 cold cases (64 corners) and 200 warm closed-loop steps of `[mpc.region]` needed at most 20 (cold) and 19 (warm) iterations to reach `accuracy`; `report::SAMPLED_*` has the rest.
     #[derive(Clone, Debug, PartialEq)]
     pub struct Mpc {
         /// The plan, projected onto the box.
@@ -9326,29 +9326,29 @@ pub mod paper_geofence {
         /// `[mpc] accuracy`: |U − U*|∞ ≤ ACCURACY·(u_max − u_min), hard-row violation ≤ ACCURACY·max(1, |bound|).
         pub const ACCURACY: f64 = 0.001f64;
         /// Cold cases sampled (corners and draws) that have a solution.
-        pub const IPM_COLD_CASES: usize = 114;
+        pub const SAMPLED_COLD_CASES: usize = 114;
         /// Corners of the state region among them.
-        pub const IPM_CORNERS: usize = 64;
+        pub const SAMPLED_CORNERS: usize = 64;
         /// Draws without an exact solution (infeasible hard rows, or unresolved), left out: the fallback covers them.
-        pub const IPM_INFEASIBLE_CASES: usize = 0;
+        pub const SAMPLED_INFEASIBLE_CASES: usize = 0;
         /// Warm-started closed-loop steps sampled.
-        pub const IPM_WARM_STEPS: usize = 200;
+        pub const SAMPLED_WARM_STEPS: usize = 200;
         /// Iterations a cold case needed to reach ACCURACY: median.
-        pub const IPM_COLD_MEDIAN: usize = 16;
+        pub const SAMPLED_COLD_MEDIAN: usize = 16;
         /// Iterations a cold case needed: worst.
-        pub const IPM_COLD_WORST: usize = 20;
+        pub const SAMPLED_COLD_WORST: usize = 20;
         /// Iterations a warm step needed: median.
-        pub const IPM_WARM_MEDIAN: usize = 10;
+        pub const SAMPLED_WARM_MEDIAN: usize = 10;
         /// Iterations a warm step needed: worst.
-        pub const IPM_WARM_WORST: usize = 19;
+        pub const SAMPLED_WARM_WORST: usize = 19;
         /// The worst |U − U*|∞ / span over the sample at ITERATIONS.
-        pub const IPM_WORST_ERROR: f64 = 0.000056276493122187074f64;
+        pub const SAMPLED_WORST_ERROR: f64 = 0.000056276493122187074f64;
         /// The worst hard-row violation (relative) over the sample at ITERATIONS.
-        pub const IPM_WORST_VIOLATION: f64 = 0f64;
+        pub const SAMPLED_WORST_VIOLATION: f64 = 0f64;
         /// Final relative primal residual above which the solve falls back.
-        pub const IPM_PRIMAL_LIMIT: f64 = 0.000001f64;
+        pub const SAMPLED_PRIMAL_LIMIT: f64 = 0.000001f64;
         /// Final relative dual residual above which the solve falls back.
-        pub const IPM_DUAL_LIMIT: f64 = 0.000001f64;
+        pub const SAMPLED_DUAL_LIMIT: f64 = 0.000001f64;
         /// ρ(F − G·K_LQR).
         pub const LQR_SPECTRAL_RADIUS: f64 = 0.9390546005837024f64;
         /// λmin of P solving (F − GK)ᵀP(F − GK) − P = −I.
