@@ -1,7 +1,7 @@
-//! The geofence controller of `specs/paper-geofence.toml` on the part of the paper's reference flight
-//! that crosses its wall y ≤ 8 m: the square from its start at the origin (t = 12 s) to the middle of
-//! its −x leg (t = 23 s), which runs along y = 10, 2 m beyond the wall. The plant, the noise and the
-//! controller wiring are the `paper` binary's (`flight_sim::fly`, `mpc_controller!`, the default noise).
+//! The geofence controller of `specs/paper-geofence.toml` on the `paper` binary's flight up to the
+//! middle of the square's −x leg (t = 23 s), which runs along y = 10, 2 m beyond the wall y ≤ 8 m: the
+//! same plant, noise, seeds and controller wiring (`flight_sim::fly`, `mpc_controller!`, the default
+//! noise), so each seed flies the first 23 s of that seed's geofence flight.
 //!
 //! Asserted: the plan is held behind the wall (and within the speed limit and above the floor) up to
 //! `accuracy` wherever a plan can be, the solver's own figure for it agrees, and the true drone stays
@@ -13,20 +13,10 @@ use generated_examples::paper_geofence as m;
 
 flight_sim::mpc_controller!(struct Geofence(generated_examples::paper_geofence));
 
-/// The reference flight from `start` seconds on.
-struct From(Trajectory, f64);
-
-impl Reference for From {
-    fn state_at(&self, t: f64) -> [f64; 6] {
-        self.0.state_at(t + self.1)
-    }
-}
-
-/// The square starts at rest at the origin at 12 s; the −x leg along y = 10 is half flown at 23 s.
-const START: f64 = 12.0;
-const SECONDS: f64 = 11.0;
-/// From this cycle on the filter's error is near its steady state (below); the drone is then 5 m
-/// from the wall (the reference at t = 17.1 s is at y = 2.8 m).
+/// Take-off, climb and the square up to the middle of its −x leg along y = 10.
+const SECONDS: f64 = 23.0;
+/// From this cycle on (5.1 s) the filter's error is near its steady state (below); the drone is
+/// then still climbing above the origin, 8 m from the wall.
 const SETTLED: usize = 400;
 /// How many standard deviations the margin allows: a Gaussian error exceeds 4σ with probability
 /// 6e-5, and the seeds are fixed, so the test is deterministic.
@@ -85,15 +75,15 @@ fn error_std(cycles: usize, noise: &NoiseConfig) -> Vec<(f64, f64)> {
     out
 }
 
-/// How far the estimate can be pushed beyond the wall: each update moves it by K_p·ν (σ_p, above),
-/// towards the wall or away, and the controller can only take that back at its 10 m/s²: a displacement
-/// d taken back and stopped again needs n cycles with a·(n·dt)²/4 = d. Over n cycles the updates add up
-/// to √n·σ_p; the estimate overruns by at most max_n (SIGMAS·√n·σ_p − a·(n·dt)²/4), at
-/// n = (SIGMAS·σ_p / (4c))^(2/3) with c = a·dt²/4.
+/// How far the estimate can be pushed beyond the wall. Each update moves it by K_p·ν (σ_p, above),
+/// towards the wall or away, and the plan takes that back with what acceleration it has left. It has
+/// none left when the drone arrives at the wall at the speed limit and the plan brakes at full
+/// acceleration to stop on it: for the n_b = SPEED_LIMIT / (U_MAX·dt) = 16 cycles of that braking the
+/// updates' pushes add up unopposed, to √n_b·σ_p. (Riding along the wall, a push is taken back within
+/// a few cycles and the estimate strays less.)
 fn estimate_overrun(sigma_p: f64) -> f64 {
-    let c = m::U_MAX[1] * DT * DT / 4.0;
-    let n = (SIGMAS * sigma_p / (4.0 * c)).powf(2.0 / 3.0);
-    SIGMAS * n.sqrt() * sigma_p - c * n * n
+    let braking = SPEED_LIMIT / (m::U_MAX[1] * DT);
+    SIGMAS * braking.sqrt() * sigma_p
 }
 
 #[test]
@@ -114,7 +104,7 @@ fn the_constants_are_the_spec_s() {
 
 #[test]
 fn the_square_is_held_behind_the_wall() {
-    let reference = From(Trajectory::paper(), START);
+    let reference = Trajectory::paper();
     let cycles = Scenario::cycles_for(SECONDS);
     let noise = NoiseConfig::DEFAULT;
     let errors = error_std(cycles, &noise);
@@ -123,7 +113,7 @@ fn the_square_is_held_behind_the_wall() {
     let sigma_p = settled.iter().map(|e| e.1).fold(0.0, f64::max);
     // The simulation's noise makes the error about 6 cm, twice what the filter believes (3.4 cm).
     assert!((0.05..0.08).contains(&sigma_e), "σ_e = {sigma_e}");
-    // The margin: the estimate may be pushed beyond the wall by the overrun (about 2.5 cm), and the
+    // The margin: the estimate may be pushed beyond the wall by the overrun (about 6 cm), and the
     // drone is where the estimate is, give or take SIGMAS·σ_e (25 cm); the plan adds at most its
     // accuracy.
     let overrun = estimate_overrun(sigma_p);
@@ -136,7 +126,9 @@ fn the_square_is_held_behind_the_wall() {
         .fold(f64::MIN, f64::max);
     assert!(beyond > 1.9 && beyond > 5.0 * margin, "{beyond}");
 
-    for seed in 1..=3 {
+    // Seeds 1-3, and 7: the one of seeds 1-50 whose drone goes furthest beyond the wall in the whole
+    // flight (25.6 cm, at t = 22.6 s, inside this window; `paper --seeds 50`).
+    for seed in [1, 2, 3, 7] {
         let mut controller = Geofence::new(&reference.state(0));
         let mut tally = Tally::default();
         let mut y_max = f64::MIN;
@@ -189,7 +181,7 @@ fn the_square_is_held_behind_the_wall() {
             tally.estimate.wall.value <= overrun + tol.wall,
             "seed {seed}: the estimate {} m beyond the wall at t = {} s (overrun {overrun} m)",
             tally.estimate.wall.value,
-            tally.estimate.wall.t + START
+            tally.estimate.wall.t
         );
         // The true drone: within the margin of the wall, and at it (not kept away from it).
         let worst = tally.state.wall;
@@ -197,7 +189,7 @@ fn the_square_is_held_behind_the_wall() {
             worst.value <= margin,
             "seed {seed}: {} m beyond the wall at t = {} s (margin {margin} m)",
             worst.value,
-            worst.t + START
+            worst.t
         );
         assert!(
             y_max > WALL_Y - 0.1,
