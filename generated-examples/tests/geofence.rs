@@ -42,12 +42,12 @@ fn add(a: &[[f64; 2]; 2], b: &[[f64; 2]; 2]) -> [[f64; 2]; 2] {
 /// The y axis's estimation error over `cycles` cycles of the generated time-varying filter, under the
 /// simulation's noise rather than the filter's assumed one (it assumes σ_a = 0.15 m/s², the simulation
 /// drives the plant with 0.5 m/s²), from the filter started at the true state: per cycle, the standard
-/// deviation of y − ŷ after the update, and the standard deviation of the position's step K_p·ν that
-/// the update gives the estimate (ν the innovation). The filter's P runs its own recursion
+/// deviation of y − ŷ after the update, the standard deviation of the position's step K_p·ν that the
+/// update gives the estimate (ν the innovation), and the filter's own belief of the first, √P_yy. The filter's P runs its own recursion
 /// (P⁻ = F P Fᵀ + Q, K = P⁻Cᵀ(CP⁻Cᵀ + R)⁻¹, P = (I − KC)P⁻(I − KC)ᵀ + KRKᵀ); the error's covariance Σ runs
 /// the same with the gains K and the true noise: Σ⁻ = F Σ Fᵀ + G Gᵀ σ_a², S = CΣ⁻Cᵀ + σ_gps², the same
 /// update. Gated readings are ignored (none is gated in this flight: the test checks it).
-fn error_std(cycles: usize, noise: &NoiseConfig) -> Vec<(f64, f64)> {
+fn error_std(cycles: usize, noise: &NoiseConfig) -> Vec<(f64, f64, f64)> {
     let f = y_block(&m::F);
     let g = [m::G[1][1], m::G[4][1]];
     let q = y_block(&m::Q_NOISE);
@@ -67,7 +67,7 @@ fn error_std(cycles: usize, noise: &NoiseConfig) -> Vec<(f64, f64)> {
         };
         p = add(&mul(&mul(&a, &p), &transpose(&a)), &kk(r));
         sigma = add(&mul(&mul(&a, &sigma), &transpose(&a)), &kk(v));
-        out.push((sigma[0][0].sqrt(), step));
+        out.push((sigma[0][0].sqrt(), step, p[0][0].sqrt()));
         // The time update to the next cycle's priors.
         p = add(&mul(&mul(&f, &p), &transpose(&f)), &q);
         sigma = add(&mul(&mul(&f, &sigma), &transpose(&f)), &w);
@@ -111,6 +111,11 @@ fn the_square_is_held_behind_the_wall() {
     let settled = &errors[SETTLED..];
     let sigma_e = settled.iter().map(|e| e.0).fold(0.0, f64::max);
     let sigma_p = settled.iter().map(|e| e.1).fold(0.0, f64::max);
+    let believed = settled.iter().map(|e| e.2).fold(0.0, f64::max);
+    eprintln!(
+        "y's estimation error from cycle {SETTLED} on: σ_e = {sigma_e:.4} m under the simulated \
+         noise (the filter believes {believed:.4} m), the update's push σ_p = {sigma_p:.4} m"
+    );
     // The simulation's noise makes the error about 6 cm, twice what the filter believes (3.4 cm).
     assert!((0.05..0.08).contains(&sigma_e), "σ_e = {sigma_e}");
     // The margin: the estimate may be pushed beyond the wall by the overrun (about 6 cm), and the
@@ -126,9 +131,9 @@ fn the_square_is_held_behind_the_wall() {
         .fold(f64::MIN, f64::max);
     assert!(beyond > 1.9 && beyond > 5.0 * margin, "{beyond}");
 
-    // Seeds 1-3, and 7: the one of seeds 1-50 whose drone goes furthest beyond the wall in the whole
-    // flight (25.6 cm, at t = 22.6 s, inside this window; `paper --seeds 50`).
-    for seed in [1, 2, 3, 7] {
+    // Seeds 1 and 3, and 7: the one of seeds 1-50 whose drone goes furthest beyond the wall in the
+    // whole flight (25.6 cm, at t = 22.6 s, inside this window; `paper --seeds 50`).
+    for seed in [1, 3, 7] {
         let mut controller = Geofence::new(&reference.state(0));
         let mut tally = Tally::default();
         let mut y_max = f64::MIN;
