@@ -3,7 +3,8 @@
 
     python3 scripts/check_constrained_specs.py [SPEC ...]
 
-Without arguments it checks `specs/quadcopter.toml`, `specs/hover.toml` and `specs/paper-limits.toml`.
+Without arguments it checks `specs/quadcopter.toml`, `specs/hover.toml`, `specs/paper-limits.toml` and
+`specs/paper-geofence.toml`.
 For every spec it
 
 1. checks the dimensions of every key against the model (nx, nu, nz = nx: these specs track the whole
@@ -20,7 +21,8 @@ For every spec it
      region must cover it);
    - for soft state bounds (`x_soft`), the exact-penalty threshold: the largest sum over the horizon of
      the hard problem's multipliers of one state component, Σ_k (λ⁺_{k,i} + λ⁻_{k,i}), which `x_soft`
-     must exceed for the soft problem to have the hard problem's solution whenever that is feasible.
+     must exceed for the soft problem to have the hard problem's solution whenever that is feasible. The same
+     per row of the `[[mpc.constraint]]` groups, which a group's `soft` must exceed.
 
 The cost is the project's: J = Σ_{k=1}^{N−1} (x_k − r_k)ᵀQ(x_k − r_k) + (x_N − r_N)ᵀQf(x_N − r_N)
 + Σ_{k=0}^{N−1} u_kᵀRu_k = ½UᵀHU + fᵀU + const, f = 2Suᵀ Q̄ (Sx x0 − R_ref). A soft state bound adds one
@@ -35,7 +37,8 @@ import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-DEFAULT_SPECS = ["specs/quadcopter.toml", "specs/hover.toml", "specs/paper-limits.toml"]
+DEFAULT_SPECS = ["specs/quadcopter.toml", "specs/hover.toml", "specs/paper-limits.toml",
+                 "specs/paper-geofence.toml"]
 QUAD_SOFT = 1e-3  # the quadratic term of a soft constraint, relative to its weight
 
 

@@ -1,7 +1,7 @@
-//! The geofence controller of `specs/paper-geofence.toml` on the part of the paper's reference flight
-//! that crosses its wall y ≤ 8 m: the square from its start at the origin (t = 12 s) to the middle of
-//! its −x leg (t = 23 s), which runs along y = 10, 2 m beyond the wall. The plant, the noise and the
-//! controller wiring are the `paper` binary's (`flight_sim::fly`, `mpc_controller!`, the default noise).
+//! The geofence controller of `specs/paper-geofence.toml` on the `paper` binary's flight up to the
+//! middle of the square's −x leg (t = 23 s), which runs along y = 10, 2 m beyond the wall y ≤ 8 m: the
+//! same plant, noise, seeds and controller wiring (`flight_sim::fly`, `mpc_controller!`, the default
+//! noise), so each seed flies the first 23 s of that seed's geofence flight.
 //!
 //! Asserted: the plan is held behind the wall (and within the speed limit and above the floor) up to
 //! `accuracy` wherever a plan can be, the solver's own figure for it agrees, and the true drone stays
@@ -13,20 +13,10 @@ use generated_examples::paper_geofence as m;
 
 flight_sim::mpc_controller!(struct Geofence(generated_examples::paper_geofence));
 
-/// The reference flight from `start` seconds on.
-struct From(Trajectory, f64);
-
-impl Reference for From {
-    fn state_at(&self, t: f64) -> [f64; 6] {
-        self.0.state_at(t + self.1)
-    }
-}
-
-/// The square starts at rest at the origin at 12 s; the −x leg along y = 10 is half flown at 23 s.
-const START: f64 = 12.0;
-const SECONDS: f64 = 11.0;
-/// From this cycle on the filter's error is near its steady state (below); the drone is then 5 m
-/// from the wall (the reference at t = 17.1 s is at y = 2.8 m).
+/// Take-off, climb and the square up to the middle of its −x leg along y = 10.
+const SECONDS: f64 = 23.0;
+/// From this cycle on (5.1 s) the filter's error is near its steady state (below); the drone is
+/// then still climbing above the origin, 8 m from the wall.
 const SETTLED: usize = 400;
 /// How many standard deviations the margin allows: a Gaussian error exceeds 4σ with probability
 /// 6e-5, and the seeds are fixed, so the test is deterministic.
@@ -52,12 +42,12 @@ fn add(a: &[[f64; 2]; 2], b: &[[f64; 2]; 2]) -> [[f64; 2]; 2] {
 /// The y axis's estimation error over `cycles` cycles of the generated time-varying filter, under the
 /// simulation's noise rather than the filter's assumed one (it assumes σ_a = 0.15 m/s², the simulation
 /// drives the plant with 0.5 m/s²), from the filter started at the true state: per cycle, the standard
-/// deviation of y − ŷ after the update, and the standard deviation of the position's step K_p·ν that
-/// the update gives the estimate (ν the innovation). The filter's P runs its own recursion
+/// deviation of y − ŷ after the update, the standard deviation of the position's step K_p·ν that the
+/// update gives the estimate (ν the innovation), and the filter's own belief of the first, √P_yy. The filter's P runs its own recursion
 /// (P⁻ = F P Fᵀ + Q, K = P⁻Cᵀ(CP⁻Cᵀ + R)⁻¹, P = (I − KC)P⁻(I − KC)ᵀ + KRKᵀ); the error's covariance Σ runs
 /// the same with the gains K and the true noise: Σ⁻ = F Σ Fᵀ + G Gᵀ σ_a², S = CΣ⁻Cᵀ + σ_gps², the same
 /// update. Gated readings are ignored (none is gated in this flight: the test checks it).
-fn error_std(cycles: usize, noise: &NoiseConfig) -> Vec<(f64, f64)> {
+fn error_std(cycles: usize, noise: &NoiseConfig) -> Vec<(f64, f64, f64)> {
     let f = y_block(&m::F);
     let g = [m::G[1][1], m::G[4][1]];
     let q = y_block(&m::Q_NOISE);
@@ -77,7 +67,7 @@ fn error_std(cycles: usize, noise: &NoiseConfig) -> Vec<(f64, f64)> {
         };
         p = add(&mul(&mul(&a, &p), &transpose(&a)), &kk(r));
         sigma = add(&mul(&mul(&a, &sigma), &transpose(&a)), &kk(v));
-        out.push((sigma[0][0].sqrt(), step));
+        out.push((sigma[0][0].sqrt(), step, p[0][0].sqrt()));
         // The time update to the next cycle's priors.
         p = add(&mul(&mul(&f, &p), &transpose(&f)), &q);
         sigma = add(&mul(&mul(&f, &sigma), &transpose(&f)), &w);
@@ -85,19 +75,19 @@ fn error_std(cycles: usize, noise: &NoiseConfig) -> Vec<(f64, f64)> {
     out
 }
 
-/// How far the estimate can be pushed beyond the wall: each update moves it by K_p·ν (σ_p, above),
-/// towards the wall or away, and the controller can only take that back at its 10 m/s²: a displacement
-/// d taken back and stopped again needs n cycles with a·(n·dt)²/4 = d. Over n cycles the updates add up
-/// to √n·σ_p; the estimate overruns by at most max_n (SIGMAS·√n·σ_p − a·(n·dt)²/4), at
-/// n = (SIGMAS·σ_p / (4c))^(2/3) with c = a·dt²/4.
+/// How far the estimate can be pushed beyond the wall. Each update moves it by K_p·ν (σ_p, above),
+/// towards the wall or away, and the plan takes that back with what acceleration it has left. It has
+/// none left when the drone arrives at the wall at the speed limit and the plan brakes at full
+/// acceleration to stop on it: for the n_b = SPEED_LIMIT / (U_MAX·dt) = 16 cycles of that braking the
+/// updates' pushes add up unopposed, to √n_b·σ_p. (Riding along the wall, a push is taken back within
+/// a few cycles and the estimate strays less.)
 fn estimate_overrun(sigma_p: f64) -> f64 {
-    let c = m::U_MAX[1] * DT * DT / 4.0;
-    let n = (SIGMAS * sigma_p / (4.0 * c)).powf(2.0 / 3.0);
-    SIGMAS * n.sqrt() * sigma_p - c * n * n
+    let braking = SPEED_LIMIT / (m::U_MAX[1] * DT);
+    SIGMAS * braking.sqrt() * sigma_p
 }
 
 #[test]
-fn the_constants_are_the_spec_s() {
+fn the_bounds_measured_are_those_of_the_spec() {
     let spec = mpc_spec::load(include_str!("../../specs/paper-geofence.toml")).unwrap();
     let c = &spec.mpc.constraints;
     assert_eq!(c.rows.len(), 1);
@@ -114,16 +104,21 @@ fn the_constants_are_the_spec_s() {
 
 #[test]
 fn the_square_is_held_behind_the_wall() {
-    let reference = From(Trajectory::paper(), START);
+    let reference = Trajectory::paper();
     let cycles = Scenario::cycles_for(SECONDS);
     let noise = NoiseConfig::DEFAULT;
     let errors = error_std(cycles, &noise);
     let settled = &errors[SETTLED..];
     let sigma_e = settled.iter().map(|e| e.0).fold(0.0, f64::max);
     let sigma_p = settled.iter().map(|e| e.1).fold(0.0, f64::max);
+    let believed = settled.iter().map(|e| e.2).fold(0.0, f64::max);
+    eprintln!(
+        "y's estimation error from cycle {SETTLED} on: σ_e = {sigma_e:.4} m under the simulated \
+         noise (the filter believes {believed:.4} m), the update's push σ_p = {sigma_p:.4} m"
+    );
     // The simulation's noise makes the error about 6 cm, twice what the filter believes (3.4 cm).
     assert!((0.05..0.08).contains(&sigma_e), "σ_e = {sigma_e}");
-    // The margin: the estimate may be pushed beyond the wall by the overrun (about 2.5 cm), and the
+    // The margin: the estimate may be pushed beyond the wall by the overrun (about 6 cm), and the
     // drone is where the estimate is, give or take SIGMAS·σ_e (25 cm); the plan adds at most its
     // accuracy.
     let overrun = estimate_overrun(sigma_p);
@@ -136,7 +131,9 @@ fn the_square_is_held_behind_the_wall() {
         .fold(f64::MIN, f64::max);
     assert!(beyond > 1.9 && beyond > 5.0 * margin, "{beyond}");
 
-    for seed in 1..=3 {
+    // Seeds 1 and 3, and 7: the one of seeds 1-50 whose drone goes furthest beyond the wall in the
+    // whole flight (25.6 cm, at t = 22.6 s, inside this window; `paper --seeds 50`).
+    for seed in [1, 3, 7] {
         let mut controller = Geofence::new(&reference.state(0));
         let mut tally = Tally::default();
         let mut y_max = f64::MIN;
@@ -176,8 +173,8 @@ fn the_square_is_held_behind_the_wall() {
             tally.excess
         );
         // The method falls back (residuals above its limits; the plan is then the previous one shifted)
-        // on about 1 % of the cycles at the wall: this holds it under 3 % so a change that makes it
-        // the rule shows.
+        // on a few cycles along the wall (0 to 6 of these 1,796): this holds it under 3 % of them, so
+        // that a change that makes it the rule shows.
         assert!(
             tally.fallbacks * 100 <= 3 * tally.cycles,
             "seed {seed}: {} fallbacks in {} cycles",
@@ -189,7 +186,7 @@ fn the_square_is_held_behind_the_wall() {
             tally.estimate.wall.value <= overrun + tol.wall,
             "seed {seed}: the estimate {} m beyond the wall at t = {} s (overrun {overrun} m)",
             tally.estimate.wall.value,
-            tally.estimate.wall.t + START
+            tally.estimate.wall.t
         );
         // The true drone: within the margin of the wall, and at it (not kept away from it).
         let worst = tally.state.wall;
@@ -197,7 +194,7 @@ fn the_square_is_held_behind_the_wall() {
             worst.value <= margin,
             "seed {seed}: {} m beyond the wall at t = {} s (margin {margin} m)",
             worst.value,
-            worst.t + START
+            worst.t
         );
         assert!(
             y_max > WALL_Y - 0.1,
