@@ -321,17 +321,33 @@ fn constraints_need_a_method_that_takes_them() {
         (GROUP, "[[mpc.constraint]]", "[[mpc.constraint]]"),
     ] {
         // The default, `auto`, takes them.
-        assert_eq!(load(&with_method("", extra)).unwrap().mpc.method, Method::Auto);
-        for method in ["method = \"fgm\"\n", "method = \"gradient\"\n", "step = 0.5\n"] {
+        assert_eq!(
+            load(&with_method("", extra)).unwrap().mpc.method,
+            Method::Auto
+        );
+        for method in [
+            "method = \"fgm\"\n",
+            "method = \"gradient\"\n",
+            "step = 0.5\n",
+        ] {
             let (msg, span, note) = only_error(&with_method(method, extra));
-            let name = if method.contains("gradient") { "gradient" } else { "fgm" };
-            assert_eq!(msg, format!("`{key}` is a constraint, which `method = \"{name}\"` cannot take"));
+            let name = if method.contains("gradient") {
+                "gradient"
+            } else {
+                "fgm"
+            };
+            assert_eq!(
+                msg,
+                format!("`{key}` is a constraint, which `method = \"{name}\"` cannot take")
+            );
             assert_eq!(span, at);
             let note = note.unwrap();
             assert!(note.contains("solves the input box only"), "{note}");
             if method.starts_with("step") {
                 assert!(
-                    note.starts_with("hint: `method = \"auto\"` chooses `fgm` for a numeric `step`"),
+                    note.starts_with(
+                        "hint: `method = \"auto\"` chooses `fgm` for a numeric `step`"
+                    ),
                     "{note}"
                 );
             }
