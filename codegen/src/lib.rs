@@ -173,13 +173,6 @@ pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
 pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
     let (resolved, problem) = choice::resolve(spec)?;
     let spec = &resolved;
-    if problem.qp.method == mpc_spec::Method::Admm {
-        return Err(Diagnostic::new(
-            "`method = \"admm\"` is certified but not yet emitted",
-            spec.spans.get("mpc.method"),
-        )
-        .into());
-    }
     let plan = plan(spec, &problem)?;
     // The build's cost is counted before the certificate's analyses, which take seconds on a large H.
     let (resources, build_cost) = certificate::predicted(&problem, &plan);
