@@ -1,7 +1,8 @@
 //! Sampled certificates: evidence, not a proof. A fixed-iteration interior-point method has no
 //! practical a priori bound (short-step theory asks 32-122× the counts observed), and a first-order
 //! method's bound is on the gap of the cost, not on |U − U*|∞, and 2.4-3.6× the counts observed. So the
-//! compiler runs the method ([`Sampled`]: [`InteriorPoint`], [`FirstOrder`]) at build time, in f64, on a
+//! compiler runs the method ([`Sampled`]: [`InteriorPoint`], [`FirstOrder`], [`Admm`]) at build time (in
+//! f64; ADMM in the module's scalar, at the ρ [`tune_admm`] measured on part of the sample), on a
 //! seeded sample of the operating region `[mpc.region]` and measures how many iterations reach
 //! `accuracy` against the exact solution (the interior-point method run to a 1e-10 tolerance,
 //! cross-checked against Clarabel in the tests):
