@@ -295,7 +295,7 @@ impl Certificate {
             "guaranteed_gap",
             "mpc.solver_spectral_radius",
         ];
-        if e.method == mpc_spec::Method::Ipm {
+        if !e.method.box_only() {
             fields.retain(|f| !FIRST_ORDER.contains(&f.json));
         }
         let at = fields
@@ -327,6 +327,13 @@ impl Certificate {
             field("sampled.limits.dual", "SAMPLED_DUAL_LIMIT", "Final relative dual residual above which the solve falls back.", SAMPLED, "fallback above relative dual residual", Plain, Real(e.limits.dual)),
         ];
         fields.splice(at..at, evidence);
+        if let Some(rho) = e.rho {
+            let at = fields
+                .iter()
+                .position(|f| f.json == "sampled.limits.primal")
+                .unwrap_or(fields.len());
+            fields.insert(at, field("sampled.rho", "SAMPLED_RHO", "ADMM's penalty ρ, tuned on the sample (each row's penalty is ρ times the row's curvature).", SAMPLED, "ADMM's ρ (tuned on the sample)", Plain, Real(rho)));
+        }
         fields
     }
 }
@@ -489,7 +496,7 @@ pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> 
             spec.spans.get("mpc.iterations"),
         )
         .label(format!("the sample needed {}", e.worst_needed))
-        .note(if e.method == mpc_spec::Method::Ipm {
+        .note(if !e.method.box_only() {
             "hint: write `iterations = \"auto\"`, or raise the count; a truncated interior-point solve is not graceful, and where its residuals exceed the certified limits the controller falls back to the shifted previous plan"
         } else {
             "hint: write `iterations = \"auto\"`, or raise the count; a truncated first-order solve is feasible for the box but farther from the optimum than `accuracy`"
@@ -777,9 +784,15 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
     let num = Numeric(p.scalar);
     let qp = &p.qp;
     let plan_entries = qp.N * plan.plan_lanes(p);
-    let per_iteration = match plan.algorithm {
-        Some(a) => plan.estimate().macs + a.update_macs(plan_entries),
-        None => crate::solver::ipm::mpc_macs_per_iteration(qp),
+    let per_iteration = match (plan.algorithm, qp.method) {
+        (Some(a), _) => plan.estimate().macs + a.update_macs(plan_entries),
+        (None, mpc_spec::Method::Admm) => crate::solver::admm::mpc_macs_per_iteration(qp),
+        (None, _) => crate::solver::ipm::mpc_macs_per_iteration(qp),
+    };
+    // ADMM's final residuals and infeasibility test, once a solve.
+    let once_per_solve = match (plan.algorithm, qp.method) {
+        (None, mpc_spec::Method::Admm) => crate::solver::admm::mpc_residual_macs(qp),
+        _ => 0,
     };
     // f: unrolled over Fx, Fr and Fd, or one pass of the matrix-free sweeps (f = ∇J(0)).
     let (gradient_map, gradient_map_constants) =
@@ -809,7 +822,7 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
     };
     Resources {
         macs_per_iteration: per_iteration,
-        macs_per_cycle: qp.iterations * per_iteration + gradient_map + macs_filter,
+        macs_per_cycle: qp.iterations * per_iteration + once_per_solve + gradient_map + macs_filter,
         macs_filter,
         bytes_constants: (gradient_map_constants + filter_constants) * size,
         bytes_state_mpc: mpc.0,

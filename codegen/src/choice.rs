@@ -5,11 +5,14 @@
 //!   is `tolerance`'s a priori bound or the written one, and it is then the only candidate (the others
 //!   are certified on a region); with a region it is sampled like the others.
 //! - `ipm` takes every constraint and is always sampled on `[mpc.region]` (or on the state bounds).
+//! - `admm` takes the same and is sampled the same way, in the module's scalar, at a ρ tuned on part
+//!   of that sample; its cost per solve adds its final residuals and infeasibility test.
 //!
 //! A candidate is excluded when its lowering or certificate fails (the finding is kept as the reason),
 //! or when its sample shows it missing `accuracy` at a written count. Among the rest the lowest cost per
 //! solve wins, in multiply-adds (the cost model's count of the emitted code: the chosen gradient form's
-//! for a first-order method, [`crate::ipm::mpc_macs_per_iteration`] for the interior-point method).
+//! for a first-order method, [`crate::ipm::mpc_macs_per_iteration`] for the interior-point method,
+//! [`crate::admm::mpc_macs_per_iteration`] plus [`crate::admm::mpc_residual_macs`] for ADMM).
 //! FGM-only keys (a numeric `step`, `tolerance`) choose `fgm` before any of this (`mpc_spec`).
 
 pub use crate::evidence::Candidate;
@@ -17,7 +20,23 @@ use crate::lower::Problem;
 use mpc_spec::{Diagnostics, Iterations, Method, Spec};
 
 /// The methods `auto` weighs, in the order a tie is broken.
-pub const CANDIDATES: &[Method] = &[Method::Fgm, Method::Ipm];
+///
+/// ADMM is last: its certificate tunes ρ and samples hundreds to thousands of iterations per case (7 s
+/// for the quadcopter, 50 s for paper-limits in the dev profile), and on f64 hardware the interior-point
+/// method has been cheaper per solve on every shipped spec, so it is weighed only when no earlier
+/// candidate can be used ([`not_weighed`]).
+pub const CANDIDATES: &[Method] = &[Method::Fgm, Method::Ipm, Method::Admm];
+
+/// Why `auto` does not weigh `method` for `spec`, given whether an earlier candidate can be used
+/// (`None`: it is weighed). A method not weighed is listed as unavailable with the reason.
+///
+/// TODO(target): once `[codegen] target` lands, weigh ADMM whenever the target lacks f64 hardware
+/// (where the interior-point method's f64 is emulated and ADMM runs in f32), whatever came before.
+fn not_weighed(_spec: &Spec, method: Method, earlier_usable: bool) -> Option<String> {
+    (method == Method::Admm && earlier_usable).then(|| {
+        "not weighed: an earlier candidate reaches `accuracy`, and ADMM's certificate costs seconds of build time (write `method = \"admm\"` to force it)".to_string()
+    })
+}
 
 /// The spec with its method resolved, and the problem lowered and certified with it: `spec` itself for
 /// a written method, the cheapest candidate for `method = "auto"` (its [`Problem::candidates`] say what
@@ -39,7 +58,12 @@ pub fn resolve(spec: &Spec) -> Result<(Spec, Problem), Diagnostics> {
             Method::Fgm if constrained => {
                 Some("solves the input box only, and the spec has constraints".to_string())
             }
-            _ => None,
+            _ => {
+                let earlier_usable = candidates.iter().any(|c: &Candidate| {
+                    c.unavailable.is_none() && c.reaches_accuracy != Some(false)
+                });
+                not_weighed(spec, method, earlier_usable)
+            }
         };
         if let Some(why) = excluded {
             candidates.push(unavailable(method, why));
@@ -112,9 +136,16 @@ fn unavailable(method: Method, why: String) -> Candidate {
 
 fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
     let qp = &p.qp;
-    let macs_per_iteration = match plan.algorithm {
-        Some(algorithm) => plan.estimate().macs + algorithm.update_macs(qp.H.nrows()),
-        None => crate::ipm::mpc_macs_per_iteration(qp),
+    let (macs_per_iteration, once) = match (plan.algorithm, qp.method) {
+        (Some(algorithm), _) => (
+            plan.estimate().macs + algorithm.update_macs(qp.H.nrows()),
+            0,
+        ),
+        (None, Method::Admm) => (
+            crate::admm::mpc_macs_per_iteration(qp),
+            crate::admm::mpc_residual_macs(qp),
+        ),
+        (None, _) => (crate::ipm::mpc_macs_per_iteration(qp), 0),
     };
     let (certified, reaches_accuracy) = match (&qp.evidence, spec.mpc.iterations) {
         (Some(e), _) => ("sampled", Some(e.worst_needed <= e.iterations)),
@@ -126,7 +157,7 @@ fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
         unavailable: None,
         iterations: qp.iterations,
         macs_per_iteration,
-        macs_per_solve: qp.iterations * macs_per_iteration,
+        macs_per_solve: qp.iterations * macs_per_iteration + once,
         certified,
         reaches_accuracy,
         chosen: false,

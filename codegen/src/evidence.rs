@@ -56,8 +56,12 @@ pub struct Evidence {
     pub limits: Limits,
     /// Cases at `iterations` that fell back (none within the region, as far as the sample shows).
     pub fallbacks: usize,
-    /// Multiply-adds the sample took at build time (against [`crate::budget::LOWERING_MACS`]).
+    /// Multiply-adds the sample took at build time (against [`crate::budget::LOWERING_MACS`]), ADMM's
+    /// tuning of ρ included.
     pub sample_macs: f64,
+    /// ADMM's penalty ρ, tuned on the sample ([`crate::admm::tune_rho`]; each row's penalty is ρ times
+    /// its curvature, [`crate::admm::row_scales`]); `None` for the other methods.
+    pub rho: Option<f64>,
 }
 
 /// The limits above which a fixed-iteration solve is not trusted and [`crate::ipm::Fallback::WarmStart`] is used.

@@ -129,19 +129,25 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
 
 /// Lowers `spec`, whose method is not `auto`, ([`lower::uncertified`]) and certifies its iteration count on a sample of
 /// `[mpc.region]` ([`sampling::certify`]) where there is one to sample: always for the interior-point
-/// method, and for a first-order method when `[mpc.region]` is written (its `iterations = "auto"` is
+/// method and for ADMM (its ρ tuned first on part of the same sample, [`sampling::tune_admm`]), and for a first-order method when `[mpc.region]` is written (its `iterations = "auto"` is
 /// then at least the sample's need for `accuracy`, and at least what `tolerance` guarantees): the
 /// problem every later phase works on.
 pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
     let mut problem = lower::uncertified(spec)?;
-    let evidence = match solver::algorithm(spec.mpc.method) {
-        None => Some(sampling::certify(
+    let evidence = match (spec.mpc.method, solver::algorithm(spec.mpc.method)) {
+        (mpc_spec::Method::Admm, _) => {
+            // ρ measured on part of the sample, then the whole sample at that ρ.
+            let (rho, tuning_macs) = sampling::tune_admm(spec, &problem)?;
+            let method = sampling::Admm::new(&problem, rho, tuning_macs);
+            Some(sampling::certify(spec, &problem, &method, 0)?)
+        }
+        (_, None) => Some(sampling::certify(
             spec,
             &problem,
             &sampling::InteriorPoint,
             0,
         )?),
-        Some(algorithm) if spec.spans.get("mpc.region").is_some() => {
+        (_, Some(algorithm)) if spec.spans.get("mpc.region").is_some() => {
             // The a priori count of `tolerance` (zero without one) is the floor of `auto`.
             let floor = match spec.mpc.iterations {
                 mpc_spec::Iterations::Auto => problem.qp.iterations,
@@ -154,7 +160,7 @@ pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
                 floor,
             )?)
         }
-        Some(_) => None,
+        (_, Some(_)) => None,
     };
     if let Some(evidence) = evidence {
         problem.qp.iterations = evidence.iterations;

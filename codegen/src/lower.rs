@@ -81,12 +81,14 @@ pub struct Qp {
     pub rows: Rows,
     /// `[mpc] accuracy`: the plan within accuracy·(u_max − u_min) of the exact solution.
     pub accuracy: f64,
-    /// The interior-point method's certificate ([`crate::sampling`]); `None` for a first-order method.
+    /// The sampled certificate ([`crate::sampling`]): always for `ipm` and `admm` (with ADMM's tuned ρ,
+    /// [`crate::evidence::Evidence::rho`]), for a first-order method with `[mpc.region]`.
     pub evidence: Option<crate::evidence::Evidence>,
 }
 
 impl Qp {
-    /// The run-time limits of the interior-point method's residuals (none before it is certified).
+    /// The run-time limits of a sampled method's final residuals (the interior-point method's, ADMM's;
+    /// none before it is certified).
     pub fn ipm_limits(&self) -> crate::evidence::Limits {
         self.evidence
             .as_ref()

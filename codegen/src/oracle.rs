@@ -5,6 +5,7 @@
 
 use crate::linalg::{kalman_gain_and_posterior, project, symmetrize};
 use crate::lower::{Problem, Qp, Screening};
+use crate::solver::admm;
 use crate::solver::ipm::{control_step, shifted_start, Start, Step};
 use crate::solver::{algorithm, Algorithm, Fgm};
 use mpc_spec::{FilterKind, Method};
@@ -22,6 +23,10 @@ pub struct Mpc {
     start: Start,
     /// The interior-point method's last step: its solve and fallback.
     last_step: Option<Step>,
+    /// ADMM's warm start (`Cold` for the other methods, unused).
+    admm_start: admm::Start,
+    /// ADMM's last step.
+    admm_step: Option<admm::Step>,
 }
 
 impl Mpc {
@@ -36,7 +41,15 @@ impl Mpc {
             last,
             start: Start::Cold,
             last_step: None,
+            admm_start: admm::Start::Cold,
+            admm_step: None,
         }
+    }
+
+    /// ADMM's last step (its residuals, status and fallback); `None` before the first solve, after a
+    /// reset, or for another method.
+    pub fn admm_step(&self) -> Option<&admm::Step> {
+        self.admm_step.as_ref()
     }
 
     /// The interior-point method's last step (its residuals, iterations and fallback); `None` before
@@ -75,6 +88,8 @@ impl Mpc {
         self.last = self.qp.rest_input();
         self.start = Start::Cold;
         self.last_step = None;
+        self.admm_start = admm::Start::Cold;
+        self.admm_step = None;
     }
 
     /// The gradient map f = Fx·x0 − Fr·Xref + Fu·u₋₁ (eq. 10 with the moves), `xref[k]` the reference of
@@ -121,6 +136,25 @@ impl Mpc {
             self.start = shifted_start(&self.qp, &step);
             self.plan = step.plan.clone();
             self.last_step = Some(step);
+        } else if self.qp.method == Method::Admm {
+            // The certified ρ and residual limits, the iteration in f64 (the emitted f64 module's).
+            let offset = self.qp.rows.offset(x0, d, &self.last);
+            let limits = self.qp.ipm_limits();
+            let settings = admm::certified_settings(&self.qp)
+                .expect("an ADMM problem is certified before it is run");
+            let step = admm::control_step::<f64>(
+                &self.qp,
+                &settings,
+                &f,
+                &offset,
+                &self.admm_start,
+                &self.plan,
+                self.qp.iterations,
+                &limits,
+            );
+            self.admm_start = admm::shifted_start(&self.qp, &step);
+            self.plan = step.plan.clone();
+            self.admm_step = Some(step);
         } else {
             let start = self.warm_start();
             self.plan = iterate(&self.qp, &f, start, self.qp.iterations);

@@ -1,7 +1,8 @@
 //! Sampled certificates: evidence, not a proof. A fixed-iteration interior-point method has no
 //! practical a priori bound (short-step theory asks 32-122× the counts observed), and a first-order
 //! method's bound is on the gap of the cost, not on |U − U*|∞, and 2.4-3.6× the counts observed. So the
-//! compiler runs the method ([`Sampled`]: [`InteriorPoint`], [`FirstOrder`]) at build time, in f64, on a
+//! compiler runs the method ([`Sampled`]: [`InteriorPoint`], [`FirstOrder`], [`Admm`]) at build time (in
+//! f64; ADMM in the module's scalar, at the ρ [`tune_admm`] measured on part of the sample), on a
 //! seeded sample of the operating region `[mpc.region]` and measures how many iterations reach
 //! `accuracy` against the exact solution (the interior-point method run to a 1e-10 tolerance,
 //! cross-checked against Clarabel in the tests):
@@ -105,6 +106,14 @@ pub trait Sampled {
     fn macs_per_iteration(&self, qp: &Qp) -> usize;
     /// Whether the method's final residuals are limited at run time ([`Limits`]).
     fn limits_residuals(&self) -> bool;
+    /// A tuned parameter the evidence reports (ADMM's ρ); `None` for a method without one.
+    fn rho(&self) -> Option<f64> {
+        None
+    }
+    /// Multiply-adds spent before the sample (ADMM's tuning of ρ), counted against the build's budget.
+    fn spent_before(&self) -> f64 {
+        0.0
+    }
 }
 
 /// One iterate of a sampled method.
@@ -302,6 +311,211 @@ fn plain_iterate(z: DVector<f64>) -> Iterate {
     }
 }
 
+/// ADMM ([`crate::admm`]) at a tuned ρ ([`tune_admm`]), run in the module's scalar (`f32` runs the
+/// f32 iteration: the certificate measures what the emitted solver does), warm-started from the
+/// shifted (x, z, y).
+pub struct Admm {
+    /// The penalty (each row's is ρ times its curvature).
+    pub rho: f64,
+    /// Whether the iteration runs in f32.
+    pub f32: bool,
+    /// [`crate::admm::mpc_settings`] at `rho`.
+    pub settings: crate::admm::Settings,
+    /// The multiply-adds the tuning spent.
+    pub tuning_macs: f64,
+}
+
+/// The first and the most iterations an ADMM case is run for when its count is measured.
+pub const ADMM_PROBE: (usize, usize) = (256, 20000);
+
+impl Admm {
+    /// ADMM on `p` at penalty `rho`, in `p`'s scalar.
+    pub fn new(p: &Problem, rho: f64, tuning_macs: f64) -> Self {
+        Admm {
+            rho,
+            f32: p.scalar == mpc_spec::Scalar::F32,
+            settings: crate::admm::mpc_settings(&p.qp, rho),
+            tuning_macs,
+        }
+    }
+}
+
+fn admm_iterate(r: &crate::admm::AdmmResult) -> Iterate {
+    Iterate {
+        z: r.x.clone(),
+        primal: r.primal_residual,
+        dual: r.dual_residual,
+        failed: r.status == crate::admm::Status::NumericalFailure,
+    }
+}
+
+impl Sampled for Admm {
+    type Start = crate::admm::Start;
+
+    fn title(&self) -> &'static str {
+        "ADMM"
+    }
+
+    fn cold(&self, _qp: &Qp) -> crate::admm::Start {
+        crate::admm::Start::Cold
+    }
+
+    fn probe(&self) -> (usize, usize) {
+        ADMM_PROBE
+    }
+
+    fn trajectory(
+        &self,
+        _qp: &Qp,
+        problem: &InequalityQp,
+        start: &crate::admm::Start,
+        iterations: usize,
+    ) -> Vec<Iterate> {
+        let run = if self.f32 {
+            crate::admm::trajectory::<f32>(problem, &self.settings, start, iterations)
+        } else {
+            crate::admm::trajectory::<f64>(problem, &self.settings, start, iterations)
+        };
+        run.iter().map(admm_iterate).collect()
+    }
+
+    fn control_step(
+        &self,
+        qp: &Qp,
+        f: &DVector<f64>,
+        offset: &DVector<f64>,
+        start: &crate::admm::Start,
+        previous_plan: &DVector<f64>,
+        count: usize,
+    ) -> Stepped<crate::admm::Start> {
+        let step = if self.f32 {
+            crate::admm::control_step::<f32>
+        } else {
+            crate::admm::control_step::<f64>
+        };
+        let step = step(
+            qp,
+            &self.settings,
+            f,
+            offset,
+            start,
+            previous_plan,
+            count,
+            &Limits::NONE,
+        );
+        Stepped {
+            iterate: admm_iterate(&step.result),
+            next: crate::admm::shifted_start(qp, &step),
+            fell_back: step.fallback != Fallback::Solved,
+            plan: step.plan,
+        }
+    }
+
+    fn macs_per_iteration(&self, qp: &Qp) -> usize {
+        crate::admm::mpc_macs_per_iteration(qp)
+    }
+
+    fn limits_residuals(&self) -> bool {
+        true
+    }
+
+    fn rho(&self) -> Option<f64> {
+        Some(self.rho)
+    }
+
+    fn spent_before(&self) -> f64 {
+        self.tuning_macs
+    }
+}
+
+/// Cold cases of the certificate's sample ADMM's ρ is tuned on: the first of them, in the sample's order.
+pub const TUNING_COLD: usize = 32;
+/// Steps of the warm sequence ρ is tuned on: the certificate's first sequence, flown by the exact solution.
+pub const TUNING_WARM: usize = 32;
+
+/// ADMM's ρ, measured on a subset of the certificate's own sample ([`crate::admm::tune_rho`] in f64):
+/// its first [`TUNING_COLD`] cold cases that have a solution, and [`TUNING_WARM`] steps of its first
+/// warm sequence flown by the exact solution, each warm-started from the previous exact (x, z, y)
+/// shifted. Returns ρ and the multiply-adds the search spent (counted against the build's budget).
+pub fn tune_admm(spec: &Spec, p: &Problem) -> Result<(f64, f64), Diagnostics> {
+    let region = resolve_region(spec, p)?;
+    let qp = &p.qp;
+    let sample = draw_sample(spec, p, &region);
+    let nu = qp.u_min.len();
+    let span = DVector::from_fn(qp.N * nu, |i, _| qp.u_max[i % nu] - qp.u_min[i % nu]);
+    let mut cases = Vec::new();
+    for c in &sample.cold {
+        if cases.len() == TUNING_COLD {
+            break;
+        }
+        let (f, offset) = data(p, c);
+        let problem = mpc_qp(qp, &f, &offset);
+        let exact = solve(&problem, EXACT_TOLERANCE, 200);
+        if exact.status == Status::Converged {
+            cases.push(crate::admm::Case {
+                qp: problem,
+                exact: exact.z,
+                start: crate::admm::Start::Cold,
+                span: span.clone(),
+            });
+        }
+    }
+    if let Some(first) = sample.starts.first() {
+        let mut c = first.clone();
+        let mut start = crate::admm::Start::Cold;
+        for _ in 0..TUNING_WARM.min(sample.steps) {
+            let (f, offset) = data(p, &c);
+            let problem = mpc_qp(qp, &f, &offset);
+            let exact = solve(&problem, EXACT_TOLERANCE, 200);
+            if exact.status != Status::Converged {
+                break;
+            }
+            cases.push(crate::admm::Case {
+                qp: problem.clone(),
+                exact: exact.z.clone(),
+                start: start.clone(),
+                span: span.clone(),
+            });
+            let y = crate::admm::duals_from_ipm(&problem, &exact);
+            let cz = DVector::from_iterator(
+                problem.n() + problem.A.nrows(),
+                exact
+                    .z
+                    .iter()
+                    .copied()
+                    .chain((&problem.A * &exact.z).iter().copied()),
+            );
+            start = crate::admm::shift(qp, &exact.z, &cz, &y);
+            let u = exact.z.rows(0, p.nu).into_owned();
+            let mut push = u.clone();
+            for i in 0..c.d.len() {
+                push[i] += c.d[i];
+            }
+            c.x0 = &p.F * &c.x0 + &p.G * push;
+            c.last = u;
+        }
+    }
+    let per_iteration = crate::admm::mpc_macs_per_iteration(qp) as f64;
+    let settings = |problem: &InequalityQp, rho: f64| crate::admm::Settings::scaled(problem, rho);
+    let tuned = crate::admm::tune_rho(&cases, &settings, qp.accuracy, ADMM_PROBE.1);
+    match tuned {
+        Some(t) => {
+            let macs = t.iterations_run as f64 * per_iteration;
+            Spent { macs: 0.0 }.add(macs, spec, "ADMM")?;
+            Ok((t.rho, macs))
+        }
+        None => Err(Diagnostic::new(
+            format!(
+                "ADMM reaches `accuracy = {:e}` within {} iterations at no ρ from 1e-4 to 1e4 on the tuning cases of `[mpc.region]`",
+                spec.mpc.accuracy, ADMM_PROBE.1
+            ),
+            spec.spans.get("mpc.accuracy").or(spec.spans.get("mpc.method")).or(spec.spans.get("mpc.region")),
+        )
+        .note("hint: loosen `accuracy`, scale the model's units so the Hessian is better conditioned, narrow `[mpc.region]`, or choose `method = \"ipm\"`")
+        .into()),
+    }
+}
+
 /// The multiply-adds the sample has spent, against the build's budget.
 struct Spent {
     macs: f64,
@@ -366,56 +580,18 @@ pub fn certify<M: Sampled>(
 ) -> Result<Evidence, Diagnostics> {
     let region = resolve_region(spec, p)?;
     check_budget(spec, p, method)?;
-    let mut spent = Spent { macs: 0.0 };
+    let mut spent = Spent {
+        macs: method.spent_before(),
+    };
     let qp = &p.qp;
-    let nx = p.nx;
-    let written = &spec.mpc.region;
-    let mut rng = ChaCha8Rng::seed_from_u64(SEED);
     let span = |key: &str| spec.spans.get(key);
-    let nd = p.nd();
-    let draw = |rng: &mut ChaCha8Rng, lo: &[f64], hi: &[f64]| {
-        DVector::from_iterator(
-            lo.len(),
-            lo.iter().zip(hi).map(|(a, b)| rng.gen_range(*a..=*b)),
-        )
-    };
-    let d_lo: Vec<f64> = (0..nd).map(|i| -qp.u_max[i]).collect();
-    let d_hi: Vec<f64> = (0..nd).map(|i| -qp.u_min[i]).collect();
-    let u_lo: Vec<f64> = qp.u_min.iter().copied().collect();
-    let u_hi: Vec<f64> = qp.u_max.iter().copied().collect();
-    let case = |rng: &mut ChaCha8Rng, x0: DVector<f64>| Case {
-        x0,
-        reference: draw(rng, &region.reference_min, &region.reference_max),
-        d: draw(rng, &d_lo, &d_hi),
-        last: if p.keeps_last_input() {
-            draw(rng, &u_lo, &u_hi)
-        } else {
-            qp.rest_input()
-        },
-    };
-    // Cold cases: corners, then draws.
-    let corners_all = 1usize.checked_shl(nx as u32).unwrap_or(usize::MAX);
-    let corners = corner_count(nx);
-    let mut cases = Vec::new();
-    for c in 0..corners {
-        let bits: u64 = if corners_all <= MAX_CORNERS {
-            c as u64
-        } else {
-            rng.gen()
-        };
-        let x0 = DVector::from_fn(nx, |i, _| {
-            if bits >> (i % 64) & 1 == 1 {
-                region.x_max[i]
-            } else {
-                region.x_min[i]
-            }
-        });
-        cases.push(case(&mut rng, x0));
-    }
-    for _ in 0..written.samples.unwrap_or(DEFAULT_SAMPLES) {
-        let x0 = draw(&mut rng, &region.x_min, &region.x_max);
-        cases.push(case(&mut rng, x0));
-    }
+    let Sample {
+        cold: cases,
+        corners,
+        starts,
+        sequences,
+        steps,
+    } = draw_sample(spec, p, &region);
     let mut cold_counts = Vec::new();
     let mut infeasible_cases = 0;
     let mut cold_runs = Vec::new();
@@ -449,14 +625,6 @@ pub fn certify<M: Sampled>(
     }
     let cold_worst = *cold_counts.iter().max().unwrap_or(&1);
     // Warm sequences at a candidate count, raised until it covers what the warm steps need.
-    let sequences = written.sequences.unwrap_or(DEFAULT_SEQUENCES);
-    let steps = written.steps.unwrap_or(DEFAULT_STEPS);
-    let starts: Vec<Case> = (0..sequences)
-        .map(|_| {
-            let x0 = draw(&mut rng, &region.x_min, &region.x_max);
-            case(&mut rng, x0)
-        })
-        .collect();
     let fixed = match spec.mpc.iterations {
         Iterations::Fixed(n) => Some(n),
         Iterations::Auto => None,
@@ -541,7 +709,84 @@ pub fn certify<M: Sampled>(
         limits,
         fallbacks: warm.fallbacks,
         sample_macs: spent.macs,
+        rho: method.rho(),
     })
+}
+
+/// The seeded sample of `[mpc.region]`: the cold cases (corners, then draws) and the warm sequences'
+/// first cases, drawn in that order from [`SEED`].
+struct Sample {
+    cold: Vec<Case>,
+    corners: usize,
+    starts: Vec<Case>,
+    sequences: usize,
+    steps: usize,
+}
+
+fn draw_sample(spec: &Spec, p: &Problem, region: &Region) -> Sample {
+    let qp = &p.qp;
+    let nx = p.nx;
+    let written = &spec.mpc.region;
+    let mut rng = ChaCha8Rng::seed_from_u64(SEED);
+    let nd = p.nd();
+    let draw = |rng: &mut ChaCha8Rng, lo: &[f64], hi: &[f64]| {
+        DVector::from_iterator(
+            lo.len(),
+            lo.iter().zip(hi).map(|(a, b)| rng.gen_range(*a..=*b)),
+        )
+    };
+    let d_lo: Vec<f64> = (0..nd).map(|i| -qp.u_max[i]).collect();
+    let d_hi: Vec<f64> = (0..nd).map(|i| -qp.u_min[i]).collect();
+    let u_lo: Vec<f64> = qp.u_min.iter().copied().collect();
+    let u_hi: Vec<f64> = qp.u_max.iter().copied().collect();
+    let case = |rng: &mut ChaCha8Rng, x0: DVector<f64>| Case {
+        x0,
+        reference: draw(rng, &region.reference_min, &region.reference_max),
+        d: draw(rng, &d_lo, &d_hi),
+        last: if p.keeps_last_input() {
+            draw(rng, &u_lo, &u_hi)
+        } else {
+            qp.rest_input()
+        },
+    };
+    // Cold cases: corners, then draws.
+    let corners_all = 1usize.checked_shl(nx as u32).unwrap_or(usize::MAX);
+    let corners = corner_count(nx);
+    let mut cold = Vec::new();
+    for c in 0..corners {
+        let bits: u64 = if corners_all <= MAX_CORNERS {
+            c as u64
+        } else {
+            rng.gen()
+        };
+        let x0 = DVector::from_fn(nx, |i, _| {
+            if bits >> (i % 64) & 1 == 1 {
+                region.x_max[i]
+            } else {
+                region.x_min[i]
+            }
+        });
+        cold.push(case(&mut rng, x0));
+    }
+    for _ in 0..written.samples.unwrap_or(DEFAULT_SAMPLES) {
+        let x0 = draw(&mut rng, &region.x_min, &region.x_max);
+        cold.push(case(&mut rng, x0));
+    }
+    let sequences = written.sequences.unwrap_or(DEFAULT_SEQUENCES);
+    let steps = written.steps.unwrap_or(DEFAULT_STEPS);
+    let starts = (0..sequences)
+        .map(|_| {
+            let x0 = draw(&mut rng, &region.x_min, &region.x_max);
+            case(&mut rng, x0)
+        })
+        .collect();
+    Sample {
+        cold,
+        corners,
+        starts,
+        sequences,
+        steps,
+    }
 }
 
 /// What the warm sequences showed at one count.
@@ -761,7 +1006,10 @@ pub fn resolve_region(spec: &Spec, p: &Problem) -> Result<Region, Diagnostics> {
             }
             _ => diags.push(
                 Diagnostic::new(
-                    format!("the interior-point method is certified on a sampled region, and state {i} has no range"),
+                    format!("{} is certified on a sampled region, and state {i} has no range", match spec.mpc.method {
+                        mpc_spec::Method::Admm => "ADMM",
+                        _ => "the interior-point method",
+                    }),
                     region_span(spec),
                 )
                 .label(format!("x[{i}] is not bounded on both sides by `x_min`/`x_max`"))

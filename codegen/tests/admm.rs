@@ -451,3 +451,38 @@ fn infeasible_and_non_finite_data_fall_back() {
         assert_eq!(r.status, Status::IterationLimit);
     }
 }
+
+/// `method = "admm"` is certified like the interior-point method, in the module's scalar, at a ρ
+/// tuned on part of the same sample: the count reaches `accuracy` on every case of the sample, the
+/// sample (tuning included) stays inside the build's budget, and the limits are set.
+#[test]
+fn the_certificate_tunes_rho_and_samples_the_region() {
+    // paper-limits takes 50 s here (its corners need 2,500 iterations), and f64 as long again as f32:
+    // add them to the lists to see them.
+    let (names, scalars): (&[(&str, &str)], &[&str]) = (&[("quadcopter", QUADCOPTER)], &["f32"]);
+    for (name, text) in names {
+        for scalar in scalars {
+            let src = text
+                .replace("method = \"ipm\"", "method = \"admm\"")
+                .replace("scalar = \"f64\"", &format!("scalar = \"{scalar}\""))
+                .replace("scalar = \"f32\"", &format!("scalar = \"{scalar}\""));
+            let spec = mpc_spec::load(&src).unwrap();
+            assert_eq!(spec.mpc.method, mpc_spec::Method::Admm);
+            let start = std::time::Instant::now();
+            let p = codegen::lower(&spec).unwrap();
+            let e = p.qp.evidence.as_ref().expect("ADMM is sampled");
+            let rho = e.rho.expect("ADMM's certificate carries its ρ");
+            println!(
+                "{name} admm {scalar}: ρ = {rho:.3e}, {} iterations (cold worst {}, warm worst {}), worst error {:.2e}, limits {:.1e}/{:.1e}, {} fallbacks, {:.2e} multiply-adds sampled, {:.1} s",
+                e.iterations, e.cold_worst, e.warm_worst, e.worst_error, e.limits.primal, e.limits.dual,
+                e.fallbacks, e.sample_macs, start.elapsed().as_secs_f64()
+            );
+            assert!(rho > 0.0 && rho.is_finite());
+            assert!(e.worst_needed <= e.iterations);
+            assert!(e.worst_error <= p.qp.accuracy, "{name} {scalar}");
+            assert!(e.sample_macs <= codegen::budget::LOWERING_MACS);
+            assert!(e.limits.primal.is_finite() && e.limits.dual.is_finite());
+            assert_eq!(p.qp.iterations, e.iterations);
+        }
+    }
+}

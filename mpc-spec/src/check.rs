@@ -587,9 +587,9 @@ impl Ordered<'_> {
     }
 }
 
-/// What the first-order methods cannot solve needs `method = "ipm"`: `x_min`, `x_max`, `du_min`, `du_max`
-/// and `[[mpc.constraint]]` (and with them `x_soft` and `soft`); `ipm` in turn takes no gradient `step`
-/// nor `tolerance`, its accuracy being `accuracy`.
+/// What the first-order methods cannot solve needs `method = "ipm"` or `"admm"`: `x_min`, `x_max`,
+/// `du_min`, `du_max` and `[[mpc.constraint]]` (and with them `x_soft` and `soft`); `ipm` and `admm` in
+/// turn take no gradient `step` nor `tolerance`, their accuracy being `accuracy`.
 fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut Diagnostics) {
     let name = method.name();
     if method == Method::Auto {
@@ -627,9 +627,9 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
             ),
         ];
         let fix = if requested == Method::Auto {
-            "remove it so that `auto` chooses among the methods that take constraints, or write `method = \"ipm\"`"
+            "remove it so that `auto` chooses among the methods that take constraints, or write `method = \"ipm\"` (or `\"admm\"`)"
         } else {
-            "write `method = \"auto\"` (the default: the compiler's choice) or `method = \"ipm\"` in `[mpc]` for state, move and row constraints"
+            "write `method = \"auto\"` (the default: the compiler's choice) or `method = \"ipm\"` (or `\"admm\"`) in `[mpc]` for state, move and row constraints"
         };
         for (key, what, span) in keys {
             let Some(span) = span else { continue };
@@ -653,7 +653,10 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
                 step.span.clone(),
             )
             .label("a gradient step size")
-            .note("hint: the interior-point method takes Newton steps, each as long as the boundary allows; remove `step`"),
+            .note(format!("hint: {}; remove `step`", match method {
+                Method::Admm => "ADMM's step is its penalty ρ, tuned at build time on `[mpc.region]`",
+                _ => "the interior-point method takes Newton steps, each as long as the boundary allows",
+            })),
         );
     }
     if let Some(tolerance) = &raw.tolerance {
@@ -663,7 +666,10 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
                 tolerance.span.clone(),
             )
             .label("the a priori bound of `fgm` and `gradient`")
-            .note(format!("hint: the interior-point method is certified on `[mpc.region]` against `accuracy` (default {DEFAULT_ACCURACY}): write `accuracy` instead of `tolerance`")),
+            .note(format!("hint: {} is certified on `[mpc.region]` against `accuracy` (default {DEFAULT_ACCURACY}): write `accuracy` instead of `tolerance`", match method {
+                Method::Admm => "ADMM",
+                _ => "the interior-point method",
+            })),
         );
     }
 }

@@ -188,6 +188,9 @@ spelled! {
         /// A fixed-iteration primal-dual interior-point method (Mehrotra's predictor-corrector) in f64:
         /// for state, output and rate constraints and ill-conditioned plants.
         Ipm = "ipm",
+        /// ADMM (OSQP's operator splitting) with a build-time factor and a build-time tuned penalty ρ,
+        /// in the module's scalar: for the same constraints as `ipm` on targets without f64 hardware.
+        Admm = "admm",
         /// The compiler's choice (the default): the cheapest method that its certificate shows
         /// reaching `accuracy`, resolved at build time; FGM-only keys (a numeric `step`, `tolerance`)
         /// choose `fgm`.

@@ -1,6 +1,6 @@
 //! The emitted modules compiled as plain source, so that rustc and clippy see every line (clippy skips
 //! most of a macro's output): the checked-in `generated-examples/generated/*.rs` and one module per
-//! algorithm × gradient form that they do not cover. A scratch crate holds them with `#![deny(dead_code)]`
+//! algorithm × gradient form that they do not cover (and ADMM in f32 and f64). A scratch crate holds them with `#![deny(dead_code)]`
 //! and no allow of its own; `cargo clippy -- -D warnings` must pass on the host (the portable kernels) and
 //! for `armv7a-none-eabihf` with `--cfg mpc_neon` (the Zynq's NEON kernels, nightly with `-Zbuild-std`, as
 //! the firmware builds them).
@@ -144,6 +144,14 @@ fn variants() -> Vec<(String, String)> {
     assert_ne!(offset_free, rows, "paper-limits.toml: no `[kalman]`");
     out.push(("interior_f32_rows".to_string(), rows));
     out.push(("interior_f32_offset_free".to_string(), offset_free));
+    // ADMM in both scalars on a small plant with every kind of row, weighted moves and a disturbance
+    // model (certified in seconds).
+    for scalar in ["f32", "f64"] {
+        out.push((
+            format!("admm_{scalar}_rows"),
+            tests(&format!("linear-admm-{scalar}.toml")),
+        ));
+    }
     out
 }
 

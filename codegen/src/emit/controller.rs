@@ -5,10 +5,11 @@ use proc_macro2::TokenStream;
 use quote::quote;
 
 /// The `Controller` and `Status` types (API), and the saturation kernel.
-pub fn emit(p: &Problem, interior: bool) -> (TokenStream, TokenStream) {
+/// `solver` names the constrained method whose status `Status::solver` carries (`None`: no such field).
+pub fn emit(p: &Problem, solver: Option<&str>) -> (TokenStream, TokenStream) {
     let row = crate::form::reference_row(p);
-    // The interior-point method's own status, copied into the cycle's.
-    let solver = Solver::new(interior);
+    // The constrained method's own status (the interior-point method's, ADMM's), copied into the cycle's.
+    let solver = Solver::new(solver);
     let keeps_last = p.keeps_last_input();
     let moves = keeps_last.then(|| {
         quote! {
@@ -268,7 +269,7 @@ fn state_feedback(
     }
 }
 
-/// The `solver` field of `Status` with the interior-point method: its declaration, its value in
+/// The `solver` field of `Status` with a constrained method (`ipm`, `admm`): its declaration, its value in
 /// `Controller::new` and its copy after a cycle.
 struct Solver {
     field: TokenStream,
@@ -277,17 +278,18 @@ struct Solver {
 }
 
 impl Solver {
-    fn new(interior: bool) -> Self {
-        if !interior {
+    fn new(method: Option<&str>) -> Self {
+        let Some(method) = method else {
             return Solver {
                 field: quote!(),
                 init: quote!(),
                 copy: quote!(),
             };
-        }
+        };
+        let doc = format!(" What the {method} did: iterations, residuals, violations, fallback.");
         Solver {
             field: quote! {
-                /// What the interior-point method did: iterations, residuals, violations, fallback.
+                #[doc = #doc]
                 pub solver: SolverStatus,
             },
             init: quote!(solver: Mpc::new().status,),

@@ -7,6 +7,7 @@
 //! the reference takes a Cholesky factor; the two differ in rounding only.
 #![allow(non_snake_case)]
 
+use super::constrained::{offsets, status_types, Offsets};
 use super::tokens::Num;
 use super::Sections;
 use crate::lower::Problem;
@@ -71,27 +72,32 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             .map(|&(r, sign)| side_bound(sign, rows.lower[r], rows.upper[r])),
     );
     let side_soft = layout.rows.iter().map(|&(r, _)| rows.soft[r]);
-    let side_x = wide.matrix(&side(&rows.Wx));
     let nd = p.nd();
-    let uses_d = nd > 0 && rows.Wd.iter().any(|v| *v != 0.0);
-    let uses_last_rows = rows.Wu.iter().any(|v| *v != 0.0);
     let keeps_last = p.keeps_last_input();
-    let side_d = uses_d.then(|| {
-        let m = wide.matrix(&side(&rows.Wd.columns(0, nd).into_owned()));
-        quote! {
-            /// The sides' dependence on the disturbance estimate: h −= SIDE_D·d.
-            const SIDE_D: [[f64; ND]; NG] = #m;
-        }
-    });
-    let side_u = uses_last_rows.then(|| {
-        let m = wide.matrix(&side(&rows.Wu));
-        quote! {
-            /// The sides' dependence on the last input (the first move): h −= SIDE_U·u₋₁.
-            const SIDE_U: [[f64; NU]; NG] = #m;
-        }
-    });
-    let h_d = uses_d.then(|| quote!(*hj -= dot(&SIDE_D[j], &d);));
-    let h_u = uses_last_rows.then(|| quote!(*hj -= dot(&SIDE_U[j], &last);));
+    let Offsets {
+        tables: side_tables,
+        terms: side_terms,
+    } = offsets(
+        p,
+        wide,
+        &quote!(f64),
+        "SIDE",
+        &quote!(NG),
+        &side,
+        [
+            " The sides' dependence on the state: h −= SIDE_X·x0.",
+            " The sides' dependence on the disturbance estimate: h −= SIDE_D·d.",
+            " The sides' dependence on the last input (the first move): h −= SIDE_U·u₋₁.",
+        ],
+    );
+    let status_types = status_types(
+        "interior-point method",
+        true,
+        &[
+            " Iterations run (fewer than [`ITERATIONS`] only when the point was optimal to rounding,",
+            " or the method stopped on infeasibility or a numerical failure).",
+        ],
+    );
     let start_lit = start.iter().map(|s| lit(*s));
     let col_lit = cols.iter().map(|c| lit(*c));
     let val = wide.vector(vals.iter().copied());
@@ -221,43 +227,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             pub const DUAL_LIMIT: f64 = #dual_limit;
         },
         api: quote! {
-            /// What the interior-point method's last solve did ([`Mpc::solver_status`]).
-            #[derive(Clone, Copy, Debug, PartialEq)]
-            pub struct SolverStatus {
-                /// Iterations run (fewer than [`ITERATIONS`] only when the point was optimal to rounding,
-                /// or the method stopped on infeasibility or a numerical failure).
-                pub iterations: u32,
-                /// ‖G z + s − h‖∞ relative to the data's scale, at the end.
-                pub primal_residual: f64,
-                /// ‖H z + f + Gᵀλ‖∞ relative to the data's scale, at the end.
-                pub dual_residual: f64,
-                /// The mean complementarity sᵀλ / NSIDES, in the cost's units.
-                pub gap: f64,
-                /// The largest violation of a hard constraint row by the returned plan, relative to
-                /// max(1, |bound|).
-                pub violation: f64,
-                /// The largest violation of a soft row by the returned plan, in its row's units.
-                pub softened: f64,
-                /// The multipliers certified that the hard constraints admit no plan (or diverged).
-                pub infeasible: bool,
-                /// A factorisation was refused, or a step was not finite.
-                pub numerical_failure: bool,
-                /// Whether the plan is the solve's or the fallback's.
-                pub fallback: Fallback,
-            }
-
-            /// Where the plan came from.
-            #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-            pub enum Fallback {
-                /// No solve yet.
-                NoneYet,
-                /// The solve's plan, projected onto the input box (which changes it by rounding at most).
-                Solved,
-                /// The solve failed (infeasible, non-finite, or residuals above [`PRIMAL_LIMIT`] /
-                /// [`DUAL_LIMIT`]): the previous plan shifted by one step with the rest input appended,
-                /// projected onto the box. The next solve starts cold.
-                WarmStart,
-            }
+            #status_types
 
             /// Fixed-iteration, warm-started MPC with state, output and rate constraints: a dense
             /// primal-dual interior-point method (Mehrotra's predictor-corrector) in f64.
@@ -330,9 +300,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     let mut h = [0.0; NSIDES];
                     h[..NB].copy_from_slice(&BOX_H);
                     for (j, hj) in h[NB..].iter_mut().enumerate() {
-                        *hj = SIDE_H[j] - dot(&SIDE_X[j], &x0);
-                        #h_d
-                        #h_u
+                        *hj = SIDE_H[j] #(- #side_terms)*;
                     }
                     let (mut z, mut s, mut lambda) = (self.z, self.s, self.lambda);
                     if self.warm {
@@ -875,10 +843,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             const SIDE_H: [f64; NG] = #side_h;
             /// Whether a side belongs to a soft row (its violation is priced, not forbidden).
             const SIDE_SOFT: [bool; NG] = [#(#side_soft),*];
-            /// The sides' dependence on the state: h −= SIDE_X·x0.
-            const SIDE_X: [[f64; NX]; NG] = #side_x;
-            #side_d
-            #side_u
+            #side_tables
             /// The method's Hessian blkdiag(H, diag(q_σ)): eq. 9's H, then the slacks' quadratic weights.
             pub const H: [[f64; NV]; NV] = #hv;
         },

@@ -1,5 +1,7 @@
 //! The emitter: `quote!` only, no math. It turns a lowered [`Problem`] into the generated module.
 
+mod admm;
+mod constrained;
 mod controller;
 mod interior;
 mod kalman;
@@ -76,16 +78,16 @@ pub fn module(
         .gradient()
         .uses_neon(p)
         .then(|| quote!(unexpected_cfgs,));
-    let largest_table = match plan.algorithm {
-        Some(_) => {
+    let nv = p.qp.N * p.nu + p.qp.rows.slacks();
+    let largest_table = match (plan.algorithm, p.qp.method) {
+        (Some(_), _) => {
             let (nz, nr, na) = (p.qp.N * p.nu, p.qp.N * p.qp.nz.max(p.nx), p.nx + p.nd());
             nz.max(na) * nz.max(nr).max(na) * Numeric(p.scalar).bytes()
         }
+        // ADMM's tables are `Real`, its largest H (NV × NV) or FR.
+        (None, mpc_spec::Method::Admm) => nv * nv.max(p.qp.N * p.qp.nz) * Numeric(p.scalar).bytes(),
         // The interior-point method's tables are f64, its largest H (NV × NV) or FR.
-        None => {
-            let nv = p.qp.N * p.nu + p.qp.rows.slacks();
-            nv * nv.max(p.qp.N * p.qp.nz) * 8
-        }
+        (None, _) => nv * nv.max(p.qp.N * p.qp.nz) * 8,
     };
     let large_tables = (largest_table > 16 * 1024).then(|| quote!(clippy::large_const_arrays,));
     let allow = quote!(#time_varying #neon_cfg #large_tables);
@@ -102,6 +104,15 @@ pub fn module(
                 " horizon {}, gradient form `{}` ([`EMISSION`]).",
                 p.qp.N,
                 plan.emission().name()
+            ),
+        ),
+        None if p.qp.method == mpc_spec::Method::Admm => (
+            crate::solver::admm::TITLE,
+            format!(
+                " horizon {}, in {} with {} constraint rows.",
+                p.qp.N,
+                Numeric(p.scalar).name(),
+                p.qp.rows.len()
             ),
         ),
         None => (
@@ -178,10 +189,12 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     let u_min = num.vector(qp.u_min.iter().copied());
     let u_max = num.vector(qp.u_max.iter().copied());
     let u_rest = num.vector(qp.rest_input().iter().copied());
-    // The interior-point method computes in f64 whatever `Real` is: its tables are f64.
+    // The interior-point method computes in f64 whatever `Real` is: its tables are f64. ADMM computes
+    // in `Real`.
+    let admm = qp.method == mpc_spec::Method::Admm;
     let (wide, table) = match plan.algorithm {
-        Some(_) => (num, quote!(Real)),
-        None => (Num(mpc_spec::Scalar::F64), quote!(f64)),
+        None if !admm => (Num(mpc_spec::Scalar::F64), quote!(f64)),
+        _ => (num, quote!(Real)),
     };
     let (h, fx, fr) = (num.matrix(&qp.H), wide.matrix(&qp.Fx), wide.matrix(&qp.Fr));
     let (f, g) = (num.matrix(&p.F), num.matrix(&p.G));
@@ -290,7 +303,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         " Hessian H = 2(Suᵀ Q_blk Su + R_blk), eq. 9; (N·NU)×(N·NU), L = {:.6e}, μ = {:.6e}.",
         qp.L, qp.mu
     );
-    // The interior-point method's H carries the slacks: its emitter writes it.
+    // The constrained methods' H carries the slacks: their emitters write it.
     let h_table = plan.algorithm.is_some().then(|| {
         quote! {
             #[doc = #h_doc]
@@ -299,6 +312,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     });
     let mpc = match plan.algorithm {
         Some(a) => mpc::emit(p, plan, a, num),
+        None if admm => admm::emit(p, num),
         None => interior::emit(p, num),
     };
     let kalman = p
@@ -306,7 +320,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         .as_ref()
         .map(|f| kalman::emit(p, f, num))
         .unwrap_or_default();
-    let support = support::emit(p, plan, plan.algorithm.is_some());
+    let support = support::emit(p, plan, plan.algorithm.is_some() || admm);
     let Sections {
         constants: mpc_constants,
         api: mpc_api,
@@ -319,7 +333,12 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         kernels: kalman_kernels,
         tables: kalman_tables,
     } = kalman;
-    let (controller_api, controller_kernels) = controller::emit(p, plan.algorithm.is_none());
+    let solver = match (plan.algorithm, admm) {
+        (Some(_), _) => None,
+        (None, true) => Some("ADMM"),
+        (None, false) => Some("interior-point method"),
+    };
+    let (controller_api, controller_kernels) = controller::emit(p, solver);
     quote! {
         /// The scalar type of this controller.
         pub type Real = #real;

@@ -673,6 +673,11 @@ pub fn mpc_macs_per_iteration(qp: &Qp) -> usize {
     macs_per_iteration(&zero_data(qp))
 }
 
+/// [`residual_macs`] of the MPC's QP: once a solve.
+pub fn mpc_residual_macs(qp: &Qp) -> usize {
+    residual_macs(&zero_data(qp))
+}
+
 /// The MPC's QP with zero data (its structure).
 fn zero_data(qp: &Qp) -> InequalityQp {
     let n = qp.N * qp.u_min.len();
@@ -865,6 +870,17 @@ impl Case {
     /// `accuracy`, observed until the error has stayed below half of it for as many iterations again
     /// as it took to get there (at least 20); `None` when that does not happen within `cap`.
     pub fn needed<T: Real>(&self, settings: &Settings, accuracy: f64, cap: usize) -> Option<usize> {
+        self.needed_counted::<T>(settings, accuracy, cap, &mut 0)
+    }
+
+    /// [`Case::needed`], adding the iterations it ran to `run` (the build's budget counts them).
+    pub fn needed_counted<T: Real>(
+        &self,
+        settings: &Settings,
+        accuracy: f64,
+        cap: usize,
+        run: &mut usize,
+    ) -> Option<usize> {
         let op = Operator::<T>::new(&self.qp, settings)?;
         let mut p = op.start(&self.start)?;
         let wide = |v: &[T]| DVector::from_iterator(v.len(), v.iter().map(|a| a.wide()));
@@ -873,6 +889,7 @@ impl Case {
         for k in 0..=cap {
             if k > 0 {
                 op.iterate(&mut p);
+                *run += 1;
             }
             let (e, v) = self.accuracy_of(&wide(&p.x));
             if !(e <= accuracy && v <= accuracy) {
@@ -900,6 +917,8 @@ pub struct Tuning {
     pub worst: usize,
     /// Every ρ tried with its worst count (`None`: some case missed within the cap).
     pub grid: Vec<(f64, Option<usize>)>,
+    /// Iterations run over every trial and case (the search's cost).
+    pub iterations_run: usize,
 }
 
 /// ρ measured on `cases`: the worst iteration count (in f64, [`Case::needed`]) over a log-spaced grid
@@ -914,12 +933,14 @@ pub fn tune_rho(
 ) -> Option<Tuning> {
     let mut grid: Vec<(f64, Option<usize>)> = Vec::new();
     let mut best: Option<(f64, usize)> = None;
-    let trial =
+    let mut iterations_run = 0;
+    let mut trial =
         |rho: f64, grid: &mut Vec<(f64, Option<usize>)>, best: &mut Option<(f64, usize)>| {
             let limit = best.map_or(cap, |(_, w)| w.min(cap));
             let mut worst = 0;
             for c in cases {
-                match c.needed::<f64>(&settings(&c.qp, rho), accuracy, limit) {
+                let settings = settings(&c.qp, rho);
+                match c.needed_counted::<f64>(&settings, accuracy, limit, &mut iterations_run) {
                     Some(k) if k <= limit => worst = worst.max(k),
                     _ => {
                         grid.push((rho, None));
@@ -942,5 +963,23 @@ pub fn tune_rho(
         }
     }
     let (rho, worst) = best?;
-    Some(Tuning { rho, worst, grid })
+    Some(Tuning {
+        rho,
+        worst,
+        grid,
+        iterations_run,
+    })
+}
+
+/// The settings of the MPC's QP at penalty `rho` ([`Settings::scaled`] on its structure: the row
+/// scales depend on H and the rows, not on the data).
+pub fn mpc_settings(qp: &Qp, rho: f64) -> Settings {
+    Settings::scaled(&zero_data(qp), rho)
+}
+
+/// The settings a certified ADMM problem runs with: [`mpc_settings`] at the ρ its certificate tuned
+/// (`None` before it is certified, or for another method).
+pub fn certified_settings(qp: &Qp) -> Option<Settings> {
+    let rho = qp.evidence.as_ref()?.rho?;
+    Some(mpc_settings(qp, rho))
 }

@@ -24,13 +24,14 @@ use nalgebra::{DMatrix, DVector};
 use proc_macro2::{Ident, Literal, TokenStream};
 use std::fmt::Debug;
 
-/// The first-order algorithm that `method` names; `None` for the interior-point method ([`ipm`]),
-/// which is not an iteration on the box and has its own emitter (`emit/interior.rs`).
+/// The first-order algorithm that `method` names; `None` for the interior-point method ([`ipm`]) and
+/// ADMM ([`admm`]), which are not iterations on the box and have their own emitters
+/// (`emit/interior.rs`, `emit/admm.rs`): the phases tell them apart by `Qp::method`.
 pub fn algorithm(method: Method) -> Option<&'static dyn Algorithm> {
     match method {
         Method::Fgm => Some(&Fgm),
         Method::Gradient => Some(&Gradient),
-        Method::Ipm => None,
+        Method::Ipm | Method::Admm => None,
         // Resolved before any phase asks (`crate::choice`).
         Method::Auto => None,
     }

@@ -1,0 +1,657 @@
+//! The fixed-iteration ADMM MPC: `Mpc`, its `SolverStatus` (the interior-point method's type without
+//! the gap), and OSQP's Algorithm 1 in the module's `Real` over constant tables, step for step the
+//! reference of [`crate::solver::admm`] (`Operator::iterate`, `residuals`, `infeasible`,
+//! `control_step`), in its order of summation, so that an f64 module matches the oracle to rounding.
+//!
+//! K = (P + σI + CᵀRC)⁻¹ is applied through its Cholesky factor, packed by rows, and 1/L_ii: two
+//! triangular solves, no division. Every loop has a constant trip count and no early exit: a solve
+//! costs the same instructions whatever the data (the comparisons select values, as the projection
+//! does). The residuals and the infeasibility test run once, after the iterations.
+#![allow(non_snake_case)]
+
+use super::constrained::{offsets, status_types, Offsets};
+use super::tokens::Num;
+use super::Sections;
+use crate::lower::Problem;
+use crate::solver::admm::{self, INFEASIBILITY_TOLERANCE};
+use crate::solver::ipm::mpc_qp;
+use nalgebra::DVector;
+use proc_macro2::{Literal, TokenStream};
+use quote::quote;
+
+/// A bound in `num`, `Real::INFINITY` / `Real::NEG_INFINITY` where it is absent.
+fn bound(num: Num, v: f64) -> TokenStream {
+    if v == f64::INFINITY {
+        quote!(Real::INFINITY)
+    } else if v == f64::NEG_INFINITY {
+        quote!(Real::NEG_INFINITY)
+    } else {
+        num.lit(v)
+    }
+}
+
+/// The ADMM `Mpc`, its kernels and its tables. `p` must be certified (its evidence carries ρ).
+pub fn emit(p: &Problem, num: Num) -> Sections {
+    let qp = &p.qp;
+    let (nu, N) = (p.nu, qp.N);
+    let np = N * nu;
+    let structure = mpc_qp(qp, &DVector::zeros(np), &DVector::zeros(qp.rows.len()));
+    let settings = admm::certified_settings(qp).unwrap_or_else(|| admm::mpc_settings(qp, 1.0));
+    let rho = qp.evidence.as_ref().and_then(|e| e.rho).unwrap_or(1.0);
+    let rows = &qp.rows;
+    let ns = rows.slacks();
+    let nv = np + ns;
+    let ng = rows.len();
+    let nc = nv + ng;
+    let lit = Literal::usize_unsuffixed;
+    let [nv_lit, ns_lit, ng_lit, nc_lit] = [nv, ns, ng, nc].map(lit);
+    // The factor of P + σI + CᵀRC, packed by rows (row i holds L_i0 … L_ii), and 1/L_ii. The settings'
+    // factor exists: the certificate ran with it.
+    let L =
+        admm::factor(&structure, &settings).unwrap_or_else(|| nalgebra::DMatrix::identity(nv, nv));
+    let packed = num.vector(
+        (0..nv)
+            .flat_map(|i| (0..=i).map(move |k| (i, k)))
+            .map(|(i, k)| L[(i, k)]),
+    );
+    let l_inv = num.vector((0..nv).map(|i| 1.0 / L[(i, i)]));
+    let nl = lit(nv * (nv + 1) / 2);
+    // The general rows in compressed rows, columns ascending (the reference's order).
+    let mut start = vec![0usize];
+    let (mut cols, mut vals) = (Vec::new(), Vec::new());
+    for r in 0..ng {
+        for c in 0..nv {
+            let v = structure.A[(r, c)];
+            if v != 0.0 {
+                cols.push(c);
+                vals.push(v);
+            }
+        }
+        start.push(cols.len());
+    }
+    let nnz = lit(cols.len());
+    let start_lit = start.iter().map(|s| lit(*s));
+    let col_lit = cols.iter().map(|c| lit(*c));
+    let val = num.vector(vals.iter().copied());
+    let rho_row = num.vector(settings.rho.iter().copied());
+    let rho_inv = num.vector(settings.rho.iter().map(|r| 1.0 / r));
+    let (sigma, alpha) = (num.lit(settings.sigma), num.lit(settings.alpha));
+    let z_lo = structure.z_min.iter().map(|v| bound(num, *v));
+    let z_hi = structure.z_max.iter().map(|v| bound(num, *v));
+    let row_lower = rows.lower.iter().map(|v| bound(num, *v));
+    let row_upper = rows.upper.iter().map(|v| bound(num, *v));
+    let lower_finite = structure
+        .z_min
+        .iter()
+        .chain(rows.lower.iter())
+        .map(|v| v.is_finite());
+    let upper_finite = structure
+        .z_max
+        .iter()
+        .chain(rows.upper.iter())
+        .map(|v| v.is_finite());
+    let row_soft = rows.soft.iter();
+    let hv = num.matrix(&structure.H);
+    let slack_weight = num.vector(rows.slack_weight.iter().copied());
+    let per_slot = lit(rows.per_slot);
+    let limits = qp.ipm_limits();
+    let wide = Num(mpc_spec::Scalar::F64);
+    let (primal_limit, dual_limit) = (wide.lit(limits.primal), wide.lit(limits.dual));
+    let accuracy = wide.lit(qp.accuracy);
+    let rho_lit = wide.lit(rho);
+    let infeasibility = wide.lit(INFEASIBILITY_TOLERANCE);
+    let Offsets {
+        tables: row_tables,
+        terms: row_terms,
+    } = offsets(
+        p,
+        num,
+        &quote!(Real),
+        "ROW",
+        &quote!(NG),
+        &|M| M.clone(),
+        [
+            " The rows' dependence on the state: their offset gains ROW_X·x0.",
+            " The rows' dependence on the disturbance estimate: their offset gains ROW_D·d.",
+            " The rows' dependence on the last input (the first move): their offset gains ROW_U·u₋₁.",
+        ],
+    );
+    let status_types = status_types("ADMM", false, &[" Iterations run: always [`ITERATIONS`]."]);
+    let row = crate::form::reference_row(p);
+    let nr = lit(N * qp.nz);
+    let nd = p.nd();
+    let keeps_last = p.keeps_last_input();
+    let f_last = p.has_moves().then(|| quote!(+ dot(&FU[i], &last)));
+    let f_d = (nd > 0).then(|| quote!(+ dot(&FD[i], &d)));
+    let d_param = (nd > 0).then(|| quote!(d: &[Real; ND],));
+    let last_local = keeps_last.then(|| quote!(let last = self.last;));
+    let set_last = keeps_last.then(|| quote!(self.last = first;));
+    let reference_doc = if qp.Cz.is_some() {
+        "`xref[k]` the reference of the outputs z = C_z·x at predicted step k+1"
+    } else {
+        "`xref[k]` the reference of predicted state k+1"
+    };
+    let solve_doc = format!(
+        " One control step: `x0` is the current state, {reference_doc}. Returns the first input\n \
+         of the plan, always finite and inside [U_MIN, U_MAX]; [`Mpc::solver_status`] says how the\n \
+         plan was made. A non-finite argument returns the rest input and resets the warm start."
+    );
+    let solve_doc: Vec<&str> = solve_doc.split('\n').collect();
+    let solve_fns = if nd > 0 {
+        quote! {
+            /// One control step with no disturbance estimate (d = 0); see [`Mpc::solve_with_disturbance`].
+            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                self.solve_with_disturbance(x0, &[0.0; ND], xref)
+            }
+
+            #(#[doc = #solve_doc])*
+            /// The prediction includes the estimated input disturbance `d` (offset-free MPC).
+            pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                match self.checked(x0, d, xref) {
+                    Some(u) => u,
+                    None => U_REST,
+                }
+            }
+        }
+    } else {
+        quote! {
+            #(#[doc = #solve_doc])*
+            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                match self.checked(x0, xref) {
+                    Some(u) => u,
+                    None => U_REST,
+                }
+            }
+        }
+    };
+    let d_finite = (nd > 0).then(|| quote!(&&all_finite(d)));
+    let d_flush = (nd > 0).then(|| quote!(let d = flushed(d);));
+    let (last_field, last_init, last_fns) = if keeps_last {
+        (
+            quote!(last: [Real; NU],),
+            quote!(last: U_REST,),
+            quote! {
+                /// The last input u₋₁, from which the first move is measured: the last command returned,
+                /// or what [`Mpc::set_last_input`] set.
+                pub fn last_input(&self) -> &[Real; NU] {
+                    &self.last
+                }
+
+                /// Sets the last input u₋₁, for a vehicle flown by something else until now. A non-finite
+                /// entry is refused: nothing changes and the result is `false`.
+                pub fn set_last_input(&mut self, u: &[Real; NU]) -> bool {
+                    if !all_finite(u) {
+                        return false;
+                    }
+                    self.last = flushed(u);
+                    true
+                }
+            },
+        )
+    } else {
+        (quote!(), quote!(), quote!())
+    };
+    let evidence_doc = match &qp.evidence {
+        Some(e) => format!(
+            " Certified by sampling, not proved: {} cold cases ({} corners) and {} warm closed-loop steps of `[mpc.region]` needed at most {} (cold) and {} (warm) iterations to reach `accuracy` at ρ = {:.3e}; `report::SAMPLED_*` has the rest.",
+            e.cold_cases, e.corners, e.warm_steps, e.cold_worst, e.warm_worst, rho
+        ),
+        None => " Not certified.".to_string(),
+    };
+    // Real to f64 (exact).
+    let widen = |e: TokenStream| match num.0 {
+        mpc_spec::Scalar::F32 => quote!(f64::from(#e)),
+        mpc_spec::Scalar::F64 => e,
+    };
+    let real_name = num.numeric().name();
+    let wide_of_abs = widen(quote!(x.abs()));
+    let (wide_lower, wide_upper, wide_d) = (
+        widen(quote!(lower[i])),
+        widen(quote!(upper[i])),
+        widen(quote!(v)),
+    );
+    let (wide_row_lower, wide_row_upper, wide_a) = (
+        widen(quote!(lower[NV + j])),
+        widen(quote!(upper[NV + j])),
+        widen(quote!(a)),
+    );
+    let (wide_bound_lower, wide_bound_upper) =
+        (widen(quote!(ROW_LOWER[j])), widen(quote!(ROW_UPPER[j])));
+    let mpc_doc = format!(
+        " Fixed-iteration, warm-started MPC with state, output and rate constraints: ADMM (OSQP's\n operator splitting) in {real_name}, dense on the condensed QP, with its factor computed at build time."
+    );
+    let mpc_doc: Vec<&str> = mpc_doc.split('\n').collect();
+    Sections {
+        constants: quote! {
+            /// Entries of the plan, N·NU.
+            pub const NP: usize = N * NU;
+            /// ADMM's unknowns x: the plan, then one slack per soft constraint component.
+            pub const NV: usize = #nv_lit;
+            /// Slacks of the soft constraints.
+            pub const NS: usize = #ns_lit;
+            /// General constraint rows (their bounds move with the data).
+            pub const NG: usize = #ng_lit;
+            /// Rows of C = [I; A]: a box row per unknown, then the general rows; the length of z and y.
+            pub const NC: usize = #nc_lit;
+            /// `[mpc] accuracy`: the plan within ACCURACY·(U_MAX − U_MIN) of the exact solution.
+            pub const ACCURACY: f64 = #accuracy;
+            /// ADMM's penalty ρ, tuned at build time on the certificate's sample; row i's penalty is
+            /// ρ times its curvature ([`RHO_ROW`]).
+            pub const RHO: f64 = #rho_lit;
+            /// Final relative primal residual above which the plan is not trusted ([`Fallback::WarmStart`]).
+            pub const PRIMAL_LIMIT: f64 = #primal_limit;
+            /// Final relative dual residual above which the plan is not trusted.
+            pub const DUAL_LIMIT: f64 = #dual_limit;
+        },
+        api: quote! {
+            #status_types
+
+            #(#[doc = #mpc_doc])*
+            #[doc = #evidence_doc]
+            #[derive(Clone, Debug, PartialEq)]
+            pub struct Mpc {
+                /// The plan, projected onto the box.
+                plan: [Real; NP],
+                /// The last solve's iterate (x, z, y): the warm start.
+                x: [Real; NV],
+                z: [Real; NC],
+                y: [Real; NC],
+                /// Whether (x, z, y) is a warm start (false after `new`, `reset` or a fallback).
+                warm: bool,
+                #last_field
+                status: SolverStatus,
+            }
+
+            impl Mpc {
+                /// A cold controller: its first solve starts from x = 0, z = Π(0), y = 0.
+                pub const fn new() -> Self {
+                    Mpc {
+                        plan: rest_plan(),
+                        x: [0.0; NV],
+                        z: [0.0; NC],
+                        y: [0.0; NC],
+                        warm: false,
+                        #last_init
+                        status: SolverStatus {
+                            iterations: 0,
+                            primal_residual: 0.0,
+                            dual_residual: 0.0,
+                            violation: 0.0,
+                            softened: 0.0,
+                            infeasible: false,
+                            numerical_failure: false,
+                            fallback: Fallback::NoneYet,
+                        },
+                    }
+                }
+
+                #solve_fns
+
+                /// The solve, with `None` (and a reset warm start) for a non-finite argument.
+                fn checked(&mut self, x0: &[Real; NX], #d_param xref: &[[Real; #row]; N]) -> Option<[Real; NU]> {
+                    if !(all_finite(x0) #d_finite && xref.iter().all(|r| all_finite(r))) {
+                        self.reset();
+                        return None;
+                    }
+                    let x0 = flushed(x0);
+                    #d_flush
+                    #last_local
+                    let mut reference = [0.0; #nr];
+                    for (r, row) in reference.chunks_exact_mut(xref[0].len()).zip(xref.iter()) {
+                        r.copy_from_slice(&flushed(row));
+                    }
+                    // q = Fx·x0 − Fr·Xref (+ Fu·u₋₁ + Fd·d) for the plan, the penalties' weights for the slacks.
+                    let mut q = [0.0; NV];
+                    for (i, qi) in q.iter_mut().enumerate().take(NP) {
+                        *qi = dot(&FX[i], &x0) - dot(&FR[i], &reference) #f_last #f_d;
+                    }
+                    for (qi, w) in q.iter_mut().skip(NP).zip(SLACK_WEIGHT.iter()) {
+                        *qi = *w;
+                    }
+                    // The bounds of C's rows: the box's (constant), then the rows' moved by the data.
+                    let (mut lower, mut upper) = ([0.0; NC], [0.0; NC]);
+                    lower[..NV].copy_from_slice(&Z_LO);
+                    upper[..NV].copy_from_slice(&Z_HI);
+                    for j in 0..NG {
+                        let offset = #(#row_terms)+*;
+                        lower[NV + j] = ROW_LOWER[j] - offset;
+                        upper[NV + j] = ROW_UPPER[j] - offset;
+                    }
+                    let (mut x, mut z, mut y) = (self.x, self.z, self.y);
+                    if self.warm {
+                        // The previous iterate shifted by one slot, the rest input appended to x and z.
+                        shift(&mut x[..NP], NU);
+                        x[NP - NU..NP].copy_from_slice(&U_REST);
+                        shift(&mut z[..NP], NU);
+                        z[NP - NU..NP].copy_from_slice(&U_REST);
+                        shift(&mut z[NV..], PER_SLOT);
+                        shift(&mut y[..NP], NU);
+                        shift(&mut y[NV..], PER_SLOT);
+                    } else {
+                        x = [0.0; NV];
+                        for (i, zi) in z.iter_mut().enumerate() {
+                            *zi = clamp(0.0, lower[i], upper[i]);
+                        }
+                        y = [0.0; NC];
+                    }
+                    let mut dy = [0.0; NC];
+                    for _ in 0..ITERATIONS {
+                        iterate(&q, &lower, &upper, &mut x, &mut z, &mut y, &mut dy);
+                    }
+                    let (primal, dual) = residuals(&q, &x, &z, &y);
+                    let numerical_failure = !(primal.is_finite() && dual.is_finite());
+                    let infeasible = ITERATIONS > 0 && !numerical_failure && infeasible(&lower, &upper, &dy);
+                    let trusted = !numerical_failure && !infeasible && primal <= PRIMAL_LIMIT && dual <= DUAL_LIMIT;
+                    if trusted {
+                        for (i, (p, v)) in self.plan.iter_mut().zip(x.iter()).enumerate() {
+                            *p = project(*v, U_MIN[i % NU], U_MAX[i % NU]);
+                        }
+                        self.x = x;
+                        self.z = z;
+                        self.y = y;
+                    } else {
+                        shift(&mut self.plan, NU);
+                        self.plan[NP - NU..].copy_from_slice(&U_REST);
+                        for (i, p) in self.plan.iter_mut().enumerate() {
+                            *p = project(*p, U_MIN[i % NU], U_MAX[i % NU]);
+                        }
+                    }
+                    self.warm = trusted;
+                    let (violation, softened) = violations(&self.plan, &lower, &upper);
+                    self.status = SolverStatus {
+                        iterations: ITERATIONS as u32,
+                        primal_residual: primal,
+                        dual_residual: dual,
+                        violation,
+                        softened,
+                        infeasible,
+                        numerical_failure,
+                        fallback: if trusted { Fallback::Solved } else { Fallback::WarmStart },
+                    };
+                    let mut first = [0.0; NU];
+                    first.copy_from_slice(&self.plan[..NU]);
+                    #set_last
+                    Some(first)
+                }
+
+                /// What the last solve did.
+                pub fn solver_status(&self) -> &SolverStatus {
+                    &self.status
+                }
+
+                #last_fns
+
+                /// The plan of the last solve, one input per predicted step.
+                pub fn plan(&self) -> [[Real; NU]; N] {
+                    let mut out = [[0.0; NU]; N];
+                    for (o, step) in out.iter_mut().zip(self.plan.chunks_exact(NU)) {
+                        o.copy_from_slice(step);
+                    }
+                    out
+                }
+
+                /// Forgets the warm start (and the last input).
+                pub fn reset(&mut self) {
+                    *self = Self::new();
+                }
+            }
+
+            impl Default for Mpc {
+                fn default() -> Self {
+                    Self::new()
+                }
+            }
+        },
+        kernels: quote! {
+            /// The rest plan: U_REST at every step.
+            const fn rest_plan() -> [Real; NP] {
+                let mut out = [0.0; NP];
+                let mut i = 0;
+                while i < NP {
+                    out[i] = U_REST[i % NU];
+                    i += 1;
+                }
+                out
+            }
+
+            /// a·b, summed from the first term.
+            #[inline(always)]
+            fn dot(a: &[Real], b: &[Real]) -> Real {
+                a.iter().zip(b.iter()).fold(0.0, |s, (x, y)| s + x * y)
+            }
+
+            /// `v` clamped to [lo, hi], NaN kept (the residuals then see it), as the reference's.
+            #[inline(always)]
+            fn clamp(v: Real, lo: Real, hi: Real) -> Real {
+                if v < lo {
+                    lo
+                } else if v > hi {
+                    hi
+                } else {
+                    v
+                }
+            }
+
+            /// Moves every block of `width` up by one; the last block stays.
+            #[inline(always)]
+            fn shift(v: &mut [Real], width: usize) {
+                if width > 0 && v.len() > width {
+                    v.copy_within(width.., 0);
+                }
+            }
+
+            /// max |v_i| in f64 (exact).
+            #[inline(always)]
+            fn amax(v: &[Real]) -> f64 {
+                v.iter().fold(0.0, |m: f64, x| m.max(#wide_of_abs))
+            }
+
+            /// C x = [x; A x].
+            fn c_mul(x: &[Real; NV], out: &mut [Real; NC]) {
+                out[..NV].copy_from_slice(x);
+                for j in 0..NG {
+                    let mut a = 0.0;
+                    for k in A_START[j]..A_START[j + 1] {
+                        a += A_VAL[k] * x[A_COL[k]];
+                    }
+                    out[NV + j] = a;
+                }
+            }
+
+            /// Cᵀ v = v[..NV] + Aᵀ v[NV..].
+            fn c_tmul(v: &[Real; NC], out: &mut [Real; NV]) {
+                out.copy_from_slice(&v[..NV]);
+                for j in 0..NG {
+                    for k in A_START[j]..A_START[j + 1] {
+                        out[A_COL[k]] += A_VAL[k] * v[NV + j];
+                    }
+                }
+            }
+
+            /// b ← K b = L⁻ᵀ L⁻¹ b: the forward substitution, then the backward one.
+            fn k_solve(b: &mut [Real; NV]) {
+                for i in 0..NV {
+                    let row = &L[i * (i + 1) / 2..i * (i + 1) / 2 + i];
+                    let mut s = b[i];
+                    for (l, w) in row.iter().zip(b.iter()) {
+                        s -= l * w;
+                    }
+                    b[i] = s * L_INV[i];
+                }
+                for i in (0..NV).rev() {
+                    let mut s = b[i];
+                    for j in i + 1..NV {
+                        s -= L[j * (j + 1) / 2 + i] * b[j];
+                    }
+                    b[i] = s * L_INV[i];
+                }
+            }
+
+            /// One iteration of OSQP's Algorithm 1 on (x, z, y); `dy` keeps the change of y.
+            fn iterate(
+                q: &[Real; NV],
+                lower: &[Real; NC],
+                upper: &[Real; NC],
+                x: &mut [Real; NV],
+                z: &mut [Real; NC],
+                y: &mut [Real; NC],
+                dy: &mut [Real; NC],
+            ) {
+                // x̃ = K (σx − q + Cᵀ(Rz − y)).
+                let mut w = [0.0; NC];
+                for i in 0..NC {
+                    w[i] = RHO_ROW[i] * z[i] - y[i];
+                }
+                let mut xt = [0.0; NV];
+                c_tmul(&w, &mut xt);
+                // (σx − q) + Cᵀw, the reference's sum (addition commutes exactly).
+                for i in 0..NV {
+                    xt[i] += SIGMA * x[i] - q[i];
+                }
+                k_solve(&mut xt);
+                let mut zt = [0.0; NC];
+                c_mul(&xt, &mut zt);
+                for (xi, t) in x.iter_mut().zip(xt.iter()) {
+                    *xi = ALPHA * t + BETA * *xi;
+                }
+                for i in 0..NC {
+                    let relaxed = ALPHA * zt[i] + BETA * z[i];
+                    let zn = clamp(relaxed + RHO_INV[i] * y[i], lower[i], upper[i]);
+                    let yn = y[i] + RHO_ROW[i] * (relaxed - zn);
+                    dy[i] = yn - y[i];
+                    y[i] = yn;
+                    z[i] = zn;
+                }
+            }
+
+            /// The relative residuals ‖Cx − z‖∞ / (1 + max(‖Cx‖∞, ‖z‖∞)) and
+            /// ‖Px + q + Cᵀy‖∞ / (1 + max(‖Px‖∞, ‖q‖∞, ‖Cᵀy‖∞)); infinite where an entry is not finite.
+            fn residuals(q: &[Real; NV], x: &[Real; NV], z: &[Real; NC], y: &[Real; NC]) -> (f64, f64) {
+                let mut cx = [0.0; NC];
+                c_mul(x, &mut cx);
+                let mut primal = [0.0; NC];
+                for i in 0..NC {
+                    primal[i] = cx[i] - z[i];
+                }
+                let mut px = [0.0; NV];
+                for (o, row) in px.iter_mut().zip(H.iter()) {
+                    *o = dot(row, x);
+                }
+                let mut cty = [0.0; NV];
+                c_tmul(y, &mut cty);
+                let mut dual = [0.0; NV];
+                for i in 0..NV {
+                    dual[i] = px[i] + q[i] + cty[i];
+                }
+                if !(all_finite(&primal) && all_finite(&dual)) {
+                    return (f64::INFINITY, f64::INFINITY);
+                }
+                (
+                    amax(&primal) / (1.0 + amax(&cx).max(amax(z))),
+                    amax(&dual) / (1.0 + amax(&px).max(amax(q)).max(amax(&cty))),
+                )
+            }
+
+            /// OSQP's primal infeasibility test (§3.4) on the last change of y: δy projected on the polar
+            /// of the bounds' recession cone, δy ≠ 0, ‖Cᵀδy‖∞ ≤ ε‖δy‖∞ and uᵀδy₊ + lᵀδy₋ ≤ −ε‖δy‖∞ (the
+            /// support in f64, as the reference sums it).
+            fn infeasible(lower: &[Real; NC], upper: &[Real; NC], dy: &[Real; NC]) -> bool {
+                let mut d = [0.0; NC];
+                for i in 0..NC {
+                    let v = dy[i];
+                    d[i] = match (LOWER_FINITE[i], UPPER_FINITE[i]) {
+                        (false, false) => 0.0,
+                        (true, false) => clamp(v, Real::NEG_INFINITY, 0.0),
+                        (false, true) => clamp(v, 0.0, Real::INFINITY),
+                        (true, true) => v,
+                    };
+                }
+                let norm = amax(&d);
+                let mut support = 0.0_f64;
+                for i in 0..NC {
+                    let v = d[i];
+                    let (lo, hi, w) = (#wide_lower, #wide_upper, #wide_d);
+                    support += if v > 0.0 {
+                        hi * w
+                    } else if v < 0.0 {
+                        lo * w
+                    } else {
+                        0.0
+                    };
+                }
+                let mut ct = [0.0; NV];
+                c_tmul(&d, &mut ct);
+                let ctn = amax(&ct);
+                let nonzero = !(norm.is_nan() || norm <= INFEASIBILITY_TOLERANCE);
+                nonzero
+                    && support <= -INFEASIBILITY_TOLERANCE * norm
+                    && ctn <= INFEASIBILITY_TOLERANCE * norm
+            }
+
+            /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and the
+            /// largest soft-row violation in its row's units, as the interior-point method reports them.
+            fn violations(plan: &[Real; NP], lower: &[Real; NC], upper: &[Real; NC]) -> (f64, f64) {
+                let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
+                for j in 0..NG {
+                    let mut a = 0.0;
+                    for k in A_START[j]..A_START[j + 1] {
+                        let c = A_COL[k];
+                        if c < NP {
+                            a += A_VAL[k] * plan[c];
+                        }
+                    }
+                    let (lo, hi, a) = (#wide_row_lower, #wide_row_upper, #wide_a);
+                    // The rows' bounds without the data's offset, as the reference measures them.
+                    let (bound_lo, bound_hi) = (#wide_bound_lower, #wide_bound_upper);
+                    let below = (lo - a).max(0.0) / bound_lo.abs().max(1.0);
+                    let above = (a - hi).max(0.0) / bound_hi.abs().max(1.0);
+                    if ROW_SOFT[j] {
+                        soft = soft.max((lo - a).max(a - hi).max(0.0));
+                    } else {
+                        hard = hard.max(below.max(above));
+                    }
+                }
+                (hard, soft)
+            }
+        },
+        tables: quote! {
+            /// OSQP's over-relaxation α, and 1 − α.
+            const ALPHA: Real = #alpha;
+            const BETA: Real = 1.0 - ALPHA;
+            /// The proximal weight σ.
+            const SIGMA: Real = #sigma;
+            /// OSQP's primal infeasibility tolerance ε.
+            const INFEASIBILITY_TOLERANCE: f64 = #infeasibility;
+            /// Row sides per slot: a warm start shifts the rows' z and y by this.
+            const PER_SLOT: usize = #per_slot;
+            /// The slacks' penalty weights (the linear term of the slacks).
+            const SLACK_WEIGHT: [Real; NS] = #slack_weight;
+            /// The box rows' bounds: the input box for the plan, σ ≥ 0 for the slacks.
+            const Z_LO: [Real; NV] = [#(#z_lo),*];
+            const Z_HI: [Real; NV] = [#(#z_hi),*];
+            /// The general rows' bounds before the data's offset (±∞ where absent).
+            const ROW_LOWER: [Real; NG] = [#(#row_lower),*];
+            const ROW_UPPER: [Real; NG] = [#(#row_upper),*];
+            /// Whether a general row is soft (its violation is priced, not forbidden).
+            const ROW_SOFT: [bool; NG] = [#(#row_soft),*];
+            /// Which rows of C have a finite lower / upper bound (whatever the data).
+            const LOWER_FINITE: [bool; NC] = [#(#lower_finite),*];
+            const UPPER_FINITE: [bool; NC] = [#(#upper_finite),*];
+            /// The general rows A in compressed rows: row j is Σ A_VAL[k]·x[A_COL[k]] over
+            /// k ∈ A_START[j]..A_START[j + 1].
+            const A_START: [usize; NG + 1] = [#(#start_lit),*];
+            const A_COL: [usize; #nnz] = [#(#col_lit),*];
+            const A_VAL: [Real; #nnz] = #val;
+            #row_tables
+            /// Row i's penalty ρ_i = RHO·(its curvature), and 1/ρ_i.
+            const RHO_ROW: [Real; NC] = #rho_row;
+            const RHO_INV: [Real; NC] = #rho_inv;
+            /// The lower Cholesky factor L of P + σI + CᵀRC, packed by rows (row i: L_i0 … L_ii).
+            const L: [Real; #nl] = #packed;
+            /// 1 / L_ii.
+            const L_INV: [Real; NV] = #l_inv;
+            /// ADMM's P = blkdiag(H, diag(q_σ)): eq. 9's H, then the slacks' quadratic weights.
+            pub const H: [[Real; NV]; NV] = #hv;
+        },
+    }
+}

@@ -1,0 +1,299 @@
+//! `method = "admm"`: generated ADMM controllers (`tests/specs/quadcopter-admm-{f64,f32}.toml`, the
+//! shipped quadcopter with its method and scalar changed, and `tests/specs/linear-admm-{f64,f32}.toml`,
+//! a small plant with soft state bounds, move bounds, a row group, weighted moves and a disturbance
+//! model):
+//! - f64 against the oracle (`codegen::admm::control_step::<f64>` at the certified ρ), warm-started runs
+//!   inside the region and 1.5× beyond: the same iterations in the same order, so they differ by
+//!   rounding only (≤ 1e-9 of the span);
+//! - f32 against the f64 oracle inside the region: both are certified within `accuracy` of the exact
+//!   solution there (the f32 certificate runs the f32 iteration), so they are within 2·accuracy of each
+//!   other (the triangle inequality; the observed figure is printed);
+//! - every generated solve, f64 and f32, within `accuracy` of Clarabel on cold draws and a warm closed
+//!   loop inside the region;
+//! - the fallback: infeasible hard rows and data that overflow f32 give a finite command inside the input
+//!   box and a status that says so; non-finite data the rest input.
+#![allow(non_snake_case)]
+
+use codegen::ipm::{mpc_qp, violations, Fallback, InequalityQp};
+use codegen::oracle;
+use mpc_tests::harness::*;
+use nalgebra::DVector;
+use rand::Rng;
+
+#[allow(dead_code)]
+#[path = "../benches/exact.rs"]
+mod exact;
+
+mpc_macros::mpc!(mod quadcopter64 = "specs/quadcopter-admm-f64.toml");
+mpc_macros::mpc!(mod quadcopter32 = "specs/quadcopter-admm-f32.toml");
+mpc_macros::mpc!(mod linear64 = "specs/linear-admm-f64.toml");
+mpc_macros::mpc!(mod linear32 = "specs/linear-admm-f32.toml");
+
+const QUADCOPTER64: &str = include_str!("../specs/quadcopter-admm-f64.toml");
+const QUADCOPTER32: &str = include_str!("../specs/quadcopter-admm-f32.toml");
+const LINEAR64: &str = include_str!("../specs/linear-admm-f64.toml");
+const LINEAR32: &str = include_str!("../specs/linear-admm-f32.toml");
+
+fn accuracy(text: &str) -> f64 {
+    mpc_spec::load(text).unwrap().mpc.accuracy
+}
+
+fn problem(text: &str) -> codegen::Problem {
+    codegen::lower(&mpc_spec::load(text).unwrap()).unwrap()
+}
+
+/// The data of one solve: the state and a constant reference.
+struct Case {
+    x0: DVector<f64>,
+    reference: DVector<f64>,
+}
+
+/// A state and reference drawn from the certificate's region, widened by `widen` around its centre.
+fn draw(p: &codegen::Problem, rng: &mut impl Rng, widen: f64) -> Case {
+    let region = &p.qp.evidence.as_ref().unwrap().region;
+    let pick = |rng: &mut dyn rand::RngCore, lo: &[f64], hi: &[f64]| {
+        DVector::from_iterator(
+            lo.len(),
+            lo.iter().zip(hi).map(|(a, b)| {
+                let (c, h) = ((a + b) / 2.0, (b - a) / 2.0 * widen);
+                rng.gen_range(c - h..=c + h)
+            }),
+        )
+    };
+    Case {
+        x0: pick(rng, &region.x_min, &region.x_max),
+        reference: pick(rng, &region.reference_min, &region.reference_max),
+    }
+}
+
+fn window(p: &codegen::Problem, r: &DVector<f64>) -> Vec<DVector<f64>> {
+    vec![r.clone(); p.qp.N]
+}
+
+fn span(p: &codegen::Problem, i: usize) -> f64 {
+    p.qp.u_max[i % p.nu] - p.qp.u_min[i % p.nu]
+}
+
+/// The oracle's QP of its next solve at `c`: what Clarabel is given.
+fn qp_of(p: &codegen::Problem, mpc: &oracle::Mpc, c: &Case) -> (InequalityQp, DVector<f64>) {
+    let f = mpc.linear_term(&c.x0, &window(p, &c.reference));
+    let offset =
+        p.qp.rows
+            .offset(&c.x0, &DVector::zeros(0), mpc.last_input());
+    (mpc_qp(&p.qp, &f, &offset), offset)
+}
+
+/// What a run of a generated controller against the oracle and Clarabel showed.
+#[derive(Default, Debug)]
+struct Seen {
+    /// Worst |U_generated − U_oracle|∞ over the span.
+    oracle: f64,
+    /// Worst |U_generated − U*|∞ over the span (U* Clarabel's), and the worst hard-row violation.
+    exact: f64,
+    violation: f64,
+    solves: usize,
+    fallbacks: usize,
+}
+
+/// Runs a generated module (`$m`, scalar `$real`) beside the oracle over `sequences` warm-started
+/// sequences of `steps` from states drawn in the region widened by `widen`, comparing with Clarabel too
+/// when `clarabel` (inside the region only).
+macro_rules! run {
+    ($m:ident, $p:expr, $seed:expr, $sequences:expr, $steps:expr, $widen:expr, $clarabel:expr) => {{
+        use $m as m;
+        let p = $p;
+        let mut rng = rng($seed);
+        let mut seen = Seen::default();
+        for _ in 0..$sequences {
+            let mut generated = m::Mpc::new();
+            let mut reference = oracle::Mpc::new(&p);
+            let mut c = draw(&p, &mut rng, $widen);
+            for _ in 0..$steps {
+                let (problem, offset) = qp_of(&p, &reference, &c);
+                let u = reference.solve(&c.x0, &window(&p, &c.reference));
+                let x0: [m::Real; m::NX] = std::array::from_fn(|i| c.x0[i] as m::Real);
+                let row: [m::Real; m::NX] = std::array::from_fn(|i| c.reference[i] as m::Real);
+                let v = generated.solve(&x0, &[row; m::N]);
+                // The box as the module holds it (U_MIN, U_MAX rounded to Real).
+                for (j, v) in v.iter().enumerate() {
+                    assert!(
+                        v.is_finite() && *v >= m::U_MIN[j] && *v <= m::U_MAX[j],
+                        "{v} outside the box"
+                    );
+                }
+                let status = generated.solver_status();
+                let step = reference.admm_step().unwrap();
+                assert_eq!(
+                    status.fallback == m::Fallback::WarmStart,
+                    step.fallback == Fallback::WarmStart,
+                    "the generated and the oracle's fallback differ: {status:?}"
+                );
+                seen.fallbacks += usize::from(status.fallback == m::Fallback::WarmStart);
+                let plan: Vec<f64> = generated
+                    .plan()
+                    .iter()
+                    .flatten()
+                    .map(|v| *v as f64)
+                    .collect();
+                for (i, (a, b)) in plan.iter().zip(reference.plan().iter()).enumerate() {
+                    seen.oracle = seen.oracle.max((a - b).abs() / span(&p, i));
+                }
+                if $clarabel
+                    && codegen::ipm::solve(&problem, 1e-10, 200).status
+                        == codegen::ipm::Status::Converged
+                {
+                    let exact = exact::clarabel(&problem);
+                    let U = DVector::from_vec(plan.clone());
+                    for i in 0..plan.len() {
+                        seen.exact = seen.exact.max((plan[i] - exact[i]).abs() / span(&p, i));
+                    }
+                    seen.violation = seen.violation.max(violations(&p.qp, &U, &offset).0);
+                }
+                seen.solves += 1;
+                c.x0 = &p.F * &c.x0 + &p.G * &u;
+            }
+        }
+        seen
+    }};
+}
+
+/// f64: the generated module and the oracle run the same iterations; rounding apart, one plan.
+#[test]
+fn generated_f64_matches_the_oracle() {
+    for (name, seen) in [
+        (
+            "quadcopter",
+            run!(quadcopter64, problem(QUADCOPTER64), 0x17, 6, 6, 1.5, false),
+        ),
+        (
+            "linear",
+            run!(linear64, problem(LINEAR64), 0x17, 8, 10, 1.5, false),
+        ),
+    ] {
+        println!("{name} f64: {seen:?}");
+        assert!(
+            seen.oracle <= 1e-9,
+            "{name}: {:e} of the span from the oracle",
+            seen.oracle
+        );
+    }
+}
+
+/// Every generated solve within `accuracy` of Clarabel, f64 and f32, and f32 within 2·accuracy of the
+/// f64 oracle (both within `accuracy` of U*), on warm closed loops inside the region.
+#[test]
+fn generated_solves_meet_the_accuracy() {
+    let cases = [
+        (
+            "quadcopter f64",
+            run!(quadcopter64, problem(QUADCOPTER64), 0xacc, 4, 10, 1.0, true),
+            accuracy(QUADCOPTER64),
+        ),
+        (
+            "quadcopter f32",
+            run!(quadcopter32, problem(QUADCOPTER32), 0xacc, 4, 10, 1.0, true),
+            accuracy(QUADCOPTER32),
+        ),
+        (
+            "linear f64",
+            run!(linear64, problem(LINEAR64), 0xacc, 8, 10, 1.0, true),
+            accuracy(LINEAR64),
+        ),
+        (
+            "linear f32",
+            run!(linear32, problem(LINEAR32), 0xacc, 8, 10, 1.0, true),
+            accuracy(LINEAR32),
+        ),
+    ];
+    for (name, seen, accuracy) in cases {
+        println!("{name}: {seen:?}");
+        assert_eq!(
+            seen.fallbacks, 0,
+            "{name}: a solve inside the region fell back"
+        );
+        assert!(
+            seen.exact <= accuracy && seen.violation <= accuracy,
+            "{name}: |U − U*|∞ = {:e} of the span, violation {:e}",
+            seen.exact,
+            seen.violation
+        );
+        assert!(
+            seen.oracle <= 2.0 * accuracy,
+            "{name}: {:e} from the oracle",
+            seen.oracle
+        );
+    }
+}
+
+/// Infeasible hard rows (falling below the floor), data that overflow f32 and non-finite data: a finite
+/// command inside the box and a status that says what happened.
+#[test]
+fn the_fallback_is_bounded_and_reported() {
+    macro_rules! falls_back {
+        ($m:ident, $p:expr) => {{
+            use $m as m;
+            let p = $p;
+            let inside = |u: &[m::Real; m::NU]| {
+                u.iter()
+                    .enumerate()
+                    .all(|(j, v)| v.is_finite() && *v >= m::U_MIN[j] && *v <= m::U_MAX[j])
+            };
+            let mut x0 = [0.0; m::NX];
+            x0[5] = -3.0;
+            x0[11] = -6.0;
+            let xref = [[0.0; m::NX]; m::N];
+            let mut generated = m::Mpc::new();
+            let mut reference = oracle::Mpc::new(&p);
+            for _ in 0..3 {
+                let u = generated.solve(&x0, &xref);
+                let v = reference.solve(
+                    &DVector::from_iterator(m::NX, x0.iter().map(|v| *v as f64)),
+                    &window(&p, &DVector::zeros(p.nx)),
+                );
+                let status = generated.solver_status();
+                assert_eq!(status.fallback, m::Fallback::WarmStart, "{status:?}");
+                assert!(
+                    status.infeasible || status.primal_residual > m::PRIMAL_LIMIT,
+                    "{status:?}"
+                );
+                assert_eq!(reference.admm_step().unwrap().fallback, Fallback::WarmStart);
+                assert!(inside(&u));
+                for (a, b) in u.iter().zip(v.iter()) {
+                    assert!((*a as f64 - b).abs() <= 1e-6 * (p.qp.u_max[0] - p.qp.u_min[0]));
+                }
+            }
+            // A feasible state afterwards: cold again, and trusted.
+            x0 = [0.0; m::NX];
+            generated.solve(&x0, &xref);
+            assert_eq!(generated.solver_status().fallback, m::Fallback::Solved);
+            // Finite data whose products overflow: a numerical failure, in the box.
+            x0[6] = m::Real::MAX / 2.0;
+            x0[7] = -m::Real::MAX / 2.0;
+            let u = generated.solve(&x0, &xref);
+            let status = *generated.solver_status();
+            assert!(
+                status.numerical_failure && status.fallback == m::Fallback::WarmStart,
+                "{status:?}"
+            );
+            assert!(inside(&u));
+            // Non-finite data: the rest input, the warm start reset; the controller says why.
+            x0[3] = m::Real::NAN;
+            assert_eq!(generated.solve(&x0, &xref), m::U_REST);
+            let mut controller = m::Controller::new();
+            assert_eq!(controller.step(&x0, &xref), m::U_REST);
+            assert_eq!(controller.status().command, m::Command::InvalidState);
+            x0 = [0.0; m::NX];
+            controller.step(&x0, &xref);
+            assert_eq!(controller.status().solver.fallback, m::Fallback::Solved);
+            status
+        }};
+    }
+    println!(
+        "f64 overflow: {:?}",
+        falls_back!(quadcopter64, problem(QUADCOPTER64))
+    );
+    println!(
+        "f32 overflow: {:?}",
+        falls_back!(quadcopter32, problem(QUADCOPTER32))
+    );
+}
