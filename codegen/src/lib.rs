@@ -16,6 +16,8 @@
 //! - [`ipm`] (`solver/ipm.rs`): the dense primal-dual interior-point method for the constrained QPs, in
 //!   f64: its reference iteration, the MPC's control step with its fallback, and its cost; it is not a
 //!   first-order [`solver::Algorithm`], and `emit/interior.rs` emits it;
+//! - [`target`]: what the compiler knows of the machine (`[codegen] target`): f64 hardware, SIMD, clock,
+//!   cycles per multiply-add, and the refusal of a step that does not fit its sampling period;
 //! - [`linalg`] the build-time linear algebra, [`numeric`] the emitted scalar's numbers, [`structure`] the
 //!   structure read off the matrices, [`cost`] the cost model's weights.
 //!
@@ -45,6 +47,7 @@ pub mod render;
 pub mod sampling;
 pub mod solver;
 pub mod structure;
+pub mod target;
 
 pub use certificate::{certify, Certificate};
 pub use emit::Origin;
@@ -101,6 +104,8 @@ pub struct Generated {
     pub certificate: Certificate,
     /// Findings that do not stop the build (e.g. fewer iterations than the spec's `tolerance` needs).
     pub warnings: Diagnostics,
+    /// The estimated cycles of one control step on the spec's `[codegen] target`.
+    pub step: target::StepCost,
 }
 
 impl Generated {
@@ -146,8 +151,12 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
             .map(|own| (own.emission(), certificate::predicted(&problem, &own).1));
         budget::before_emission(spec, &build_cost, resources.macs_filter, own.as_ref())?;
     }
+    // A step that cannot fit the sampling period at the target's clock is refused before the analyses.
+    let step = target::StepCost::of(spec, &problem, &plan, &resources);
+    target::check_period(spec, &step)?;
     let certificate = certify(&problem, &plan);
-    let warnings = certificate::review(spec, &certificate)?;
+    let mut warnings = certificate::review(spec, &certificate)?;
+    warnings.0.extend(target::review(spec).0);
     let vis: TokenStream = opt.visibility.parse().map_err(|_| {
         Diagnostics::from(Diagnostic::new(
             format!("invalid visibility `{}`", opt.visibility),
@@ -162,6 +171,7 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
         plan,
         certificate,
         warnings,
+        step,
     })
 }
 
