@@ -18,6 +18,8 @@
 //!   first-order [`solver::Algorithm`], and `emit/interior.rs` emits it;
 //! - [`admm`] (`solver/admm.rs`): OSQP's ADMM on the same QPs, dense on the condensed QP, in f32 or f64
 //!   (the method for targets without f64 hardware), with ρ measured on a sample; `emit/admm.rs` emits it;
+//! - [`target`]: what the compiler knows of the machine (`[codegen] target`): f64 hardware, SIMD, clock,
+//!   cycles per multiply-add, and the refusal of a step that does not fit its sampling period;
 //! - [`linalg`] the build-time linear algebra, [`numeric`] the emitted scalar's numbers, [`structure`] the
 //!   structure read off the matrices, [`cost`] the cost model's weights.
 //!
@@ -48,6 +50,7 @@ pub mod render;
 pub mod sampling;
 pub mod solver;
 pub mod structure;
+pub mod target;
 
 pub use certificate::{certify, Certificate};
 pub use emit::Origin;
@@ -105,6 +108,8 @@ pub struct Generated {
     pub certificate: Certificate,
     /// Findings that do not stop the build (e.g. fewer iterations than the spec's `tolerance` needs).
     pub warnings: Diagnostics,
+    /// The estimated cycles of one control step on the spec's `[codegen] target`.
+    pub step: target::StepCost,
 }
 
 impl Generated {
@@ -188,8 +193,12 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
             .map(|own| (own.emission(), certificate::predicted(&problem, &own).1));
         budget::before_emission(spec, &build_cost, resources.macs_filter, own.as_ref())?;
     }
+    // A step that cannot fit the sampling period at the target's clock is refused before the analyses.
+    let step = target::StepCost::of(spec, &problem, &plan, &resources);
+    target::check_period(spec, &step)?;
     let certificate = certify(&problem, &plan);
-    let warnings = certificate::review(spec, &certificate)?;
+    let mut warnings = certificate::review(spec, &certificate)?;
+    warnings.0.extend(target::review(spec).0);
     let vis: TokenStream = opt.visibility.parse().map_err(|_| {
         Diagnostics::from(Diagnostic::new(
             format!("invalid visibility `{}`", opt.visibility),
@@ -204,6 +213,7 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
         plan,
         certificate,
         warnings,
+        step,
     })
 }
 

@@ -27,21 +27,26 @@ fn render_at(level: Level, d: &Diagnostic, source: &str, origin: &str) -> String
     let label = d.label.as_deref().unwrap_or_default();
     let mut message = level.title(&d.message);
     if let Some(span) = d.span.clone() {
-        // An empty span (a missing table) is widened to one character so that the caret shows; a whole
-        // character, as annotate-snippets panics on a range that ends inside one.
-        let start = span.start.min(source.len());
-        let next = source[start..].chars().next().map_or(0, char::len_utf8);
-        let end = span.end.max(start + next).min(source.len());
-        let annotation = level.span(start..end).label(label);
-        message = message.snippet(
-            Snippet::source(source)
-                .origin(origin)
-                .fold(true)
-                .annotation(annotation),
-        );
+        let mut snippet = Snippet::source(source)
+            .origin(origin)
+            .fold(true)
+            .annotation(level.span(visible(&span, source)).label(label));
+        // The other places it involves, drawn as rustc draws a secondary span.
+        for (span, label) in &d.related {
+            snippet = snippet.annotation(Level::Info.span(visible(span, source)).label(label));
+        }
+        message = message.snippet(snippet);
     }
     if let Some(note) = &d.note {
         message = message.footer(Level::Help.title(note.trim_start_matches("hint: ")));
     }
     Renderer::plain().render(message).to_string()
+}
+
+/// `span` inside `source`: an empty span (a missing table) is widened to one character so that the caret
+/// shows; a whole character, as annotate-snippets panics on a range that ends inside one.
+fn visible(span: &std::ops::Range<usize>, source: &str) -> std::ops::Range<usize> {
+    let start = span.start.min(source.len());
+    let next = source[start..].chars().next().map_or(0, char::len_utf8);
+    start..span.end.max(start + next).min(source.len())
 }

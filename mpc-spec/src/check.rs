@@ -21,6 +21,8 @@ pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
     // parse.rs accepted only the spellings in `keys`, which are the enums' own.
     let scalar = spelled(&raw.scalar, Scalar::F32, Scalar::from_name);
     let emission = spelled(&raw.emission, Emission::Auto, Emission::from_name);
+    let target = spelled(&raw.target, Target::Host, Target::from_name);
+    check_target(&raw, target, diags);
     if !diags.is_empty() {
         return None;
     }
@@ -28,7 +30,11 @@ pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
         model: model?,
         mpc: mpc?,
         kalman: kalman?,
-        codegen: Codegen { scalar, emission },
+        codegen: Codegen {
+            scalar,
+            emission,
+            target,
+        },
         spans: Spans(raw.spans),
     })
 }
@@ -670,6 +676,26 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
                 Method::Admm => "ADMM",
                 _ => "the interior-point method",
             })),
+        );
+    }
+}
+
+/// A method that computes in f64 needs a target with f64 in hardware: `method = "ipm"` on `cortex-m4f`
+/// would run every operation of its factorisations in software floating point. (An f64 `scalar` there
+/// is allowed, with a warning from the compiler: the first-order methods and the filter still run.)
+fn check_target(raw: &Raw, target: Target, diags: &mut Diagnostics) {
+    let Some(method) = &raw.method else { return };
+    if Method::from_name(&method.value) == Some(Method::Ipm) && !target.has_f64() {
+        let name = target.name();
+        let target_span = raw.target.as_ref().map(|t| t.span.clone());
+        diags.push(
+            Diagnostic::new(
+                format!("`method = \"ipm\"` computes in f64, which `target = \"{name}\"` has no hardware for"),
+                method.span.clone(),
+            )
+            .label("the interior-point method runs in f64")
+            .related(target_span, "a single-precision FPU: f64 runs in software, about 45× slower")
+            .note("hint: the first-order methods compute in the spec's `scalar` (f32 by default): `method = \"fgm\"` solves a problem constrained by the input box alone; for state, move or row constraints, `target = \"cortex-a9\"` runs the interior-point method on its VFP"),
         );
     }
 }

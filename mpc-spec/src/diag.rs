@@ -14,6 +14,9 @@ pub struct Diagnostic {
     pub label: Option<String>,
     /// A hint on how to fix it.
     pub note: Option<String>,
+    /// Other places the mistake involves, each with its label (drawn under the source like the span, as
+    /// rustc draws a secondary span).
+    pub related: Vec<(Span, String)>,
 }
 
 impl Diagnostic {
@@ -24,6 +27,7 @@ impl Diagnostic {
             span: span.into(),
             label: None,
             note: None,
+            related: Vec::new(),
         }
     }
 
@@ -36,6 +40,14 @@ impl Diagnostic {
     /// With a hint.
     pub fn note(mut self, note: impl Into<String>) -> Self {
         self.note = Some(note.into());
+        self
+    }
+
+    /// With another place it involves, labelled, when that place is known.
+    pub fn related(mut self, span: Option<Span>, label: impl Into<String>) -> Self {
+        if let Some(span) = span {
+            self.related.push((span, label.into()));
+        }
         self
     }
 

@@ -70,7 +70,7 @@ pub const KALMAN_KEYS: &[&str] = &[
     "reacquire_after",
 ];
 /// Keys of `[codegen]`.
-pub const CODEGEN_KEYS: &[&str] = &["scalar", "emission"];
+pub const CODEGEN_KEYS: &[&str] = &["scalar", "emission", "target"];
 
 /// Values of `[model] type`.
 pub const MODEL_TYPES: &[&str] = &["double_integrator", "linear"];
@@ -84,3 +84,5 @@ pub const FILTERS: &[&str] = crate::FilterKind::NAMES;
 pub const SCALARS: &[&str] = crate::Scalar::NAMES;
 /// Values of `[codegen] emission`.
 pub const EMISSIONS: &[&str] = crate::Emission::NAMES;
+/// Values of `[codegen] target`.
+pub const TARGETS: &[&str] = crate::Target::NAMES;

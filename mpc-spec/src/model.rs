@@ -462,6 +462,30 @@ pub struct Codegen {
     pub scalar: Scalar,
     /// How the solver's products are emitted; `Auto` lets the compiler's cost model choose.
     pub emission: Emission,
+    /// The machine the controller runs on.
+    pub target: Target,
+}
+
+spelled! {
+    /// The machine the controller runs on, `[codegen] target`: what the compiler knows of its FPU, SIMD
+    /// and clock (`codegen::target` has the figures). It changes no emitted code; it decides which
+    /// methods the machine can run and whether a control step fits its sampling period.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub enum Target {
+        /// The building machine, or any with f64 in hardware and no fixed clock (the default).
+        Host = "host",
+        /// The Cortex-A9 of a Zynq-7000: VFPv3 (f64 in hardware) and NEON.
+        CortexA9 = "cortex-a9",
+        /// A Cortex-M4F such as the STM32F405: a single-precision FPU, f64 in software.
+        CortexM4f = "cortex-m4f",
+    }
+}
+
+impl Target {
+    /// Whether the machine computes f64 in hardware.
+    pub const fn has_f64(self) -> bool {
+        !matches!(self, Target::CortexM4f)
+    }
 }
 
 spelled! {

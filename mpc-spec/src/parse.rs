@@ -115,6 +115,7 @@ pub struct Raw {
 
     pub scalar: Option<Located<String>>,
     pub emission: Option<Located<String>>,
+    pub target: Option<Located<String>>,
 
     pub spans: BTreeMap<String, Span>,
     /// Every table and key written, readable or not (`"kalman"`, `"kalman.sigma_a"`), so that a value
@@ -335,6 +336,9 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.emission = t
             .get("emission")
             .and_then(|v| p.choice(v, "codegen.emission", keys::EMISSIONS));
+        raw.target = t
+            .get("target")
+            .and_then(|v| p.choice(v, "codegen.target", keys::TARGETS));
     }
     raw.spans = p.spans;
     raw.present = p.present;
@@ -435,18 +439,14 @@ impl Parser<'_> {
             }
             let mut d = Diagnostic::new(format!("unknown {what} `{key}` in {place}"), k.span())
                 .label(format!("unknown {what}"));
-            let closest = allowed
-                .iter()
-                .map(|a| (strsim::jaro_winkler(a, key), *a))
-                .fold((0.0, ""), |best, c| if c.0 > best.0 { c } else { best });
-            d = if closest.0 > 0.8 {
+            d = if let Some(close) = closest(allowed, key) {
                 let prefix = if table.is_empty() {
                     String::new()
                 } else {
                     format!("{table}.")
                 };
-                self.suggested.insert(format!("{prefix}{}", closest.1));
-                d.note(format!("hint: did you mean `{}`?", closest.1))
+                self.suggested.insert(format!("{prefix}{close}"));
+                d.note(format!("hint: did you mean `{close}`?"))
             } else {
                 d.note(format!(
                     "hint: the {what}s allowed here are {}",
@@ -615,10 +615,17 @@ impl Parser<'_> {
                 Some(self.located(path, v, s))
             }
             DeValue::String(s) => {
+                let note = match closest(options, s) {
+                    Some(close) => format!(
+                        "hint: did you mean `{close}`? (expected one of {})",
+                        quoted(options)
+                    ),
+                    None => format!("hint: expected one of {}", quoted(options)),
+                };
                 self.err(
                     Diagnostic::new(format!("unknown value \"{s}\" for `{path}`"), v.span())
                         .label("unknown value")
-                        .note(format!("hint: expected one of {}", quoted(options))),
+                        .note(note),
                 );
                 None
             }
@@ -1074,6 +1081,16 @@ pub fn entries(n: usize) -> String {
     } else {
         format!("{n} entries")
     }
+}
+
+/// The spelling in `options` closest to `written`, when it is close enough to be a typo of it (Jaro-Winkler
+/// similarity above 0.8): the "did you mean" of unknown keys and values.
+fn closest<'a>(options: &[&'a str], written: &str) -> Option<&'a str> {
+    let (score, best) = options
+        .iter()
+        .map(|o| (strsim::jaro_winkler(o, written), *o))
+        .fold((0.0, ""), |best, c| if c.0 > best.0 { c } else { best });
+    (score > 0.8).then_some(best)
 }
 
 fn quoted(options: &[&str]) -> String {

@@ -359,7 +359,7 @@ fn time_is_spelled_and_belongs_to_linear_models() {
     assert_eq!(d.message, "unknown value \"contiuous\" for `model.time`");
     assert_eq!(
         d.note.as_deref(),
-        Some("hint: expected one of `discrete`, `continuous`")
+        Some("hint: did you mean `continuous`? (expected one of `discrete`, `continuous`)")
     );
     assert_eq!(d.line_col(&src), Some((line_of(&src, "contiuous"), 8)));
     assert_eq!(diags.iter().count(), 1);

@@ -14,6 +14,10 @@ use std::fmt::Write;
 struct Check<'a> {
     spec: &'a str,
     method: mpc_spec::Method,
+    /// `[codegen] target`.
+    target: mpc_spec::Target,
+    /// The estimated cycles of one control step on the target, against its sampling period.
+    control_step: &'a codegen::target::StepCost,
     horizon: usize,
     nx: usize,
     nu: usize,
@@ -69,6 +73,8 @@ pub(crate) fn json(shown: &str, g: &Generated) -> String {
     let check = Check {
         spec: shown,
         method: p.qp.method,
+        target: g.step.machine.target,
+        control_step: &g.step,
         horizon: p.qp.N,
         nx: p.nx,
         nu: p.nu,
@@ -161,6 +167,10 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
     sections.push((
         "emission of the gradient (cost model; force with [codegen] emission)",
         emission_lines(c),
+    ));
+    sections.push((
+        "target (estimated cycles; [codegen] target)",
+        target_lines(&g.step),
     ));
     let width = sections
         .iter()
@@ -277,6 +287,68 @@ fn num(v: f64) -> String {
     } else {
         s
     }
+}
+
+/// The target, and one control step's estimated cycles against the sampling period.
+fn target_lines(step: &codegen::target::StepCost) -> Vec<(String, String)> {
+    let m = &step.machine;
+    let mut features = vec![if m.f64_in_hardware {
+        "f64 in hardware"
+    } else {
+        "single-precision FPU (f64 in software)"
+    }];
+    if m.simd == codegen::target::Simd::Neon {
+        features.push("NEON");
+    }
+    let clock = m.clock_hz.map_or("no fixed clock".to_string(), |hz| {
+        format!("{:.0} MHz", hz / 1e6)
+    });
+    let solver = format!(
+        "{} iterations × {} multiply-adds in {}",
+        step.iterations,
+        step.macs_per_iteration,
+        step.solver_scalar.name(),
+    );
+    let (cost, period) = match (step.period_cycles, step.load()) {
+        (Some(cycles), Some(load)) => (
+            format!(
+                "{:.3e} cycles, of which the solver {:.3e} ({solver}, {} cycles each)",
+                step.cycles,
+                step.solver_cycles,
+                m.cycles_per_mac(step.solver_scalar)
+            ),
+            format!(
+                "{} ms = {:.3e} cycles at {clock}: the step takes {:.1} %",
+                num(step.dt * 1e3),
+                cycles,
+                100.0 * load
+            ),
+        ),
+        _ => (
+            format!(
+                "{} multiply-adds, of which the solver {} ({solver})",
+                step.solver_macs + step.other_macs,
+                step.solver_macs
+            ),
+            format!(
+                "{} ms; the host has no fixed clock, so no cycle estimate (write `target` for one)",
+                num(step.dt * 1e3)
+            ),
+        ),
+    };
+    vec![
+        (
+            "target".to_string(),
+            format!(
+                "{}: {}, {clock}, {}",
+                m.target.name(),
+                m.processor,
+                features.join(", ")
+            ),
+        ),
+        ("control step".to_string(), cost),
+        ("sampling period".to_string(), period),
+    ]
 }
 
 /// One line per emission choice: the score, the work and the code, and which one was taken.

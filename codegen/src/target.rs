@@ -1,0 +1,267 @@
+//! What the compiler knows of the machine a controller runs on, `[codegen] target`: whether it computes
+//! f64 in hardware, its SIMD, its clock, and roughly what a multiply-add costs there in cycles. From these
+//! it estimates the cycles of one control step ([`StepCost`]), refuses a step that cannot fit the sampling
+//! period ([`check_period`]) and warns about an f64 scalar without f64 hardware ([`review`]).
+//!
+//! The target changes no emitted code. The NEON kernels are still chosen as before (`form::neon`: f32 in
+//! one 4-lane register, compiled under `cfg(mpc_neon)` whatever the target), and the cost model's score
+//! (`cost`) still counts 4-lane vectors on every target.
+//!
+//! # Where the figures come from
+//! A multiply-add's cost is the instructions the emulated boards run per multiply-add of the compiler's
+//! own count (`Resources::macs_per_cycle`, `mpcc check`), times cycles per instruction:
+//!
+//! | target | scalar | instructions per control cycle | multiply-adds | per multiply-add | cycles per instruction | cycles per multiply-add |
+//! |---|---|---|---|---|---|---|
+//! | cortex-a9 | f32 | 25,820 (`specs/paper.toml`, NEON lanes) | 31,671 | 0.82 | 1.5 | 1.2 |
+//! | cortex-a9 | f64 | 36,950 (`firmware-template/specs/paper-f64-n10.toml`, lanes on the VFP) | 10,236 | 3.6 | 1.5 | 5.4 |
+//! | cortex-m4f | f32 | 88,300 (`specs/paper.toml`) | 31,671 | 2.8 | 1 | 2.8 |
+//! | cortex-m4f | f64 | 1,665,603 (`firmware-template/specs/paper-f64-n10.toml`, software floating point) | 10,236 | 163 | 1 | 163 |
+//!
+//! The instruction counts are BENCHMARKS.md's: "Runtime hardening" (both boards' `paper.toml` with
+//! screening) and "Firmware (emulated Zynq-7000)" and "Firmware (emulated Cortex-M4F)" (the f64 rows). Under QEMU they are instructions, not cycles: the A9's 1.5 cycles
+//! per instruction is BENCHMARKS.md's estimate from the A9's published NEON issue rates (section
+//! "Emulated Cortex-A9", "Cycles, estimated"); a Cortex-M4 retires at most one instruction a cycle, so 1 is
+//! a lower bound there (flash wait states and multi-cycle divides come on top). These are estimates to a
+//! factor of about two, good enough to tell a step that fits its period from one that cannot.
+
+use crate::certificate::Resources;
+use crate::lower::Problem;
+use crate::plan::Plan;
+use mpc_spec::{Diagnostic, Diagnostics, Scalar, Spec, Target};
+
+/// The SIMD the emitted code can use on a machine.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Simd {
+    /// None assumed: the portable kernels (which LLVM may vectorize by itself).
+    None,
+    /// NEON, 4 f32 lanes (no f64): the lane kernels of `form::neon`.
+    Neon,
+}
+
+/// What the compiler knows of one target.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Machine {
+    /// The spelling in `[codegen] target`.
+    pub target: Target,
+    /// The processor, in prose.
+    pub processor: &'static str,
+    /// Whether f64 is computed in hardware (else in software, compiler-builtins' soft float).
+    pub f64_in_hardware: bool,
+    /// The SIMD unit.
+    pub simd: Simd,
+    /// The nominal clock, Hz; `None` for the host, which has no fixed one.
+    pub clock_hz: Option<f64>,
+    /// Estimated cycles per multiply-add in f32 (the module's table).
+    pub cycles_per_mac_f32: f64,
+    /// Estimated cycles per multiply-add in f64.
+    pub cycles_per_mac_f64: f64,
+}
+
+/// The building machine: f64 in hardware, no SIMD assumed, no fixed clock. Its cycles per multiply-add
+/// (one, either scalar) only rank choices: `cargo bench -p mpc-tests --bench constrained` measured the
+/// emitted interior-point method at 2.4 multiply-adds a nanosecond on this project's 2-3 GHz Zen 3.
+pub const HOST: Machine = Machine {
+    target: Target::Host,
+    processor: "the building machine",
+    f64_in_hardware: true,
+    simd: Simd::None,
+    clock_hz: None,
+    cycles_per_mac_f32: 1.0,
+    cycles_per_mac_f64: 1.0,
+};
+
+/// The Zynq-7000's Cortex-A9: VFPv3 with 32 double registers (f64 in hardware) and NEON (f32 only). The
+/// clock is 667 MHz, the fastest of the slowest speed grade (-1) in Xilinx's Zynq-7000 data sheet (DS190)
+/// and that of the common XC7Z020-1 boards; the paper (`../shared/paper.md`) does not state its clock.
+pub const CORTEX_A9: Machine = Machine {
+    target: Target::CortexA9,
+    processor: "the Zynq-7000's Cortex-A9",
+    f64_in_hardware: true,
+    simd: Simd::Neon,
+    clock_hz: Some(667e6),
+    cycles_per_mac_f32: 1.2,
+    cycles_per_mac_f64: 5.4,
+};
+
+/// The STM32F405's Cortex-M4F: a single-precision FPU (FPv4-SP), no SIMD for floats (the M4's SIMD is
+/// integer), 168 MHz at most (ST's STM32F405 data sheet).
+pub const CORTEX_M4F: Machine = Machine {
+    target: Target::CortexM4f,
+    processor: "the STM32F405's Cortex-M4F",
+    f64_in_hardware: false,
+    simd: Simd::None,
+    clock_hz: Some(168e6),
+    cycles_per_mac_f32: 2.8,
+    cycles_per_mac_f64: 163.0,
+};
+
+/// What the compiler knows of `target`.
+pub const fn machine(target: Target) -> &'static Machine {
+    match target {
+        Target::Host => &HOST,
+        Target::CortexA9 => &CORTEX_A9,
+        Target::CortexM4f => &CORTEX_M4F,
+    }
+}
+
+impl Machine {
+    /// Estimated cycles per multiply-add in `scalar`.
+    pub fn cycles_per_mac(&self, scalar: Scalar) -> f64 {
+        match scalar {
+            Scalar::F32 => self.cycles_per_mac_f32,
+            Scalar::F64 => self.cycles_per_mac_f64,
+        }
+    }
+
+    /// Estimated cycles of `macs` multiply-adds in `scalar`.
+    pub fn cycles(&self, macs: usize, scalar: Scalar) -> f64 {
+        macs as f64 * self.cycles_per_mac(scalar)
+    }
+
+    /// Cycles in a sampling period of `dt` seconds at the nominal clock; `None` without a fixed clock.
+    pub fn period_cycles(&self, dt: f64) -> Option<f64> {
+        self.clock_hz.map(|hz| hz * dt)
+    }
+}
+
+/// The estimated cost of one control step on the spec's target: the solver's iterations in the scalar the
+/// method computes in, the rest of the cycle (filter, gradient map) in the module's scalar.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct StepCost {
+    /// The machine.
+    pub machine: Machine,
+    /// The solver's iterations per step.
+    pub iterations: usize,
+    /// Multiply-adds of one iteration.
+    pub macs_per_iteration: usize,
+    /// Multiply-adds of the solver's iterations (iterations × multiply-adds per iteration).
+    pub solver_macs: usize,
+    /// The scalar the solver computes in: f64 for the interior-point method, else the module's.
+    pub solver_scalar: Scalar,
+    /// Multiply-adds of the rest of the control cycle (filter update and predict, gradient map).
+    pub other_macs: usize,
+    /// The module's scalar, which the rest runs in.
+    pub scalar: Scalar,
+    /// The estimated cycles of the solver's iterations.
+    pub solver_cycles: f64,
+    /// The estimated cycles of the whole control step.
+    pub cycles: f64,
+    /// The sampling period.
+    pub dt: f64,
+    /// The cycles in one sampling period at the nominal clock; `None` on the host.
+    pub period_cycles: Option<f64>,
+}
+
+impl StepCost {
+    /// The cost of one control step of `p`, lowered from `spec` and planned as `plan`, whose resources are
+    /// `r` (`certificate::predicted`).
+    pub fn of(spec: &Spec, p: &Problem, plan: &Plan, r: &Resources) -> Self {
+        let machine = *machine(spec.codegen.target);
+        // The interior-point method widens its data and computes in f64 whatever `scalar` is.
+        let solver_scalar = if plan.algorithm.is_none() {
+            Scalar::F64
+        } else {
+            p.scalar
+        };
+        let solver_macs = p.qp.iterations * r.macs_per_iteration;
+        let other_macs = r.macs_per_cycle.saturating_sub(solver_macs);
+        let solver_cycles = machine.cycles(solver_macs, solver_scalar);
+        StepCost {
+            machine,
+            iterations: p.qp.iterations,
+            macs_per_iteration: r.macs_per_iteration,
+            solver_macs,
+            solver_scalar,
+            other_macs,
+            scalar: p.scalar,
+            solver_cycles,
+            cycles: solver_cycles + machine.cycles(other_macs, p.scalar),
+            dt: p.dt,
+            period_cycles: machine.period_cycles(p.dt),
+        }
+    }
+
+    /// The share of the sampling period the step takes; `None` on the host.
+    pub fn load(&self) -> Option<f64> {
+        self.period_cycles.map(|period| self.cycles / period)
+    }
+}
+
+/// Refuses a control step whose estimated cycles exceed the sampling period at the target's clock, with a
+/// located error on `dt` that also points at `iterations` and `target`. The host has no fixed clock: no
+/// refusal there.
+pub fn check_period(spec: &Spec, cost: &StepCost) -> Result<(), Diagnostic> {
+    let Some(period) = cost.period_cycles else {
+        return Ok(());
+    };
+    if cost.cycles <= period {
+        return Ok(());
+    }
+    let m = &cost.machine;
+    let mhz = m.clock_hz.unwrap_or_default() / 1e6;
+    let span = |key: &str| spec.spans.get(key);
+    Err(Diagnostic::new(
+        format!(
+            "a control step needs about {:.2e} cycles on {} at {mhz:.0} MHz, more than the {:.2e} of its {} ms period",
+            cost.cycles,
+            m.processor,
+            period,
+            cost.dt * 1e3
+        ),
+        span("model.dt"),
+    )
+    .label(format!(
+        "{:.2e} cycles at {mhz:.0} MHz; the step takes {:.0} % of it",
+        period,
+        100.0 * cost.cycles / period
+    ))
+    .related(
+        span("mpc.iterations"),
+        format!(
+            "{} iterations of {} multiply-adds in {}: {:.2e} cycles",
+            cost.iterations,
+            cost.macs_per_iteration,
+            cost.solver_scalar.name(),
+            cost.solver_cycles
+        ),
+    )
+    .related(
+        span("codegen.target"),
+        format!(
+            "about {} cycles per multiply-add in {} here",
+            m.cycles_per_mac(cost.solver_scalar),
+            cost.solver_scalar.name()
+        ),
+    )
+    .note(format!(
+        "hint: fewer iterations or a shorter horizon, a longer `dt`, or a faster target; the estimate is {} multiply-adds of the solver and {} of the filter and gradient map, at the cycles per multiply-add measured on the emulated {} (`codegen::target`)",
+        cost.solver_macs,
+        cost.other_macs,
+        m.target.name()
+    )))
+}
+
+/// Findings about the target that do not stop the build: an f64 `scalar` on a target without f64 in
+/// hardware builds and agrees with the host, but every f64 operation is a software routine.
+pub fn review(spec: &Spec) -> Diagnostics {
+    let mut warnings = Diagnostics::default();
+    let m = machine(spec.codegen.target);
+    if spec.codegen.scalar == Scalar::F64 && !m.f64_in_hardware {
+        warnings.push(
+            Diagnostic::new(
+                format!(
+                    "`scalar = \"f64\"` on `target = \"{}\"` runs in software floating point, about {:.0}× the cycles of f32",
+                    m.target.name(),
+                    m.cycles_per_mac_f64 / m.cycles_per_mac_f32
+                ),
+                spec.spans.get("codegen.scalar"),
+            )
+            .label("f64 has no hardware here")
+            .related(spec.spans.get("codegen.target"), "a single-precision FPU")
+            .note("hint: `scalar = \"f32\"` (the default) runs on the FPU; f64 there is for checking against the host"),
+        );
+    }
+    warnings
+}
