@@ -30,12 +30,22 @@ pub const CANDIDATES: &[Method] = &[Method::Fgm, Method::Ipm, Method::Admm];
 /// Why `auto` does not weigh `method` for `spec`, given whether an earlier candidate can be used
 /// (`None`: it is weighed). A method not weighed is listed as unavailable with the reason.
 ///
-/// TODO(target): once `[codegen] target` lands, weigh ADMM whenever the target lacks f64 hardware
-/// (where the interior-point method's f64 is emulated and ADMM runs in f32), whatever came before.
-fn not_weighed(_spec: &Spec, method: Method, earlier_usable: bool) -> Option<String> {
-    (method == Method::Admm && earlier_usable).then(|| {
-        "not weighed: an earlier candidate reaches `accuracy`, and ADMM's certificate costs seconds of build time (write `method = \"admm\"` to force it)".to_string()
-    })
+/// On a target without f64 hardware the interior-point method is not a candidate and ADMM (in the
+/// module's scalar) always is.
+fn not_weighed(spec: &Spec, method: Method, earlier_usable: bool) -> Option<String> {
+    let machine = crate::target::machine(spec.codegen.target);
+    match method {
+        Method::Ipm if !machine.f64_in_hardware => Some(format!(
+            "computes in f64, which `target = \"{}\"` has no hardware for",
+            spec.codegen.target.name()
+        )),
+        // Where f64 is in hardware the interior-point method is the cheaper constrained method on every
+        // shipped spec (README, "ADMM"), and ADMM's certificate costs seconds of build time.
+        Method::Admm if earlier_usable && machine.f64_in_hardware => Some(
+            "not weighed: an earlier candidate reaches `accuracy` on a target with f64 hardware, and ADMM's certificate costs seconds of build time (write `method = \"admm\"` to force it)".to_string(),
+        ),
+        _ => None,
+    }
 }
 
 /// The spec with its method resolved, and the problem lowered and certified with it: `spec` itself for
@@ -88,7 +98,7 @@ pub fn resolve(spec: &Spec) -> Result<(Spec, Problem), Diagnostics> {
         .iter()
         .enumerate()
         .filter(|(_, c)| c.unavailable.is_none() && c.reaches_accuracy != Some(false))
-        .min_by_key(|(_, c)| c.macs_per_solve)
+        .min_by(|(_, a), (_, b)| a.cycles_per_solve.total_cmp(&b.cycles_per_solve))
         .map(|(i, c)| (i, c.method));
     let Some((index, chosen)) = best else {
         // None can be used: the findings of the method the spec needs (`ipm` for constraints).
@@ -128,6 +138,7 @@ fn unavailable(method: Method, why: String) -> Candidate {
         iterations: 0,
         macs_per_iteration: 0,
         macs_per_solve: 0,
+        cycles_per_solve: f64::INFINITY,
         certified: "",
         reaches_accuracy: None,
         chosen: false,
@@ -158,6 +169,15 @@ fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
         iterations: qp.iterations,
         macs_per_iteration,
         macs_per_solve: qp.iterations * macs_per_iteration + once,
+        // The interior-point method computes in f64 whatever the module's scalar.
+        cycles_per_solve: crate::target::machine(spec.codegen.target).cycles(
+            qp.iterations * macs_per_iteration + once,
+            if spec.mpc.method == Method::Ipm {
+                mpc_spec::Scalar::F64
+            } else {
+                spec.codegen.scalar
+            },
+        ),
         certified,
         reaches_accuracy,
         chosen: false,

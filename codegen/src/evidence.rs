@@ -95,6 +95,9 @@ pub struct Candidate {
     pub macs_per_iteration: usize,
     /// Multiply-adds of one solve (iterations × per iteration).
     pub macs_per_solve: usize,
+    /// Estimated cycles of one solve on the spec's target ([`crate::target`]): what the choice ranks
+    /// (infinite for an unavailable candidate; on the host one cycle a multiply-add).
+    pub cycles_per_solve: f64,
     /// How its count is certified: `"sampled"` on `[mpc.region]`, `"a priori"` (the bound of
     /// `tolerance`) or `"as written"`.
     pub certified: &'static str,

@@ -160,7 +160,7 @@ impl StepCost {
     pub fn of(spec: &Spec, p: &Problem, plan: &Plan, r: &Resources) -> Self {
         let machine = *machine(spec.codegen.target);
         // The interior-point method widens its data and computes in f64 whatever `scalar` is.
-        let solver_scalar = if plan.algorithm.is_none() {
+        let solver_scalar = if plan.algorithm.is_none() && p.qp.method == mpc_spec::Method::Ipm {
             Scalar::F64
         } else {
             p.scalar
