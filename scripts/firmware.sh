@@ -2,21 +2,22 @@
 # Builds firmware-template with a controller spec baked in, runs it on the emulated board and exits
 # with the firmware's own status (0: the closed loop flew and passed its checks).
 #
-#   scripts/firmware.sh [--board zynq|netduinoplus2] [--build-only] [--elf-out PATH] [SPEC]
+#   scripts/firmware.sh [--board zynq|netduinoplus2] [--cycles N] [--build-only] [--elf-out PATH] [SPEC]
 #
 # Boards: zynq (default; Zynq-7000, Cortex-A9, QEMU xilinx-zynq-a9, target armv7a-none-eabihf) and
 # netduinoplus2 (alias stm32f405; Cortex-M4F, QEMU netduinoplus2, target thumbv7em-none-eabihf).
 # SPEC defaults to specs/paper.toml, which the template's `mpc!` reads directly. Any other spec is
 # copied to firmware-template/spec-override/spec.toml and built with the `spec-override` feature:
 # `mpc!` takes a literal path, and its `include_str!` makes cargo rebuild when that file changes.
-# --elf-out copies the built ELF to PATH. One invocation at a time builds (a lock file in the
+# --cycles N flies the first N control cycles of the reference flight instead of all 8671 (built in:
+# FIRMWARE_CYCLES). --elf-out copies the built ELF to PATH. One invocation at a time builds (a lock file in the
 # template's target/), since all share the template's build directory and spec-override file.
 # Missing tools (qemu-system-arm, nightly's rust-src) are installed when possible.
 #
 # Environment: FIRMWARE_TIMEOUT (seconds for the emulated run, default 600).
 set -euo pipefail
 
-usage() { sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; }
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 template="$root/firmware-template"
@@ -24,11 +25,14 @@ board=zynq
 build_only=0
 elf_out=""
 spec=""
+cycles=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --board) [ $# -ge 2 ] || { usage >&2; exit 2; }; board=$2; shift 2 ;;
         --board=*) board=${1#*=}; shift ;;
         --build-only) build_only=1; shift ;;
+        --cycles) [ $# -ge 2 ] || { usage >&2; exit 2; }; cycles=$2; shift 2 ;;
+        --cycles=*) cycles=${1#*=}; shift ;;
         --elf-out) [ $# -ge 2 ] || { usage >&2; exit 2; }; elf_out=$(realpath -m "$2"); shift 2 ;;
         -h|--help) usage; exit 0 ;;
         -*) echo "firmware.sh: unknown option $1" >&2; usage >&2; exit 2 ;;
@@ -78,7 +82,9 @@ fi
 cd "$template"
 # The outer toolchain (RUSTUP_TOOLCHAIN, exported by rustup to children) would override the
 # template's rust-toolchain.toml, and outer RUSTFLAGS would replace its target flags.
-cargo_=(env -u RUSTUP_TOOLCHAIN -u RUSTFLAGS -u CARGO_TARGET_DIR -u CARGO_BUILD_TARGET cargo +nightly)
+cargo_=(env -u RUSTUP_TOOLCHAIN -u RUSTFLAGS -u CARGO_TARGET_DIR -u CARGO_BUILD_TARGET -u FIRMWARE_CYCLES)
+[ -z "$cycles" ] || cargo_+=("FIRMWARE_CYCLES=$cycles")
+cargo_+=(cargo +nightly)
 "${cargo_[@]}" build --release --target "$target" "${features[@]}"
 [ -z "$elf_out" ] || cp "target/$target/release/firmware" "$elf_out"
 [ "$build_only" = 1 ] && exit 0

@@ -67,6 +67,9 @@ pub struct Resources {
     pub macs_per_iteration: usize,
     /// Multiply-adds of one control cycle (filter update and predict, gradient map, every iteration).
     pub macs_per_cycle: usize,
+    /// Multiply-adds the solver does once a solve besides its iterations (the interior-point method's
+    /// cold start, which every solve computes; ADMM's final residuals), in the solver's scalar.
+    pub macs_once_per_solve: usize,
     /// Bytes of the nonzero coefficients inlined into the code (±1 become additions and cost nothing).
     pub bytes_constants: usize,
     /// Bytes of `Mpc` (the plan).
@@ -789,10 +792,12 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
         (None, mpc_spec::Method::Admm) => crate::solver::admm::mpc_macs_per_iteration(qp),
         (None, _) => crate::solver::ipm::mpc_macs_per_iteration(qp),
     };
-    // ADMM's final residuals and infeasibility test, once a solve.
+    // ADMM's final residuals and infeasibility test; the interior-point method's cold start, which the
+    // emitted method computes on every solve (its control flow does not depend on the data).
     let once_per_solve = match (plan.algorithm, qp.method) {
+        (Some(_), _) => 0,
         (None, mpc_spec::Method::Admm) => crate::solver::admm::mpc_residual_macs(qp),
-        _ => 0,
+        (None, _) => crate::solver::ipm::mpc_cold_start_macs(qp),
     };
     // f: unrolled over Fx, Fr and Fd, or one pass of the matrix-free sweeps (f = ∇J(0)).
     let (gradient_map, gradient_map_constants) =
@@ -823,6 +828,7 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
     Resources {
         macs_per_iteration: per_iteration,
         macs_per_cycle: qp.iterations * per_iteration + once_per_solve + gradient_map + macs_filter,
+        macs_once_per_solve: once_per_solve,
         macs_filter,
         bytes_constants: (gradient_map_constants + filter_constants) * size,
         bytes_state_mpc: mpc.0,

@@ -165,7 +165,7 @@ impl StepCost {
         } else {
             p.scalar
         };
-        let solver_macs = p.qp.iterations * r.macs_per_iteration;
+        let solver_macs = p.qp.iterations * r.macs_per_iteration + r.macs_once_per_solve;
         let other_macs = r.macs_per_cycle.saturating_sub(solver_macs);
         let solver_cycles = machine.cycles(solver_macs, solver_scalar);
         StepCost {

@@ -57,8 +57,29 @@ const SPEC_TEXT: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/", sp
 
 /// Seed of the noise streams; the host test flies the same one.
 const SEED: u64 = 1;
-/// Control cycles flown: the whole ~111 s reference flight at 12.8 ms per cycle.
-const CYCLES: usize = 8671;
+/// Control cycles flown: the whole ~111 s reference flight at 12.8 ms per cycle, or the first
+/// `FIRMWARE_CYCLES` of it when that is set at build time (`scripts/firmware.sh --cycles N`; the
+/// tests fly 10 s of the interior-point specs, which cost a few million instructions a cycle).
+const CYCLES: usize = match option_env!("FIRMWARE_CYCLES") {
+    Some(n) => parse_cycles(n),
+    None => FULL_FLIGHT,
+};
+const FULL_FLIGHT: usize = 8671;
+
+/// `n` as a count of cycles, 1 to FULL_FLIGHT; anything else stops the build.
+const fn parse_cycles(n: &str) -> usize {
+    let b = n.as_bytes();
+    let mut v = 0usize;
+    let mut i = 0;
+    while i < b.len() {
+        assert!(b[i].is_ascii_digit(), "FIRMWARE_CYCLES must be a number of cycles");
+        v = v * 10 + (b[i] - b'0') as usize;
+        assert!(v <= FULL_FLIGHT, "FIRMWARE_CYCLES is more than the whole flight (8671)");
+        i += 1;
+    }
+    assert!(v > 0, "FIRMWARE_CYCLES must be at least 1");
+    v
+}
 /// A tracking error above this, m, on any axis means the controller lost the drone.
 const LOST_M: f64 = 2.0;
 /// Iterations of the timer calibration loop (2 instructions each).

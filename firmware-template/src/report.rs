@@ -111,7 +111,9 @@ pub fn result(out: &mut Serial, run: &Run) -> bool {
         .u64(st.saturated)
         .str(" cycles with a saturated input, ")
         .u64(st.not_solved)
-        .str(" cycles without a solve");
+        .str(" cycles without a solve, ")
+        .u64(st.fell_back)
+        .str(" with the solver's fallback");
     out.str("\nstack used: ")
         .u64(run.stack_bytes as u64)
         .str(" bytes, of which a control cycle ")
@@ -173,6 +175,8 @@ pub fn result(out: &mut Serial, run: &Run) -> bool {
         .u64(st.saturated)
         .str(",\"unsolved_cycles\":")
         .u64(st.not_solved)
+        .str(",\"fallback_cycles\":")
+        .u64(st.fell_back)
         .str(",\"rmse_um\":[");
     axes(out, &rmse, ",");
     out.str("],\"max_abs_error_um\":[");
@@ -200,6 +204,9 @@ pub struct StatusCounts {
     pub saturated: u64,
     /// Cycles whose command was the rest input (no estimate, or an invalid reference).
     pub not_solved: u64,
+    /// Cycles whose command came from the solver's fallback (the interior-point method's or ADMM's
+    /// shifted plan when a solve was not trusted; the first-order methods have none).
+    pub fell_back: u64,
 }
 
 impl StatusCounts {
@@ -214,6 +221,7 @@ impl StatusCounts {
         self.reacquisitions = u64::from(s.filter.reacquisitions);
         self.saturated += u64::from(s.saturated.iter().any(|b| *b));
         self.not_solved += u64::from(s.command != ctrl::Command::Solved);
+        self.fell_back += u64::from(s.fell_back());
     }
 }
 

@@ -10,9 +10,10 @@
 
 use crate::board;
 
-/// The most bytes below the stack pointer the probe paints (the first cycle; later cycles paint
-/// twice the deepest use seen so far, plus a margin: cycles repeat the same code).
-const PROBE_MAX: usize = 32 * 1024;
+/// The most bytes below the stack pointer the probe paints (the first cycle, down to the stack's
+/// bottom at most; later cycles paint twice the deepest use seen so far, plus a margin: cycles
+/// repeat the same code). The interior-point method keeps its normal matrix on the stack.
+const PROBE_MAX: usize = 192 * 1024;
 const PROBE_MARGIN: usize = 1024;
 
 /// Bytes of the main stack used so far at most: the painted words that were overwritten, from

@@ -83,6 +83,13 @@ pub mod paper_limits {
         /// What the interior-point method did: iterations, residuals, violations, fallback.
         pub solver: SolverStatus,
     }
+    impl Status {
+        /// Whether the command came from the solver's fallback ([`Fallback::WarmStart`]) instead of
+        /// its solve; [`Status::solver`] says why.
+        pub fn fell_back(&self) -> bool {
+            self.solver.fallback == Fallback::WarmStart
+        }
+    }
     /// How a control cycle's command was made.
     #[derive(Clone, Copy, Debug, PartialEq, Eq)]
     pub enum Command {
@@ -160,8 +167,10 @@ pub mod paper_limits {
     /// What the interior-point method's last solve did ([`Mpc::solver_status`]).
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct SolverStatus {
-        /// Iterations run (fewer than [`ITERATIONS`] only when the point was optimal to rounding,
-        /// or the method stopped on infeasibility or a numerical failure).
+        /// Iterations that moved the point (fewer than [`ITERATIONS`] when it was optimal to rounding,
+        /// or the method stopped on infeasibility or a numerical failure). Every solve does the work of
+        /// a cold start and [`ITERATIONS`] iterations whatever this says: the control flow does not
+        /// depend on the data.
         pub iterations: u32,
         /// ‖G z + s − h‖∞ relative to the data's scale, at the end.
         pub primal_residual: f64,
@@ -269,31 +278,30 @@ pub mod paper_limits {
                 *hj = SIDE_H[j] - dot(&SIDE_X[j], &x0);
             }
             let (mut z, mut s, mut lambda) = (self.z, self.s, self.lambda);
-            if self.warm {
-                shift(&mut z[..NP], NU);
-                z[NP - NU..NP].copy_from_slice(&REST);
-                shift(&mut s[..2 * NP], 2 * NU);
-                shift(&mut s[NB..], SIDES_PER_SLOT);
-                shift(&mut lambda[..2 * NP], 2 * NU);
-                shift(&mut lambda[NB..], SIDES_PER_SLOT);
-            }
+            shift(&mut z[..NP], NU);
+            z[NP - NU..NP].copy_from_slice(&REST);
+            shift(&mut s[..2 * NP], 2 * NU);
+            shift(&mut s[NB..], SIDES_PER_SLOT);
+            shift(&mut lambda[..2 * NP], 2 * NU);
+            shift(&mut lambda[NB..], SIDES_PER_SLOT);
             let outcome = interior_point(&f, &h, &mut z, &mut s, &mut lambda, self.warm);
-            let trusted = outcome.ended == Ended::Iterations
-                && outcome.primal <= PRIMAL_LIMIT && outcome.dual <= DUAL_LIMIT;
-            if trusted {
-                for (i, (p, v)) in self.plan.iter_mut().zip(z.iter()).enumerate() {
-                    *p = clamp(*v, i);
-                }
-                self.z = z;
-                self.s = s;
-                self.lambda = lambda;
-            } else {
-                shift(&mut self.plan, NU);
-                self.plan[NP - NU..].copy_from_slice(&REST);
-                for (i, p) in self.plan.iter_mut().enumerate() {
-                    *p = clamp(*p, i);
-                }
+            let trusted = (outcome.ended == Ended::Iterations)
+                & (outcome.primal <= PRIMAL_LIMIT) & (outcome.dual <= DUAL_LIMIT);
+            let mut solved = [0.0; NP];
+            for (i, (p, v)) in solved.iter_mut().zip(z.iter()).enumerate() {
+                *p = clamp(*v, i);
             }
+            let mut held = self.plan;
+            shift(&mut held, NU);
+            held[NP - NU..].copy_from_slice(&REST);
+            for (i, p) in held.iter_mut().enumerate() {
+                *p = clamp(*p, i);
+            }
+            let pick = trusted as usize;
+            self.plan = [held, solved][pick];
+            self.z = [self.z, z][pick];
+            self.s = [self.s, s][pick];
+            self.lambda = [self.lambda, lambda][pick];
             self.warm = trusted;
             let (violation, softened) = violations(&self.plan, &h);
             self.status = SolverStatus {
@@ -669,8 +677,7 @@ pub mod paper_limits {
     #[inline(always)]
     fn clamp(v: f64, i: usize) -> f64 {
         let (lo, hi) = (LO[i % NU], HI[i % NU]);
-        let v = if v > lo { v } else { lo };
-        if v < hi { v } else { hi }
+        smaller(hi, larger(lo, v))
     }
     /// Moves every block of `width` up by one; the last block stays.
     #[inline(always)]
@@ -692,12 +699,10 @@ pub mod paper_limits {
                 }
             }
             let excess = a - h[NB + j];
-            if excess > 0.0 {
-                if SIDE_SOFT[j] {
-                    soft = soft.max(excess);
-                } else {
-                    hard = hard.max(excess / SIDE_H[j].abs().max(1.0));
-                }
+            if SIDE_SOFT[j] {
+                soft = larger(soft, excess);
+            } else {
+                hard = larger(hard, excess / larger(SIDE_H[j].abs(), 1.0));
             }
         }
         (hard, soft)
@@ -731,10 +736,22 @@ pub mod paper_limits {
         gap: f64,
         objective_scale: f64,
     }
-    /// max |v_i|.
+    /// max |v_i| (NaN entries are passed over, as by `f64::max`).
     #[inline(always)]
     fn amax(v: &[f64]) -> f64 {
-        v.iter().fold(0.0, |m: f64, x| m.max(x.abs()))
+        v.iter().fold(0.0, |m, x| larger(m, x.abs()))
+    }
+    /// The larger of `a` and `b`, `a` when `b` is NaN: a select, not a branch or a libcall
+    /// (`f64::max` is a call to `fmax` on a VFP without `vmaxnm`), so every solve runs the
+    /// same instructions.
+    #[inline(always)]
+    fn larger(a: f64, b: f64) -> f64 {
+        if b > a { b } else { a }
+    }
+    /// The smaller of `a` and `b`, `a` when `b` is NaN.
+    #[inline(always)]
+    fn smaller(a: f64, b: f64) -> f64 {
+        if b < a { b } else { a }
     }
     /// G z: the box's sides, then the rows'.
     fn g_mul(z: &[f64; NV], out: &mut [f64; NSIDES]) {
@@ -813,7 +830,7 @@ pub mod paper_limits {
                     }
                 }
             }
-            let scale = 1.0 + (0..NV).fold(0.0, |s: f64, i| s.max(m[i][i].abs()));
+            let scale = 1.0 + (0..NV).fold(0.0, |s, i| larger(s, m[i][i].abs()));
             for (i, row) in m.iter_mut().enumerate() {
                 row[i] += delta;
             }
@@ -824,19 +841,18 @@ pub mod paper_limits {
         }
         false
     }
-    /// L·D·Lᵀ of the lower triangle of `m`, in place (D on the diagonal); `false` on a pivot that is
-    /// not positive and finite.
+    /// L·D·Lᵀ of the lower triangle of `m`, in place (D on the diagonal); `false` when a pivot is
+    /// not positive and finite. It runs to the end either way: the same instructions every time.
     fn ldl(m: &mut [[f64; NV]; NV]) -> bool {
         let mut v = [0.0; NV];
+        let mut positive = true;
         for j in 0..NV {
             let mut d = m[j][j];
             for k in 0..j {
                 v[k] = m[j][k] * m[k][k];
                 d -= m[j][k] * v[k];
             }
-            if d.is_nan() || d <= 0.0 || d.is_infinite() {
-                return false;
-            }
+            positive &= (d > 0.0) & (d < f64::INFINITY);
             m[j][j] = d;
             for row in m.iter_mut().skip(j + 1) {
                 let mut a = row[j];
@@ -846,7 +862,7 @@ pub mod paper_limits {
                 row[j] = a / d;
             }
         }
-        true
+        positive
     }
     /// Solves L·D·Lᵀ x = b in place.
     fn ldl_solve(m: &[[f64; NV]; NV], b: &mut [f64; NV]) {
@@ -924,23 +940,31 @@ pub mod paper_limits {
     ) -> f64 {
         let mut alpha = f64::INFINITY;
         for k in 0..NSIDES {
-            if ds[k] < 0.0 {
-                alpha = alpha.min(-s[k] / ds[k]);
-            }
-            if dl[k] < 0.0 {
-                alpha = alpha.min(-lambda[k] / dl[k]);
-            }
+            let (rs, rl) = (-s[k] / ds[k], -lambda[k] / dl[k]);
+            alpha = smaller(alpha, if ds[k] < 0.0 { rs } else { f64::INFINITY });
+            alpha = smaller(alpha, if dl[k] < 0.0 { rl } else { f64::INFINITY });
         }
         alpha
     }
-    /// Whether every entry is finite.
+    /// Whether every entry is finite (every entry is looked at: no early exit).
     #[inline(always)]
     fn finite64(v: &[f64]) -> bool {
-        v.iter().all(|x| x.is_finite())
+        v.iter().fold(true, |ok, x| ok & x.is_finite())
+    }
+    /// Whether every entry is positive (every entry is looked at).
+    #[inline(always)]
+    fn positive64(v: &[f64]) -> bool {
+        v.iter().fold(true, |ok, x| ok & (*x > 0.0))
     }
     /// The fixed-iteration Mehrotra predictor-corrector from (z, s, λ) (a warm start, its slacks and
     /// multipliers raised to at least WARM_FLOOR) or from the cold start (one affine step from z = 0,
     /// s = λ = 1, then s, λ ← max(1, |·|)). Leaves the last finite point in (z, s, λ).
+    ///
+    /// The control flow does not depend on the data: the cold start is computed on every solve
+    /// (and used when `warm` is false), every one of the ITERATIONS iterations is computed, and a
+    /// point that is held (optimal to rounding, a refused factorisation, a non-finite or
+    /// non-positive step, infeasibility) keeps being held by selection, not by a `break`. Only a
+    /// pivot that is not positive costs more (the regularised retries in `factor`).
     fn interior_point(
         f: &[f64; NV],
         h: &[f64; NSIDES],
@@ -951,81 +975,62 @@ pub mod paper_limits {
     ) -> Outcome {
         let mut m = [[0.0; NV]; NV];
         let (mut dz, mut ds, mut dl) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
-        let failure = |iterations: u32| Outcome {
-            ended: Ended::Failure,
-            iterations,
-            primal: f64::INFINITY,
-            dual: f64::INFINITY,
-            gap: f64::INFINITY,
-        };
-        if warm {
-            for v in s.iter_mut().chain(lambda.iter_mut()) {
-                *v = v.max(WARM_FLOOR);
-            }
-        } else {
-            *z = [0.0; NV];
-            *s = [1.0; NSIDES];
-            *lambda = [1.0; NSIDES];
-            let r = residuals(f, h, z, s, lambda);
-            if !factor(&[1.0; NSIDES], &mut m) {
-                return failure(0);
-            }
-            let mut rc = [0.0; NSIDES];
-            for k in 0..NSIDES {
-                rc[k] = s[k] * lambda[k];
-            }
-            direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl, 0);
-            for i in 0..NV {
-                z[i] += dz[i];
-            }
-            for k in 0..NSIDES {
-                s[k] = (s[k] + ds[k]).abs().max(1.0);
-                lambda[k] = (lambda[k] + dl[k]).abs().max(1.0);
-            }
+        let (mut zc, mut sc, mut lc) = ([0.0; NV], [1.0; NSIDES], [1.0; NSIDES]);
+        let r = residuals(f, h, &zc, &sc, &lc);
+        let cold_factored = factor(&[1.0; NSIDES], &mut m);
+        let mut rc = [0.0; NSIDES];
+        for k in 0..NSIDES {
+            rc[k] = sc[k] * lc[k];
         }
-        if !(finite64(z) && finite64(s) && finite64(lambda)) {
-            return failure(0);
+        direction(&m, &r, &sc, &lc, &rc, &mut dz, &mut ds, &mut dl, 0);
+        for i in 0..NV {
+            zc[i] += dz[i];
         }
+        for k in 0..NSIDES {
+            sc[k] = larger(1.0, (sc[k] + ds[k]).abs());
+            lc[k] = larger(1.0, (lc[k] + dl[k]).abs());
+        }
+        for v in s.iter_mut().chain(lambda.iter_mut()) {
+            *v = larger(WARM_FLOOR, *v);
+        }
+        let pick = warm as usize;
+        *z = [zc, *z][pick];
+        *s = [sc, *s][pick];
+        *lambda = [lc, *lambda][pick];
+        let started = (warm | cold_factored) & finite64(z) & finite64(s)
+            & finite64(lambda);
         let mut r = residuals(f, h, z, s, lambda);
-        let mut ended = Ended::Iterations;
+        let (mut live, mut failed, mut infeasible) = (started, !started, false);
         let mut iterations = 0;
-        while iterations < ITERATIONS as u32 {
-            if r.relative_primal <= FINISHED && r.relative_dual <= FINISHED
-                && r.gap <= FINISHED * r.objective_scale
-            {
-                break;
-            }
+        for _ in 0..ITERATIONS {
+            live
+                &= !((r.relative_primal <= FINISHED) & (r.relative_dual <= FINISHED)
+                    & (r.gap <= FINISHED * r.objective_scale));
             let mu = dot(s, lambda) / NSIDES as f64;
             let mut w = [0.0; NSIDES];
             for k in 0..NSIDES {
                 w[k] = lambda[k] / s[k];
             }
-            if !factor(&w, &mut m) {
-                ended = Ended::Failure;
-                break;
-            }
-            let mut rc = [0.0; NSIDES];
+            let factored = factor(&w, &mut m);
+            failed |= live & !factored;
+            live &= factored;
             for k in 0..NSIDES {
                 rc[k] = s[k] * lambda[k];
             }
             direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl, 0);
-            let alpha = step_to_boundary(s, lambda, &ds, &dl).min(1.0);
+            let alpha = smaller(1.0, step_to_boundary(s, lambda, &ds, &dl));
             let mut mu_affine = 0.0;
             for k in 0..NSIDES {
                 mu_affine += (s[k] + alpha * ds[k]) * (lambda[k] + alpha * dl[k]);
             }
             mu_affine /= NSIDES as f64;
-            let sigma = if mu > 0.0 {
-                let ratio = (mu_affine / mu).clamp(0.0, 1.0);
-                ratio * ratio * ratio
-            } else {
-                0.0
-            };
+            let ratio = smaller(larger(mu_affine / mu, 0.0), 1.0);
+            let sigma = if mu > 0.0 { ratio * ratio * ratio } else { 0.0 };
             for k in 0..NSIDES {
                 rc[k] = s[k] * lambda[k] + ds[k] * dl[k] - sigma * mu;
             }
             direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl, REFINEMENT);
-            let alpha = (FRACTION * step_to_boundary(s, lambda, &ds, &dl)).min(1.0);
+            let alpha = smaller(1.0, FRACTION * step_to_boundary(s, lambda, &ds, &dl));
             let (mut zn, mut sn, mut ln) = (*z, *s, *lambda);
             for i in 0..NV {
                 zn[i] += alpha * dz[i];
@@ -1034,30 +1039,42 @@ pub mod paper_limits {
                 sn[k] += alpha * ds[k];
                 ln[k] += alpha * dl[k];
             }
-            let positive = sn.iter().chain(ln.iter()).all(|v| *v > 0.0);
-            if !(finite64(&zn) && finite64(&sn) && finite64(&ln) && positive) {
-                ended = Ended::Failure;
-                break;
-            }
-            (*z, *s, *lambda) = (zn, sn, ln);
+            let stepped = finite64(&zn) & finite64(&sn) & finite64(&ln) & positive64(&sn)
+                & positive64(&ln);
+            failed |= live & !stepped;
+            live &= stepped;
+            let pick = live as usize;
+            *z = [*z, zn][pick];
+            *s = [*s, sn][pick];
+            *lambda = [*lambda, ln][pick];
             r = residuals(f, h, z, s, lambda);
-            iterations += 1;
+            iterations += live as u32;
             let htl = dot(h, lambda);
             let mut gl = [0.0; NV];
             g_tmul(lambda, &mut gl);
-            if (htl < 0.0 && amax(&gl) <= INFEASIBILITY_TOLERANCE * -htl)
-                || amax(lambda) > 1e15
-            {
-                ended = Ended::Infeasible;
-                break;
-            }
+            let certified = ((htl < 0.0) & (amax(&gl) <= INFEASIBILITY_TOLERANCE * -htl))
+                | (amax(lambda) > 1e15);
+            infeasible |= live & certified;
+            live &= !certified;
         }
+        let ended = if infeasible {
+            Ended::Infeasible
+        } else if failed {
+            Ended::Failure
+        } else {
+            Ended::Iterations
+        };
+        let (primal, dual, gap) = if started {
+            (r.relative_primal, r.relative_dual, r.gap)
+        } else {
+            (f64::INFINITY, f64::INFINITY, f64::INFINITY)
+        };
         Outcome {
             ended,
             iterations,
-            primal: r.relative_primal,
-            dual: r.relative_dual,
-            gap: r.gap,
+            primal,
+            dual,
+            gap,
         }
     }
     /// F·x + G·u (eq. 1), unrolled.
@@ -9157,7 +9174,7 @@ pub mod paper_limits {
         /// Multiply-adds of one solver iteration.
         pub const MACS_PER_ITERATION: usize = 48631;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
-        pub const MACS_PER_CYCLE: usize = 1022322;
+        pub const MACS_PER_CYCLE: usize = 1056167;
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 2304;
         /// Bytes of `Mpc`.

@@ -77,6 +77,13 @@ pub mod paper_offset_free {
         /// Per input, whether the command is at U_MIN or U_MAX.
         pub saturated: [bool; NU],
     }
+    impl Status {
+        /// Whether the command came from the solver's fallback instead of its solve: never here,
+        /// since this method runs its fixed iterations from any start and has no fallback.
+        pub const fn fell_back(&self) -> bool {
+            false
+        }
+    }
     /// How a control cycle's command was made.
     #[derive(Clone, Copy, Debug, PartialEq, Eq)]
     pub enum Command {

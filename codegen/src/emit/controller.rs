@@ -32,7 +32,12 @@ pub fn emit(p: &Problem, solver: Option<&str>) -> (TokenStream, TokenStream) {
             out
         }
     };
-    let Solver { field, init, copy } = &solver;
+    let Solver {
+        field,
+        init,
+        copy,
+        fell_back,
+    } = &solver;
     if p.filter.is_none() {
         return (state_feedback(p, &row, moves, &solver), kernels);
     }
@@ -71,6 +76,10 @@ pub fn emit(p: &Problem, solver: Option<&str>) -> (TokenStream, TokenStream) {
             /// Per input, whether the command is at U_MIN or U_MAX.
             pub saturated: [bool; NU],
             #field
+        }
+
+        impl Status {
+            #fell_back
         }
 
         /// How a control cycle's command was made.
@@ -167,7 +176,12 @@ fn state_feedback(
     moves: Option<TokenStream>,
     solver: &Solver,
 ) -> TokenStream {
-    let Solver { field, init, copy } = solver;
+    let Solver {
+        field,
+        init,
+        copy,
+        fell_back,
+    } = solver;
     let reference = if p.qp.Cz.is_some() {
         "the output references"
     } else {
@@ -195,6 +209,10 @@ fn state_feedback(
             /// Per input, whether the command is at U_MIN or U_MAX.
             pub saturated: [bool; NU],
             #field
+        }
+
+        impl Status {
+            #fell_back
         }
 
         /// How a control cycle's command was made. The state is measured, not estimated: there is no
@@ -275,6 +293,8 @@ struct Solver {
     field: TokenStream,
     init: TokenStream,
     copy: TokenStream,
+    /// `Status::fell_back`, in every module: code written against any method can ask it.
+    fell_back: TokenStream,
 }
 
 impl Solver {
@@ -284,6 +304,13 @@ impl Solver {
                 field: quote!(),
                 init: quote!(),
                 copy: quote!(),
+                fell_back: quote! {
+                    /// Whether the command came from the solver's fallback instead of its solve: never here,
+                    /// since this method runs its fixed iterations from any start and has no fallback.
+                    pub const fn fell_back(&self) -> bool {
+                        false
+                    }
+                },
             };
         };
         let doc = format!(" What the {method} did: iterations, residuals, violations, fallback.");
@@ -294,6 +321,13 @@ impl Solver {
             },
             init: quote!(solver: Mpc::new().status,),
             copy: quote!(solver: *self.mpc.solver_status(),),
+            fell_back: quote! {
+                /// Whether the command came from the solver's fallback ([`Fallback::WarmStart`]) instead of
+                /// its solve; [`Status::solver`] says why.
+                pub fn fell_back(&self) -> bool {
+                    self.solver.fallback == Fallback::WarmStart
+                }
+            },
         }
     }
 }

@@ -39,6 +39,25 @@ pub fn mpc_macs_per_iteration(qp: &Qp) -> usize {
     ))
 }
 
+/// Multiply-adds of the cold start of the MPC's QP, by the rule of [`macs_per_iteration`]: the residuals,
+/// the normal matrix H + GᵀG formed and factored, and one direction. The emitted method computes it on
+/// every solve, warm or not, so that its control flow does not depend on the data.
+pub fn mpc_cold_start_macs(qp: &Qp) -> usize {
+    let n = qp.N * qp.u_min.len();
+    let Counts {
+        residuals,
+        normal,
+        factor,
+        direction,
+        ..
+    } = counts(&mpc_qp(
+        qp,
+        &DVector::zeros(n),
+        &DVector::zeros(qp.rows.len()),
+    ));
+    residuals + normal + factor + direction
+}
+
 /// Where the normal matrix H + Gᵀ·diag(d)·G can be nonzero, whatever the weights d: H's nonzeros, the
 /// diagonal, and each row's outer product of its nonzero columns. Its [`crate::structure::Envelope`]
 /// is what the emitted factorisation visits.
@@ -410,9 +429,24 @@ pub fn solve_from(
 /// - [`REFINEMENT`] steps of the corrector: H Δz, Gᵀ Δλ and a solve (2n² + 3 nnz(G));
 /// - the element-wise work on s and λ, about 12 per side.
 ///
-/// The cold start costs one more factorisation, of H + GᵀG, which does not depend on the data (a
-/// controller can precompute it) and one direction.
+/// The cold start costs one more factorisation, of H + GᵀG, and one direction
+/// ([`mpc_cold_start_macs`]).
 pub fn macs_per_iteration(qp: &InequalityQp) -> usize {
+    let c = counts(qp);
+    c.residuals + c.normal + c.factor + 2 * c.direction + REFINEMENT * c.refinement + c.elementwise
+}
+
+/// The parts of [`macs_per_iteration`].
+struct Counts {
+    residuals: usize,
+    normal: usize,
+    factor: usize,
+    direction: usize,
+    refinement: usize,
+    elementwise: usize,
+}
+
+fn counts(qp: &InequalityQp) -> Counts {
     let n = qp.n();
     let sides = Sides::new(qp);
     let nnz_rows: Vec<usize> = sides
@@ -432,7 +466,14 @@ pub fn macs_per_iteration(qp: &InequalityQp) -> usize {
     let direction = 2 * nnz + n * n;
     // A refinement step: H Δz and Gᵀ Δλ, then a solve (Gᵀ, the triangular pair, G).
     let refinement = 2 * n * n + 3 * nnz;
-    residuals + normal + n * n * n / 6 + 2 * direction + REFINEMENT * refinement + 12 * sides.len()
+    Counts {
+        residuals,
+        normal,
+        factor: n * n * n / 6,
+        direction,
+        refinement,
+        elementwise: 12 * sides.len(),
+    }
 }
 
 /// The iterate.
