@@ -118,14 +118,25 @@ fn build_daqp(root: &std::path::Path, a9: bool, m4: bool, single: bool) {
 
 /// `[a, b, ...]` of f64 literals; `null` is `inf_sign`·∞.
 fn list(v: &Value, inf_sign: f64) -> (String, usize) {
+    literals(v, inf_sign, false)
+}
+
+/// The same as DAQP's `c_float` (`x as CFloat`), `null` as ±DAQP_INF (1e30).
+fn c_list(v: &Value, inf_sign: f64) -> (String, usize) {
+    literals(v, inf_sign, true)
+}
+
+fn literals(v: &Value, inf_sign: f64, c_float: bool) -> (String, usize) {
     let mut flat = Vec::new();
     flatten(v, &mut flat);
     let items: Vec<String> = flat
         .iter()
-        .map(|x| match x.as_f64() {
-            Some(x) => format!("{x:?}"),
-            None if inf_sign > 0.0 => "f64::INFINITY".into(),
-            None => "f64::NEG_INFINITY".into(),
+        .map(|x| match (x.as_f64(), c_float) {
+            (Some(x), false) => format!("{x:?}"),
+            (Some(x), true) => format!("{x:?} as CFloat"),
+            (None, true) => format!("{:?} as CFloat", inf_sign * 1e30),
+            (None, false) if inf_sign > 0.0 => "f64::INFINITY".into(),
+            (None, false) => "f64::NEG_INFINITY".into(),
         })
         .collect();
     (format!("[{}]", items.join(", ")), flat.len())
@@ -149,6 +160,8 @@ fn problem(code: &mut String, name: &str, module: &str, spec: &str, d: &Value) {
         let _ = writeln!(code, "    pub const {c}: usize = {};", dim(k));
     }
     let _ = writeln!(code, "    pub const STEPS: usize = {};", steps.len());
+    let _ = writeln!(code, "    use crate::daqp::CFloat;");
+    // The QP's matrices in DAQP's scalar, as a DAQP controller keeps them (in flash on a board).
     for (k, sign) in [
         ("H", 1.0),
         ("F_x", 1.0),
@@ -162,11 +175,12 @@ fn problem(code: &mut String, name: &str, module: &str, spec: &str, d: &Value) {
         ("upper", 1.0),
         ("W_x", 1.0),
         ("W_u", 1.0),
-        ("reference", 1.0),
     ] {
-        let (text, len) = list(&d[k], sign);
-        let _ = writeln!(code, "    pub static {}: [f64; {len}] = {text};", k.to_uppercase());
+        let (text, len) = c_list(&d[k], sign);
+        let _ = writeln!(code, "    pub static {}: [CFloat; {len}] = {text};", k.to_uppercase());
     }
+    let (text, len) = list(&d["reference"], 1.0);
+    let _ = writeln!(code, "    pub static REFERENCE: [f64; {len}] = {text};");
     for (k, width) in [("x0", nx), ("u_last", nu), ("z_star", n)] {
         let rows: Vec<String> = steps
             .iter()

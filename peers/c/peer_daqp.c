@@ -6,7 +6,7 @@
  *   f = (F_x x0 - F_r r + F_u u_last, w_slack),    o = W_x x0 + W_u u_last,
  *   z_min <= z <= z_max,   lower - o <= A z <= upper - o.
  *
- * The workspace is set up once (daqp's setup_daqp: the Cholesky factor of H, M = A R^-1) and kept:
+ * The matrices are the caller's (const, in flash on a board); the workspace is set up once (daqp's setup_daqp: the Cholesky factor of H, M = A R^-1) and kept:
  * each solve updates v and d (daqp_update_ldp with DAQP_UPDATE_v | DAQP_UPDATE_d) and calls
  * daqp_solve, which starts from the previous solve's working set (DAQP's hot start).
  * Infinite bounds become +-DAQP_INF (1e30).
@@ -16,7 +16,7 @@
 
 typedef struct {
     int nx, nu, nr, np, ns, n, rows;
-    c_float *Fx, *Fr, *Fu, *w, *lower, *upper, *Wx, *Wu;
+    const c_float *Fx, *Fr, *Fu, *w, *lower, *upper, *Wx, *Wu;
     c_float *f, *bu, *bl, *lam;
     int *sense;
     DAQPProblem qp;
@@ -28,52 +28,37 @@ typedef struct {
 /* The size of the workspace struct (without the buffers it points to). */
 size_t peer_daqp_size(void) { return sizeof(peer_daqp); }
 
-/* A c_float copy of x[0..len], infinities as +-DAQP_INF; NULL if memory runs out. */
-static c_float *copy(const double *x, int len) {
-    int i;
-    c_float *c = malloc((len > 0 ? len : 1) * sizeof(c_float));
-    if (c == NULL) return NULL;
-    for (i = 0; i < len; i++)
-        c[i] = x[i] >= DAQP_INF ? DAQP_INF : x[i] <= -DAQP_INF ? -DAQP_INF : (c_float)x[i];
-    return c;
-}
-
 /*
- * Sets up the workspace from the dump's data in double (copied to c_float): H (n x n), A (rows x n,
- * row-major), z_min/z_max (n), lower/upper (rows), W_x (rows x nx), W_u (rows x nu), F_x (np x nx),
- * F_r (np x nr), F_u (np x nu), w (n - np). Returns NULL if memory runs out, else the workspace;
+ * Sets up the workspace on the dump's data in c_float, which it keeps pointers to (the caller keeps
+ * it alive; DAQP does not write to it): H (n x n), A (rows x n, row-major), z_min/z_max (n),
+ * lower/upper (rows), W_x (rows x nx), W_u (rows x nu), F_x (np x nx), F_r (np x nr), F_u (np x nu),
+ * w (n - np); infinite bounds as +-DAQP_INF. Returns NULL if memory runs out, else the workspace;
  * *flag is DAQP's setup flag (negative: failed).
  */
-peer_daqp *peer_daqp_setup(int nx, int nu, int nr, int np, int n, int rows, const double *H,
-                           const double *A, const double *z_min, const double *z_max,
-                           const double *lower, const double *upper, const double *Wx,
-                           const double *Wu, const double *Fx, const double *Fr,
-                           const double *Fu, const double *w, int *flag) {
+peer_daqp *peer_daqp_setup(int nx, int nu, int nr, int np, int n, int rows, const c_float *H,
+                           const c_float *A, const c_float *z_min, const c_float *z_max,
+                           const c_float *lower, const c_float *upper, const c_float *Wx,
+                           const c_float *Wu, const c_float *Fx, const c_float *Fr,
+                           const c_float *Fu, const c_float *w, int *flag) {
     int i;
-    c_float *zl, *zu;
     peer_daqp *p = calloc(1, sizeof(peer_daqp));
     if (p == NULL) return NULL;
     p->nx = nx; p->nu = nu; p->nr = nr; p->np = np; p->ns = n - np; p->n = n; p->rows = rows;
-    p->Fx = copy(Fx, np * nx); p->Fr = copy(Fr, np * nr); p->Fu = copy(Fu, np * nu);
-    p->w = copy(w, n - np);
-    p->lower = copy(lower, rows); p->upper = copy(upper, rows);
-    p->Wx = copy(Wx, rows * nx); p->Wu = copy(Wu, rows * nu);
-    p->qp.H = copy(H, n * n);
-    p->qp.A = copy(A, rows * n);
-    zl = copy(z_min, n); zu = copy(z_max, n);
+    p->Fx = Fx; p->Fr = Fr; p->Fu = Fu; p->w = w;
+    p->lower = lower; p->upper = upper; p->Wx = Wx; p->Wu = Wu;
+    /* DAQPProblem's pointers are not const; DAQP only reads H and A (presolve, which writes the
+     * bounds, is for mixed-integer problems only). */
+    p->qp.H = (c_float *)H;
+    p->qp.A = (c_float *)A;
     p->f = calloc(n, sizeof(c_float));
     p->bu = calloc(n + rows, sizeof(c_float));
     p->bl = calloc(n + rows, sizeof(c_float));
     p->lam = calloc(n + rows, sizeof(c_float));
     p->sense = calloc(n + rows, sizeof(int));
-    if (!p->Fx || !p->Fr || !p->Fu || !p->w || !p->lower || !p->upper || !p->Wx || !p->Wu ||
-            !p->qp.H || !p->qp.A || !zl || !zu || !p->f || !p->bu || !p->bl || !p->lam || !p->sense)
-        return NULL;
-    for (i = 0; i < n; i++) { p->bu[i] = zu[i]; p->bl[i] = zl[i]; }
+    if (!p->f || !p->bu || !p->bl || !p->lam || !p->sense) return NULL;
+    for (i = 0; i < n; i++) { p->bu[i] = z_max[i]; p->bl[i] = z_min[i]; }
     for (i = 0; i < rows; i++) { p->bu[n + i] = p->upper[i]; p->bl[n + i] = p->lower[i]; }
     for (i = 0; i < p->ns; i++) p->f[np + i] = p->w[i];
-    free(zl);
-    free(zu);
     p->qp.n = n;
     p->qp.m = n + rows;
     p->qp.ms = n;
@@ -93,13 +78,10 @@ peer_daqp *peer_daqp_setup(int nx, int nu, int nr, int np, int n, int rows, cons
 }
 
 /*
- * One control step from the state x0 (nx), the reference window r (nr) and the last input u_last
- * (nu): forms f and the rows' bounds, updates the LDP, solves from the previous working set, and
- * writes z (n). Returns DAQP's exit flag (1 optimal, 2 soft optimal; negative failed); *iter is
- * the number of active-set iterations.
+ * Forms one control step's data from the state x0 (nx), the reference window r (nr) and the last
+ * input u_last (nu): f and the rows' bounds.
  */
-int peer_daqp_solve(peer_daqp *p, const c_float *x0, const c_float *r, const c_float *u_last,
-                    c_float *z, int *iter) {
+void peer_daqp_form(peer_daqp *p, const c_float *x0, const c_float *r, const c_float *u_last) {
     int i, j;
     const int nx = p->nx, nu = p->nu, nr = p->nr, n = p->n;
     for (i = 0; i < p->np; i++) {
@@ -118,6 +100,14 @@ int peer_daqp_solve(peer_daqp *p, const c_float *x0, const c_float *r, const c_f
         p->bu[n + i] = p->upper[i] >= DAQP_INF ? DAQP_INF : p->upper[i] - o;
         p->bl[n + i] = p->lower[i] <= -DAQP_INF ? -DAQP_INF : p->lower[i] - o;
     }
+}
+
+/*
+ * Solves the formed step: updates the LDP (v and d), solves from the previous working set and
+ * writes z (n). Returns DAQP's exit flag (1 optimal, 2 soft optimal; negative failed); *iter is
+ * the number of active-set iterations.
+ */
+int peer_daqp_solve(peer_daqp *p, c_float *z, int *iter) {
     p->res.x = z;
     p->res.exitflag = daqp_update_ldp(DAQP_UPDATE_v | DAQP_UPDATE_d, &p->work, &p->qp);
     if (p->res.exitflag < 0) { *iter = 0; return p->res.exitflag; }

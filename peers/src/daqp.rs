@@ -22,28 +22,22 @@ extern "C" {
         np: i32,
         n: i32,
         rows: i32,
-        h: *const f64,
-        a: *const f64,
-        z_min: *const f64,
-        z_max: *const f64,
-        lower: *const f64,
-        upper: *const f64,
-        wx: *const f64,
-        wu: *const f64,
-        fx: *const f64,
-        fr: *const f64,
-        fu: *const f64,
-        w: *const f64,
+        h: *const CFloat,
+        a: *const CFloat,
+        z_min: *const CFloat,
+        z_max: *const CFloat,
+        lower: *const CFloat,
+        upper: *const CFloat,
+        wx: *const CFloat,
+        wu: *const CFloat,
+        fx: *const CFloat,
+        fr: *const CFloat,
+        fu: *const CFloat,
+        w: *const CFloat,
         flag: *mut i32,
     ) -> *mut c_void;
-    fn peer_daqp_solve(
-        p: *mut c_void,
-        x0: *const CFloat,
-        r: *const CFloat,
-        u_last: *const CFloat,
-        z: *mut CFloat,
-        iter: *mut i32,
-    ) -> i32;
+    fn peer_daqp_form(p: *mut c_void, x0: *const CFloat, r: *const CFloat, u_last: *const CFloat);
+    fn peer_daqp_solve(p: *mut c_void, z: *mut CFloat, iter: *mut i32) -> i32;
 }
 
 /// The first `N` entries of `x` as DAQP's scalar (the rest zero).
@@ -64,8 +58,8 @@ pub struct Daqp {
 }
 
 impl Daqp {
-    /// Sets DAQP up on `data` (copies its matrices in DAQP's scalar). `None` if memory ran out or
-    /// DAQP refused the problem.
+    /// Sets DAQP up on `data` (which it keeps pointers to). `None` if memory ran out or DAQP refused
+    /// the problem.
     pub fn new(data: &Data) -> Option<Self> {
         if data.n > MAX || data.nx > MAX || data.nr > MAX || data.nu > MAX {
             return None;
@@ -104,22 +98,19 @@ impl Daqp {
         })
     }
 
-    /// One step: DAQP's exit flag (1 optimal; ≤ 0 failed). The arrays hold at least nx, nr and nu
-    /// entries.
-    pub fn solve(&mut self, x0: &[CFloat; MAX], r: &[CFloat; MAX], u_last: &[CFloat; MAX]) -> i32 {
-        let mut iter = 0;
+    /// Forms f and the rows' bounds of one step. The arrays hold at least nx, nr and nu entries.
+    pub fn form(&mut self, x0: &[CFloat; MAX], r: &[CFloat; MAX], u_last: &[CFloat; MAX]) {
         // SAFETY: `work` is a live workspace from peer_daqp_setup; the inputs hold MAX ≥ nx, nr, nu
-        // entries and z MAX ≥ n (checked in `new`).
-        let flag = unsafe {
-            peer_daqp_solve(
-                self.work,
-                x0.as_ptr(),
-                r.as_ptr(),
-                u_last.as_ptr(),
-                self.z.as_mut_ptr(),
-                &mut iter,
-            )
-        };
+        // entries (checked in `new`).
+        unsafe { peer_daqp_form(self.work, x0.as_ptr(), r.as_ptr(), u_last.as_ptr()) }
+    }
+
+    /// Solves the formed step from the previous working set: DAQP's exit flag (1 optimal; ≤ 0
+    /// failed).
+    pub fn solve(&mut self) -> i32 {
+        let mut iter = 0;
+        // SAFETY: `work` is a live workspace; z holds MAX ≥ n entries (checked in `new`).
+        let flag = unsafe { peer_daqp_solve(self.work, self.z.as_mut_ptr(), &mut iter) };
         self.iterations = iter.max(0) as u32;
         flag
     }

@@ -21,8 +21,9 @@ pub use daqp::Daqp;
 /// The most steps a replay records.
 pub const MAX_STEPS: usize = 200;
 
-/// One dumped problem: the QP's data-free parts, the affine map of its data and the replayed steps
-/// (format `mpcc-qp/1`, README.md). Matrices are row-major, infinite bounds ±∞.
+/// One dumped problem: the QP's data-free parts and the affine map of its data in DAQP's scalar
+/// (infinite bounds ±1e30, DAQP's DAQP_INF), and the replayed steps in f64 (format `mpcc-qp/1`,
+/// README.md). Matrices are row-major.
 pub struct Data {
     /// The problem's name.
     pub name: &'static str,
@@ -41,29 +42,29 @@ pub struct Data {
     /// Replayed steps.
     pub steps: usize,
     /// H (n × n).
-    pub h: &'static [f64],
+    pub h: &'static [daqp::CFloat],
     /// F_x (np × nx).
-    pub fx: &'static [f64],
+    pub fx: &'static [daqp::CFloat],
     /// F_r (np × nr).
-    pub fr: &'static [f64],
+    pub fr: &'static [daqp::CFloat],
     /// F_u (np × nu).
-    pub fu: &'static [f64],
+    pub fu: &'static [daqp::CFloat],
     /// The slacks' linear weights (n − np).
-    pub w: &'static [f64],
+    pub w: &'static [daqp::CFloat],
     /// Bounds on z (n).
-    pub z_min: &'static [f64],
+    pub z_min: &'static [daqp::CFloat],
     /// Bounds on z (n).
-    pub z_max: &'static [f64],
+    pub z_max: &'static [daqp::CFloat],
     /// The rows (m × n).
-    pub a: &'static [f64],
+    pub a: &'static [daqp::CFloat],
     /// The rows' bounds before the data offset (m).
-    pub lower: &'static [f64],
+    pub lower: &'static [daqp::CFloat],
     /// The rows' bounds before the data offset (m).
-    pub upper: &'static [f64],
+    pub upper: &'static [daqp::CFloat],
     /// W_x (m × nx).
-    pub wx: &'static [f64],
+    pub wx: &'static [daqp::CFloat],
     /// W_u (m × nu).
-    pub wu: &'static [f64],
+    pub wu: &'static [daqp::CFloat],
     /// The reference window r (nr), the same every step.
     pub reference: &'static [f64],
     /// The states (steps × nx).
@@ -72,6 +73,17 @@ pub struct Data {
     pub u_last: &'static [f64],
     /// The exact solutions z* (steps × n).
     pub z_star: &'static [f64],
+}
+
+impl Data {
+    /// Bytes of the QP's matrices and vectors in DAQP's scalar (what `Data` points DAQP at).
+    pub fn daqp_data_bytes(&self) -> usize {
+        let s = [
+            self.h, self.fx, self.fr, self.fu, self.w, self.z_min, self.z_max, self.a, self.lower,
+            self.upper, self.wx, self.wu,
+        ];
+        s.iter().map(|v| v.len()).sum::<usize>() * core::mem::size_of::<daqp::CFloat>()
+    }
 }
 
 /// Times one solve.
@@ -86,12 +98,18 @@ pub struct Outcome {
     pub ticks: [u64; MAX_STEPS],
     /// |U − U*|∞ per solve.
     pub error: [f64; MAX_STEPS],
+    /// Ticks of forming the QP's data per solve (DAQP: f and the rows' bounds from the state; 0 for
+    /// ours, whose solve forms its own); included in `ticks`.
+    pub form_ticks: [u64; MAX_STEPS],
     /// Iterations per solve (DAQP's active-set iterations; 0 for ours: fixed).
     pub iterations: [u32; MAX_STEPS],
     /// Solves that did not end optimal (DAQP's exit flag ≤ 0).
     pub failures: usize,
     /// Steps recorded.
     pub count: usize,
+    /// Bytes of the solver's state between solves (ours: the generated `Mpc`; DAQP: its heap, set
+    /// by the caller, which owns the allocator).
+    pub state_bytes: usize,
 }
 
 impl Outcome {
@@ -100,20 +118,23 @@ impl Outcome {
         Outcome {
             ticks: [0; MAX_STEPS],
             error: [0.0; MAX_STEPS],
+            form_ticks: [0; MAX_STEPS],
             iterations: [0; MAX_STEPS],
             failures: 0,
             count: 0,
+            state_bytes: 0,
         }
     }
 
     /// Records one solve (beyond [`MAX_STEPS`] only the failure count).
-    pub fn add(&mut self, ticks: u64, error: f64, iterations: u32, ok: bool) {
+    pub fn add(&mut self, ticks: u64, form_ticks: u64, error: f64, iterations: u32, ok: bool) {
         if !ok {
             self.failures += 1;
         }
         if self.count < MAX_STEPS {
             self.ticks[self.count] = ticks;
             self.error[self.count] = error;
+            self.form_ticks[self.count] = form_ticks;
             self.iterations[self.count] = iterations;
             self.count += 1;
         }
@@ -122,6 +143,14 @@ impl Outcome {
     /// (min, median, p99, max) of the ticks per solve.
     pub fn tick_quantiles(&self) -> [u64; 4] {
         let mut t = self.ticks;
+        let t = &mut t[..self.count];
+        t.sort_unstable();
+        quantiles(t)
+    }
+
+    /// (min, median, p99, max) of the forming ticks.
+    pub fn form_quantiles(&self) -> [u64; 4] {
+        let mut t = self.form_ticks;
         let t = &mut t[..self.count];
         t.sort_unstable();
         quantiles(t)
@@ -197,6 +226,7 @@ macro_rules! ours {
             use ctrl::Real;
             const _: () = assert!(ctrl::NX == NZ, "the window is of states");
             let mut mpc = ctrl::Mpc::new();
+            out.state_bytes = core::mem::size_of::<ctrl::Mpc>();
             let mut xref = [[0.0 as Real; ctrl::NX]; ctrl::N];
             for (k, row) in xref.iter_mut().enumerate() {
                 for (j, v) in row.iter_mut().enumerate() {
@@ -215,31 +245,33 @@ macro_rules! ours {
                     plan.iter().flat_map(|u| u.iter().map(|&v| v as f64)),
                     &Z_STAR[s][..N * NU],
                 );
-                out.add(ticks, error, 0, true);
+                out.add(ticks, 0, error, 0, true);
             }
         }
     };
 }
 
 /// Replays the steps of `data` through DAQP (set up once, hot-started from the previous working
-/// set). `None` if its setup failed (out of memory or DAQP's flag).
+/// set). `None` if its setup failed (out of memory or DAQP's flag). Each step is timed in two spans,
+/// forming f and the bounds, then DAQP's update and solve; their sum is the solve's cost.
 pub fn replay_daqp<T: Timing>(data: &Data, timing: &mut T, out: &mut Outcome) -> Option<()> {
     let mut d = Daqp::new(data)?;
     let r = daqp::convert::<{ daqp::MAX }>(data.reference);
     for s in 0..data.steps {
         let x0 = daqp::convert::<{ daqp::MAX }>(&data.x0[s * data.nx..(s + 1) * data.nx]);
         let ul = daqp::convert::<{ daqp::MAX }>(&data.u_last[s * data.nu..(s + 1) * data.nu]);
-        let mut flag = 0;
-        let ticks = timing.time(&mut || {
-            flag = d.solve(
+        let form = timing.time(&mut || {
+            d.form(
                 core::hint::black_box(&x0),
                 core::hint::black_box(&r),
                 core::hint::black_box(&ul),
-            );
+            )
         });
+        let mut flag = 0;
+        let solve = timing.time(&mut || flag = d.solve());
         let z_star = &data.z_star[s * data.n..s * data.n + data.np];
         let error = plan_error(d.z()[..data.np].iter().map(|&v| v as f64), z_star);
-        out.add(ticks, error, d.iterations(), flag > 0);
+        out.add(form + solve, form, error, d.iterations(), flag > 0);
     }
     Some(())
 }

@@ -21,21 +21,24 @@ impl Timing for Clock {
 fn row(problem: &str, solver: &str, o: &Outcome) {
     let [i0, i50, i99, i100] = o.iteration_quantiles();
     let [t0, t50, t99, t100] = o.tick_quantiles();
+    let [_, f50, _, f100] = o.form_quantiles();
     let (e50, e100) = o.error_median_max();
     println!(
-        "| {problem} | {solver} | {} | {i0} / {i50} / {i99} / {i100} | {:.1} / {:.1} / {:.1} / {:.1} | {e50:.1e} / {e100:.1e} | {} |",
+        "| {problem} | {solver} | {} | {i0} / {i50} / {i99} / {i100} | {:.1} / {:.1} / {:.1} / {:.1} | {:.2} / {:.2} | {e50:.1e} / {e100:.1e} | {} |",
         o.count,
         t0 as f64 / 1e3,
         t50 as f64 / 1e3,
         t99 as f64 / 1e3,
         t100 as f64 / 1e3,
+        f50 as f64 / 1e3,
+        f100 as f64 / 1e3,
         o.failures
     );
 }
 
 fn main() {
-    println!("| problem | solver | solves | iterations (min / median / p99 / max) | µs per solve, one pass (min / median / p99 / max) | \\|U − U*\\|∞ (median / max) | not optimal |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("| problem | solver | solves | iterations (min / median / p99 / max) | µs per solve, one pass (min / median / p99 / max) | of which forming f and the bounds (median / max) | \\|U − U*\\|∞ (median / max) | not optimal |");
+    println!("|---|---|---|---|---|---|---|---|");
     let mut failed = false;
     for_each_problem!(p => {
         let mut ours = Outcome::new();
@@ -43,7 +46,7 @@ fn main() {
         row(p::NAME, "generated", &ours);
         let mut daqp = Outcome::new();
         if replay_daqp(&p::data(), &mut Clock, &mut daqp).is_none() {
-            println!("| {} | DAQP | setup failed | | | | |", p::NAME);
+            println!("| {} | DAQP | setup failed | | | | | |", p::NAME);
             failed = true;
         } else {
             row(p::NAME, "DAQP (hot start)", &daqp);
