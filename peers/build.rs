@@ -54,11 +54,15 @@ fn main() {
         }
         let path = root.join("data").join(format!("{name}.json"));
         println!("cargo::rerun-if-changed={}", path.display());
-        let text = fs::read_to_string(&path).unwrap_or_else(|e| {
-            panic!("{}: {e}; run scripts/peers.sh dump first", path.display())
-        });
+        let text = fs::read_to_string(&path)
+            .unwrap_or_else(|e| panic!("{}: {e}; run scripts/peers.sh dump first", path.display()));
         let dump: Value = serde_json::from_str(&text).expect("a dump is JSON");
-        assert_eq!(dump["format"], "mpcc-qp/1", "{}: unknown format", path.display());
+        assert_eq!(
+            dump["format"],
+            "mpcc-qp/1",
+            "{}: unknown format",
+            path.display()
+        );
         problem(&mut code, name, module, spec, &dump);
         names.push(module);
     }
@@ -153,10 +157,22 @@ fn problem(code: &mut String, name: &str, module: &str, spec: &str, d: &Value) {
     let dim = |k: &str| d[k].as_u64().unwrap_or_else(|| panic!("{name}: `{k}`")) as usize;
     let (nx, nu, n) = (dim("nx"), dim("nu"), dim("n"));
     let steps = d["steps"].as_array().expect("steps");
-    let _ = writeln!(code, "/// `{}`, dumped by `mpcc dump-qp`.\npub mod {module} {{", d["spec"]);
+    let _ = writeln!(
+        code,
+        "/// `{}`, dumped by `mpcc dump-qp`.\npub mod {module} {{",
+        d["spec"]
+    );
     let _ = writeln!(code, "    mpc_macros::mpc!(pub mod ctrl = {spec:?});");
     let _ = writeln!(code, "    pub const NAME: &str = {name:?};");
-    for (k, c) in [("nx", "NX"), ("nu", "NU"), ("N", "N"), ("nz", "NZ"), ("ns", "NS"), ("n", "NV"), ("m", "M")] {
+    for (k, c) in [
+        ("nx", "NX"),
+        ("nu", "NU"),
+        ("N", "N"),
+        ("nz", "NZ"),
+        ("ns", "NS"),
+        ("n", "NV"),
+        ("m", "M"),
+    ] {
         let _ = writeln!(code, "    pub const {c}: usize = {};", dim(k));
     }
     let _ = writeln!(code, "    pub const STEPS: usize = {};", steps.len());
@@ -177,7 +193,11 @@ fn problem(code: &mut String, name: &str, module: &str, spec: &str, d: &Value) {
         ("W_u", 1.0),
     ] {
         let (text, len) = c_list(&d[k], sign);
-        let _ = writeln!(code, "    pub static {}: [CFloat; {len}] = {text};", k.to_uppercase());
+        let _ = writeln!(
+            code,
+            "    pub static {}: [CFloat; {len}] = {text};",
+            k.to_uppercase()
+        );
     }
     let (text, len) = list(&d["reference"], 1.0);
     let _ = writeln!(code, "    pub static REFERENCE: [f64; {len}] = {text};");

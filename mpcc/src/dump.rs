@@ -49,7 +49,11 @@ pub(crate) fn read_states(text: &str) -> Result<Vec<Vec<f64>>, String> {
 }
 
 fn matrix(M: &DMatrix<f64>) -> Value {
-    Value::Array((0..M.nrows()).map(|i| json!(M.row(i).iter().collect::<Vec<_>>())).collect())
+    Value::Array(
+        (0..M.nrows())
+            .map(|i| json!(M.row(i).iter().collect::<Vec<_>>()))
+            .collect(),
+    )
 }
 
 fn vector(v: &DVector<f64>) -> Value {
@@ -67,13 +71,19 @@ pub(crate) fn dump(
     let qp = &p.qp;
     let (nx, nu, N, nz) = (p.nx, p.nu, qp.N, qp.nz);
     if reference.len() != nz {
-        return Err(format!("`--reference` has {} entries, the spec tracks nz = {nz}", reference.len()));
+        return Err(format!(
+            "`--reference` has {} entries, the spec tracks nz = {nz}",
+            reference.len()
+        ));
     }
     let check = |x: &[f64], what: &str| {
         if x.len() == nx {
             Ok(())
         } else {
-            Err(format!("{what} has {} entries, the spec has nx = {nx}", x.len()))
+            Err(format!(
+                "{what} has {} entries, the spec has nx = {nx}",
+                x.len()
+            ))
         }
     };
     let r = DVector::from_column_slice(reference);
@@ -103,7 +113,10 @@ pub(crate) fn dump(
         let offset = qp.rows.offset(&x, &no_disturbance, &last);
         let exact = ipm::solve(&mpc_qp(qp, &f, &offset), EXACT_TOLERANCE, 200);
         if exact.status != ipm::Status::Converged {
-            return Err(format!("step {k}: the exact solve ended {:?}", exact.status));
+            return Err(format!(
+                "step {k}: the exact solve ended {:?}",
+                exact.status
+            ));
         }
         worst_residual = worst_residual.max(exact.primal_residual.max(exact.dual_residual));
         steps.push(json!({

@@ -81,7 +81,8 @@ fn try_main() -> Result<()> {
             output,
         } => {
             let loaded = Loaded::read(&spec)?;
-            let parsed = mpc_spec::load(&loaded.source).map_err(|diags| loaded.spec_error(&diags))?;
+            let parsed =
+                mpc_spec::load(&loaded.source).map_err(|diags| loaded.spec_error(&diags))?;
             let problem = codegen::lower(&parsed).map_err(|diags| loaded.spec_error(&diags))?;
             let list = |text: &Option<String>, n: usize| match text {
                 Some(t) => dump::numbers(t).map_err(Error::Dump),
@@ -100,7 +101,8 @@ fn try_main() -> Result<()> {
                 },
             };
             let reference = list(&reference, problem.qp.nz)?;
-            let value = dump::dump(&loaded.shown, &problem, &states, &reference).map_err(Error::Dump)?;
+            let value =
+                dump::dump(&loaded.shown, &problem, &states, &reference).map_err(Error::Dump)?;
             let text = format!("{value}\n");
             match output {
                 None => print(&text),

@@ -16,7 +16,11 @@ const ARENA: usize = 72 * 1024;
 const ALIGN: usize = 8;
 
 #[repr(C, align(8))]
-struct Arena(UnsafeCell<[u8; ARENA]>, UnsafeCell<usize>, UnsafeCell<usize>);
+struct Arena(
+    UnsafeCell<[u8; ARENA]>,
+    UnsafeCell<usize>,
+    UnsafeCell<usize>,
+);
 
 // SAFETY: the firmware is single-threaded and takes no interrupts.
 unsafe impl Sync for Arena {}

@@ -97,18 +97,37 @@ fn result(
     serial.str("\",\"solves\":").u64(o.count as u64);
     serial.str(",\"not_optimal\":").u64(o.failures as u64);
     for (name, v) in ["min", "median", "p99", "max"].iter().zip(q) {
-        serial.str(",\"instructions_").str(name).str("\":").u64(instructions(v));
+        serial
+            .str(",\"instructions_")
+            .str(name)
+            .str("\":")
+            .u64(instructions(v));
     }
-    for (name, v) in ["min", "median", "p99", "max"].iter().zip(o.form_quantiles()) {
-        serial.str(",\"form_instructions_").str(name).str("\":").u64(instructions(v));
+    for (name, v) in ["min", "median", "p99", "max"]
+        .iter()
+        .zip(o.form_quantiles())
+    {
+        serial
+            .str(",\"form_instructions_")
+            .str(name)
+            .str("\":")
+            .u64(instructions(v));
     }
     for (name, v) in ["min", "median", "p99", "max"].iter().zip(it) {
-        serial.str(",\"iterations_").str(name).str("\":").u64(u64::from(v));
+        serial
+            .str(",\"iterations_")
+            .str(name)
+            .str("\":")
+            .u64(u64::from(v));
     }
     serial.str(",\"error_median_fp\":").u64(femto(e50));
     serial.str(",\"error_max_fp\":").u64(femto(e100));
-    serial.str(",\"solve_stack_bytes\":").u64(stack.deepest as u64);
-    serial.str(",\"solve_stack_overflowed\":").u64(u64::from(stack.overflowed));
+    serial
+        .str(",\"solve_stack_bytes\":")
+        .u64(stack.deepest as u64);
+    serial
+        .str(",\"solve_stack_overflowed\":")
+        .u64(u64::from(stack.overflowed));
     serial.str(",\"state_bytes\":").u64(o.state_bytes as u64);
     serial.str(",\"data_bytes\":").u64(data_bytes as u64);
     serial.str(",\"calib_instructions\":").u64(calib.0);
@@ -164,7 +183,12 @@ extern "C" fn main() -> ! {
     let mut serial = board::Serial::new();
     let timer = board::Timer::start();
     let calib = (2 * u64::from(CALIB_ITERS), timed_loop(&timer, CALIB_ITERS));
-    serial.str("peers: ").str(board::NAME).str(" (").str(board::CPU).str("), ");
+    serial
+        .str("peers: ")
+        .str(board::NAME)
+        .str(" (")
+        .str(board::CPU)
+        .str("), ");
     serial.str(board::TIMER).str("\n");
     let mut status = 0;
     peers::for_each_problem!(p => {
