@@ -222,6 +222,8 @@ pub fn plan_error(plan: impl Iterator<Item = f64>, z_star: &[f64]) -> f64 {
 macro_rules! ours {
     () => {
         /// Replays the steps through the generated controller.
+        // `Real` is f32 or f64 by spec: the casts are conversions for one and no-ops for the other.
+        #[allow(clippy::unnecessary_cast)]
         pub fn ours<T: $crate::Timing>(timing: &mut T, out: &mut $crate::Outcome) {
             use ctrl::Real;
             const _: () = assert!(ctrl::NX == NZ, "the window is of states");
@@ -270,6 +272,8 @@ pub fn replay_daqp<T: Timing>(data: &Data, timing: &mut T, out: &mut Outcome) ->
         let mut flag = 0;
         let solve = timing.time(&mut || flag = d.solve());
         let z_star = &data.z_star[s * data.n..s * data.n + data.np];
+        // CFloat is f32 or f64 by build: a conversion for one, a no-op for the other.
+        #[allow(clippy::unnecessary_cast)]
         let error = plan_error(d.z()[..data.np].iter().map(|&v| v as f64), z_star);
         out.add(form + solve, form, error, d.iterations(), flag > 0);
     }
