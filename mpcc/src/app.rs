@@ -37,4 +37,26 @@ pub(crate) enum Command {
         #[arg(short, long, value_name = "FILE")]
         output: Option<PathBuf>,
     },
+    /// Write the condensed QP of a spec and a closed loop's states as JSON, for other solvers (format
+    /// `mpcc-qp/1`, peers/README.md)
+    DumpQp {
+        /// The TOML controller spec: a regular file of at most 1 MiB, or `-` for standard input.
+        #[arg(value_name = "SPEC")]
+        spec: PathBuf,
+        /// The first state of the closed loop (nx numbers, commas or spaces; default zero).
+        #[arg(long, value_name = "LIST", allow_hyphen_values = true)]
+        x0: Option<String>,
+        /// The constant reference of every step of the window (nz numbers; default zero).
+        #[arg(long, value_name = "LIST", allow_hyphen_values = true)]
+        reference: Option<String>,
+        /// Steps of the closed loop on the nominal model.
+        #[arg(long, default_value_t = 100)]
+        steps: usize,
+        /// Replay these states instead of a closed loop: one state per line, `#` comments.
+        #[arg(long, value_name = "FILE", conflicts_with_all = ["x0", "steps"])]
+        states: Option<PathBuf>,
+        /// Write the JSON to FILE instead of printing it.
+        #[arg(short, long, value_name = "FILE")]
+        output: Option<PathBuf>,
+    },
 }

@@ -21,6 +21,8 @@ pub(crate) enum Error {
     Write(PathBuf, io::Error),
     /// Standard output could not be written.
     Stdout(io::Error),
+    /// `dump-qp` was given states or a reference it cannot use (the message says which).
+    Dump(String),
     /// The spec has mistakes: `rendered` is every diagnostic drawn against the source by
     /// `codegen::render`, exactly as the macro's error carries them.
     Spec {
@@ -43,6 +45,7 @@ impl Display for Error {
             ),
             Error::Write(path, _) => write!(f, "cannot write `{}`", path.display()),
             Error::Stdout(_) => f.write_str("cannot write to standard output"),
+            Error::Dump(why) => write!(f, "cannot dump the QP: {why}"),
             Error::Spec { path, count, .. } => write!(
                 f,
                 "invalid controller spec `{}`: {count} error{}",
@@ -58,7 +61,7 @@ impl StdError for Error {
         match self {
             Error::Read(_, e) | Error::ReadStdin(e) => Some(e),
             Error::Write(_, e) | Error::Stdout(e) => Some(e),
-            Error::SameFile { .. } | Error::Spec { .. } => None,
+            Error::SameFile { .. } | Error::Spec { .. } | Error::Dump(_) => None,
         }
     }
 }

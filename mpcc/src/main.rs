@@ -4,7 +4,10 @@
 //!   that `mpc!` emits as the `report` submodule) and its warnings;
 //! - `mpcc emit SPEC [-o FILE]` prints the module `mpc!` would emit, formatted, or writes it to `FILE`:
 //!   a regular file only when its content changed, anything else (`/dev/stdout`, a FIFO) straight
-//!   through; `FILE` may not be the spec itself.
+//!   through; `FILE` may not be the spec itself;
+//! - `mpcc dump-qp SPEC [--x0 LIST] [--reference LIST] [--steps N | --states FILE] [-o FILE]` writes
+//!   the condensed QP and a closed loop's states with their exact solutions as JSON (`dump`), for the
+//!   peer solvers of `peers/`.
 //!
 //! SPEC is a regular file or `-` for standard input, of at most 1 MiB (`codegen::input::SPEC_SIZE_LIMIT`); a
 //! FIFO, a device or a directory is refused before it is opened, so that `mpcc` never blocks on or reads
@@ -15,6 +18,7 @@
 
 mod app;
 mod check;
+mod dump;
 mod emit;
 mod error;
 mod input;
@@ -68,6 +72,43 @@ fn try_main() -> Result<()> {
                 Some(path) => emit::write(&path, &text).map_err(|e| Error::Write(path, e)),
             }
         }
+        Command::DumpQp {
+            spec,
+            x0,
+            reference,
+            steps,
+            states,
+            output,
+        } => {
+            let loaded = Loaded::read(&spec)?;
+            let parsed =
+                mpc_spec::load(&loaded.source).map_err(|diags| loaded.spec_error(&diags))?;
+            let problem = codegen::lower(&parsed).map_err(|diags| loaded.spec_error(&diags))?;
+            let list = |text: &Option<String>, n: usize| match text {
+                Some(t) => dump::numbers(t).map_err(Error::Dump),
+                None => Ok(vec![0.0; n]),
+            };
+            let states = match states {
+                Some(path) => {
+                    let text = std::fs::read_to_string(&path).map_err(|e| {
+                        Error::Dump(format!("cannot read `{}`: {e}", path.display()))
+                    })?;
+                    dump::States::Given(dump::read_states(&text).map_err(Error::Dump)?)
+                }
+                None => dump::States::ClosedLoop {
+                    x0: list(&x0, problem.nx)?,
+                    steps,
+                },
+            };
+            let reference = list(&reference, problem.qp.nz)?;
+            let value =
+                dump::dump(&loaded.shown, &problem, &states, &reference).map_err(Error::Dump)?;
+            let text = format!("{value}\n");
+            match output {
+                None => print(&text),
+                Some(path) => std::fs::write(&path, text).map_err(|e| Error::Write(path, e)),
+            }
+        }
     }
 }
 
@@ -113,6 +154,15 @@ impl Loaded {
             count: diags.0.len(),
             rendered: codegen::render::render(&diags, &self.source, &self.shown),
         })
+    }
+
+    /// The error of a spec with mistakes, rendered against its source.
+    fn spec_error(&self, diags: &codegen::Diagnostics) -> Error {
+        Error::Spec {
+            path: PathBuf::from(&self.shown),
+            count: diags.0.len(),
+            rendered: codegen::render::render(diags, &self.source, &self.shown),
+        }
     }
 
     fn print_warnings(&self, warnings: &codegen::Diagnostics) {

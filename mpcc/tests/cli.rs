@@ -41,9 +41,10 @@ The `mpc!` compiler on the command line: certificates of a controller spec, and 
 Usage: mpcc <COMMAND>
 
 Commands:
-  check  Check a spec and print what the compiler proves about it: conditioning, rates, iteration bound, closed-loop stability, resources
-  emit   Print the module `mpc!` generates from a spec, formatted as a person would read it
-  help   Print this message or the help of the given subcommand(s)
+  check    Check a spec and print what the compiler proves about it: conditioning, rates, iteration bound, closed-loop stability, resources
+  emit     Print the module `mpc!` generates from a spec, formatted as a person would read it
+  dump-qp  Write the condensed QP of a spec and a closed loop's states as JSON, for other solvers (format `mpcc-qp/1`, peers/README.md)
+  help     Print this message or the help of the given subcommand(s)
 
 Options:
   -h, --help     Print help

@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# The peers replay under QEMU, and the code and data each solver adds to the image.
+#
+#   peers/firmware/run.sh [--board zynq|netduinoplus2] [--sizes] [PROBLEM ...]
+#
+# PROBLEMs: paper paper-limits quadcopter hover (default: all). Zynq runs them in one image; the
+# STM32F405 one image per problem (its 1 MiB of flash holds one problem's dump). Each run prints
+# the firmware's RESULT lines (also appended to target/peers-<board>.results) and a table.
+# --sizes also builds each problem with the generated solver alone, DAQP alone and neither, and
+# prints the differences of `arm-none-eabi-size -A` (the replay's data is in all three).
+# Needs: scripts/fetch-daqp.sh, scripts/peers.sh dump, gcc-arm-none-eabi + libnewlib-arm-none-eabi
+# (apt-get; installed here when missing), qemu-system-arm, nightly with rust-src.
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+cd "$here"
+board=zynq
+sizes=0
+problems=()
+while [[ $# -gt 0 ]]; do
+    case "$1" in
+        --board) board="$2"; shift 2 ;;
+        --sizes) sizes=1; shift ;;
+        *) problems+=("$1"); shift ;;
+    esac
+done
+[[ ${#problems[@]} -gt 0 ]] || problems=(paper paper-limits quadcopter hover)
+case "$board" in
+    zynq) target=armv7a-none-eabihf; machine=xilinx-zynq-a9 ;;
+    netduinoplus2) target=thumbv7em-none-eabihf; machine=netduinoplus2 ;;
+    *) echo "run.sh: unknown board $board (zynq, netduinoplus2)" >&2; exit 2 ;;
+esac
+if ! command -v arm-none-eabi-gcc >/dev/null || [[ ! -f /usr/lib/arm-none-eabi/include/stdlib.h ]]; then
+    apt-get update -qq && apt-get install -y -qq gcc-arm-none-eabi libnewlib-arm-none-eabi
+fi
+command -v qemu-system-arm >/dev/null || { apt-get update -qq && apt-get install -y -qq qemu-system-arm; }
+[[ -f ../daqp/VERSION ]] || ../../scripts/fetch-daqp.sh
+unset RUSTUP_TOOLCHAIN
+elf="target/$target/release/peers-firmware"
+results="target/peers-$board.results"
+mkdir -p target
+
+build() { # PROBLEMS FEATURES...
+    local list="$1"; shift
+    PEERS_PROBLEMS="$list" cargo build -q --release --target "$target" "$@" 2>&1 |
+        grep -v 'unstable feature\|not stably supported\|^ *|$\|^ *= note\|generated [0-9]* warning\|^$' >&2 || true
+}
+
+run() { # prints the RESULT lines; exit status the firmware's
+    timeout 3600 qemu-system-arm -M "$machine" -nographic -monitor none \
+        -semihosting-config enable=on,target=native -icount shift=0 -kernel "$elf" | tr -d '\r'
+}
+
+lines=""
+if [[ "$board" == zynq ]]; then
+    groups=("$(IFS=,; echo "${problems[*]}")")
+else
+    groups=("${problems[@]}")
+fi
+status=0
+for g in "${groups[@]}"; do
+    build "$g"
+    out="$(run)" || status=$?
+    echo "$out"
+    grep '^RESULT' <<<"$out" >> "$results" || true
+    lines+="$(grep '^RESULT' <<<"$out" || true)"$'\n'
+done
+python3 "$here/table.py" <<<"$lines"
+
+if [[ $sizes == 1 ]]; then
+    for p in "${problems[@]}"; do
+        for variant in none ours daqp; do
+            if [[ $variant == none ]]; then build "$p" --no-default-features
+            else build "$p" --no-default-features --features "$variant"; fi
+            echo "SIZE $board $p $variant $(arm-none-eabi-size -A "$elf" | awk '$1 ~ /^\.(text|rodata|data|bss)$/ {printf "%s=%s ", substr($1,2), $2}')"
+        done
+    done | tee -a "target/peers-$board.sizes" | python3 "$here/table.py" --sizes
+fi
+exit $status
