@@ -31,31 +31,21 @@ pub const TITLE: &str =
 
 /// [`macs_per_iteration`] of the MPC's QP ([`mpc_qp`]), whose structure does not depend on the data.
 pub fn mpc_macs_per_iteration(qp: &Qp) -> usize {
+    macs_per_iteration(&structure_of(qp))
+}
+
+/// The MPC's QP with zero data: its structure, which is all the counts need.
+fn structure_of(qp: &Qp) -> InequalityQp {
     let n = qp.N * qp.u_min.len();
-    macs_per_iteration(&mpc_qp(
-        qp,
-        &DVector::zeros(n),
-        &DVector::zeros(qp.rows.len()),
-    ))
+    mpc_qp(qp, &DVector::zeros(n), &DVector::zeros(qp.rows.len()))
 }
 
 /// Multiply-adds of the cold start of the MPC's QP, by the rule of [`macs_per_iteration`]: the residuals,
 /// the normal matrix H + GᵀG formed and factored, and one direction. The emitted method computes it on
 /// every solve, warm or not, so that its control flow does not depend on the data.
 pub fn mpc_cold_start_macs(qp: &Qp) -> usize {
-    let n = qp.N * qp.u_min.len();
-    let Counts {
-        residuals,
-        normal,
-        factor,
-        direction,
-        ..
-    } = counts(&mpc_qp(
-        qp,
-        &DVector::zeros(n),
-        &DVector::zeros(qp.rows.len()),
-    ));
-    residuals + normal + factor + direction
+    let c = counts(&structure_of(qp));
+    c.residuals + c.normal + c.factor + c.direction
 }
 
 /// Where the normal matrix H + Gᵀ·diag(d)·G can be nonzero, whatever the weights d: H's nonzeros, the
