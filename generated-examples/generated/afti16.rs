@@ -46,6 +46,8 @@ pub mod afti16 {
     pub const NG: usize = 20;
     /// All sides: the length of the slacks s and multipliers λ.
     pub const NSIDES: usize = NB + NG;
+    /// Constraint rows with a finite side (a two-sided row has two sides, ±the same product).
+    pub const NR: usize = 20;
     /// `[mpc] accuracy`: the plan within ACCURACY·(U_MAX − U_MIN) of the exact solution.
     pub const ACCURACY: f64 = 0.001f64;
     /// Final relative primal residual above which the plan is not trusted ([`Fallback::WarmStart`]).
@@ -291,7 +293,18 @@ pub mod afti16 {
             shift(&mut s[NB..], SIDES_PER_SLOT);
             shift(&mut lambda[..2 * NP], 2 * NU);
             shift(&mut lambda[NB..], SIDES_PER_SLOT);
-            let outcome = interior_point(&f, &h, &mut z, &mut s, &mut lambda, self.warm);
+            let (f, mut zp) = (permuted(&f), permuted(&z));
+            let outcome = interior_point(
+                &f,
+                &h,
+                &mut zp,
+                &mut s,
+                &mut lambda,
+                self.warm,
+            );
+            for (p, v) in zp.iter().enumerate() {
+                put(&mut z, at_index(&ORDER, p), *v);
+            }
             let trusted = (outcome.ended == Ended::Iterations)
                 & (outcome.primal <= PRIMAL_LIMIT) & (outcome.dual <= DUAL_LIMIT);
             let mut solved = [0.0; NP];
@@ -606,16 +619,15 @@ pub mod afti16 {
     /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and the
     /// largest soft-row violation in its row's units.
     fn violations(plan: &[f64; NP], h: &[f64; NSIDES]) -> (f64, f64) {
+        let mut zp = [0.0; NV];
+        for (p, v) in zp.iter_mut().enumerate() {
+            *v = at(plan, at_index(&ORDER, p));
+        }
+        let mut gz = [0.0; NSIDES];
+        g_mul(&zp, &mut gz);
         let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
         for j in 0..NG {
-            let mut a = 0.0;
-            for k in SIDE_START[j]..SIDE_START[j + 1] {
-                let c = SIDE_COL[k];
-                if c < NP {
-                    a += SIDE_VAL[k] * plan[c];
-                }
-            }
-            let excess = a - h[NB + j];
+            let excess = gz[NB + j] - h[NB + j];
             if SIDE_SOFT[j] {
                 soft = larger(soft, excess);
             } else {
@@ -623,6 +635,58 @@ pub mod afti16 {
             }
         }
         (hard, soft)
+    }
+    /// `v` in the method's order: entry p is v[ORDER[p]].
+    #[inline(always)]
+    fn permuted(v: &[f64; NV]) -> [f64; NV] {
+        let mut out = [0.0; NV];
+        for (p, o) in out.iter_mut().enumerate() {
+            *o = at(v, at_index(&ORDER, p));
+        }
+        out
+    }
+    /// `v[i]`, or 0 past its end. The index tables are in range by construction; the check is a
+    /// select here, where indexing would link a panic.
+    #[inline(always)]
+    fn at(v: &[f64], i: usize) -> f64 {
+        match v.get(i) {
+            Some(x) => *x,
+            None => 0.0,
+        }
+    }
+    /// `v[i]` of an index table, or 0 past its end (as [`at`]).
+    #[inline(always)]
+    fn at_index(v: &[usize], i: usize) -> usize {
+        match v.get(i) {
+            Some(x) => *x,
+            None => 0,
+        }
+    }
+    /// `v[i] = x`, nothing past its end (as [`at`]).
+    #[inline(always)]
+    fn put(v: &mut [f64], i: usize, x: f64) {
+        if let Some(o) = v.get_mut(i) {
+            *o = x;
+        }
+    }
+    /// `v[i] += x`, nothing past its end (as [`at`]).
+    #[inline(always)]
+    fn add(v: &mut [f64], i: usize, x: f64) {
+        if let Some(o) = v.get_mut(i) {
+            *o += x;
+        }
+    }
+    /// Row r of the compressed rows: its columns (positions, ascending) and values.
+    #[inline(always)]
+    fn row(r: usize) -> (&'static [usize], &'static [f64]) {
+        let (cols, vals): (&'static [usize], &'static [f64]) = (&ROW_COL, &ROW_VAL);
+        let (a, b) = (at_index(&ROW_START, r), at_index(&ROW_START, r + 1));
+        (cols.get(a..b).unwrap_or(&[]), vals.get(a..b).unwrap_or(&[]))
+    }
+    /// a·b over the positions lo..hi (a row of H within its span).
+    #[inline(always)]
+    fn span_dot(a: &[f64; NV], b: &[f64; NV], lo: usize, hi: usize) -> f64 {
+        a.iter().zip(b.iter()).take(hi).skip(lo).map(|(x, y)| x * y).sum()
     }
     /// How the iteration ended.
     #[derive(Clone, Copy, PartialEq, Eq)]
@@ -670,29 +734,35 @@ pub mod afti16 {
     fn smaller(a: f64, b: f64) -> f64 {
         if b < a { b } else { a }
     }
-    /// G z: the box's sides, then the rows'.
+    /// G z: the box's sides, then the rows' (each distinct row once, ± per side).
     fn g_mul(z: &[f64; NV], out: &mut [f64; NSIDES]) {
         for k in 0..NB {
-            out[k] = BOX_SIGN[k] * z[BOX_INDEX[k]];
+            out[k] = BOX_SIGN[k] * at(z, BOX_POS[k]);
+        }
+        let mut a = [0.0; NR];
+        for (r, ar) in a.iter_mut().enumerate() {
+            let (cols, vals) = row(r);
+            *ar = cols.iter().zip(vals.iter()).map(|(c, v)| v * at(z, *c)).sum();
         }
         for j in 0..NG {
-            let mut a = 0.0;
-            for k in SIDE_START[j]..SIDE_START[j + 1] {
-                a += SIDE_VAL[k] * z[SIDE_COL[k]];
-            }
-            out[NB + j] = a;
+            out[NB + j] = SIDE_SIGN[j] * at(&a, SIDE_ROW[j]);
         }
     }
     /// Gᵀ v.
     fn g_tmul(v: &[f64; NSIDES], out: &mut [f64; NV]) {
         *out = [0.0; NV];
+        let mut c = [0.0; NR];
         for j in 0..NG {
-            for k in SIDE_START[j]..SIDE_START[j + 1] {
-                out[SIDE_COL[k]] += SIDE_VAL[k] * v[NB + j];
+            add(&mut c, SIDE_ROW[j], SIDE_SIGN[j] * v[NB + j]);
+        }
+        for (r, cr) in c.iter().enumerate() {
+            let (cols, vals) = row(r);
+            for (col, val) in cols.iter().zip(vals.iter()) {
+                add(out, *col, val * cr);
             }
         }
         for k in 0..NB {
-            out[BOX_INDEX[k]] += BOX_SIGN[k] * v[k];
+            add(out, BOX_POS[k], BOX_SIGN[k] * v[k]);
         }
     }
     fn residuals(
@@ -703,8 +773,8 @@ pub mod afti16 {
         lambda: &[f64; NSIDES],
     ) -> Residuals {
         let mut hz = [0.0; NV];
-        for (o, row) in hz.iter_mut().zip(H.iter()) {
-            *o = dot(row, z);
+        for (p, o) in hz.iter_mut().enumerate() {
+            *o = span_dot(&H[p], z, H_LO[p], H_HI[p]);
         }
         let mut gz = [0.0; NSIDES];
         g_mul(z, &mut gz);
@@ -719,31 +789,44 @@ pub mod afti16 {
             primal[k] = gz[k] + s[k] - h[k];
         }
         Residuals {
-            relative_primal: amax(&primal) / (1.0 + amax(h).max(amax(&gz))),
-            relative_dual: amax(&dual) / (1.0 + amax(f).max(amax(&hz)).max(amax(&gl))),
+            relative_primal: amax(&primal) / (1.0 + larger(amax(h), amax(&gz))),
+            relative_dual: amax(&dual)
+                / (1.0 + larger(larger(amax(f), amax(&hz)), amax(&gl))),
             gap: dot(s, lambda) / NSIDES as f64,
             objective_scale: 1.0 + (0.5 * dot(z, &hz)).abs() + dot(f, z).abs(),
             dual,
             primal,
         }
     }
-    /// Forms H + Gᵀ·diag(w)·G (lower triangle) and factors it as L·D·Lᵀ in place, adding a growing
-    /// multiple of I when a pivot is not positive (a semidefinite H with few active sides), as the
-    /// reference does; `false` when every attempt is refused.
+    /// Forms H + Gᵀ·diag(w)·G (lower triangle, within the envelope) and factors it as L·D·Lᵀ in
+    /// place, adding a growing multiple of I when a pivot is not positive (a semidefinite H with few
+    /// active sides), as the reference does; `false` when every attempt is refused.
     fn factor(w: &[f64; NSIDES], m: &mut [[f64; NV]; NV]) -> bool {
+        let mut wr = [0.0; NR];
+        for j in 0..NG {
+            add(&mut wr, SIDE_ROW[j], w[NB + j]);
+        }
         let mut delta = 0.0;
         for _ in 0..4 {
-            *m = H;
-            for k in 0..NB {
-                let i = BOX_INDEX[k];
-                m[i][i] += w[k];
+            for (p, (row, h)) in m.iter_mut().zip(H.iter()).enumerate() {
+                for (e, v) in row.iter_mut().zip(h.iter()).take(p + 1).skip(FIRST[p]) {
+                    *e = *v;
+                }
             }
-            for j in 0..NG {
-                let wj = w[NB + j];
-                for a in SIDE_START[j]..SIDE_START[j + 1] {
-                    let (ca, va) = (SIDE_COL[a], wj * SIDE_VAL[a]);
-                    for b in SIDE_START[j]..=a {
-                        m[ca][SIDE_COL[b]] += va * SIDE_VAL[b];
+            for k in 0..NB {
+                let i = BOX_POS[k];
+                if let Some(row) = m.get_mut(i) {
+                    add(row, i, w[k]);
+                }
+            }
+            for (r, wj) in wr.iter().enumerate() {
+                let (cols, vals) = row(r);
+                for (a, (ca, va)) in cols.iter().zip(vals.iter()).enumerate() {
+                    if let Some(target) = m.get_mut(*ca) {
+                        let wa = wj * va;
+                        for (cb, vb) in cols.iter().zip(vals.iter()).take(a + 1) {
+                            add(target, *cb, wa * vb);
+                        }
                     }
                 }
             }
@@ -758,34 +841,39 @@ pub mod afti16 {
         }
         false
     }
-    /// L·D·Lᵀ of the lower triangle of `m`, in place (D on the diagonal); `false` when a pivot is
-    /// not positive and finite. It runs to the end either way: the same instructions every time.
+    /// L·D·Lᵀ of the lower triangle of `m` within the envelope (row p from FIRST[p]), in place (D on
+    /// the diagonal); `false` when a pivot is not positive and finite. It runs to the end either
+    /// way: the same instructions every time. Nothing fills outside the envelope.
     fn ldl(m: &mut [[f64; NV]; NV]) -> bool {
         let mut v = [0.0; NV];
         let mut positive = true;
         for j in 0..NV {
+            let fj = FIRST[j];
             let mut d = m[j][j];
-            for k in 0..j {
+            for k in fj..j {
                 v[k] = m[j][k] * m[k][k];
                 d -= m[j][k] * v[k];
             }
             positive &= (d > 0.0) & (d < f64::INFINITY);
             m[j][j] = d;
-            for row in m.iter_mut().skip(j + 1) {
-                let mut a = row[j];
-                for (l, w) in row.iter().zip(v.iter()).take(j) {
-                    a -= l * w;
+            for (p, row) in m.iter_mut().enumerate().take(REACH[j]).skip(j + 1) {
+                let fp = at_index(&FIRST, p);
+                if fp <= j {
+                    let mut a = row[j];
+                    for k in if fp > fj { fp } else { fj }..j {
+                        a -= row[k] * v[k];
+                    }
+                    row[j] = a / d;
                 }
-                row[j] = a / d;
             }
         }
         positive
     }
-    /// Solves L·D·Lᵀ x = b in place.
+    /// Solves L·D·Lᵀ x = b in place, within the envelope.
     fn ldl_solve(m: &[[f64; NV]; NV], b: &mut [f64; NV]) {
         for i in 0..NV {
             let mut a = b[i];
-            for k in 0..i {
+            for k in FIRST[i]..i {
                 a -= m[i][k] * b[k];
             }
             b[i] = a;
@@ -794,11 +882,10 @@ pub mod afti16 {
             b[i] /= m[i][i];
         }
         for i in (0..NV).rev() {
-            let mut a = b[i];
-            for k in i + 1..NV {
-                a -= m[k][i] * b[k];
+            let x = b[i];
+            for k in FIRST[i]..i {
+                b[k] -= m[i][k] * x;
             }
-            b[i] = a;
         }
     }
     /// The Newton direction for the complementarity right-hand side rc (Λ·Δs + S·Δλ = −rc): from
@@ -834,7 +921,7 @@ pub mod afti16 {
             let mut e = [0.0; NV];
             g_tmul(dl, &mut e);
             for i in 0..NV {
-                e[i] = -r.dual[i] - (dot(&H[i], dz) + e[i]);
+                e[i] = -r.dual[i] - (span_dot(&H[i], dz, H_LO[i], H_HI[i]) + e[i]);
             }
             ldl_solve(m, &mut e);
             g_mul(&e, &mut gdz);
@@ -1817,8 +1904,9 @@ pub mod afti16 {
     const REST: [f64; NU] = [0f64, 0f64];
     /// The slacks' penalty weights w (the linear term of the slacks).
     const SLACK_WEIGHT: [f64; NS] = [100000f64];
-    /// Box sides: BOX_SIGN·z[BOX_INDEX] ≤ BOX_H (upper then lower bound per plan entry, then σ ≥ 0).
-    const BOX_INDEX: [usize; NB] = [
+    /// Box sides: BOX_SIGN·z[BOX_POS] ≤ BOX_H, z in the method's order (upper then lower bound per
+    /// plan entry, then σ ≥ 0).
+    const BOX_POS: [usize; NB] = [
         0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12,
         12, 13, 13, 14, 14, 15, 15, 16, 16, 17, 17, 18, 18, 19, 19, 20,
     ];
@@ -1871,13 +1959,13 @@ pub mod afti16 {
         25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64,
         25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 0f64,
     ];
-    /// Row sides in compressed rows: side j is Σ SIDE_VAL[k]·z[SIDE_COL[k]] ≤ h_j over
-    /// k ∈ SIDE_START[j]..SIDE_START[j + 1], with h_j = SIDE_H[j] − SIDE_X[j]·x0 (− …).
-    const SIDE_START: [usize; NG + 1] = [
+    /// The rows with a finite side in compressed form: row r is Σ ROW_VAL[k]·z[ROW_COL[k]] over
+    /// k ∈ ROW_START[r]..ROW_START[r + 1], z in the method's order, columns ascending.
+    const ROW_START: [usize; NR + 1] = [
         0, 3, 6, 11, 16, 23, 30, 39, 48, 59, 70, 83, 96, 111, 126, 143, 160, 179, 198,
         219, 240,
     ];
-    const SIDE_COL: [usize; 240] = [
+    const ROW_COL: [usize; 240] = [
         0, 1, 20, 0, 1, 20, 0, 1, 2, 3, 20, 0, 1, 2, 3, 20, 0, 1, 2, 3, 4, 5, 20, 0, 1,
         2, 3, 4, 5, 20, 0, 1, 2, 3, 4, 5, 6, 7, 20, 0, 1, 2, 3, 4, 5, 6, 7, 20, 0, 1, 2,
         3, 4, 5, 6, 7, 8, 9, 20, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 20, 0, 1, 2, 3, 4, 5, 6,
@@ -1889,23 +1977,23 @@ pub mod afti16 {
         20, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 0,
         1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20,
     ];
-    const SIDE_VAL: [f64; 240] = [
+    const ROW_VAL: [f64; 240] = [
         -0.029135326803341265f64,
         -0.014275595879944182f64,
         -1f64,
-        0.029135326803341265f64,
-        0.014275595879944182f64,
-        -1f64,
+        -0.029135326803341265f64,
+        -0.014275595879944182f64,
+        1f64,
         -0.07023742131526536f64,
         -0.018462271680521863f64,
         -0.029135326803341265f64,
         -0.014275595879944182f64,
         -1f64,
-        0.07023742131526536f64,
-        0.018462271680521863f64,
-        0.029135326803341265f64,
-        0.014275595879944182f64,
-        -1f64,
+        -0.07023742131526536f64,
+        -0.018462271680521863f64,
+        -0.029135326803341265f64,
+        -0.014275595879944182f64,
+        1f64,
         -0.11404652065285524f64,
         -0.024052955761064455f64,
         -0.07023742131526536f64,
@@ -1913,13 +2001,13 @@ pub mod afti16 {
         -0.029135326803341265f64,
         -0.014275595879944182f64,
         -1f64,
-        0.11404652065285524f64,
-        0.024052955761064455f64,
-        0.07023742131526536f64,
-        0.018462271680521863f64,
-        0.029135326803341265f64,
-        0.014275595879944182f64,
-        -1f64,
+        -0.11404652065285524f64,
+        -0.024052955761064455f64,
+        -0.07023742131526536f64,
+        -0.018462271680521863f64,
+        -0.029135326803341265f64,
+        -0.014275595879944182f64,
+        1f64,
         -0.1646503039293641f64,
         -0.03145853213177032f64,
         -0.11404652065285524f64,
@@ -1929,15 +2017,15 @@ pub mod afti16 {
         -0.029135326803341265f64,
         -0.014275595879944182f64,
         -1f64,
-        0.1646503039293641f64,
-        0.03145853213177032f64,
-        0.11404652065285524f64,
-        0.024052955761064455f64,
-        0.07023742131526536f64,
-        0.018462271680521863f64,
-        0.029135326803341265f64,
-        0.014275595879944182f64,
-        -1f64,
+        -0.1646503039293641f64,
+        -0.03145853213177032f64,
+        -0.11404652065285524f64,
+        -0.024052955761064455f64,
+        -0.07023742131526536f64,
+        -0.018462271680521863f64,
+        -0.029135326803341265f64,
+        -0.014275595879944182f64,
+        1f64,
         -0.226386633919825f64,
         -0.04122796543394239f64,
         -0.1646503039293641f64,
@@ -1949,17 +2037,17 @@ pub mod afti16 {
         -0.029135326803341265f64,
         -0.014275595879944182f64,
         -1f64,
-        0.226386633919825f64,
-        0.04122796543394239f64,
-        0.1646503039293641f64,
-        0.03145853213177032f64,
-        0.11404652065285524f64,
-        0.024052955761064455f64,
-        0.07023742131526536f64,
-        0.018462271680521863f64,
-        0.029135326803341265f64,
-        0.014275595879944182f64,
-        -1f64,
+        -0.226386633919825f64,
+        -0.04122796543394239f64,
+        -0.1646503039293641f64,
+        -0.03145853213177032f64,
+        -0.11404652065285524f64,
+        -0.024052955761064455f64,
+        -0.07023742131526536f64,
+        -0.018462271680521863f64,
+        -0.029135326803341265f64,
+        -0.014275595879944182f64,
+        1f64,
         -0.3042501756785988f64,
         -0.05408862350829478f64,
         -0.226386633919825f64,
@@ -1973,19 +2061,19 @@ pub mod afti16 {
         -0.029135326803341265f64,
         -0.014275595879944182f64,
         -1f64,
-        0.3042501756785988f64,
-        0.05408862350829478f64,
-        0.226386633919825f64,
-        0.04122796543394239f64,
-        0.1646503039293641f64,
-        0.03145853213177032f64,
-        0.11404652065285524f64,
-        0.024052955761064455f64,
-        0.07023742131526536f64,
-        0.018462271680521863f64,
-        0.029135326803341265f64,
-        0.014275595879944182f64,
-        -1f64,
+        -0.3042501756785988f64,
+        -0.05408862350829478f64,
+        -0.226386633919825f64,
+        -0.04122796543394239f64,
+        -0.1646503039293641f64,
+        -0.03145853213177032f64,
+        -0.11404652065285524f64,
+        -0.024052955761064455f64,
+        -0.07023742131526536f64,
+        -0.018462271680521863f64,
+        -0.029135326803341265f64,
+        -0.014275595879944182f64,
+        1f64,
         -0.4043219969800482f64,
         -0.0710001802640892f64,
         -0.3042501756785988f64,
@@ -2001,21 +2089,21 @@ pub mod afti16 {
         -0.029135326803341265f64,
         -0.014275595879944182f64,
         -1f64,
-        0.4043219969800482f64,
-        0.0710001802640892f64,
-        0.3042501756785988f64,
-        0.05408862350829478f64,
-        0.226386633919825f64,
-        0.04122796543394239f64,
-        0.1646503039293641f64,
-        0.03145853213177032f64,
-        0.11404652065285524f64,
-        0.024052955761064455f64,
-        0.07023742131526536f64,
-        0.018462271680521863f64,
-        0.029135326803341265f64,
-        0.014275595879944182f64,
-        -1f64,
+        -0.4043219969800482f64,
+        -0.0710001802640892f64,
+        -0.3042501756785988f64,
+        -0.05408862350829478f64,
+        -0.226386633919825f64,
+        -0.04122796543394239f64,
+        -0.1646503039293641f64,
+        -0.03145853213177032f64,
+        -0.11404652065285524f64,
+        -0.024052955761064455f64,
+        -0.07023742131526536f64,
+        -0.018462271680521863f64,
+        -0.029135326803341265f64,
+        -0.014275595879944182f64,
+        1f64,
         -0.534262607918921f64,
         -0.09322605580596509f64,
         -0.4043219969800482f64,
@@ -2033,23 +2121,23 @@ pub mod afti16 {
         -0.029135326803341265f64,
         -0.014275595879944182f64,
         -1f64,
-        0.534262607918921f64,
-        0.09322605580596509f64,
-        0.4043219969800482f64,
-        0.0710001802640892f64,
-        0.3042501756785988f64,
-        0.05408862350829478f64,
-        0.226386633919825f64,
-        0.04122796543394239f64,
-        0.1646503039293641f64,
-        0.03145853213177032f64,
-        0.11404652065285524f64,
-        0.024052955761064455f64,
-        0.07023742131526536f64,
-        0.018462271680521863f64,
-        0.029135326803341265f64,
-        0.014275595879944182f64,
-        -1f64,
+        -0.534262607918921f64,
+        -0.09322605580596509f64,
+        -0.4043219969800482f64,
+        -0.0710001802640892f64,
+        -0.3042501756785988f64,
+        -0.05408862350829478f64,
+        -0.226386633919825f64,
+        -0.04122796543394239f64,
+        -0.1646503039293641f64,
+        -0.03145853213177032f64,
+        -0.11404652065285524f64,
+        -0.024052955761064455f64,
+        -0.07023742131526536f64,
+        -0.018462271680521863f64,
+        -0.029135326803341265f64,
+        -0.014275595879944182f64,
+        1f64,
         -0.7039109929947158f64,
         -0.12242768644765742f64,
         -0.534262607918921f64,
@@ -2069,25 +2157,25 @@ pub mod afti16 {
         -0.029135326803341265f64,
         -0.014275595879944182f64,
         -1f64,
-        0.7039109929947158f64,
-        0.12242768644765742f64,
-        0.534262607918921f64,
-        0.09322605580596509f64,
-        0.4043219969800482f64,
-        0.0710001802640892f64,
-        0.3042501756785988f64,
-        0.05408862350829478f64,
-        0.226386633919825f64,
-        0.04122796543394239f64,
-        0.1646503039293641f64,
-        0.03145853213177032f64,
-        0.11404652065285524f64,
-        0.024052955761064455f64,
-        0.07023742131526536f64,
-        0.018462271680521863f64,
-        0.029135326803341265f64,
-        0.014275595879944182f64,
-        -1f64,
+        -0.7039109929947158f64,
+        -0.12242768644765742f64,
+        -0.534262607918921f64,
+        -0.09322605580596509f64,
+        -0.4043219969800482f64,
+        -0.0710001802640892f64,
+        -0.3042501756785988f64,
+        -0.05408862350829478f64,
+        -0.226386633919825f64,
+        -0.04122796543394239f64,
+        -0.1646503039293641f64,
+        -0.03145853213177032f64,
+        -0.11404652065285524f64,
+        -0.024052955761064455f64,
+        -0.07023742131526536f64,
+        -0.018462271680521863f64,
+        -0.029135326803341265f64,
+        -0.014275595879944182f64,
+        1f64,
         -0.926038311304092f64,
         -0.16078864120581687f64,
         -0.7039109929947158f64,
@@ -2109,26 +2197,52 @@ pub mod afti16 {
         -0.029135326803341265f64,
         -0.014275595879944182f64,
         -1f64,
-        0.926038311304092f64,
-        0.16078864120581687f64,
-        0.7039109929947158f64,
-        0.12242768644765742f64,
-        0.534262607918921f64,
-        0.09322605580596509f64,
-        0.4043219969800482f64,
-        0.0710001802640892f64,
-        0.3042501756785988f64,
-        0.05408862350829478f64,
-        0.226386633919825f64,
-        0.04122796543394239f64,
-        0.1646503039293641f64,
-        0.03145853213177032f64,
-        0.11404652065285524f64,
-        0.024052955761064455f64,
-        0.07023742131526536f64,
-        0.018462271680521863f64,
-        0.029135326803341265f64,
-        0.014275595879944182f64,
+        -0.926038311304092f64,
+        -0.16078864120581687f64,
+        -0.7039109929947158f64,
+        -0.12242768644765742f64,
+        -0.534262607918921f64,
+        -0.09322605580596509f64,
+        -0.4043219969800482f64,
+        -0.0710001802640892f64,
+        -0.3042501756785988f64,
+        -0.05408862350829478f64,
+        -0.226386633919825f64,
+        -0.04122796543394239f64,
+        -0.1646503039293641f64,
+        -0.03145853213177032f64,
+        -0.11404652065285524f64,
+        -0.024052955761064455f64,
+        -0.07023742131526536f64,
+        -0.018462271680521863f64,
+        -0.029135326803341265f64,
+        -0.014275595879944182f64,
+        1f64,
+    ];
+    /// Side j is SIDE_SIGN[j]·(row SIDE_ROW[j]) ≤ h_j, with h_j = SIDE_H[j] − SIDE_X[j]·x0 (− …).
+    const SIDE_ROW: [usize; NG] = [
+        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19,
+    ];
+    const SIDE_SIGN: [f64; NG] = [
+        1f64,
+        -1f64,
+        1f64,
+        -1f64,
+        1f64,
+        -1f64,
+        1f64,
+        -1f64,
+        1f64,
+        -1f64,
+        1f64,
+        -1f64,
+        1f64,
+        -1f64,
+        1f64,
+        -1f64,
+        1f64,
+        -1f64,
+        1f64,
         -1f64,
     ];
     const SIDE_H: [f64; NG] = [
@@ -2281,7 +2395,30 @@ pub mod afti16 {
             -0.000533338508125739f64,
         ],
     ];
-    /// The method's Hessian blkdiag(H, diag(q_σ)): eq. 9's H, then the slacks' quadratic weights.
+    /// The method's order: position p holds unknown ORDER[p] (plan entries, then slacks). It puts
+    /// the normal matrix's independent blocks (the drone's axes) side by side.
+    const ORDER: [usize; NV] = [
+        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20,
+    ];
+    /// The envelope of the normal matrix's lower triangle: row p from column FIRST[p]; REACH[j] is
+    /// one past the last row that reaches column j.
+    const FIRST: [usize; NV] = [
+        0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+    ];
+    const REACH: [usize; NV] = [
+        21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21,
+        21,
+    ];
+    /// Row p of H is nonzero only in columns H_LO[p]..H_HI[p].
+    const H_LO: [usize; NV] = [
+        0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 20,
+    ];
+    const H_HI: [usize; NV] = [
+        20, 20, 20, 20, 20, 20, 20, 20, 20, 20, 20, 20, 20, 20, 20, 20, 20, 20, 20, 20,
+        21,
+    ];
+    /// The method's Hessian blkdiag(H, diag(q_σ)) (eq. 9's H, then the slacks' quadratic weights),
+    /// in the method's order.
     pub const H: [[f64; NV]; NV] = [
         [
             97.21656987277578f64,
@@ -2810,9 +2947,9 @@ pub mod afti16 {
         /// X_max in f64.
         pub const COORDINATE_RANGE_F64: f64 = 2576253160732.9785f64;
         /// Multiply-adds of one solver iteration.
-        pub const MACS_PER_ITERATION: usize = 8799;
+        pub const MACS_PER_ITERATION: usize = 8966;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
-        pub const MACS_PER_CYCLE: usize = 164301;
+        pub const MACS_PER_CYCLE: usize = 167715;
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 3752;
         /// Bytes of `Mpc`.

@@ -241,7 +241,7 @@ fn paper_limits_meets_the_accuracy() {
 }
 
 /// The calibration's cost (issue 17: dense Mehrotra IPM, cold worst case, multiply-adds per solve) and
-/// the cost model's count for the certified iterations: at most 1.5× for the two public problems.
+/// the cost model's count for the certified iterations: at most 1.5× for the three problems.
 #[test]
 fn cost_against_the_calibration() {
     for (name, text, calibrated) in [
@@ -256,9 +256,7 @@ fn cost_against_the_calibration() {
             "{name}: {} iterations, {per_solve} multiply-adds a solve, {ratio:.2}× the calibration",
             p.qp.iterations
         );
-        if name != "paper-limits" {
-            assert!(ratio <= 1.5, "{name}: {ratio:.2}× the calibration");
-        }
+        assert!(ratio <= 1.5, "{name}: {ratio:.2}× the calibration");
     }
 }
 

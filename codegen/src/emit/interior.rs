@@ -12,7 +12,8 @@ use super::tokens::Num;
 use super::Sections;
 use crate::lower::Problem;
 use crate::solver::ipm::{
-    mpc_qp, side_bound, Layout, FINISHED, FRACTION, INFEASIBILITY_TOLERANCE, REFINEMENT, WARM_FLOOR,
+    mpc_qp, side_bound, Layout, Sparsity, FINISHED, FRACTION, INFEASIBILITY_TOLERANCE, REFINEMENT,
+    WARM_FLOOR,
 };
 use mpc_spec::Scalar;
 use nalgebra::{DMatrix, DVector};
@@ -35,8 +36,27 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     let per_slot = ng / N.max(1);
     let lit = Literal::usize_unsuffixed;
     let [nv_lit, ns_lit, nb_lit, ng_lit, per_slot_lit] = [nv, ns, nb, ng, per_slot].map(lit);
+    // The method works in the envelope's order (positions): the normal matrix's independent blocks
+    // are contiguous, so the factorisation and H·z visit only them.
+    let sparsity = Sparsity::of(&structure);
+    let envelope = &sparsity.envelope;
+    let (order, position) = (&envelope.order, &envelope.position);
+    let order_lit = order.iter().map(|i| lit(*i));
+    let first_lit = envelope.first.iter().map(|f| lit(*f));
+    // One past the last row whose envelope reaches column j.
+    let reach_lit = (0..nv).map(|j| {
+        lit((j + 1..nv)
+            .filter(|&p| envelope.first[p] <= j)
+            .max()
+            .map_or(j + 1, |p| p + 1))
+    });
+    let h_lo = sparsity.h_span.iter().map(|(lo, _)| lit(*lo));
+    let h_hi = sparsity.h_span.iter().map(|(_, hi)| lit(*hi));
+    let hv = wide.matrix(&DMatrix::from_fn(nv, nv, |p, q| {
+        structure.H[(order[p], order[q])]
+    }));
     // Box sides: ±z_i ≤ ±bound, constant.
-    let box_index = layout.boxed.iter().map(|(i, _)| lit(*i));
+    let box_pos = layout.boxed.iter().map(|(i, _)| lit(position[*i]));
     let box_sign = wide.vector(layout.boxed.iter().map(|(_, s)| *s));
     let box_h = wide.vector(
         layout
@@ -44,21 +64,22 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             .iter()
             .map(|&(i, s)| side_bound(s, structure.z_min[i], structure.z_max[i])),
     );
-    // Row sides in compressed rows, columns ascending (the normal matrix fills its lower triangle).
-    let mut start = vec![0usize];
-    let mut cols = Vec::new();
-    let mut vals = Vec::new();
-    for &(r, sign) in &layout.rows {
-        for c in 0..nv {
-            let v = structure.A[(r, c)];
-            if v != 0.0 {
-                cols.push(c);
-                vals.push(sign * v);
-            }
-        }
-        start.push(cols.len());
+    // The distinct rows in compressed form, columns as ascending positions (the normal matrix fills
+    // its lower triangle); each side is ±its row.
+    let nr = sparsity.rows.len();
+    let mut row_start = vec![0usize];
+    let mut row_val = Vec::new();
+    for (&r, positions) in sparsity.rows.iter().zip(&sparsity.row_positions) {
+        row_val.extend(positions.iter().map(|&q| structure.A[(r, order[q])]));
+        row_start.push(row_val.len());
     }
-    let nnz = lit(cols.len());
+    let row_nnz = lit(row_val.len());
+    let row_start_lit = row_start.iter().map(|s| lit(*s));
+    let row_col_lit = sparsity.row_positions.iter().flatten().map(|q| lit(*q));
+    let row_val = wide.vector(row_val.iter().copied());
+    let side_row = sparsity.side_row.iter().map(|r| lit(*r));
+    let side_sign = wide.vector(layout.rows.iter().map(|(_, sign)| *sign));
+    let nr_lit = lit(nr);
     let side = |M: &DMatrix<f64>| {
         DMatrix::from_fn(ng, M.ncols(), |j, c| {
             let (r, sign) = layout.rows[j];
@@ -100,10 +121,6 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             " depend on the data.",
         ],
     );
-    let start_lit = start.iter().map(|s| lit(*s));
-    let col_lit = cols.iter().map(|c| lit(*c));
-    let val = wide.vector(vals.iter().copied());
-    let hv = wide.matrix(&structure.H);
     let slack_weight = wide.vector(rows.slack_weight.iter().copied());
     let limits = qp.ipm_limits();
     let (primal_limit, dual_limit) = (wide.lit(limits.primal), wide.lit(limits.dual));
@@ -119,7 +136,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
         wide.lit(INFEASIBILITY_TOLERANCE),
     );
     let row = crate::form::reference_row(p);
-    let nr = lit(N * qp.nz);
+    let n_reference = lit(N * qp.nz);
     // f's terms besides Fx·x0 − Fr·Xref.
     let f_last = p.has_moves().then(|| quote!(+ dot(&FU[i], &last)));
     let f_d = (nd > 0).then(|| quote!(+ dot(&FD[i], &d)));
@@ -221,6 +238,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             pub const NG: usize = #ng_lit;
             /// All sides: the length of the slacks s and multipliers λ.
             pub const NSIDES: usize = NB + NG;
+            /// Constraint rows with a finite side (a two-sided row has two sides, ±the same product).
+            pub const NR: usize = #nr_lit;
             /// `[mpc] accuracy`: the plan within ACCURACY·(U_MAX − U_MIN) of the exact solution.
             pub const ACCURACY: f64 = #accuracy;
             /// Final relative primal residual above which the plan is not trusted ([`Fallback::WarmStart`]).
@@ -284,7 +303,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     #d_flush
                     #d_wide
                     #last_wide
-                    let mut reference = [0.0; #nr];
+                    let mut reference = [0.0; #n_reference];
                     for (r, row) in reference.chunks_exact_mut(xref[0].len()).zip(xref.iter()) {
                         for (w, v) in r.iter_mut().zip(flushed(row).iter()) {
                             *w = #wide_of_v;
@@ -313,7 +332,12 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     shift(&mut s[NB..], SIDES_PER_SLOT);
                     shift(&mut lambda[..2 * NP], 2 * NU);
                     shift(&mut lambda[NB..], SIDES_PER_SLOT);
-                    let outcome = interior_point(&f, &h, &mut z, &mut s, &mut lambda, self.warm);
+                    // Into the method's order and back.
+                    let (f, mut zp) = (permuted(&f), permuted(&z));
+                    let outcome = interior_point(&f, &h, &mut zp, &mut s, &mut lambda, self.warm);
+                    for (p, v) in zp.iter().enumerate() {
+                        put(&mut z, at_index(&ORDER, p), *v);
+                    }
                     let trusted = (outcome.ended == Ended::Iterations)
                         & (outcome.primal <= PRIMAL_LIMIT)
                         & (outcome.dual <= DUAL_LIMIT);
@@ -430,16 +454,16 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and the
             /// largest soft-row violation in its row's units.
             fn violations(plan: &[f64; NP], h: &[f64; NSIDES]) -> (f64, f64) {
+                // The plan in the method's order, the slacks (past the plan's end) zero.
+                let mut zp = [0.0; NV];
+                for (p, v) in zp.iter_mut().enumerate() {
+                    *v = at(plan, at_index(&ORDER, p));
+                }
+                let mut gz = [0.0; NSIDES];
+                g_mul(&zp, &mut gz);
                 let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
                 for j in 0..NG {
-                    let mut a = 0.0;
-                    for k in SIDE_START[j]..SIDE_START[j + 1] {
-                        let c = SIDE_COL[k];
-                        if c < NP {
-                            a += SIDE_VAL[k] * plan[c];
-                        }
-                    }
-                    let excess = a - h[NB + j];
+                    let excess = gz[NB + j] - h[NB + j];
                     // SIDE_SOFT is constant: the same branch every solve.
                     if SIDE_SOFT[j] {
                         soft = larger(soft, excess);
@@ -448,6 +472,65 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     }
                 }
                 (hard, soft)
+            }
+
+            /// `v` in the method's order: entry p is v[ORDER[p]].
+            #[inline(always)]
+            fn permuted(v: &[f64; NV]) -> [f64; NV] {
+                let mut out = [0.0; NV];
+                for (p, o) in out.iter_mut().enumerate() {
+                    *o = at(v, at_index(&ORDER, p));
+                }
+                out
+            }
+
+            /// `v[i]`, or 0 past its end. The index tables are in range by construction; the check is a
+            /// select here, where indexing would link a panic.
+            #[inline(always)]
+            fn at(v: &[f64], i: usize) -> f64 {
+                match v.get(i) {
+                    Some(x) => *x,
+                    None => 0.0,
+                }
+            }
+
+            /// `v[i]` of an index table, or 0 past its end (as [`at`]).
+            #[inline(always)]
+            fn at_index(v: &[usize], i: usize) -> usize {
+                match v.get(i) {
+                    Some(x) => *x,
+                    None => 0,
+                }
+            }
+
+            /// `v[i] = x`, nothing past its end (as [`at`]).
+            #[inline(always)]
+            fn put(v: &mut [f64], i: usize, x: f64) {
+                if let Some(o) = v.get_mut(i) {
+                    *o = x;
+                }
+            }
+
+            /// `v[i] += x`, nothing past its end (as [`at`]).
+            #[inline(always)]
+            fn add(v: &mut [f64], i: usize, x: f64) {
+                if let Some(o) = v.get_mut(i) {
+                    *o += x;
+                }
+            }
+
+            /// Row r of the compressed rows: its columns (positions, ascending) and values.
+            #[inline(always)]
+            fn row(r: usize) -> (&'static [usize], &'static [f64]) {
+                let (cols, vals): (&'static [usize], &'static [f64]) = (&ROW_COL, &ROW_VAL);
+                let (a, b) = (at_index(&ROW_START, r), at_index(&ROW_START, r + 1));
+                (cols.get(a..b).unwrap_or(&[]), vals.get(a..b).unwrap_or(&[]))
+            }
+
+            /// a·b over the positions lo..hi (a row of H within its span).
+            #[inline(always)]
+            fn span_dot(a: &[f64; NV], b: &[f64; NV], lo: usize, hi: usize) -> f64 {
+                a.iter().zip(b.iter()).take(hi).skip(lo).map(|(x, y)| x * y).sum()
             }
 
             /// How the iteration ended.
@@ -502,37 +585,43 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 if b < a { b } else { a }
             }
 
-            /// G z: the box's sides, then the rows'.
+            /// G z: the box's sides, then the rows' (each distinct row once, ± per side).
             fn g_mul(z: &[f64; NV], out: &mut [f64; NSIDES]) {
                 for k in 0..NB {
-                    out[k] = BOX_SIGN[k] * z[BOX_INDEX[k]];
+                    out[k] = BOX_SIGN[k] * at(z, BOX_POS[k]);
+                }
+                let mut a = [0.0; NR];
+                for (r, ar) in a.iter_mut().enumerate() {
+                    let (cols, vals) = row(r);
+                    *ar = cols.iter().zip(vals.iter()).map(|(c, v)| v * at(z, *c)).sum();
                 }
                 for j in 0..NG {
-                    let mut a = 0.0;
-                    for k in SIDE_START[j]..SIDE_START[j + 1] {
-                        a += SIDE_VAL[k] * z[SIDE_COL[k]];
-                    }
-                    out[NB + j] = a;
+                    out[NB + j] = SIDE_SIGN[j] * at(&a, SIDE_ROW[j]);
                 }
             }
 
             /// Gᵀ v.
             fn g_tmul(v: &[f64; NSIDES], out: &mut [f64; NV]) {
                 *out = [0.0; NV];
+                let mut c = [0.0; NR];
                 for j in 0..NG {
-                    for k in SIDE_START[j]..SIDE_START[j + 1] {
-                        out[SIDE_COL[k]] += SIDE_VAL[k] * v[NB + j];
+                    add(&mut c, SIDE_ROW[j], SIDE_SIGN[j] * v[NB + j]);
+                }
+                for (r, cr) in c.iter().enumerate() {
+                    let (cols, vals) = row(r);
+                    for (col, val) in cols.iter().zip(vals.iter()) {
+                        add(out, *col, val * cr);
                     }
                 }
                 for k in 0..NB {
-                    out[BOX_INDEX[k]] += BOX_SIGN[k] * v[k];
+                    add(out, BOX_POS[k], BOX_SIGN[k] * v[k]);
                 }
             }
 
             fn residuals(f: &[f64; NV], h: &[f64; NSIDES], z: &[f64; NV], s: &[f64; NSIDES], lambda: &[f64; NSIDES]) -> Residuals {
                 let mut hz = [0.0; NV];
-                for (o, row) in hz.iter_mut().zip(H.iter()) {
-                    *o = dot(row, z);
+                for (p, o) in hz.iter_mut().enumerate() {
+                    *o = span_dot(&H[p], z, H_LO[p], H_HI[p]);
                 }
                 let mut gz = [0.0; NSIDES];
                 g_mul(z, &mut gz);
@@ -547,8 +636,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     primal[k] = gz[k] + s[k] - h[k];
                 }
                 Residuals {
-                    relative_primal: amax(&primal) / (1.0 + amax(h).max(amax(&gz))),
-                    relative_dual: amax(&dual) / (1.0 + amax(f).max(amax(&hz)).max(amax(&gl))),
+                    relative_primal: amax(&primal) / (1.0 + larger(amax(h), amax(&gz))),
+                    relative_dual: amax(&dual) / (1.0 + larger(larger(amax(f), amax(&hz)), amax(&gl))),
                     gap: dot(s, lambda) / NSIDES as f64,
                     objective_scale: 1.0 + (0.5 * dot(z, &hz)).abs() + dot(f, z).abs(),
                     dual,
@@ -556,23 +645,36 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 }
             }
 
-            /// Forms H + Gᵀ·diag(w)·G (lower triangle) and factors it as L·D·Lᵀ in place, adding a growing
-            /// multiple of I when a pivot is not positive (a semidefinite H with few active sides), as the
-            /// reference does; `false` when every attempt is refused.
+            /// Forms H + Gᵀ·diag(w)·G (lower triangle, within the envelope) and factors it as L·D·Lᵀ in
+            /// place, adding a growing multiple of I when a pivot is not positive (a semidefinite H with few
+            /// active sides), as the reference does; `false` when every attempt is refused.
             fn factor(w: &[f64; NSIDES], m: &mut [[f64; NV]; NV]) -> bool {
+                // A two-sided row's sides add their weights to one outer product.
+                let mut wr = [0.0; NR];
+                for j in 0..NG {
+                    add(&mut wr, SIDE_ROW[j], w[NB + j]);
+                }
                 let mut delta = 0.0;
                 for _ in 0..4 {
-                    *m = H;
-                    for k in 0..NB {
-                        let i = BOX_INDEX[k];
-                        m[i][i] += w[k];
+                    for (p, (row, h)) in m.iter_mut().zip(H.iter()).enumerate() {
+                        for (e, v) in row.iter_mut().zip(h.iter()).take(p + 1).skip(FIRST[p]) {
+                            *e = *v;
+                        }
                     }
-                    for j in 0..NG {
-                        let wj = w[NB + j];
-                        for a in SIDE_START[j]..SIDE_START[j + 1] {
-                            let (ca, va) = (SIDE_COL[a], wj * SIDE_VAL[a]);
-                            for b in SIDE_START[j]..=a {
-                                m[ca][SIDE_COL[b]] += va * SIDE_VAL[b];
+                    for k in 0..NB {
+                        let i = BOX_POS[k];
+                        if let Some(row) = m.get_mut(i) {
+                            add(row, i, w[k]);
+                        }
+                    }
+                    for (r, wj) in wr.iter().enumerate() {
+                        let (cols, vals) = row(r);
+                        for (a, (ca, va)) in cols.iter().zip(vals.iter()).enumerate() {
+                            if let Some(target) = m.get_mut(*ca) {
+                                let wa = wj * va;
+                                for (cb, vb) in cols.iter().zip(vals.iter()).take(a + 1) {
+                                    add(target, *cb, wa * vb);
+                                }
                             }
                         }
                     }
@@ -588,36 +690,42 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 false
             }
 
-            /// L·D·Lᵀ of the lower triangle of `m`, in place (D on the diagonal); `false` when a pivot is
-            /// not positive and finite. It runs to the end either way: the same instructions every time.
+            /// L·D·Lᵀ of the lower triangle of `m` within the envelope (row p from FIRST[p]), in place (D on
+            /// the diagonal); `false` when a pivot is not positive and finite. It runs to the end either
+            /// way: the same instructions every time. Nothing fills outside the envelope.
             fn ldl(m: &mut [[f64; NV]; NV]) -> bool {
                 let mut v = [0.0; NV];
                 let mut positive = true;
                 for j in 0..NV {
+                    let fj = FIRST[j];
                     let mut d = m[j][j];
-                    for k in 0..j {
+                    for k in fj..j {
                         v[k] = m[j][k] * m[k][k];
                         d -= m[j][k] * v[k];
                     }
                     // `&`, not `&&`: no branch. NaN fails `d > 0.0`.
                     positive &= (d > 0.0) & (d < f64::INFINITY);
                     m[j][j] = d;
-                    for row in m.iter_mut().skip(j + 1) {
-                        let mut a = row[j];
-                        for (l, w) in row.iter().zip(v.iter()).take(j) {
-                            a -= l * w;
+                    for (p, row) in m.iter_mut().enumerate().take(REACH[j]).skip(j + 1) {
+                        // FIRST is constant: the same branch every time.
+                        let fp = at_index(&FIRST, p);
+                        if fp <= j {
+                            let mut a = row[j];
+                            for k in if fp > fj { fp } else { fj }..j {
+                                a -= row[k] * v[k];
+                            }
+                            row[j] = a / d;
                         }
-                        row[j] = a / d;
                     }
                 }
                 positive
             }
 
-            /// Solves L·D·Lᵀ x = b in place.
+            /// Solves L·D·Lᵀ x = b in place, within the envelope.
             fn ldl_solve(m: &[[f64; NV]; NV], b: &mut [f64; NV]) {
                 for i in 0..NV {
                     let mut a = b[i];
-                    for k in 0..i {
+                    for k in FIRST[i]..i {
                         a -= m[i][k] * b[k];
                     }
                     b[i] = a;
@@ -625,12 +733,12 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 for i in 0..NV {
                     b[i] /= m[i][i];
                 }
+                // Lᵀ by rows of L: x_i is final once every later row has given its share.
                 for i in (0..NV).rev() {
-                    let mut a = b[i];
-                    for k in i + 1..NV {
-                        a -= m[k][i] * b[k];
+                    let x = b[i];
+                    for k in FIRST[i]..i {
+                        b[k] -= m[i][k] * x;
                     }
-                    b[i] = a;
                 }
             }
 
@@ -669,7 +777,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     let mut e = [0.0; NV];
                     g_tmul(dl, &mut e);
                     for i in 0..NV {
-                        e[i] = -r.dual[i] - (dot(&H[i], dz) + e[i]);
+                        e[i] = -r.dual[i] - (span_dot(&H[i], dz, H_LO[i], H_HI[i]) + e[i]);
                     }
                     ldl_solve(m, &mut e);
                     g_mul(&e, &mut gdz);
@@ -852,20 +960,35 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             const REST: [f64; NU] = #rest;
             /// The slacks' penalty weights w (the linear term of the slacks).
             const SLACK_WEIGHT: [f64; NS] = #slack_weight;
-            /// Box sides: BOX_SIGN·z[BOX_INDEX] ≤ BOX_H (upper then lower bound per plan entry, then σ ≥ 0).
-            const BOX_INDEX: [usize; NB] = [#(#box_index),*];
+            /// Box sides: BOX_SIGN·z[BOX_POS] ≤ BOX_H, z in the method's order (upper then lower bound per
+            /// plan entry, then σ ≥ 0).
+            const BOX_POS: [usize; NB] = [#(#box_pos),*];
             const BOX_SIGN: [f64; NB] = #box_sign;
             const BOX_H: [f64; NB] = #box_h;
-            /// Row sides in compressed rows: side j is Σ SIDE_VAL[k]·z[SIDE_COL[k]] ≤ h_j over
-            /// k ∈ SIDE_START[j]..SIDE_START[j + 1], with h_j = SIDE_H[j] − SIDE_X[j]·x0 (− …).
-            const SIDE_START: [usize; NG + 1] = [#(#start_lit),*];
-            const SIDE_COL: [usize; #nnz] = [#(#col_lit),*];
-            const SIDE_VAL: [f64; #nnz] = #val;
+            /// The rows with a finite side in compressed form: row r is Σ ROW_VAL[k]·z[ROW_COL[k]] over
+            /// k ∈ ROW_START[r]..ROW_START[r + 1], z in the method's order, columns ascending.
+            const ROW_START: [usize; NR + 1] = [#(#row_start_lit),*];
+            const ROW_COL: [usize; #row_nnz] = [#(#row_col_lit),*];
+            const ROW_VAL: [f64; #row_nnz] = #row_val;
+            /// Side j is SIDE_SIGN[j]·(row SIDE_ROW[j]) ≤ h_j, with h_j = SIDE_H[j] − SIDE_X[j]·x0 (− …).
+            const SIDE_ROW: [usize; NG] = [#(#side_row),*];
+            const SIDE_SIGN: [f64; NG] = #side_sign;
             const SIDE_H: [f64; NG] = #side_h;
             /// Whether a side belongs to a soft row (its violation is priced, not forbidden).
             const SIDE_SOFT: [bool; NG] = [#(#side_soft),*];
             #side_tables
-            /// The method's Hessian blkdiag(H, diag(q_σ)): eq. 9's H, then the slacks' quadratic weights.
+            /// The method's order: position p holds unknown ORDER[p] (plan entries, then slacks). It puts
+            /// the normal matrix's independent blocks (the drone's axes) side by side.
+            const ORDER: [usize; NV] = [#(#order_lit),*];
+            /// The envelope of the normal matrix's lower triangle: row p from column FIRST[p]; REACH[j] is
+            /// one past the last row that reaches column j.
+            const FIRST: [usize; NV] = [#(#first_lit),*];
+            const REACH: [usize; NV] = [#(#reach_lit),*];
+            /// Row p of H is nonzero only in columns H_LO[p]..H_HI[p].
+            const H_LO: [usize; NV] = [#(#h_lo),*];
+            const H_HI: [usize; NV] = [#(#h_hi),*];
+            /// The method's Hessian blkdiag(H, diag(q_σ)) (eq. 9's H, then the slacks' quadratic weights),
+            /// in the method's order.
             pub const H: [[f64; NV]; NV] = #hv;
         },
     }

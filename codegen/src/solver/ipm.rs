@@ -65,6 +65,79 @@ pub fn normal_pattern(qp: &InequalityQp) -> DMatrix<bool> {
     pattern
 }
 
+/// The structure the emitted method visits, read off the QP's nonzeros (so it is the same for any
+/// data): the unknowns reordered by the envelope of the normal matrix (independent axes become
+/// diagonal blocks), per reordered row of H the span of columns that can be nonzero, and the rows
+/// with a finite side, each once however many of its two sides are finite (a two-sided row's sides
+/// are ±the same product, and their weights add up in the normal matrix).
+#[derive(Clone, Debug)]
+pub struct Sparsity {
+    /// The ordering and the factor's envelope.
+    pub envelope: crate::structure::Envelope,
+    /// Per position p, the positions [lo, hi) where row p of the reordered H can be nonzero.
+    pub h_span: Vec<(usize, usize)>,
+    /// The rows with a finite side, in the order of [`Layout::rows`]: the row's index in `A`.
+    pub rows: Vec<usize>,
+    /// Per side of [`Layout::rows`], its row's index in `rows`.
+    pub side_row: Vec<usize>,
+    /// Per entry of `rows`, its nonzero columns as positions, ascending.
+    pub row_positions: Vec<Vec<usize>>,
+}
+
+impl Sparsity {
+    /// The structure of `qp`.
+    pub fn of(qp: &InequalityQp) -> Self {
+        let n = qp.n();
+        let envelope = crate::structure::Envelope::of(&normal_pattern(qp));
+        let h_span = (0..n)
+            .map(|p| {
+                let i = envelope.order[p];
+                let cols: Vec<usize> = (0..n)
+                    .filter(|&q| q == p || qp.H[(i, envelope.order[q])] != 0.0)
+                    .collect();
+                (cols[0], cols[cols.len() - 1] + 1)
+            })
+            .collect();
+        let layout = Layout::of(qp);
+        let mut rows: Vec<usize> = Vec::new();
+        let mut side_row = Vec::new();
+        for &(r, _) in &layout.rows {
+            if rows.last() != Some(&r) {
+                rows.push(r);
+            }
+            side_row.push(rows.len() - 1);
+        }
+        let row_positions = rows
+            .iter()
+            .map(|&r| {
+                let mut cols: Vec<usize> = (0..n)
+                    .filter(|&c| qp.A[(r, c)] != 0.0)
+                    .map(|c| envelope.position[c])
+                    .collect();
+                cols.sort_unstable();
+                cols
+            })
+            .collect();
+        Sparsity {
+            envelope,
+            h_span,
+            rows,
+            side_row,
+            row_positions,
+        }
+    }
+
+    /// Multiply-adds of H·z over the spans.
+    pub fn h_macs(&self) -> usize {
+        self.h_span.iter().map(|(lo, hi)| hi - lo).sum()
+    }
+
+    /// Nonzeros of the distinct rows.
+    pub fn row_nnz(&self) -> usize {
+        self.row_positions.iter().map(Vec::len).sum()
+    }
+}
+
 /// Multiply-adds of one iteration of a Riccati-structured variant (not built), by the same rule, for
 /// the cost model to weigh against the dense form: the stage-wise factorisation of the KKT system
 /// (per stage 2nx³ + 3nx²nu + nx·nu² + nu³/6, the Riccati recursion with the stage's Hessian raised by
@@ -410,13 +483,17 @@ pub fn solve_from(
     run(qp, start, Some(tolerance), max_iterations)
 }
 
-/// Multiply-adds of one iteration, by the calibration rule of issue 17 (mat-vec n², Cholesky n³/6,
-/// forming GᵀDG Σ_r nnz_r²/2 over the sides' nonzeros; a box side has one):
-/// - residuals: H z (n²), G z and Gᵀλ (nnz(G) each);
-/// - the normal matrix Σ_r nnz_r²/2 and its Cholesky n³/6;
-/// - two directions (predictor, corrector), each a right-hand side Gᵀ(·) (nnz(G)), two triangular
-///   solves (n²) and G Δz (nnz(G));
-/// - [`REFINEMENT`] steps of the corrector: H Δz, Gᵀ Δλ and a solve (2n² + 3 nnz(G));
+/// Multiply-adds of one iteration of the emitted method, by the calibration rule of issue 17 (a
+/// product counts its multiplications, a factorisation its inner products) applied to what the
+/// emitted code visits ([`Sparsity`]): the envelope, the spans of H, and each two-sided row once.
+/// With one dense block this is the calibration's dense count (mat-vec n², Cholesky n³/6, forming
+/// GᵀDG Σ_r nnz_r²/2):
+/// - residuals: H z over the spans, G z and Gᵀλ (nnz of the distinct rows, plus a term per side);
+/// - the normal matrix, Σ_r nnz_r(nnz_r + 1)/2 over the distinct rows, and its L·D·Lᵀ within the
+///   envelope ([`crate::structure::Envelope::ldl_macs`]);
+/// - two directions (predictor, corrector), each a right-hand side Gᵀ(·), the triangular solves
+///   within the envelope and G Δz;
+/// - [`REFINEMENT`] steps of the corrector: H Δz, Gᵀ Δλ, a solve and G of its result;
 /// - the element-wise work on s and λ, about 12 per side.
 ///
 /// The cold start costs one more factorisation, of H + GᵀG, and one direction
@@ -437,31 +514,27 @@ struct Counts {
 }
 
 fn counts(qp: &InequalityQp) -> Counts {
-    let n = qp.n();
     let sides = Sides::new(qp);
-    let nnz_rows: Vec<usize> = sides
-        .boxed
+    let sparsity = Sparsity::of(qp);
+    let (nb, ng) = (sides.boxed.len(), sides.len() - sides.boxed.len());
+    // G z and Gᵀ v: each distinct row once, then one signed term per side.
+    let g = sparsity.row_nnz() + nb + ng;
+    let solve = sparsity.envelope.solve_macs();
+    let hz = sparsity.h_macs();
+    let normal = sparsity
+        .row_positions
         .iter()
-        .map(|_| 1)
-        .chain(
-            sides
-                .G
-                .row_iter()
-                .map(|r| r.iter().filter(|v| **v != 0.0).count()),
-        )
-        .collect();
-    let nnz: usize = nnz_rows.iter().sum();
-    let normal: usize = nnz_rows.iter().map(|k| k * k).sum::<usize>() / 2;
-    let residuals = n * n + 2 * nnz;
-    let direction = 2 * nnz + n * n;
-    // A refinement step: H Δz and Gᵀ Δλ, then a solve (Gᵀ, the triangular pair, G).
-    let refinement = 2 * n * n + 3 * nnz;
+        .map(|c| c.len() * (c.len() + 1) / 2)
+        .sum::<usize>()
+        + nb
+        + ng;
     Counts {
-        residuals,
+        residuals: hz + 2 * g,
         normal,
-        factor: n * n * n / 6,
-        direction,
-        refinement,
+        factor: sparsity.envelope.ldl_macs(),
+        direction: 2 * g + solve,
+        // H Δz, Gᵀ Δλ, a solve and G of its result.
+        refinement: hz + 2 * g + solve,
         elementwise: 12 * sides.len(),
     }
 }
