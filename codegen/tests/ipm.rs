@@ -613,29 +613,56 @@ fn a_small_problem_with_an_equality_and_unbounded_sides() {
     );
 }
 
-/// The multiply-adds of an iteration by the calibration rule, on the paper's box QP: n = 45 unknowns,
-/// 90 box sides of one nonzero each, no rows.
+/// The multiply-adds of an iteration by the calibration rule, over what the emitted method visits, on
+/// the paper's box QP: n = 45 unknowns whose three axes are independent (three dense 15 × 15 blocks of
+/// H and of the normal matrix), 90 box sides of one nonzero each, no rows.
 #[test]
 fn macs_follow_the_calibration_rule() {
     let (_, cases) = box_cases(PAPER, 1, 1);
-    let (n, sides) = (45, 90);
-    // Residuals n² + 2 nnz, GᵀDG Σ 1/2, Cholesky n³/6, two directions of n² + 2 nnz, the corrector's
-    // refinement 2n² + 3 nnz, 12 per side.
+    let (blocks, b, sides) = (3, 15, 90);
+    // L·D·Lᵀ of a dense b × b block: per column j, j for the pivot and j + 1 for each of the b − 1 − j
+    // rows below it, Σ = b(b − 1)/2 + (b³ − b)/6 (15 × 15: 665; 45 × 45 dense would be 16,170).
+    let ldl = blocks * (b * (b - 1) / 2 + (b * b * b - b) / 6);
+    // H·z and a pair of triangular solves with the diagonal: b² per block.
+    let (hz, solve) = (blocks * b * b, blocks * b * b);
+    // G z and Gᵀλ: one signed term per side. Residuals H z + 2 G; GᵀDG one weight per side; two
+    // directions of 2 G + a solve; the corrector's refinement H Δz + 2 G + a solve; 12 per side.
+    let g = sides;
     let refinement = ipm::REFINEMENT;
-    let expected = n * n
-        + 2 * sides
-        + sides / 2
-        + n * n * n / 6
-        + 2 * (n * n + 2 * sides)
-        + refinement * (2 * n * n + 3 * sides)
+    let expected = hz
+        + 2 * g
+        + sides
+        + ldl
+        + 2 * (2 * g + solve)
+        + refinement * (hz + 2 * g + solve)
         + 12 * sides;
     assert_eq!(ipm::macs_per_iteration(&cases[0]), expected);
-    // A dense row adds nnz²/2 to forming GᵀDG, and its nonzeros to the mat-vecs.
+    assert_eq!(ipm::Sparsity::of(&cases[0]).envelope.ldl_macs(), ldl);
+    // A two-sided row on the first 10 unknowns couples the axes into one block. It is formed once
+    // (10·11/2 products and a weight per side), it adds its nonzeros and a term per side to every G
+    // product, 12 per side, and the factorisation, the solves and H·z grow to the merged envelope.
+    let n = 45;
     let row = DMatrix::from_fn(1, n, |_, j| if j < 10 { 1.0 } else { 0.0 });
     let one = DVector::from_element(1, 1.0);
     let with_row = cases[0].clone().with_rows(&row, &-&one, &one);
+    let merged = ipm::Sparsity::of(&with_row);
+    assert_eq!(merged.envelope.order, (0..n).collect::<Vec<_>>());
+    assert_eq!((merged.rows.len(), merged.side_row.len()), (1, 2));
+    let (hz2, solve2, ldl2) = (
+        merged.h_macs(),
+        merged.envelope.solve_macs(),
+        merged.envelope.ldl_macs(),
+    );
+    assert!(ldl2 > ldl && solve2 > solve && hz2 > hz);
+    let g_row = 10 + 2;
     assert_eq!(
         ipm::macs_per_iteration(&with_row),
-        expected + 2 * (10 * 10 / 2) + (6 + 3 * refinement) * 2 * 10 + 12 * 2
+        expected
+            + (hz2 - hz) * (1 + refinement)
+            + (solve2 - solve) * (2 + refinement)
+            + (ldl2 - ldl)
+            + (10 * 11 / 2 + 2)
+            + (2 + 4 + 2 * refinement) * g_row
+            + 12 * 2
     );
 }
