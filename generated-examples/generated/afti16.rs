@@ -676,12 +676,27 @@ pub mod afti16 {
             *o += x;
         }
     }
-    /// Row r of the compressed rows: its columns (positions, ascending) and values.
+    /// The runs of row r: (first position, offset into ROW_VAL, length).
     #[inline(always)]
-    fn row(r: usize) -> (&'static [usize], &'static [f64]) {
-        let (cols, vals): (&'static [usize], &'static [f64]) = (&ROW_COL, &ROW_VAL);
-        let (a, b) = (at_index(&ROW_START, r), at_index(&ROW_START, r + 1));
-        (cols.get(a..b).unwrap_or(&[]), vals.get(a..b).unwrap_or(&[]))
+    fn runs(r: usize) -> &'static [(usize, usize, usize)] {
+        let all: &'static [(usize, usize, usize)] = &RUNS;
+        all.get(at_index(&RUN_START, r)..at_index(&RUN_START, r + 1)).unwrap_or(&[])
+    }
+    /// A run's values: ROW_VAL[offset..offset + len].
+    #[inline(always)]
+    fn values(offset: usize, len: usize) -> &'static [f64] {
+        let all: &'static [f64] = &ROW_VAL;
+        all.get(offset..offset + len).unwrap_or(&[])
+    }
+    /// `v[at..at + len]`, empty past its end (as [`at`]).
+    #[inline(always)]
+    fn span_mut(v: &mut [f64], at: usize, len: usize) -> &mut [f64] {
+        v.get_mut(at..at + len).unwrap_or(&mut [])
+    }
+    /// `v[at..at + len]`, empty past its end.
+    #[inline(always)]
+    fn span(v: &[f64], at: usize, len: usize) -> &[f64] {
+        v.get(at..at + len).unwrap_or(&[])
     }
     /// a·b over the positions lo..hi (a row of H within its span).
     #[inline(always)]
@@ -712,6 +727,8 @@ pub mod afti16 {
         dual: [f64; NV],
         /// G z + s − h.
         primal: [f64; NSIDES],
+        /// Gᵀλ (the infeasibility certificate reads it too).
+        gl: [f64; NV],
         relative_primal: f64,
         relative_dual: f64,
         gap: f64,
@@ -741,8 +758,10 @@ pub mod afti16 {
         }
         let mut a = [0.0; NR];
         for (r, ar) in a.iter_mut().enumerate() {
-            let (cols, vals) = row(r);
-            *ar = cols.iter().zip(vals.iter()).map(|(c, v)| v * at(z, *c)).sum();
+            *ar = runs(r)
+                .iter()
+                .map(|&(at, offset, len)| dot(values(offset, len), span(z, at, len)))
+                .sum();
         }
         for j in 0..NG {
             out[NB + j] = SIDE_SIGN[j] * at(&a, SIDE_ROW[j]);
@@ -756,9 +775,13 @@ pub mod afti16 {
             add(&mut c, SIDE_ROW[j], SIDE_SIGN[j] * v[NB + j]);
         }
         for (r, cr) in c.iter().enumerate() {
-            let (cols, vals) = row(r);
-            for (col, val) in cols.iter().zip(vals.iter()) {
-                add(out, *col, val * cr);
+            for &(at, offset, len) in runs(r) {
+                for (o, v) in span_mut(out, at, len)
+                    .iter_mut()
+                    .zip(values(offset, len).iter())
+                {
+                    *o += v * cr;
+                }
             }
         }
         for k in 0..NB {
@@ -796,6 +819,7 @@ pub mod afti16 {
             objective_scale: 1.0 + (0.5 * dot(z, &hz)).abs() + dot(f, z).abs(),
             dual,
             primal,
+            gl,
         }
     }
     /// Forms H + Gᵀ·diag(w)·G (lower triangle, within the envelope) and factors it as L·D·Lᵀ in
@@ -820,12 +844,27 @@ pub mod afti16 {
                 }
             }
             for (r, wj) in wr.iter().enumerate() {
-                let (cols, vals) = row(r);
-                for (a, (ca, va)) in cols.iter().zip(vals.iter()).enumerate() {
-                    if let Some(target) = m.get_mut(*ca) {
-                        let wa = wj * va;
-                        for (cb, vb) in cols.iter().zip(vals.iter()).take(a + 1) {
-                            add(target, *cb, wa * vb);
+                let row_runs = runs(r);
+                for (ka, &(at_a, offset_a, len_a)) in row_runs.iter().enumerate() {
+                    let run_a = values(offset_a, len_a);
+                    for (ia, va) in run_a.iter().enumerate() {
+                        if let Some(target) = m.get_mut(at_a + ia) {
+                            let wa = wj * va;
+                            for &(at_b, offset_b, len_b) in row_runs.iter().take(ka) {
+                                let run_b = values(offset_b, len_b);
+                                for (e, vb) in span_mut(target, at_b, len_b)
+                                    .iter_mut()
+                                    .zip(run_b.iter())
+                                {
+                                    *e += wa * vb;
+                                }
+                            }
+                            for (e, vb) in span_mut(target, at_a, ia + 1)
+                                .iter_mut()
+                                .zip(run_a.iter())
+                            {
+                                *e += wa * vb;
+                            }
                         }
                     }
                 }
@@ -1054,9 +1093,8 @@ pub mod afti16 {
             r = residuals(f, h, z, s, lambda);
             iterations += live as u32;
             let htl = dot(h, lambda);
-            let mut gl = [0.0; NV];
-            g_tmul(lambda, &mut gl);
-            let certified = ((htl < 0.0) & (amax(&gl) <= INFEASIBILITY_TOLERANCE * -htl))
+            let certified = ((htl < 0.0)
+                & (amax(&r.gl) <= INFEASIBILITY_TOLERANCE * -htl))
                 | (amax(lambda) > 1e15);
             infeasible |= live & certified;
             live &= !certified;
@@ -1959,23 +1997,51 @@ pub mod afti16 {
         25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64,
         25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 0f64,
     ];
-    /// The rows with a finite side in compressed form: row r is Σ ROW_VAL[k]·z[ROW_COL[k]] over
-    /// k ∈ ROW_START[r]..ROW_START[r + 1], z in the method's order, columns ascending.
-    const ROW_START: [usize; NR + 1] = [
-        0, 3, 6, 11, 16, 23, 30, 39, 48, 59, 70, 83, 96, 111, 126, 143, 160, 179, 198,
-        219, 240,
+    /// The rows with a finite side as runs of consecutive positions (z in the method's order): row
+    /// r is the runs RUNS[RUN_START[r]..RUN_START[r + 1]], a run (at, offset, len) the values
+    /// ROW_VAL[offset..offset + len] at positions at..at + len.
+    const RUN_START: [usize; NR + 1] = [
+        0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30, 32, 34, 36, 37, 38,
     ];
-    const ROW_COL: [usize; 240] = [
-        0, 1, 20, 0, 1, 20, 0, 1, 2, 3, 20, 0, 1, 2, 3, 20, 0, 1, 2, 3, 4, 5, 20, 0, 1,
-        2, 3, 4, 5, 20, 0, 1, 2, 3, 4, 5, 6, 7, 20, 0, 1, 2, 3, 4, 5, 6, 7, 20, 0, 1, 2,
-        3, 4, 5, 6, 7, 8, 9, 20, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 20, 0, 1, 2, 3, 4, 5, 6,
-        7, 8, 9, 10, 11, 20, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 20, 0, 1, 2, 3, 4, 5,
-        6, 7, 8, 9, 10, 11, 12, 13, 20, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 20,
-        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 20, 0, 1, 2, 3, 4, 5, 6, 7,
-        8, 9, 10, 11, 12, 13, 14, 15, 20, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13,
-        14, 15, 16, 17, 20, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17,
-        20, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 0,
-        1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20,
+    const RUNS: [(usize, usize, usize); 38] = [
+        (0, 0, 2),
+        (20, 2, 1),
+        (0, 3, 2),
+        (20, 5, 1),
+        (0, 6, 4),
+        (20, 10, 1),
+        (0, 11, 4),
+        (20, 15, 1),
+        (0, 16, 6),
+        (20, 22, 1),
+        (0, 23, 6),
+        (20, 29, 1),
+        (0, 30, 8),
+        (20, 38, 1),
+        (0, 39, 8),
+        (20, 47, 1),
+        (0, 48, 10),
+        (20, 58, 1),
+        (0, 59, 10),
+        (20, 69, 1),
+        (0, 70, 12),
+        (20, 82, 1),
+        (0, 83, 12),
+        (20, 95, 1),
+        (0, 96, 14),
+        (20, 110, 1),
+        (0, 111, 14),
+        (20, 125, 1),
+        (0, 126, 16),
+        (20, 142, 1),
+        (0, 143, 16),
+        (20, 159, 1),
+        (0, 160, 18),
+        (20, 178, 1),
+        (0, 179, 18),
+        (20, 197, 1),
+        (0, 198, 21),
+        (0, 219, 21),
     ];
     const ROW_VAL: [f64; 240] = [
         -0.029135326803341265f64,

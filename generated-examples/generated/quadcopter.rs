@@ -440,12 +440,27 @@ pub mod quadcopter {
             *o += x;
         }
     }
-    /// Row r of the compressed rows: its columns (positions, ascending) and values.
+    /// The runs of row r: (first position, offset into ROW_VAL, length).
     #[inline(always)]
-    fn row(r: usize) -> (&'static [usize], &'static [f64]) {
-        let (cols, vals): (&'static [usize], &'static [f64]) = (&ROW_COL, &ROW_VAL);
-        let (a, b) = (at_index(&ROW_START, r), at_index(&ROW_START, r + 1));
-        (cols.get(a..b).unwrap_or(&[]), vals.get(a..b).unwrap_or(&[]))
+    fn runs(r: usize) -> &'static [(usize, usize, usize)] {
+        let all: &'static [(usize, usize, usize)] = &RUNS;
+        all.get(at_index(&RUN_START, r)..at_index(&RUN_START, r + 1)).unwrap_or(&[])
+    }
+    /// A run's values: ROW_VAL[offset..offset + len].
+    #[inline(always)]
+    fn values(offset: usize, len: usize) -> &'static [f64] {
+        let all: &'static [f64] = &ROW_VAL;
+        all.get(offset..offset + len).unwrap_or(&[])
+    }
+    /// `v[at..at + len]`, empty past its end (as [`at`]).
+    #[inline(always)]
+    fn span_mut(v: &mut [f64], at: usize, len: usize) -> &mut [f64] {
+        v.get_mut(at..at + len).unwrap_or(&mut [])
+    }
+    /// `v[at..at + len]`, empty past its end.
+    #[inline(always)]
+    fn span(v: &[f64], at: usize, len: usize) -> &[f64] {
+        v.get(at..at + len).unwrap_or(&[])
     }
     /// a·b over the positions lo..hi (a row of H within its span).
     #[inline(always)]
@@ -476,6 +491,8 @@ pub mod quadcopter {
         dual: [f64; NV],
         /// G z + s − h.
         primal: [f64; NSIDES],
+        /// Gᵀλ (the infeasibility certificate reads it too).
+        gl: [f64; NV],
         relative_primal: f64,
         relative_dual: f64,
         gap: f64,
@@ -505,8 +522,10 @@ pub mod quadcopter {
         }
         let mut a = [0.0; NR];
         for (r, ar) in a.iter_mut().enumerate() {
-            let (cols, vals) = row(r);
-            *ar = cols.iter().zip(vals.iter()).map(|(c, v)| v * at(z, *c)).sum();
+            *ar = runs(r)
+                .iter()
+                .map(|&(at, offset, len)| dot(values(offset, len), span(z, at, len)))
+                .sum();
         }
         for j in 0..NG {
             out[NB + j] = SIDE_SIGN[j] * at(&a, SIDE_ROW[j]);
@@ -520,9 +539,13 @@ pub mod quadcopter {
             add(&mut c, SIDE_ROW[j], SIDE_SIGN[j] * v[NB + j]);
         }
         for (r, cr) in c.iter().enumerate() {
-            let (cols, vals) = row(r);
-            for (col, val) in cols.iter().zip(vals.iter()) {
-                add(out, *col, val * cr);
+            for &(at, offset, len) in runs(r) {
+                for (o, v) in span_mut(out, at, len)
+                    .iter_mut()
+                    .zip(values(offset, len).iter())
+                {
+                    *o += v * cr;
+                }
             }
         }
         for k in 0..NB {
@@ -560,6 +583,7 @@ pub mod quadcopter {
             objective_scale: 1.0 + (0.5 * dot(z, &hz)).abs() + dot(f, z).abs(),
             dual,
             primal,
+            gl,
         }
     }
     /// Forms H + Gᵀ·diag(w)·G (lower triangle, within the envelope) and factors it as L·D·Lᵀ in
@@ -584,12 +608,27 @@ pub mod quadcopter {
                 }
             }
             for (r, wj) in wr.iter().enumerate() {
-                let (cols, vals) = row(r);
-                for (a, (ca, va)) in cols.iter().zip(vals.iter()).enumerate() {
-                    if let Some(target) = m.get_mut(*ca) {
-                        let wa = wj * va;
-                        for (cb, vb) in cols.iter().zip(vals.iter()).take(a + 1) {
-                            add(target, *cb, wa * vb);
+                let row_runs = runs(r);
+                for (ka, &(at_a, offset_a, len_a)) in row_runs.iter().enumerate() {
+                    let run_a = values(offset_a, len_a);
+                    for (ia, va) in run_a.iter().enumerate() {
+                        if let Some(target) = m.get_mut(at_a + ia) {
+                            let wa = wj * va;
+                            for &(at_b, offset_b, len_b) in row_runs.iter().take(ka) {
+                                let run_b = values(offset_b, len_b);
+                                for (e, vb) in span_mut(target, at_b, len_b)
+                                    .iter_mut()
+                                    .zip(run_b.iter())
+                                {
+                                    *e += wa * vb;
+                                }
+                            }
+                            for (e, vb) in span_mut(target, at_a, ia + 1)
+                                .iter_mut()
+                                .zip(run_a.iter())
+                            {
+                                *e += wa * vb;
+                            }
                         }
                     }
                 }
@@ -818,9 +857,8 @@ pub mod quadcopter {
             r = residuals(f, h, z, s, lambda);
             iterations += live as u32;
             let htl = dot(h, lambda);
-            let mut gl = [0.0; NV];
-            g_tmul(lambda, &mut gl);
-            let certified = ((htl < 0.0) & (amax(&gl) <= INFEASIBILITY_TOLERANCE * -htl))
+            let certified = ((htl < 0.0)
+                & (amax(&r.gl) <= INFEASIBILITY_TOLERANCE * -htl))
                 | (amax(lambda) > 1e15);
             infeasible |= live & certified;
             live &= !certified;
@@ -6582,33 +6620,244 @@ pub mod quadcopter {
         2.4084f64,
         0.9916f64,
     ];
-    /// The rows with a finite side in compressed form: row r is Σ ROW_VAL[k]·z[ROW_COL[k]] over
-    /// k ∈ ROW_START[r]..ROW_START[r + 1], z in the method's order, columns ascending.
-    const ROW_START: [usize; NR + 1] = [
-        0, 2, 4, 8, 12, 16, 24, 30, 36, 48, 56, 64, 80, 90, 100, 120, 132, 144, 168, 182,
-        196, 224, 240, 256, 288, 306, 324, 360, 380, 400, 440,
+    /// The rows with a finite side as runs of consecutive positions (z in the method's order): row
+    /// r is the runs RUNS[RUN_START[r]..RUN_START[r + 1]], a run (at, offset, len) the values
+    /// ROW_VAL[offset..offset + len] at positions at..at + len.
+    const RUN_START: [usize; NR + 1] = [
+        0, 2, 4, 5, 9, 13, 14, 20, 26, 27, 35, 43, 44, 54, 64, 65, 77, 89, 90, 104, 118,
+        119, 135, 151, 152, 170, 188, 189, 209, 229, 230,
     ];
-    const ROW_COL: [usize; 440] = [
-        1, 3, 0, 2, 0, 1, 2, 3, 1, 3, 5, 7, 0, 2, 4, 6, 0, 1, 2, 3, 4, 5, 6, 7, 1, 3, 5,
-        7, 9, 11, 0, 2, 4, 6, 8, 10, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 1, 3, 5, 7, 9,
-        11, 13, 15, 0, 2, 4, 6, 8, 10, 12, 14, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12,
-        13, 14, 15, 1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 0, 2, 4, 6, 8, 10, 12, 14, 16, 18,
-        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 1, 3, 5, 7,
-        9, 11, 13, 15, 17, 19, 21, 23, 0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 0, 1,
-        2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23,
-        1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 0, 2, 4, 6, 8, 10, 12, 14, 16,
-        18, 20, 22, 24, 26, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17,
-        18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21,
-        23, 25, 27, 29, 31, 0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30, 0,
-        1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22,
-        23, 24, 25, 26, 27, 28, 29, 30, 31, 1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23,
-        25, 27, 29, 31, 33, 35, 0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28,
-        30, 32, 34, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19,
-        20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 1, 3, 5, 7, 9,
-        11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31, 33, 35, 37, 39, 0, 2, 4, 6, 8, 10,
-        12, 14, 16, 18, 20, 22, 24, 26, 28, 30, 32, 34, 36, 38, 0, 1, 2, 3, 4, 5, 6, 7,
-        8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28,
-        29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39,
+    const RUNS: [(usize, usize, usize); 230] = [
+        (1, 0, 1),
+        (3, 1, 1),
+        (0, 2, 1),
+        (2, 3, 1),
+        (0, 4, 4),
+        (1, 8, 1),
+        (3, 9, 1),
+        (5, 10, 1),
+        (7, 11, 1),
+        (0, 12, 1),
+        (2, 13, 1),
+        (4, 14, 1),
+        (6, 15, 1),
+        (0, 16, 8),
+        (1, 24, 1),
+        (3, 25, 1),
+        (5, 26, 1),
+        (7, 27, 1),
+        (9, 28, 1),
+        (11, 29, 1),
+        (0, 30, 1),
+        (2, 31, 1),
+        (4, 32, 1),
+        (6, 33, 1),
+        (8, 34, 1),
+        (10, 35, 1),
+        (0, 36, 12),
+        (1, 48, 1),
+        (3, 49, 1),
+        (5, 50, 1),
+        (7, 51, 1),
+        (9, 52, 1),
+        (11, 53, 1),
+        (13, 54, 1),
+        (15, 55, 1),
+        (0, 56, 1),
+        (2, 57, 1),
+        (4, 58, 1),
+        (6, 59, 1),
+        (8, 60, 1),
+        (10, 61, 1),
+        (12, 62, 1),
+        (14, 63, 1),
+        (0, 64, 16),
+        (1, 80, 1),
+        (3, 81, 1),
+        (5, 82, 1),
+        (7, 83, 1),
+        (9, 84, 1),
+        (11, 85, 1),
+        (13, 86, 1),
+        (15, 87, 1),
+        (17, 88, 1),
+        (19, 89, 1),
+        (0, 90, 1),
+        (2, 91, 1),
+        (4, 92, 1),
+        (6, 93, 1),
+        (8, 94, 1),
+        (10, 95, 1),
+        (12, 96, 1),
+        (14, 97, 1),
+        (16, 98, 1),
+        (18, 99, 1),
+        (0, 100, 20),
+        (1, 120, 1),
+        (3, 121, 1),
+        (5, 122, 1),
+        (7, 123, 1),
+        (9, 124, 1),
+        (11, 125, 1),
+        (13, 126, 1),
+        (15, 127, 1),
+        (17, 128, 1),
+        (19, 129, 1),
+        (21, 130, 1),
+        (23, 131, 1),
+        (0, 132, 1),
+        (2, 133, 1),
+        (4, 134, 1),
+        (6, 135, 1),
+        (8, 136, 1),
+        (10, 137, 1),
+        (12, 138, 1),
+        (14, 139, 1),
+        (16, 140, 1),
+        (18, 141, 1),
+        (20, 142, 1),
+        (22, 143, 1),
+        (0, 144, 24),
+        (1, 168, 1),
+        (3, 169, 1),
+        (5, 170, 1),
+        (7, 171, 1),
+        (9, 172, 1),
+        (11, 173, 1),
+        (13, 174, 1),
+        (15, 175, 1),
+        (17, 176, 1),
+        (19, 177, 1),
+        (21, 178, 1),
+        (23, 179, 1),
+        (25, 180, 1),
+        (27, 181, 1),
+        (0, 182, 1),
+        (2, 183, 1),
+        (4, 184, 1),
+        (6, 185, 1),
+        (8, 186, 1),
+        (10, 187, 1),
+        (12, 188, 1),
+        (14, 189, 1),
+        (16, 190, 1),
+        (18, 191, 1),
+        (20, 192, 1),
+        (22, 193, 1),
+        (24, 194, 1),
+        (26, 195, 1),
+        (0, 196, 28),
+        (1, 224, 1),
+        (3, 225, 1),
+        (5, 226, 1),
+        (7, 227, 1),
+        (9, 228, 1),
+        (11, 229, 1),
+        (13, 230, 1),
+        (15, 231, 1),
+        (17, 232, 1),
+        (19, 233, 1),
+        (21, 234, 1),
+        (23, 235, 1),
+        (25, 236, 1),
+        (27, 237, 1),
+        (29, 238, 1),
+        (31, 239, 1),
+        (0, 240, 1),
+        (2, 241, 1),
+        (4, 242, 1),
+        (6, 243, 1),
+        (8, 244, 1),
+        (10, 245, 1),
+        (12, 246, 1),
+        (14, 247, 1),
+        (16, 248, 1),
+        (18, 249, 1),
+        (20, 250, 1),
+        (22, 251, 1),
+        (24, 252, 1),
+        (26, 253, 1),
+        (28, 254, 1),
+        (30, 255, 1),
+        (0, 256, 32),
+        (1, 288, 1),
+        (3, 289, 1),
+        (5, 290, 1),
+        (7, 291, 1),
+        (9, 292, 1),
+        (11, 293, 1),
+        (13, 294, 1),
+        (15, 295, 1),
+        (17, 296, 1),
+        (19, 297, 1),
+        (21, 298, 1),
+        (23, 299, 1),
+        (25, 300, 1),
+        (27, 301, 1),
+        (29, 302, 1),
+        (31, 303, 1),
+        (33, 304, 1),
+        (35, 305, 1),
+        (0, 306, 1),
+        (2, 307, 1),
+        (4, 308, 1),
+        (6, 309, 1),
+        (8, 310, 1),
+        (10, 311, 1),
+        (12, 312, 1),
+        (14, 313, 1),
+        (16, 314, 1),
+        (18, 315, 1),
+        (20, 316, 1),
+        (22, 317, 1),
+        (24, 318, 1),
+        (26, 319, 1),
+        (28, 320, 1),
+        (30, 321, 1),
+        (32, 322, 1),
+        (34, 323, 1),
+        (0, 324, 36),
+        (1, 360, 1),
+        (3, 361, 1),
+        (5, 362, 1),
+        (7, 363, 1),
+        (9, 364, 1),
+        (11, 365, 1),
+        (13, 366, 1),
+        (15, 367, 1),
+        (17, 368, 1),
+        (19, 369, 1),
+        (21, 370, 1),
+        (23, 371, 1),
+        (25, 372, 1),
+        (27, 373, 1),
+        (29, 374, 1),
+        (31, 375, 1),
+        (33, 376, 1),
+        (35, 377, 1),
+        (37, 378, 1),
+        (39, 379, 1),
+        (0, 380, 1),
+        (2, 381, 1),
+        (4, 382, 1),
+        (6, 383, 1),
+        (8, 384, 1),
+        (10, 385, 1),
+        (12, 386, 1),
+        (14, 387, 1),
+        (16, 388, 1),
+        (18, 389, 1),
+        (20, 390, 1),
+        (22, 391, 1),
+        (24, 392, 1),
+        (26, 393, 1),
+        (28, 394, 1),
+        (30, 395, 1),
+        (32, 396, 1),
+        (34, 397, 1),
+        (36, 398, 1),
+        (38, 399, 1),
+        (0, 400, 40),
     ];
     const ROW_VAL: [f64; 440] = [
         -0.0726f64,

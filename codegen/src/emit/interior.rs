@@ -64,18 +64,33 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             .iter()
             .map(|&(i, s)| side_bound(s, structure.z_min[i], structure.z_max[i])),
     );
-    // The distinct rows in compressed form, columns as ascending positions (the normal matrix fills
-    // its lower triangle); each side is ±its row.
+    // The distinct rows as runs of consecutive positions (a state row of one axis is its inputs so far
+    // and its slack: two runs), so the inner loops are over slices, with one range check per run. A
+    // run is (first position, offset into ROW_VAL, length).
     let nr = sparsity.rows.len();
-    let mut row_start = vec![0usize];
-    let mut row_val = Vec::new();
+    let (mut run_start, mut run_pos, mut run_offset, mut row_val) =
+        (vec![0usize], Vec::new(), vec![0usize], Vec::new());
     for (&r, positions) in sparsity.rows.iter().zip(&sparsity.row_positions) {
-        row_val.extend(positions.iter().map(|&q| structure.A[(r, order[q])]));
-        row_start.push(row_val.len());
+        for (k, &q) in positions.iter().enumerate() {
+            if k == 0 || positions[k - 1] + 1 != q {
+                if k > 0 {
+                    run_offset.push(row_val.len());
+                }
+                run_pos.push(q);
+            }
+            row_val.push(structure.A[(r, order[q])]);
+        }
+        if !positions.is_empty() {
+            run_offset.push(row_val.len());
+        }
+        run_start.push(run_pos.len());
     }
-    let row_nnz = lit(row_val.len());
-    let row_start_lit = row_start.iter().map(|s| lit(*s));
-    let row_col_lit = sparsity.row_positions.iter().flatten().map(|q| lit(*q));
+    let (row_nnz, n_runs) = (lit(row_val.len()), lit(run_pos.len()));
+    let run_start_lit = run_start.iter().map(|s| lit(*s));
+    let runs_lit = run_pos.iter().zip(run_offset.windows(2)).map(|(at, w)| {
+        let (at, offset, len) = (lit(*at), lit(w[0]), lit(w[1] - w[0]));
+        quote!((#at, #offset, #len))
+    });
     let row_val = wide.vector(row_val.iter().copied());
     let side_row = sparsity.side_row.iter().map(|r| lit(*r));
     let side_sign = wide.vector(layout.rows.iter().map(|(_, sign)| *sign));
@@ -519,12 +534,31 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 }
             }
 
-            /// Row r of the compressed rows: its columns (positions, ascending) and values.
+            /// The runs of row r: (first position, offset into ROW_VAL, length).
             #[inline(always)]
-            fn row(r: usize) -> (&'static [usize], &'static [f64]) {
-                let (cols, vals): (&'static [usize], &'static [f64]) = (&ROW_COL, &ROW_VAL);
-                let (a, b) = (at_index(&ROW_START, r), at_index(&ROW_START, r + 1));
-                (cols.get(a..b).unwrap_or(&[]), vals.get(a..b).unwrap_or(&[]))
+            fn runs(r: usize) -> &'static [(usize, usize, usize)] {
+                let all: &'static [(usize, usize, usize)] = &RUNS;
+                all.get(at_index(&RUN_START, r)..at_index(&RUN_START, r + 1))
+                    .unwrap_or(&[])
+            }
+
+            /// A run's values: ROW_VAL[offset..offset + len].
+            #[inline(always)]
+            fn values(offset: usize, len: usize) -> &'static [f64] {
+                let all: &'static [f64] = &ROW_VAL;
+                all.get(offset..offset + len).unwrap_or(&[])
+            }
+
+            /// `v[at..at + len]`, empty past its end (as [`at`]).
+            #[inline(always)]
+            fn span_mut(v: &mut [f64], at: usize, len: usize) -> &mut [f64] {
+                v.get_mut(at..at + len).unwrap_or(&mut [])
+            }
+
+            /// `v[at..at + len]`, empty past its end.
+            #[inline(always)]
+            fn span(v: &[f64], at: usize, len: usize) -> &[f64] {
+                v.get(at..at + len).unwrap_or(&[])
             }
 
             /// a·b over the positions lo..hi (a row of H within its span).
@@ -559,6 +593,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 dual: [f64; NV],
                 /// G z + s − h.
                 primal: [f64; NSIDES],
+                /// Gᵀλ (the infeasibility certificate reads it too).
+                gl: [f64; NV],
                 relative_primal: f64,
                 relative_dual: f64,
                 gap: f64,
@@ -592,8 +628,10 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 }
                 let mut a = [0.0; NR];
                 for (r, ar) in a.iter_mut().enumerate() {
-                    let (cols, vals) = row(r);
-                    *ar = cols.iter().zip(vals.iter()).map(|(c, v)| v * at(z, *c)).sum();
+                    *ar = runs(r)
+                        .iter()
+                        .map(|&(at, offset, len)| dot(values(offset, len), span(z, at, len)))
+                        .sum();
                 }
                 for j in 0..NG {
                     out[NB + j] = SIDE_SIGN[j] * at(&a, SIDE_ROW[j]);
@@ -608,9 +646,10 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     add(&mut c, SIDE_ROW[j], SIDE_SIGN[j] * v[NB + j]);
                 }
                 for (r, cr) in c.iter().enumerate() {
-                    let (cols, vals) = row(r);
-                    for (col, val) in cols.iter().zip(vals.iter()) {
-                        add(out, *col, val * cr);
+                    for &(at, offset, len) in runs(r) {
+                        for (o, v) in span_mut(out, at, len).iter_mut().zip(values(offset, len).iter()) {
+                            *o += v * cr;
+                        }
                     }
                 }
                 for k in 0..NB {
@@ -642,6 +681,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     objective_scale: 1.0 + (0.5 * dot(z, &hz)).abs() + dot(f, z).abs(),
                     dual,
                     primal,
+                    gl,
                 }
             }
 
@@ -667,13 +707,24 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                             add(row, i, w[k]);
                         }
                     }
+                    // Row r's outer product, lower triangle: entry a of run ka times the earlier runs
+                    // and its own run up to a.
                     for (r, wj) in wr.iter().enumerate() {
-                        let (cols, vals) = row(r);
-                        for (a, (ca, va)) in cols.iter().zip(vals.iter()).enumerate() {
-                            if let Some(target) = m.get_mut(*ca) {
-                                let wa = wj * va;
-                                for (cb, vb) in cols.iter().zip(vals.iter()).take(a + 1) {
-                                    add(target, *cb, wa * vb);
+                        let row_runs = runs(r);
+                        for (ka, &(at_a, offset_a, len_a)) in row_runs.iter().enumerate() {
+                            let run_a = values(offset_a, len_a);
+                            for (ia, va) in run_a.iter().enumerate() {
+                                if let Some(target) = m.get_mut(at_a + ia) {
+                                    let wa = wj * va;
+                                    for &(at_b, offset_b, len_b) in row_runs.iter().take(ka) {
+                                        let run_b = values(offset_b, len_b);
+                                        for (e, vb) in span_mut(target, at_b, len_b).iter_mut().zip(run_b.iter()) {
+                                            *e += wa * vb;
+                                        }
+                                    }
+                                    for (e, vb) in span_mut(target, at_a, ia + 1).iter_mut().zip(run_a.iter()) {
+                                        *e += wa * vb;
+                                    }
                                 }
                             }
                         }
@@ -916,9 +967,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     iterations += live as u32;
                     // Infeasible: λ ≥ 0 with Gᵀλ ≈ 0 and hᵀλ < 0 (Farkas), or diverged multipliers.
                     let htl = dot(h, lambda);
-                    let mut gl = [0.0; NV];
-                    g_tmul(lambda, &mut gl);
-                    let certified = ((htl < 0.0) & (amax(&gl) <= INFEASIBILITY_TOLERANCE * -htl)) | (amax(lambda) > 1e15);
+                    let certified = ((htl < 0.0) & (amax(&r.gl) <= INFEASIBILITY_TOLERANCE * -htl)) | (amax(lambda) > 1e15);
                     infeasible |= live & certified;
                     live &= !certified;
                 }
@@ -965,10 +1014,11 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             const BOX_POS: [usize; NB] = [#(#box_pos),*];
             const BOX_SIGN: [f64; NB] = #box_sign;
             const BOX_H: [f64; NB] = #box_h;
-            /// The rows with a finite side in compressed form: row r is Σ ROW_VAL[k]·z[ROW_COL[k]] over
-            /// k ∈ ROW_START[r]..ROW_START[r + 1], z in the method's order, columns ascending.
-            const ROW_START: [usize; NR + 1] = [#(#row_start_lit),*];
-            const ROW_COL: [usize; #row_nnz] = [#(#row_col_lit),*];
+            /// The rows with a finite side as runs of consecutive positions (z in the method's order): row
+            /// r is the runs RUNS[RUN_START[r]..RUN_START[r + 1]], a run (at, offset, len) the values
+            /// ROW_VAL[offset..offset + len] at positions at..at + len.
+            const RUN_START: [usize; NR + 1] = [#(#run_start_lit),*];
+            const RUNS: [(usize, usize, usize); #n_runs] = [#(#runs_lit),*];
             const ROW_VAL: [f64; #row_nnz] = #row_val;
             /// Side j is SIDE_SIGN[j]·(row SIDE_ROW[j]) ≤ h_j, with h_j = SIDE_H[j] − SIDE_X[j]·x0 (− …).
             const SIDE_ROW: [usize; NG] = [#(#side_row),*];
