@@ -679,11 +679,11 @@ fn paper_limits_flies_on_the_zynq_in_f64_with_the_same_instructions_every_cycle(
     print_figures(f, ZYNQ);
 }
 
-/// Red, not loosened: the paper-limits firmware links `core::panicking::panic_bounds_check` (and the
-/// panic handler), so the compiler could not prove some index of the emitted interior-point method in
-/// range. Which index is not found yet; the first-order builds link none (`no_panicking_code_is_linked`).
+/// The paper-limits firmware links no panicking code: every index of the emitted interior-point
+/// method into its constant tables goes through a checked `get` with a select (`at`, `put`, `span`),
+/// the indices the compiler can bound are plain, as in the first-order builds
+/// (`no_panicking_code_is_linked`).
 #[test]
-#[ignore = "the interior-point firmware links panic_bounds_check: an index the compiler cannot prove in range (open)"]
 fn paper_limits_firmware_links_no_panicking_code() {
     let f = limits_flight();
     let found = panicking_symbols(&f.elf);
