@@ -747,7 +747,10 @@ pub mod quadcopter {
     ) -> f64 {
         let mut alpha = f64::INFINITY;
         for k in 0..NSIDES {
-            let (rs, rl) = (-s[k] / ds[k], -lambda[k] / dl[k]);
+            let (rs, rl) = (
+                core::hint::black_box(-s[k] / ds[k]),
+                core::hint::black_box(-lambda[k] / dl[k]),
+            );
             alpha = smaller(alpha, if ds[k] < 0.0 { rs } else { f64::INFINITY });
             alpha = smaller(alpha, if dl[k] < 0.0 { rl } else { f64::INFINITY });
         }

@@ -847,8 +847,13 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             fn step_to_boundary(s: &[f64; NSIDES], lambda: &[f64; NSIDES], ds: &[f64; NSIDES], dl: &[f64; NSIDES]) -> f64 {
                 let mut alpha = f64::INFINITY;
                 for k in 0..NSIDES {
-                    // Both ratios are computed and selected: no branch on the data.
-                    let (rs, rl) = (-s[k] / ds[k], -lambda[k] / dl[k]);
+                    // Both ratios are computed and selected: no branch on the data. `black_box` keeps the
+                    // divisions out of the selects, where the compiler would otherwise sink them into
+                    // a branch.
+                    let (rs, rl) = (
+                        core::hint::black_box(-s[k] / ds[k]),
+                        core::hint::black_box(-lambda[k] / dl[k]),
+                    );
                     alpha = smaller(alpha, if ds[k] < 0.0 { rs } else { f64::INFINITY });
                     alpha = smaller(alpha, if dl[k] < 0.0 { rl } else { f64::INFINITY });
                 }
