@@ -503,17 +503,25 @@ pub mod quadcopter {
     fn amax(v: &[f64]) -> f64 {
         v.iter().fold(0.0, |m, x| larger(m, x.abs()))
     }
-    /// The larger of `a` and `b`, `a` when `b` is NaN: a select, not a branch or a libcall
-    /// (`f64::max` is a call to `fmax` on a VFP without `vmaxnm`), so every solve runs the
-    /// same instructions.
+    /// `a` if `c`, else `b`, by masks on the bits. The mask is hidden from the optimiser
+    /// (`black_box`): it would otherwise turn a select into a branch on the data where it judges
+    /// that cheaper (it did, in the step to the boundary), and every solve would not run the same
+    /// instructions.
+    #[inline(always)]
+    fn choose(c: bool, a: f64, b: f64) -> f64 {
+        let mask = core::hint::black_box(0u64.wrapping_sub(c as u64));
+        f64::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
+    }
+    /// The larger of `a` and `b`, `a` when `b` is NaN: a select (`choose`), not a branch or a
+    /// libcall (`f64::max` is a call to `fmax` on a VFP without `vmaxnm`).
     #[inline(always)]
     fn larger(a: f64, b: f64) -> f64 {
-        if b > a { b } else { a }
+        choose(b > a, b, a)
     }
     /// The smaller of `a` and `b`, `a` when `b` is NaN.
     #[inline(always)]
     fn smaller(a: f64, b: f64) -> f64 {
-        if b < a { b } else { a }
+        choose(b < a, b, a)
     }
     /// G z: the box's sides, then the rows' (each distinct row once, ± per side).
     fn g_mul(z: &[f64; NV], out: &mut [f64; NSIDES]) {
@@ -747,12 +755,9 @@ pub mod quadcopter {
     ) -> f64 {
         let mut alpha = f64::INFINITY;
         for k in 0..NSIDES {
-            let (rs, rl) = (
-                core::hint::black_box(-s[k] / ds[k]),
-                core::hint::black_box(-lambda[k] / dl[k]),
-            );
-            alpha = smaller(alpha, if ds[k] < 0.0 { rs } else { f64::INFINITY });
-            alpha = smaller(alpha, if dl[k] < 0.0 { rl } else { f64::INFINITY });
+            let (rs, rl) = (-s[k] / ds[k], -lambda[k] / dl[k]);
+            alpha = smaller(alpha, choose(ds[k] < 0.0, rs, f64::INFINITY));
+            alpha = smaller(alpha, choose(dl[k] < 0.0, rl, f64::INFINITY));
         }
         alpha
     }
@@ -835,7 +840,7 @@ pub mod quadcopter {
             }
             mu_affine /= NSIDES as f64;
             let ratio = smaller(larger(mu_affine / mu, 0.0), 1.0);
-            let sigma = if mu > 0.0 { ratio * ratio * ratio } else { 0.0 };
+            let sigma = choose(mu > 0.0, ratio * ratio * ratio, 0.0);
             for k in 0..NSIDES {
                 rc[k] = s[k] * lambda[k] + ds[k] * dl[k] - sigma * mu;
             }
