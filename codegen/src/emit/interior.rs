@@ -1,10 +1,13 @@
-//! The fixed-iteration interior-point MPC: `Mpc`, its `SolverStatus`, and a dense Mehrotra
+//! The fixed-iteration interior-point MPC: `Mpc`, its `SolverStatus`, and a Mehrotra
 //! predictor-corrector in f64 over constant tables, step for step the reference of
 //! [`crate::solver::ipm`] (which the oracle runs). The method computes in f64 whatever `Real` is: the
 //! data are widened where they enter and the command rounded where it leaves.
 //!
 //! The normal matrix H + Gᵀ·diag(λ/s)·G is factored as L·D·Lᵀ (no square root: `core` has none), where
-//! the reference takes a Cholesky factor; the two differ in rounding only.
+//! the reference takes a dense Cholesky factor; the two differ in rounding only. The emitted method
+//! works in the order of [`Sparsity`]: the matrix's independent blocks are contiguous, and the
+//! factorisation, the solves, H·z and the rows visit only what can be nonzero (the cost model counts
+//! exactly that). Its control flow does not depend on the data.
 #![allow(non_snake_case)]
 
 use super::constrained::{offsets, status_types, Offsets};
@@ -265,8 +268,9 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
         api: quote! {
             #status_types
 
-            /// Fixed-iteration, warm-started MPC with state, output and rate constraints: a dense
-            /// primal-dual interior-point method (Mehrotra's predictor-corrector) in f64.
+            /// Fixed-iteration, warm-started MPC with state, output and rate constraints: a primal-dual
+            /// interior-point method (Mehrotra's predictor-corrector) in f64, its normal matrix factored
+            /// within its envelope. Every solve runs the same instructions.
             #[doc = #evidence_doc]
             #[derive(Clone, Debug, PartialEq)]
             pub struct Mpc {
