@@ -270,7 +270,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
 
             /// Fixed-iteration, warm-started MPC with state, output and rate constraints: a primal-dual
             /// interior-point method (Mehrotra's predictor-corrector) in f64, its normal matrix factored
-            /// within its envelope. Every solve runs the same instructions.
+            /// within its envelope. Every solve runs the same instructions, but for the regularised
+            /// refactorisations after a pivot that is not positive.
             #[doc = #evidence_doc]
             #[derive(Clone, Debug, PartialEq)]
             pub struct Mpc {
