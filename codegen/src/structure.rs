@@ -283,14 +283,21 @@ impl Envelope {
         self.first.iter().enumerate().map(|(p, f)| p - f + 1).sum()
     }
 
+    /// One past the last row whose envelope reaches column j (j + 1 when none below it does): the
+    /// rows an L·D·Lᵀ step at column j updates lie in j + 1..reach(j).
+    pub fn reach(&self, j: usize) -> usize {
+        (j + 1..self.len())
+            .rfind(|&p| self.first[p] <= j)
+            .map_or(j + 1, |p| p + 1)
+    }
+
     /// Multiply-adds of L·D·Lᵀ within the envelope: per column j, the pivot's j − first[j] and, per row
     /// p > j whose envelope reaches j, j − max(first[p], first[j]).
     pub fn ldl_macs(&self) -> usize {
-        let n = self.len();
         let mut macs = 0;
-        for j in 0..n {
+        for j in 0..self.len() {
             macs += j - self.first[j];
-            for p in j + 1..n {
+            for p in j + 1..self.reach(j) {
                 if self.first[p] <= j {
                     macs += j - self.first[p].max(self.first[j]) + 1;
                 }

@@ -46,13 +46,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     let (order, position) = (&envelope.order, &envelope.position);
     let order_lit = order.iter().map(|i| lit(*i));
     let first_lit = envelope.first.iter().map(|f| lit(*f));
-    // One past the last row whose envelope reaches column j.
-    let reach_lit = (0..nv).map(|j| {
-        lit((j + 1..nv)
-            .filter(|&p| envelope.first[p] <= j)
-            .max()
-            .map_or(j + 1, |p| p + 1))
-    });
+    let reach_lit = (0..nv).map(|j| lit(envelope.reach(j)));
     let h_lo = sparsity.h_span.iter().map(|(lo, _)| lit(*lo));
     let h_hi = sparsity.h_span.iter().map(|(_, hi)| lit(*hi));
     let hv = wide.matrix(&DMatrix::from_fn(nv, nv, |p, q| {
@@ -71,27 +65,23 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     // and its slack: two runs), so the inner loops are over slices, with one range check per run. A
     // run is (first position, offset into ROW_VAL, length).
     let nr = sparsity.rows.len();
-    let (mut run_start, mut run_pos, mut run_offset, mut row_val) =
-        (vec![0usize], Vec::new(), vec![0usize], Vec::new());
+    let (mut run_start, mut runs, mut row_val) = (vec![0usize], Vec::new(), Vec::new());
     for (&r, positions) in sparsity.rows.iter().zip(&sparsity.row_positions) {
         for (k, &q) in positions.iter().enumerate() {
             if k == 0 || positions[k - 1] + 1 != q {
-                if k > 0 {
-                    run_offset.push(row_val.len());
-                }
-                run_pos.push(q);
+                runs.push((q, row_val.len(), 0));
+            }
+            if let Some(run) = runs.last_mut() {
+                run.2 += 1;
             }
             row_val.push(structure.A[(r, order[q])]);
         }
-        if !positions.is_empty() {
-            run_offset.push(row_val.len());
-        }
-        run_start.push(run_pos.len());
+        run_start.push(runs.len());
     }
-    let (row_nnz, n_runs) = (lit(row_val.len()), lit(run_pos.len()));
+    let (row_nnz, n_runs) = (lit(row_val.len()), lit(runs.len()));
     let run_start_lit = run_start.iter().map(|s| lit(*s));
-    let runs_lit = run_pos.iter().zip(run_offset.windows(2)).map(|(at, w)| {
-        let (at, offset, len) = (lit(*at), lit(w[0]), lit(w[1] - w[0]));
+    let runs_lit = runs.iter().map(|&(at, offset, len)| {
+        let (at, offset, len) = (lit(at), lit(offset), lit(len));
         quote!((#at, #offset, #len))
     });
     let row_val = wide.vector(row_val.iter().copied());

@@ -514,9 +514,9 @@ struct Counts {
 }
 
 fn counts(qp: &InequalityQp) -> Counts {
-    let sides = Sides::new(qp);
+    let layout = Layout::of(qp);
     let sparsity = Sparsity::of(qp);
-    let (nb, ng) = (sides.boxed.len(), sides.len() - sides.boxed.len());
+    let (nb, ng) = (layout.boxed.len(), layout.rows.len());
     // G z and Gᵀ v: each distinct row once, then one signed term per side.
     let g = sparsity.row_nnz() + nb + ng;
     let solve = sparsity.envelope.solve_macs();
@@ -535,7 +535,7 @@ fn counts(qp: &InequalityQp) -> Counts {
         direction: 2 * g + solve,
         // H Δz, Gᵀ Δλ, a solve and G of its result.
         refinement: hz + 2 * g + solve,
-        elementwise: 12 * sides.len(),
+        elementwise: 12 * (nb + ng),
     }
 }
 
