@@ -11,6 +11,7 @@
 #![allow(non_snake_case)]
 
 use super::constrained::{offsets, status_types, Offsets};
+use super::rows::Rows;
 use super::tokens::Num;
 use super::Sections;
 use crate::lower::Problem;
@@ -47,11 +48,11 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     let order_lit = order.iter().map(|i| lit(*i));
     let first_lit = envelope.first.iter().map(|f| lit(*f));
     let reach_lit = (0..nv).map(|j| lit(envelope.reach(j)));
-    let h_lo = sparsity.h_span.iter().map(|(lo, _)| lit(*lo));
-    let h_hi = sparsity.h_span.iter().map(|(_, hi)| lit(*hi));
-    let hv = wide.matrix(&DMatrix::from_fn(nv, nv, |p, q| {
-        structure.H[(order[p], order[q])]
-    }));
+    let h_method = DMatrix::from_fn(nv, nv, |p, q| structure.H[(order[p], order[q])]);
+    let hv = wide.matrix(&h_method);
+    // G·z, Gᵀ·v, H·z and (within its budget) the forming, written out over the constant structure.
+    let written = Rows::new(&structure, &layout, &sparsity);
+    let (g_mul, g_tmul, h_mul) = (written.g_mul(), written.g_tmul(), written.h_mul(&h_method));
     // Box sides: ±z_i ≤ ±bound, constant.
     let box_pos = layout.boxed.iter().map(|(i, _)| lit(position[*i]));
     let box_sign = wide.vector(layout.boxed.iter().map(|(_, s)| *s));
@@ -231,6 +232,134 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     let (wide_of_v, wide_of_x) = match num.0 {
         Scalar::F32 => (quote!(f64::from(*v)), quote!(f64::from(*x))),
         Scalar::F64 => (quote!(*v), quote!(*x)),
+    };
+    // The forming: written out, or (past its budget) a loop over the rows' runs.
+    let factor_doc = quote! {
+        /// Forms H + Gᵀ·diag(w)·G (lower triangle, within the envelope) and factors it as L·D·Lᵀ in
+        /// place, adding a growing multiple of I when a pivot is not positive (a semidefinite H with few
+        /// active sides), as the reference does; `false` when every attempt is refused.
+    };
+    let retry = quote! {
+        let scale = 1.0 + (0..NV).fold(0.0, |s, i| larger(s, m[i][i].abs()));
+        for (i, row) in m.iter_mut().enumerate() {
+            row[i] += delta;
+        }
+        if ldl(m) {
+            return true;
+        }
+        delta = if delta == 0.0 { 1e-12 * scale } else { delta * 1e3 };
+    };
+    let (factor, form_tables) = if written.form_written_out() {
+        let form = written.form(&h_method);
+        (
+            quote! {
+                #factor_doc
+                fn factor(w: &[f64; NSIDES], m: &mut [[f64; NV]; NV]) -> bool {
+                    let mut delta = 0.0;
+                    for _ in 0..4 {
+                        form(w, m);
+                        #retry
+                    }
+                    false
+                }
+
+                #form
+            },
+            quote!(),
+        )
+    } else {
+        (
+            quote! {
+                #factor_doc
+                fn factor(w: &[f64; NSIDES], m: &mut [[f64; NV]; NV]) -> bool {
+                    // A two-sided row's sides add their weights to one outer product.
+                    let mut wr = [0.0; NR];
+                    for j in 0..NG {
+                        add(&mut wr, SIDE_ROW[j], w[NB + j]);
+                    }
+                    let mut delta = 0.0;
+                    for _ in 0..4 {
+                    for (p, (row, h)) in m.iter_mut().zip(H.iter()).enumerate() {
+                        for (e, v) in row.iter_mut().zip(h.iter()).take(p + 1).skip(FIRST[p]) {
+                            *e = *v;
+                        }
+                    }
+                    for k in 0..NB {
+                        let i = BOX_POS[k];
+                        if let Some(row) = m.get_mut(i) {
+                            add(row, i, w[k]);
+                        }
+                    }
+                    // Row r's outer product, lower triangle: entry a of run ka times the earlier runs
+                    // and its own run up to a.
+                    for (r, wj) in wr.iter().enumerate() {
+                        let row_runs = runs(r);
+                        for (ka, &(at_a, offset_a, len_a)) in row_runs.iter().enumerate() {
+                            let run_a = values(offset_a, len_a);
+                            for (ia, va) in run_a.iter().enumerate() {
+                                if let Some(target) = m.get_mut(at_a + ia) {
+                                    let wa = wj * va;
+                                    for &(at_b, offset_b, len_b) in row_runs.iter().take(ka) {
+                                        let run_b = values(offset_b, len_b);
+                                        for (e, vb) in span_mut(target, at_b, len_b).iter_mut().zip(run_b.iter()) {
+                                            *e += wa * vb;
+                                        }
+                                    }
+                                    for (e, vb) in span_mut(target, at_a, ia + 1).iter_mut().zip(run_a.iter()) {
+                                        *e += wa * vb;
+                                    }
+                                }
+                            }
+                        }
+                    }
+                        #retry
+                    }
+                    false
+                }
+
+            /// `v[i] += x`, nothing past its end (as [`at`]).
+            #[inline(always)]
+            fn add(v: &mut [f64], i: usize, x: f64) {
+                if let Some(o) = v.get_mut(i) {
+                    *o += x;
+                }
+            }
+            /// The runs of row r: (first position, offset into ROW_VAL, length).
+            #[inline(always)]
+            fn runs(r: usize) -> &'static [(usize, usize, usize)] {
+                let all: &'static [(usize, usize, usize)] = &RUNS;
+                all.get(at_index(&RUN_START, r)..at_index(&RUN_START, r + 1))
+                    .unwrap_or(&[])
+            }
+
+            /// A run's values: ROW_VAL[offset..offset + len].
+            #[inline(always)]
+            fn values(offset: usize, len: usize) -> &'static [f64] {
+                let all: &'static [f64] = &ROW_VAL;
+                all.get(offset..offset + len).unwrap_or(&[])
+            }
+
+            /// `v[at..at + len]`, empty past its end (as [`at`]).
+            #[inline(always)]
+            fn span_mut(v: &mut [f64], at: usize, len: usize) -> &mut [f64] {
+                v.get_mut(at..at + len).unwrap_or(&mut [])
+            }
+
+            /// `v[at..at + len]`, empty past its end.
+            #[inline(always)]
+            fn span(v: &[f64], at: usize, len: usize) -> &[f64] {
+                v.get(at..at + len).unwrap_or(&[])
+            }
+            },
+            quote! {
+            /// The rows with a finite side as runs of consecutive positions (z in the method's order): row
+            /// r is the runs RUNS[RUN_START[r]..RUN_START[r + 1]], a run (at, offset, len) the values
+            /// ROW_VAL[offset..offset + len] at positions at..at + len.
+            const RUN_START: [usize; NR + 1] = [#(#run_start_lit),*];
+            const RUNS: [(usize, usize, usize); #n_runs] = [#(#runs_lit),*];
+            const ROW_VAL: [f64; #row_nnz] = #row_val;
+            },
+        )
     };
     Sections {
         constants: quote! {
@@ -521,47 +650,6 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 }
             }
 
-            /// `v[i] += x`, nothing past its end (as [`at`]).
-            #[inline(always)]
-            fn add(v: &mut [f64], i: usize, x: f64) {
-                if let Some(o) = v.get_mut(i) {
-                    *o += x;
-                }
-            }
-
-            /// The runs of row r: (first position, offset into ROW_VAL, length).
-            #[inline(always)]
-            fn runs(r: usize) -> &'static [(usize, usize, usize)] {
-                let all: &'static [(usize, usize, usize)] = &RUNS;
-                all.get(at_index(&RUN_START, r)..at_index(&RUN_START, r + 1))
-                    .unwrap_or(&[])
-            }
-
-            /// A run's values: ROW_VAL[offset..offset + len].
-            #[inline(always)]
-            fn values(offset: usize, len: usize) -> &'static [f64] {
-                let all: &'static [f64] = &ROW_VAL;
-                all.get(offset..offset + len).unwrap_or(&[])
-            }
-
-            /// `v[at..at + len]`, empty past its end (as [`at`]).
-            #[inline(always)]
-            fn span_mut(v: &mut [f64], at: usize, len: usize) -> &mut [f64] {
-                v.get_mut(at..at + len).unwrap_or(&mut [])
-            }
-
-            /// `v[at..at + len]`, empty past its end.
-            #[inline(always)]
-            fn span(v: &[f64], at: usize, len: usize) -> &[f64] {
-                v.get(at..at + len).unwrap_or(&[])
-            }
-
-            /// a·b over the positions lo..hi (a row of H within its span).
-            #[inline(always)]
-            fn span_dot(a: &[f64; NV], b: &[f64; NV], lo: usize, hi: usize) -> f64 {
-                a.iter().zip(b.iter()).take(hi).skip(lo).map(|(x, y)| x * y).sum()
-            }
-
             /// How the iteration ended.
             #[derive(Clone, Copy, PartialEq, Eq)]
             enum Ended {
@@ -625,47 +713,15 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 choose(b < a, b, a)
             }
 
-            /// G z: the box's sides, then the rows' (each distinct row once, ± per side).
-            fn g_mul(z: &[f64; NV], out: &mut [f64; NSIDES]) {
-                for k in 0..NB {
-                    out[k] = BOX_SIGN[k] * at(z, BOX_POS[k]);
-                }
-                let mut a = [0.0; NR];
-                for (r, ar) in a.iter_mut().enumerate() {
-                    *ar = runs(r)
-                        .iter()
-                        .map(|&(at, offset, len)| dot(values(offset, len), span(z, at, len)))
-                        .sum();
-                }
-                for j in 0..NG {
-                    out[NB + j] = SIDE_SIGN[j] * at(&a, SIDE_ROW[j]);
-                }
-            }
+            #g_mul
 
-            /// Gᵀ v.
-            fn g_tmul(v: &[f64; NSIDES], out: &mut [f64; NV]) {
-                *out = [0.0; NV];
-                let mut c = [0.0; NR];
-                for j in 0..NG {
-                    add(&mut c, SIDE_ROW[j], SIDE_SIGN[j] * v[NB + j]);
-                }
-                for (r, cr) in c.iter().enumerate() {
-                    for &(at, offset, len) in runs(r) {
-                        for (o, v) in span_mut(out, at, len).iter_mut().zip(values(offset, len).iter()) {
-                            *o += v * cr;
-                        }
-                    }
-                }
-                for k in 0..NB {
-                    add(out, BOX_POS[k], BOX_SIGN[k] * v[k]);
-                }
-            }
+            #g_tmul
+
+            #h_mul
 
             fn residuals(f: &[f64; NV], h: &[f64; NSIDES], z: &[f64; NV], s: &[f64; NSIDES], lambda: &[f64; NSIDES]) -> Residuals {
                 let mut hz = [0.0; NV];
-                for (p, o) in hz.iter_mut().enumerate() {
-                    *o = span_dot(&H[p], z, H_LO[p], H_HI[p]);
-                }
+                h_mul(z, &mut hz);
                 let mut gz = [0.0; NSIDES];
                 g_mul(z, &mut gz);
                 let mut gl = [0.0; NV];
@@ -689,61 +745,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 }
             }
 
-            /// Forms H + Gᵀ·diag(w)·G (lower triangle, within the envelope) and factors it as L·D·Lᵀ in
-            /// place, adding a growing multiple of I when a pivot is not positive (a semidefinite H with few
-            /// active sides), as the reference does; `false` when every attempt is refused.
-            fn factor(w: &[f64; NSIDES], m: &mut [[f64; NV]; NV]) -> bool {
-                // A two-sided row's sides add their weights to one outer product.
-                let mut wr = [0.0; NR];
-                for j in 0..NG {
-                    add(&mut wr, SIDE_ROW[j], w[NB + j]);
-                }
-                let mut delta = 0.0;
-                for _ in 0..4 {
-                    for (p, (row, h)) in m.iter_mut().zip(H.iter()).enumerate() {
-                        for (e, v) in row.iter_mut().zip(h.iter()).take(p + 1).skip(FIRST[p]) {
-                            *e = *v;
-                        }
-                    }
-                    for k in 0..NB {
-                        let i = BOX_POS[k];
-                        if let Some(row) = m.get_mut(i) {
-                            add(row, i, w[k]);
-                        }
-                    }
-                    // Row r's outer product, lower triangle: entry a of run ka times the earlier runs
-                    // and its own run up to a.
-                    for (r, wj) in wr.iter().enumerate() {
-                        let row_runs = runs(r);
-                        for (ka, &(at_a, offset_a, len_a)) in row_runs.iter().enumerate() {
-                            let run_a = values(offset_a, len_a);
-                            for (ia, va) in run_a.iter().enumerate() {
-                                if let Some(target) = m.get_mut(at_a + ia) {
-                                    let wa = wj * va;
-                                    for &(at_b, offset_b, len_b) in row_runs.iter().take(ka) {
-                                        let run_b = values(offset_b, len_b);
-                                        for (e, vb) in span_mut(target, at_b, len_b).iter_mut().zip(run_b.iter()) {
-                                            *e += wa * vb;
-                                        }
-                                    }
-                                    for (e, vb) in span_mut(target, at_a, ia + 1).iter_mut().zip(run_a.iter()) {
-                                        *e += wa * vb;
-                                    }
-                                }
-                            }
-                        }
-                    }
-                    let scale = 1.0 + (0..NV).fold(0.0, |s, i| larger(s, m[i][i].abs()));
-                    for (i, row) in m.iter_mut().enumerate() {
-                        row[i] += delta;
-                    }
-                    if ldl(m) {
-                        return true;
-                    }
-                    delta = if delta == 0.0 { 1e-12 * scale } else { delta * 1e3 };
-                }
-                false
-            }
+            #factor
 
             /// L·D·Lᵀ of the lower triangle of `m` within the envelope (row p from FIRST[p]), in place (D on
             /// the diagonal); `false` when a pivot is not positive and finite. It runs to the end either
@@ -829,10 +831,11 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 // Iterative refinement on H·Δz + Gᵀ·Δλ = −r_d, whose digits the normal matrix loses when
                 // λ/s spans many orders of magnitude.
                 for _ in 0..refinement {
-                    let mut e = [0.0; NV];
+                    let (mut e, mut hdz) = ([0.0; NV], [0.0; NV]);
                     g_tmul(dl, &mut e);
+                    h_mul(dz, &mut hdz);
                     for i in 0..NV {
-                        e[i] = -r.dual[i] - (span_dot(&H[i], dz, H_LO[i], H_HI[i]) + e[i]);
+                        e[i] = -r.dual[i] - (hdz[i] + e[i]);
                     }
                     ldl_solve(m, &mut e);
                     g_mul(&e, &mut gdz);
@@ -1018,18 +1021,13 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             const BOX_POS: [usize; NB] = [#(#box_pos),*];
             const BOX_SIGN: [f64; NB] = #box_sign;
             const BOX_H: [f64; NB] = #box_h;
-            /// The rows with a finite side as runs of consecutive positions (z in the method's order): row
-            /// r is the runs RUNS[RUN_START[r]..RUN_START[r + 1]], a run (at, offset, len) the values
-            /// ROW_VAL[offset..offset + len] at positions at..at + len.
-            const RUN_START: [usize; NR + 1] = [#(#run_start_lit),*];
-            const RUNS: [(usize, usize, usize); #n_runs] = [#(#runs_lit),*];
-            const ROW_VAL: [f64; #row_nnz] = #row_val;
             /// Side j is SIDE_SIGN[j]·(row SIDE_ROW[j]) ≤ h_j, with h_j = SIDE_H[j] − SIDE_X[j]·x0 (− …).
             const SIDE_ROW: [usize; NG] = [#(#side_row),*];
             const SIDE_SIGN: [f64; NG] = #side_sign;
             const SIDE_H: [f64; NG] = #side_h;
             /// Whether a side belongs to a soft row (its violation is priced, not forbidden).
             const SIDE_SOFT: [bool; NG] = [#(#side_soft),*];
+            #form_tables
             #side_tables
             /// The method's order: position p holds unknown ORDER[p] (plan entries, then slacks). It puts
             /// the normal matrix's independent blocks (the drone's axes) side by side.
@@ -1038,9 +1036,6 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             /// one past the last row that reaches column j.
             const FIRST: [usize; NV] = [#(#first_lit),*];
             const REACH: [usize; NV] = [#(#reach_lit),*];
-            /// Row p of H is nonzero only in columns H_LO[p]..H_HI[p].
-            const H_LO: [usize; NV] = [#(#h_lo),*];
-            const H_HI: [usize; NV] = [#(#h_hi),*];
             /// The method's Hessian blkdiag(H, diag(q_σ)) (eq. 9's H, then the slacks' quadratic weights),
             /// in the method's order.
             pub const H: [[f64; NV]; NV] = #hv;
