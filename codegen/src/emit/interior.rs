@@ -11,7 +11,7 @@
 #![allow(non_snake_case)]
 
 use super::constrained::{offsets, status_types, Offsets};
-use super::rows::Rows;
+use super::rows::{self, Rows};
 use super::tokens::Num;
 use super::Sections;
 use crate::lower::Problem;
@@ -361,6 +361,64 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             },
         )
     };
+    // L·D·Lᵀ and its solves: written out within the envelope, or (past their budget) loops over it.
+    let ldl_kernels = if rows::ldl_written_out(envelope) {
+        rows::ldl(envelope)
+    } else {
+        quote! {
+            /// L·D·Lᵀ of the lower triangle of `m` within the envelope (row p from FIRST[p]), in place (D on
+            /// the diagonal); `false` when a pivot is not positive and finite. It runs to the end either
+            /// way: the same instructions every time. Nothing fills outside the envelope.
+            fn ldl(m: &mut [[f64; NV]; NV]) -> bool {
+                let mut v = [0.0; NV];
+                let mut positive = true;
+                for j in 0..NV {
+                    let fj = FIRST[j];
+                    let mut d = m[j][j];
+                    for k in fj..j {
+                        v[k] = m[j][k] * m[k][k];
+                        d -= m[j][k] * v[k];
+                    }
+                    // `&`, not `&&`: no branch. NaN fails `d > 0.0`.
+                    positive &= (d > 0.0) & (d < f64::INFINITY);
+                    m[j][j] = d;
+                    for (p, row) in m.iter_mut().enumerate().take(REACH[j]).skip(j + 1) {
+                        // FIRST is constant: the same branch every time.
+                        let fp = at_index(&FIRST, p);
+                        if fp <= j {
+                            let mut a = row[j];
+                            for k in if fp > fj { fp } else { fj }..j {
+                                a -= row[k] * v[k];
+                            }
+                            row[j] = a / d;
+                        }
+                    }
+                }
+                positive
+            }
+
+            /// Solves L·D·Lᵀ x = b in place, within the envelope.
+            fn ldl_solve(m: &[[f64; NV]; NV], b: &mut [f64; NV]) {
+                for i in 0..NV {
+                    let mut a = b[i];
+                    for k in FIRST[i]..i {
+                        a -= m[i][k] * b[k];
+                    }
+                    b[i] = a;
+                }
+                for i in 0..NV {
+                    b[i] /= m[i][i];
+                }
+                // Lᵀ by rows of L: x_i is final once every later row has given its share.
+                for i in (0..NV).rev() {
+                    let x = b[i];
+                    for k in FIRST[i]..i {
+                        b[k] -= m[i][k] * x;
+                    }
+                }
+            }
+        }
+    };
     Sections {
         constants: quote! {
             /// Entries of the plan, N·NU.
@@ -492,10 +550,13 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                         *p = clamp(*p, i);
                     }
                     let pick = trusted as usize;
-                    self.plan = [held, solved][pick];
-                    self.z = [self.z, z][pick];
-                    self.s = [self.s, s][pick];
-                    self.lambda = [self.lambda, lambda][pick];
+                    self.plan = *[&held, &solved][pick];
+                    // Copies of what is kept, so that no copy overlaps its source (a `memmove`, whose
+                    // path depends on the addresses).
+                    let kept = (self.z, self.s, self.lambda);
+                    self.z = *[&kept.0, &z][pick];
+                    self.s = *[&kept.1, &s][pick];
+                    self.lambda = *[&kept.2, &lambda][pick];
                     self.warm = trusted;
                     let (violation, softened) = violations(&self.plan, &h);
                     self.status = SolverStatus {
@@ -747,57 +808,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
 
             #factor
 
-            /// L·D·Lᵀ of the lower triangle of `m` within the envelope (row p from FIRST[p]), in place (D on
-            /// the diagonal); `false` when a pivot is not positive and finite. It runs to the end either
-            /// way: the same instructions every time. Nothing fills outside the envelope.
-            fn ldl(m: &mut [[f64; NV]; NV]) -> bool {
-                let mut v = [0.0; NV];
-                let mut positive = true;
-                for j in 0..NV {
-                    let fj = FIRST[j];
-                    let mut d = m[j][j];
-                    for k in fj..j {
-                        v[k] = m[j][k] * m[k][k];
-                        d -= m[j][k] * v[k];
-                    }
-                    // `&`, not `&&`: no branch. NaN fails `d > 0.0`.
-                    positive &= (d > 0.0) & (d < f64::INFINITY);
-                    m[j][j] = d;
-                    for (p, row) in m.iter_mut().enumerate().take(REACH[j]).skip(j + 1) {
-                        // FIRST is constant: the same branch every time.
-                        let fp = at_index(&FIRST, p);
-                        if fp <= j {
-                            let mut a = row[j];
-                            for k in if fp > fj { fp } else { fj }..j {
-                                a -= row[k] * v[k];
-                            }
-                            row[j] = a / d;
-                        }
-                    }
-                }
-                positive
-            }
-
-            /// Solves L·D·Lᵀ x = b in place, within the envelope.
-            fn ldl_solve(m: &[[f64; NV]; NV], b: &mut [f64; NV]) {
-                for i in 0..NV {
-                    let mut a = b[i];
-                    for k in FIRST[i]..i {
-                        a -= m[i][k] * b[k];
-                    }
-                    b[i] = a;
-                }
-                for i in 0..NV {
-                    b[i] /= m[i][i];
-                }
-                // Lᵀ by rows of L: x_i is final once every later row has given its share.
-                for i in (0..NV).rev() {
-                    let x = b[i];
-                    for k in FIRST[i]..i {
-                        b[k] -= m[i][k] * x;
-                    }
-                }
-            }
+            #ldl_kernels
 
             /// The Newton direction for the complementarity right-hand side rc (Λ·Δs + S·Δλ = −rc): from
             /// (H + Gᵀ·D·G)·Δz = −r_d − Gᵀ(D·r_p − rc/s), D = λ/s.
@@ -913,11 +924,14 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 for v in s.iter_mut().chain(lambda.iter_mut()) {
                     *v = larger(WARM_FLOOR, *v);
                 }
-                // Selected by index, not by a branch around the copies.
+                // Selected by index (one of two references, then one copy of the same size), not by a branch;
+                // from copies, so that no copy overlaps its source (a `memmove`, whose path depends on the
+                // addresses).
                 let pick = warm as usize;
-                *z = [zc, *z][pick];
-                *s = [sc, *s][pick];
-                *lambda = [lc, *lambda][pick];
+                let kept = (*z, *s, *lambda);
+                *z = *[&zc, &kept.0][pick];
+                *s = *[&sc, &kept.1][pick];
+                *lambda = *[&lc, &kept.2][pick];
                 let started = (warm | cold_factored) & finite64(z) & finite64(s) & finite64(lambda);
                 let mut r = residuals(f, h, z, s, lambda);
                 // `live`: the point still moves. `&` and `|` on flags, not `&&`: no branches.
@@ -955,21 +969,22 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     }
                     direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl, REFINEMENT);
                     let alpha = smaller(1.0, FRACTION * step_to_boundary(s, lambda, &ds, &dl));
-                    let (mut zn, mut sn, mut ln) = (*z, *s, *lambda);
+                    let (mut zn, mut sn, mut ln) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
                     for i in 0..NV {
-                        zn[i] += alpha * dz[i];
+                        zn[i] = z[i] + alpha * dz[i];
                     }
                     for k in 0..NSIDES {
-                        sn[k] += alpha * ds[k];
-                        ln[k] += alpha * dl[k];
+                        sn[k] = s[k] + alpha * ds[k];
+                        ln[k] = lambda[k] + alpha * dl[k];
                     }
                     let stepped = finite64(&zn) & finite64(&sn) & finite64(&ln) & positive64(&sn) & positive64(&ln);
                     failed |= live & !stepped;
                     live &= stepped;
                     let pick = live as usize;
-                    *z = [*z, zn][pick];
-                    *s = [*s, sn][pick];
-                    *lambda = [*lambda, ln][pick];
+                    let kept = (*z, *s, *lambda);
+                    *z = *[&kept.0, &zn][pick];
+                    *s = *[&kept.1, &sn][pick];
+                    *lambda = *[&kept.2, &ln][pick];
                     r = residuals(f, h, z, s, lambda);
                     iterations += live as u32;
                     // Infeasible: λ ≥ 0 with Gᵀλ ≈ 0 and hᵀλ < 0 (Farkas), or diverged multipliers.

@@ -13,6 +13,7 @@
 
 use super::tokens::Num;
 use crate::solver::ipm::{InequalityQp, Layout, Sparsity};
+use crate::structure::Envelope;
 use mpc_spec::Scalar;
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote, ToTokens};
@@ -250,5 +251,91 @@ fn signed(sign: f64, v: TokenStream) -> TokenStream {
         v
     } else {
         quote!(-#v)
+    }
+}
+
+/// Multiply-adds of the written-out L·D·Lᵀ above which it stays a loop over the envelope (`interior.rs`):
+/// one statement per multiply-add, as [`FORM_BUDGET`].
+pub const LDL_BUDGET: usize = 16_384;
+
+/// Whether the factorisation and its solves are written out for `envelope` (see [`LDL_BUDGET`]).
+pub fn ldl_written_out(envelope: &Envelope) -> bool {
+    envelope.ldl_macs() <= LDL_BUDGET
+}
+
+/// `fn ldl(m) -> bool` and `fn ldl_solve(m, b)` written out within `envelope`: the loops of
+/// `interior.rs` unrolled, the same operations in the same order (so the same rounding).
+pub fn ldl(envelope: &Envelope) -> TokenStream {
+    let n = envelope.len();
+    let first = &envelope.first;
+    let m = |p: usize, q: usize| {
+        let (p, q) = (lit(p), lit(q));
+        quote!(m[#p][#q])
+    };
+    let mut factor = Vec::new();
+    for j in 0..n {
+        let fj = first[j];
+        let d = format_ident!("d{}", j);
+        let pivots = (fj..j).map(|k| {
+            let (v, mjk, mkk) = (at("v", k), m(j, k), m(k, k));
+            quote!(#v = #mjk * #mkk;)
+        });
+        let (mjj, terms) = (m(j, j), (fj..j).map(|k| (m(j, k), at("v", k))));
+        let terms = terms.map(|(a, b)| quote!(- #a * #b));
+        factor.push(quote! {
+            #(#pivots)*
+            let #d = #mjj #(#terms)*;
+            positive &= (#d > 0.0) & (#d < f64::INFINITY);
+            #mjj = #d;
+        });
+        for p in j + 1..envelope.reach(j) {
+            let fp = first[p];
+            if fp > j {
+                continue;
+            }
+            let mpj = m(p, j);
+            let terms = (fp.max(fj)..j).map(|k| {
+                let (a, b) = (m(p, k), at("v", k));
+                quote!(- #a * #b)
+            });
+            factor.push(quote!(#mpj = (#mpj #(#terms)*) / #d;));
+        }
+    }
+    let forward = (0..n).filter(|&i| first[i] < i).map(|i| {
+        let bi = at("b", i);
+        let terms = (first[i]..i).map(|k| {
+            let (a, b) = (m(i, k), at("b", k));
+            quote!(- #a * #b)
+        });
+        quote!(#bi = #bi #(#terms)*;)
+    });
+    let diagonal = (0..n).map(|i| {
+        let (bi, mii) = (at("b", i), m(i, i));
+        quote!(#bi /= #mii;)
+    });
+    let backward = (0..n).rev().flat_map(|i| {
+        (first[i]..i).map(move |k| {
+            let (bk, mik, bi) = (at("b", k), m(i, k), at("b", i));
+            quote!(#bk -= #mik * #bi;)
+        })
+    });
+    quote! {
+        /// L·D·Lᵀ of the lower triangle of `m` within the envelope, in place (D on the diagonal),
+        /// written out; `false` when a pivot is not positive and finite. Nothing fills outside the
+        /// envelope.
+        fn ldl(m: &mut [[f64; NV]; NV]) -> bool {
+            let mut v = [0.0; NV];
+            let mut positive = true;
+            #(#factor)*
+            positive
+        }
+
+        /// Solves L·D·Lᵀ x = b in place, within the envelope, written out.
+        fn ldl_solve(m: &[[f64; NV]; NV], b: &mut [f64; NV]) {
+            #(#forward)*
+            #(#diagonal)*
+            // Lᵀ by rows of L: x_i is final once every later row has given its share.
+            #(#backward)*
+        }
     }
 }
