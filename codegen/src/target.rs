@@ -17,13 +17,19 @@
 //! | cortex-a9 | f64 | 36,950 (`firmware-template/specs/paper-f64-n10.toml`, lanes on the VFP) | 10,236 | 3.6 | 1.5 | 5.4 |
 //! | cortex-m4f | f32 | 88,300 (`specs/paper.toml`) | 31,671 | 2.8 | 1 | 2.8 |
 //! | cortex-m4f | f64 | 1,665,603 (`firmware-template/specs/paper-f64-n10.toml`, software floating point) | 10,236 | 163 | 1 | 163 |
+//! | cortex-a9 | f64, interior-point method | 4,082,630 (`specs/paper-limits.toml`) | 514,480 | 7.9 | 1.5 | 11.9 |
+//! | cortex-m4f | f64, interior-point method | not run (the method is refused there) | | | 1 | 359 |
 //!
 //! The instruction counts are BENCHMARKS.md's: "Runtime hardening" (both boards' `paper.toml` with
 //! screening) and "Firmware (emulated Zynq-7000)" and "Firmware (emulated Cortex-M4F)" (the f64 rows). Under QEMU they are instructions, not cycles: the A9's 1.5 cycles
 //! per instruction is BENCHMARKS.md's estimate from the A9's published NEON issue rates (section
 //! "Emulated Cortex-A9", "Cycles, estimated"); a Cortex-M4 retires at most one instruction a cycle, so 1 is
 //! a lower bound there (flash wait states and multi-cycle divides come on top). These are estimates to a
-//! factor of about two, good enough to tell a step that fits its period from one that cannot.
+//! factor of about two, good enough to tell a step that fits its period from one that cannot. The
+//! interior-point method's row is its own: besides its multiply-adds it divides, selects and checks per
+//! side (`scripts/firmware.sh --cycles 30 specs/paper-limits.toml`, ticks × 10; BENCHMARKS.md, "The
+//! interior-point method on the emulated Zynq"). The M4F's is the A9's ratio to plain f64 (11.9 / 5.4)
+//! times the M4F's soft-float f64: derived, not measured, as the method is refused there.
 
 use crate::certificate::Resources;
 use crate::lower::Problem;
@@ -57,6 +63,9 @@ pub struct Machine {
     pub cycles_per_mac_f32: f64,
     /// Estimated cycles per multiply-add in f64.
     pub cycles_per_mac_f64: f64,
+    /// Estimated cycles per multiply-add of the interior-point method (f64): its iterations also divide,
+    /// select and check element by element, work its multiply-add count leaves out.
+    pub cycles_per_mac_ipm: f64,
 }
 
 /// The building machine: f64 in hardware, no SIMD assumed, no fixed clock. Its cycles per multiply-add
@@ -70,6 +79,7 @@ pub const HOST: Machine = Machine {
     clock_hz: None,
     cycles_per_mac_f32: 1.0,
     cycles_per_mac_f64: 1.0,
+    cycles_per_mac_ipm: 1.0,
 };
 
 /// The Zynq-7000's Cortex-A9: VFPv3 with 32 double registers (f64 in hardware) and NEON (f32 only). The
@@ -83,6 +93,7 @@ pub const CORTEX_A9: Machine = Machine {
     clock_hz: Some(667e6),
     cycles_per_mac_f32: 1.2,
     cycles_per_mac_f64: 5.4,
+    cycles_per_mac_ipm: 11.9,
 };
 
 /// The STM32F405's Cortex-M4F: a single-precision FPU (FPv4-SP), no SIMD for floats (the M4's SIMD is
@@ -95,6 +106,7 @@ pub const CORTEX_M4F: Machine = Machine {
     clock_hz: Some(168e6),
     cycles_per_mac_f32: 2.8,
     cycles_per_mac_f64: 163.0,
+    cycles_per_mac_ipm: 359.0,
 };
 
 /// What the compiler knows of `target`.
@@ -140,6 +152,8 @@ pub struct StepCost {
     pub solver_macs: usize,
     /// The scalar the solver computes in: f64 for the interior-point method, else the module's.
     pub solver_scalar: Scalar,
+    /// Estimated cycles per multiply-add of the solver.
+    pub solver_cycles_per_mac: f64,
     /// Multiply-adds of the rest of the control cycle (filter update and predict, gradient map).
     pub other_macs: usize,
     /// The module's scalar, which the rest runs in.
@@ -167,13 +181,20 @@ impl StepCost {
         };
         let solver_macs = p.qp.iterations * r.macs_per_iteration + r.macs_once_per_solve;
         let other_macs = r.macs_per_cycle.saturating_sub(solver_macs);
-        let solver_cycles = machine.cycles(solver_macs, solver_scalar);
+        let solver_cycles_per_mac =
+            if solver_scalar == Scalar::F64 && p.qp.method == mpc_spec::Method::Ipm {
+                machine.cycles_per_mac_ipm
+            } else {
+                machine.cycles_per_mac(solver_scalar)
+            };
+        let solver_cycles = solver_macs as f64 * solver_cycles_per_mac;
         StepCost {
             machine,
             iterations: p.qp.iterations,
             macs_per_iteration: r.macs_per_iteration,
             solver_macs,
             solver_scalar,
+            solver_cycles_per_mac,
             other_macs,
             scalar: p.scalar,
             solver_cycles,

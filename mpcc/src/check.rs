@@ -313,9 +313,7 @@ fn target_lines(step: &codegen::target::StepCost) -> Vec<(String, String)> {
         (Some(cycles), Some(load)) => (
             format!(
                 "{:.3e} cycles, of which the solver {:.3e} ({solver}, {} cycles each)",
-                step.cycles,
-                step.solver_cycles,
-                m.cycles_per_mac(step.solver_scalar)
+                step.cycles, step.solver_cycles, step.solver_cycles_per_mac
             ),
             format!(
                 "{} ms = {:.3e} cycles at {clock}: the step takes {:.1} %",
