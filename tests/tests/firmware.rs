@@ -667,12 +667,14 @@ fn paper_limits_flies_on_the_zynq_in_f64_with_the_same_instructions_every_cycle(
         }
     }
     assert_eq!(uint(r, "fallback_cycles"), fallbacks, "{r}");
-    // Millions of instructions a cycle (observed 12.2 M: the dense normal matrix formed and factored 22
-    // times a solve; BENCHMARKS.md says why this does not yet fit 12.8 ms at 667 MHz).
+    // Millions of instructions a cycle (observed 4.08 M with the kernels written out, 9.75 M with loops
+    // over the rows' runs, 12.2 M dense): it must fit the 12.8 ms period at 667 MHz with the 1.5 cycles
+    // an instruction the compiler's estimate assumes on the A9 (codegen::target), 5.7 M instructions.
     let instructions = uint(r, "ticks_mean") * ZYNQ.instructions_per_tick;
+    let budget = (limits::DT * 667e6 / 1.5) as u64;
     assert!(
-        instructions > 1_000_000 && instructions < 20_000_000,
-        "{instructions} instructions a cycle"
+        instructions > 1_000_000 && instructions <= budget,
+        "{instructions} instructions a cycle, against {budget} that fit the period"
     );
     let stack = uint(r, "cycle_stack_bytes");
     assert!(
