@@ -667,7 +667,7 @@ fn paper_limits_flies_on_the_zynq_in_f64_with_the_same_instructions_every_cycle(
         }
     }
     assert_eq!(uint(r, "fallback_cycles"), fallbacks, "{r}");
-    // Millions of instructions a cycle (observed 4.08 M with the kernels written out, 9.75 M with loops
+    // Millions of instructions a cycle (observed 3.47 M with the kernels written out, 9.75 M with loops
     // over the rows' runs, 12.2 M dense): it must fit the 12.8 ms period at 667 MHz with the 1.5 cycles
     // an instruction the compiler's estimate assumes on the A9 (codegen::target), 5.7 M instructions.
     let instructions = uint(r, "ticks_mean") * ZYNQ.instructions_per_tick;
