@@ -1,0 +1,393 @@
+//! The Riccati form of the interior-point method's Newton system: the same iterates as the condensed
+//! form of [`crate::solver::ipm`] (to rounding), the normal system solved stage by stage.
+//!
+//! With the states eliminated (x = Sx·x0 + Su·U), the normal system (H + Gᵀ·D·G)·ΔU = r of the condensed
+//! method is the stationarity condition of an LQ problem over the stages: x_0 = 0,
+//! x_{k+1} = A·x_k + B·u_k, minimise ½Σ_k (x_kᵀQ̃_k x_k + 2u_kᵀS̃_k x_k + u_kᵀR̃_k u_k) + ½x_NᵀQ̃_N x_N − rᵀU
+//! with Q̃_k = 2Q + Σ w·ax·axᵀ (2Q_f at k = N), S̃_k = Σ w·au·axᵀ and R̃_k = 2R + D_box,k + Σ w·au·auᵀ over
+//! the rows on stage k (a row's weight w the sum of its sides' λ/s). A backward Riccati recursion
+//! factors it (per stage Re_k = R̃_k + BᵀP_{k+1}B, K_k = Re_k⁻¹(S̃_k + BᵀP_{k+1}A),
+//! P_k = Q̃_k + AᵀP_{k+1}A − (S̃_k + BᵀP_{k+1}A)ᵀK_k), and a backward sweep of the linear term and a
+//! forward rollout solve it, in O(N·(nx³ + …)) where the dense factorisation is O(N³·nu³).
+//!
+//! Built for the input box, state bounds and row groups (with or without `au`), hard. Not built, so
+//! that the condensed form is used ([`Stages::of`] says why): move bounds (a row on u_k − u_{k−1}),
+//! weighted moves (`r_du`: the stage would carry u_{k−1} as a state), and soft rows (their slacks are
+//! shared by every stage: a Schur complement).
+//!
+//! The regularisation of a refused factorisation is the condensed one's, M + δ·I, which here is
+//! R̃_k + δ·I at every stage; δ is relative to the largest diagonal entry of the R̃_k (the condensed
+//! form's: of M), so the two forms regularise alike but not identically.
+#![allow(non_snake_case)]
+
+use crate::constraints::StageRow;
+use crate::lower::Qp;
+use nalgebra::{DMatrix, DVector};
+
+/// How the interior-point method solves its normal system: the same iterates either way, to rounding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Form {
+    /// L·D·Lᵀ of the condensed normal matrix within its envelope.
+    Condensed,
+    /// The stage-wise Riccati recursion ([`Stages`]).
+    Riccati,
+}
+
+impl Form {
+    /// Its name in `mpcc check`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Form::Condensed => "condensed",
+            Form::Riccati => "riccati",
+        }
+    }
+}
+
+/// The cost model's choice of [`Form`], with both counts.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Choice {
+    /// The form the method uses: the Riccati form where it is built for the problem and counts fewer
+    /// multiply-adds per iteration.
+    pub form: Form,
+    /// Multiply-adds of one iteration in the condensed form.
+    pub condensed_macs_per_iteration: usize,
+    /// Multiply-adds of one iteration in the Riccati form; `None` where it is not built for the problem.
+    pub riccati_macs_per_iteration: Option<usize>,
+    /// Why the Riccati form is not built for the problem.
+    pub riccati_unavailable: Option<String>,
+}
+
+impl Choice {
+    /// The choice for `qp`.
+    pub fn of(qp: &Qp) -> Self {
+        let condensed = crate::solver::ipm::condensed_macs_per_iteration(qp);
+        match Stages::of(qp) {
+            Ok(stages) => {
+                let riccati = stages.macs_per_iteration(qp);
+                Choice {
+                    form: if riccati < condensed {
+                        Form::Riccati
+                    } else {
+                        Form::Condensed
+                    },
+                    condensed_macs_per_iteration: condensed,
+                    riccati_macs_per_iteration: Some(riccati),
+                    riccati_unavailable: None,
+                }
+            }
+            Err(why) => Choice {
+                form: Form::Condensed,
+                condensed_macs_per_iteration: condensed,
+                riccati_macs_per_iteration: None,
+                riccati_unavailable: Some(why),
+            },
+        }
+    }
+
+    /// The chosen form's multiply-adds of one iteration.
+    pub fn macs_per_iteration(&self) -> usize {
+        match (self.form, self.riccati_macs_per_iteration) {
+            (Form::Riccati, Some(m)) => m,
+            _ => self.condensed_macs_per_iteration,
+        }
+    }
+}
+
+/// The stage-wise model of the condensed QP: the dynamics, the stage weights and the rows per slot.
+#[derive(Clone, Debug)]
+pub struct Stages {
+    /// The horizon.
+    pub N: usize,
+    /// The dynamics x_{k+1} = A·x_k + B·u_k (nx × nx, nx × nu), the blocks of Sx and Su.
+    pub A: DMatrix<f64>,
+    /// See `A`.
+    pub B: DMatrix<f64>,
+    /// 2Q, the state Hessian of stages 1 … N−1.
+    pub Q2: DMatrix<f64>,
+    /// 2Q_f, the terminal state Hessian.
+    pub Qf2: DMatrix<f64>,
+    /// 2R, the input Hessian of every stage.
+    pub R2: DMatrix<f64>,
+    /// Each row of a slot on its stage's variables.
+    pub rows: Vec<StageRow>,
+}
+
+/// The stage model must reproduce H and the rows to this, relative to their largest entry.
+const REPRODUCED: f64 = 1e-10;
+
+impl Stages {
+    /// The stage model of `qp`, or why the Riccati form is not built for it.
+    pub fn of(qp: &Qp) -> Result<Self, String> {
+        let rows = &qp.rows;
+        if rows.slacks() > 0 {
+            return Err("soft rows share one slack per component over the horizon (a Schur complement, not built)".into());
+        }
+        if qp.R_du.iter().any(|v| *v != 0.0) {
+            return Err(
+                "`r_du` weights the moves, so a stage would carry u_{k−1} as a state (not built)"
+                    .into(),
+            );
+        }
+        if rows.stage.iter().any(Option::is_none) {
+            return Err("move bounds couple u_k and u_{k−1} (not built)".into());
+        }
+        let (nx, nu, N) = (qp.Sx.ncols(), qp.u_min.len(), qp.N);
+        if N == 0 || qp.Sx.nrows() != N * nx || qp.Su.shape() != (N * nx, N * nu) {
+            return Err("the prediction matrices are not stage-structured".into());
+        }
+        let stages = Stages {
+            N,
+            A: qp.Sx.rows(0, nx).into_owned(),
+            B: qp.Su.view((0, 0), (nx, nu)).into_owned(),
+            Q2: &qp.Q * 2.0,
+            Qf2: &qp.Qf * 2.0,
+            R2: &qp.R * 2.0,
+            rows: rows.stage.iter().flatten().cloned().collect(),
+        };
+        stages.reproduces(qp)?;
+        Ok(stages)
+    }
+
+    fn nx(&self) -> usize {
+        self.A.nrows()
+    }
+
+    fn nu(&self) -> usize {
+        self.B.ncols()
+    }
+
+    /// Whether the model gives back H = 2(Σ_k Su_kᵀ Q_k Su_k + R_blk) and the rows' coefficients on U.
+    fn reproduces(&self, qp: &Qp) -> Result<(), String> {
+        let (nx, nu, N) = (self.nx(), self.nu(), self.N);
+        let n = N * nu;
+        let Su = |k: usize| qp.Su.rows((k - 1) * nx, nx);
+        let mut H = DMatrix::zeros(n, n);
+        for k in 1..=N {
+            let Q = if k == N { &self.Qf2 } else { &self.Q2 };
+            H += Su(k).transpose() * Q * Su(k);
+        }
+        for k in 0..N {
+            let mut block = H.view_mut((k * nu, k * nu), (nu, nu));
+            block += &self.R2;
+        }
+        let close = |a: &DMatrix<f64>, b: &DMatrix<f64>| {
+            let scale = b.amax().max(f64::MIN_POSITIVE);
+            (a - b).amax() <= REPRODUCED * scale
+        };
+        if !close(&H, &qp.H) {
+            return Err("the stage weights do not reproduce the condensed Hessian".into());
+        }
+        let per_slot = qp.rows.per_slot;
+        let m = qp.rows.len();
+        if per_slot == 0 {
+            return if m == 0 {
+                Ok(())
+            } else {
+                Err("rows without slots".into())
+            };
+        }
+        let mut A = DMatrix::zeros(m, n);
+        for r in 0..m {
+            let (j, row) = (r / per_slot, &self.rows[r % per_slot]);
+            let k = j + row.lag;
+            if k >= 1 {
+                let on_U = row.ax.transpose() * Su(k);
+                A.row_mut(r).copy_from(&on_U);
+            }
+            for c in 0..nu {
+                A[(r, j * nu + c)] += row.au[c];
+            }
+        }
+        if !close(&A, &qp.rows.A.columns(0, n).into_owned()) {
+            return Err("the stage rows do not reproduce the condensed rows".into());
+        }
+        Ok(())
+    }
+
+    /// The stage Hessians for the weights `d` of the sides (box sides `boxed`, then row sides `rows`,
+    /// as [`crate::solver::ipm::Layout`]) and the regularisation `delta` on every R̃_k:
+    /// (Q̃_k for k = 0 … N, S̃_k and R̃_k for k = 0 … N−1).
+    fn hessians(
+        &self,
+        boxed: &[(usize, f64)],
+        rows: &[(usize, f64)],
+        d: &DVector<f64>,
+        delta: f64,
+    ) -> StageHessians {
+        let (nx, nu, N) = (self.nx(), self.nu(), self.N);
+        let mut Q: Vec<DMatrix<f64>> = (0..=N)
+            .map(|k| match k {
+                0 => DMatrix::zeros(nx, nx),
+                k if k == N => self.Qf2.clone(),
+                _ => self.Q2.clone(),
+            })
+            .collect();
+        let mut S = vec![DMatrix::zeros(nu, nx); N];
+        let mut R: Vec<DMatrix<f64>> = (0..N)
+            .map(|_| &self.R2 + DMatrix::identity(nu, nu) * delta)
+            .collect();
+        for (k, &(i, _)) in boxed.iter().enumerate() {
+            R[i / nu][(i % nu, i % nu)] += d[k];
+        }
+        let per_slot = self.rows.len();
+        for (side, &(r, _)) in rows.iter().enumerate() {
+            let w = d[boxed.len() + side];
+            let (j, row) = (r / per_slot, &self.rows[r % per_slot]);
+            let k = j + row.lag;
+            Q[k] += &row.ax * row.ax.transpose() * w;
+            if row.lag == 0 {
+                S[k] += &row.au * row.ax.transpose() * w;
+                R[k] += &row.au * row.au.transpose() * w;
+            }
+        }
+        StageHessians { Q, S, R }
+    }
+
+    /// The Riccati factor of H + Gᵀ·diag(d)·G + δ·I: `None` when a stage's Re_k is not positive
+    /// definite (the normal matrix is not).
+    pub fn factor(
+        &self,
+        boxed: &[(usize, f64)],
+        rows: &[(usize, f64)],
+        d: &DVector<f64>,
+        delta: f64,
+    ) -> Option<Factor> {
+        let StageHessians { Q, S, R } = self.hessians(boxed, rows, d, delta);
+        let (A, B, N) = (&self.A, &self.B, self.N);
+        let mut P = Q[N].clone();
+        let mut gains = vec![DMatrix::zeros(self.nu(), self.nx()); N];
+        let mut pivots = Vec::with_capacity(N);
+        for k in (0..N).rev() {
+            let PB = &P * B;
+            let Re = &R[k] + B.transpose() * &PB;
+            let Se = &S[k] + PB.transpose() * A;
+            let chol = Re.cholesky()?;
+            let K = chol.solve(&Se);
+            P = &Q[k] + A.transpose() * &P * A - Se.transpose() * &K;
+            gains[k] = K;
+            pivots.push(chol);
+        }
+        pivots.reverse();
+        Some(Factor {
+            A: A.clone(),
+            B: B.clone(),
+            gains,
+            pivots,
+        })
+    }
+
+    /// The scale of the regularisation: 1 + the largest |diagonal entry| of the R̃_k for weights `d`.
+    pub fn scale(&self, boxed: &[(usize, f64)], rows: &[(usize, f64)], d: &DVector<f64>) -> f64 {
+        let h = self.hessians(boxed, rows, d, 0.0);
+        1.0 + h
+            .R
+            .iter()
+            .flat_map(|R| R.diagonal().iter().map(|v| v.abs()).collect::<Vec<_>>())
+            .fold(0.0, f64::max)
+    }
+
+    /// Multiply-adds of one iteration in the Riccati form, by the rule of
+    /// [`crate::solver::ipm::macs_per_iteration`]: the condensed form's residuals, right-hand sides,
+    /// refinement and element-wise work, with the normal matrix's forming, factorisation and solves
+    /// replaced by [`Stages::factor_macs`] and [`Stages::solve_macs`].
+    pub fn macs_per_iteration(&self, qp: &Qp) -> usize {
+        let c = crate::solver::ipm::mpc_counts(qp);
+        let solves = 2 + crate::solver::ipm::REFINEMENT;
+        c.residuals
+            + self.factor_macs(qp)
+            + solves * self.solve_macs()
+            + (c.direction - c.solve) * 2
+            + crate::solver::ipm::REFINEMENT * (c.refinement - c.solve)
+            + c.elementwise
+    }
+
+    /// Multiply-adds of the cold start in the Riccati form (one factorisation, one direction).
+    pub fn cold_start_macs(&self, qp: &Qp) -> usize {
+        let c = crate::solver::ipm::mpc_counts(qp);
+        c.residuals + self.factor_macs(qp) + c.direction - c.solve + self.solve_macs()
+    }
+
+    /// Nonzeros of A and B: the emitted recursion visits only them.
+    pub fn nonzeros(&self) -> (usize, usize) {
+        let nnz = |M: &DMatrix<f64>| M.iter().filter(|v| **v != 0.0).count();
+        (nnz(&self.A), nnz(&self.B))
+    }
+
+    /// Multiply-adds of the emitted factorisation ([`crate::emit::riccati`]): the stage Hessians (a
+    /// weight per box side, nnz² per distinct row on its stage), then per stage k ≥ 1 P·A and Aᵀ(P·A)
+    /// (nx·nnz(A) each), P·B (nx·nnz(B)), Bᵀ(P·B) (nu·nnz(B)), (P·B)ᵀA (nu·nnz(A)), L·D·Lᵀ of Re_k, the
+    /// gain Re_k⁻¹·Se_k (nx·nu²) and Se_kᵀ·K_k (nx²·nu); stage 0 needs P·B, Re_0 and its L·D·Lᵀ only.
+    pub fn factor_macs(&self, qp: &Qp) -> usize {
+        let (nx, nu, N) = (self.nx(), self.nu(), self.N);
+        let (a, b) = self.nonzeros();
+        let (layout, sparsity) = crate::solver::ipm::mpc_structure(qp);
+        let forming: usize = layout.boxed.len()
+            + sparsity
+                .rows
+                .iter()
+                .map(|&r| {
+                    let row = &self.rows[r % self.rows.len()];
+                    let n = row.ax.iter().chain(row.au.iter()).filter(|v| **v != 0.0).count();
+                    n * n
+                })
+                .sum::<usize>();
+        let ldl = ldl_macs(nu);
+        let stage = 2 * nx * a + nx * b + nu * b + nu * a + ldl + nx * nu * nu + nx * nx * nu;
+        let first = nx * b + nu * b + ldl;
+        forming + (N - 1) * stage + first
+    }
+
+    /// Multiply-adds of one emitted solve: per stage Bᵀp, Aᵀp (the nonzeros), Kᵀe (nx·nu), Re⁻¹e
+    /// (nu²), then K·x (nx·nu), A·x and B·u (the nonzeros).
+    pub fn solve_macs(&self) -> usize {
+        let (nx, nu) = (self.nx(), self.nu());
+        let (a, b) = self.nonzeros();
+        self.N * (2 * a + 2 * b + 2 * nx * nu + nu * nu)
+    }
+}
+
+/// Multiply-adds (and divisions) of the emitted L·D·Lᵀ of an n × n matrix: per column j, j products for
+/// the pivot and j + 1 per later row.
+pub fn ldl_macs(n: usize) -> usize {
+    (0..n).map(|j| 2 * j + (n - 1 - j) * (j + 1)).sum()
+}
+
+/// The stage Hessians of [`Stages::hessians`].
+struct StageHessians {
+    Q: Vec<DMatrix<f64>>,
+    S: Vec<DMatrix<f64>>,
+    R: Vec<DMatrix<f64>>,
+}
+
+/// The Riccati factor: per stage the gain K_k = Re_k⁻¹·Se_k and Re_k's Cholesky factor.
+#[derive(Clone, Debug)]
+pub struct Factor {
+    A: DMatrix<f64>,
+    B: DMatrix<f64>,
+    gains: Vec<DMatrix<f64>>,
+    pivots: Vec<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
+}
+
+impl Factor {
+    /// The solution ΔU of the normal system for the right-hand side r (N·nu): a backward sweep of the
+    /// cost-to-go's linear term p (e_k = Bᵀp_{k+1} − r_k, p_k = Aᵀp_{k+1} − K_kᵀe_k) and a forward
+    /// rollout from x_0 = 0 (u_k = −K_k·x_k − Re_k⁻¹e_k).
+    pub fn solve(&self, r: &DVector<f64>) -> DVector<f64> {
+        let (nx, nu, N) = (self.A.nrows(), self.B.ncols(), self.gains.len());
+        let mut p = DVector::zeros(nx);
+        let mut e = vec![DVector::zeros(nu); N];
+        for k in (0..N).rev() {
+            let ek = self.B.tr_mul(&p) - r.rows(k * nu, nu);
+            p = self.A.tr_mul(&p) - self.gains[k].tr_mul(&ek);
+            e[k] = self.pivots[k].solve(&ek);
+        }
+        let mut x = DVector::zeros(nx);
+        let mut u = DVector::zeros(N * nu);
+        for k in 0..N {
+            let uk = -(&self.gains[k] * &x) - &e[k];
+            x = &self.A * &x + &self.B * &uk;
+            u.rows_mut(k * nu, nu).copy_from(&uk);
+        }
+        u
+    }
+}
