@@ -232,7 +232,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
         Scalar::F32 => (quote!(f64::from(*v)), quote!(f64::from(*x))),
         Scalar::F64 => (quote!(*v), quote!(*x)),
     };
-    Sections {
+    let sections = Sections {
         constants: quote! {
             /// Entries of the plan, N·NU.
             pub const NP: usize = N * NU;
@@ -801,7 +801,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             /// (H + Gᵀ·D·G)·Δz = −r_d − Gᵀ(D·r_p − rc/s), D = λ/s.
             #[allow(clippy::too_many_arguments)]
             fn direction(
-                m: &[[f64; NV]; NV],
+                m: &NormalFactor,
                 r: &Residuals,
                 s: &[f64; NSIDES],
                 lambda: &[f64; NSIDES],
@@ -888,7 +888,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 lambda: &mut [f64; NSIDES],
                 warm: bool,
             ) -> Outcome {
-                let mut m = [[0.0; NV]; NV];
+                let mut m = NORMAL_ZERO;
                 let (mut dz, mut ds, mut dl) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
                 // The cold start.
                 let (mut zc, mut sc, mut lc) = ([0.0; NV], [1.0; NSIDES], [1.0; NSIDES]);
@@ -1045,5 +1045,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             /// in the method's order.
             pub const H: [[f64; NV]; NV] = #hv;
         },
-    }
+    };
+    // The normal system in the form the cost model chooses.
+    super::riccati::form(p, sections)
 }
