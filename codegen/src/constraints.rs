@@ -357,7 +357,10 @@ pub fn lower(c: &Constraints, Sx: &DMatrix<f64>, Su: &DMatrix<f64>, nu: usize) -
                 Some(StageRow {
                     lag: usize::from(!with_input),
                     ax: DVector::from_fn(nx, |i, _| g.ax.get(*row, i)),
-                    au: DVector::from_fn(nu, |i, _| if with_input { g.au.get(*row, i) } else { 0.0 }),
+                    au: DVector::from_fn(
+                        nu,
+                        |i, _| if with_input { g.au.get(*row, i) } else { 0.0 },
+                    ),
                 })
             }
         })

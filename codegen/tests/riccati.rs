@@ -165,7 +165,10 @@ fn unsupported_problems_keep_the_condensed_form() {
     let c = Choice::of(&afti);
     assert_eq!(c.form, Form::Condensed);
     assert!(c.riccati_macs_per_iteration.is_none() && c.riccati_unavailable.is_some());
-    let moves = SMALL.replace("u_max = [1.0]", "u_max = [1.0]\ndu_min = [-0.5]\ndu_max = [0.5]");
+    let moves = SMALL.replace(
+        "u_max = [1.0]",
+        "u_max = [1.0]\ndu_min = [-0.5]\ndu_max = [0.5]",
+    );
     let why = Stages::of(&qp(&moves)).unwrap_err();
     assert!(why.contains("move bounds"), "{why}");
     let weighted = SMALL.replace("r = [0.1]", "r = [0.1]\nr_du = 0.2");

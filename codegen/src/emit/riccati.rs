@@ -96,26 +96,44 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
     };
     let (a_nz, b_nz) = (nonzeros(&stages.A), nonzeros(&stages.B));
     // The factorisation's products over the nonzeros of A (ai, j, v) and B (bi, c, v).
-    let pa = a_nz.iter().map(|(ai, j, v)| quote! {
-        for i in 0..NX { pa[i][#j] += p[i][#ai] * #v; }
+    let pa = a_nz.iter().map(|(ai, j, v)| {
+        quote! {
+            for i in 0..NX { pa[i][#j] += p[i][#ai] * #v; }
+        }
     });
-    let pb = b_nz.iter().map(|(bi, c, v)| quote! {
-        for i in 0..NX { pb[i][#c] += p[i][#bi] * #v; }
+    let pb = b_nz.iter().map(|(bi, c, v)| {
+        quote! {
+            for i in 0..NX { pb[i][#c] += p[i][#bi] * #v; }
+        }
     });
-    let re = b_nz.iter().map(|(bi, c, v)| quote! {
-        for d in 0..NU { re[#c][d] += #v * pb[#bi][d]; }
+    let re = b_nz.iter().map(|(bi, c, v)| {
+        quote! {
+            for d in 0..NU { re[#c][d] += #v * pb[#bi][d]; }
+        }
     });
-    let se = a_nz.iter().map(|(ai, j, v)| quote! {
-        for c in 0..NU { se[c][#j] += pb[#ai][c] * #v; }
+    let se = a_nz.iter().map(|(ai, j, v)| {
+        quote! {
+            for c in 0..NU { se[c][#j] += pb[#ai][c] * #v; }
+        }
     });
-    let apa = a_nz.iter().map(|(ai, i, v)| quote! {
-        for j in 0..NX { next[#i][j] += #v * pa[#ai][j]; }
+    let apa = a_nz.iter().map(|(ai, i, v)| {
+        quote! {
+            for j in 0..NX { next[#i][j] += #v * pa[#ai][j]; }
+        }
     });
     // The solve's products: Bᵀ·p, Aᵀ·p, A·x and B·u.
-    let btp = b_nz.iter().map(|(bi, c, v)| quote!(ek[#c] += #v * pv[#bi];));
-    let atp = a_nz.iter().map(|(ai, i, v)| quote!(next[#i] += #v * pv[#ai];));
-    let ax = a_nz.iter().map(|(ai, j, v)| quote!(next[#ai] += #v * x[#j];));
-    let bu = b_nz.iter().map(|(bi, c, v)| quote!(next[#bi] += #v * uk[#c];));
+    let btp = b_nz
+        .iter()
+        .map(|(bi, c, v)| quote!(ek[#c] += #v * pv[#bi];));
+    let atp = a_nz
+        .iter()
+        .map(|(ai, i, v)| quote!(next[#i] += #v * pv[#ai];));
+    let ax = a_nz
+        .iter()
+        .map(|(ai, j, v)| quote!(next[#ai] += #v * x[#j];));
+    let bu = b_nz
+        .iter()
+        .map(|(bi, c, v)| quote!(next[#bi] += #v * uk[#c];));
     // Each row of a slot on its stage's (x, u): the terms (a, b, v_a·v_b) of its outer product.
     let mut term_start = vec![0usize];
     let mut terms = Vec::new();
@@ -259,18 +277,9 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
                         }
                     }
                     #(#se)*
-                    // K = Re⁻¹·Se, column by column.
+                    // K = Re⁻¹·Se.
                     let mut gain = se;
-                    for j in 0..NX {
-                        let mut col = [0.0; NU];
-                        for c in 0..NU {
-                            col[c] = gain[c][j];
-                        }
-                        riccati_ldl_solve(&re, &mut col);
-                        for c in 0..NU {
-                            gain[c][j] = col[c];
-                        }
-                    }
+                    riccati_ldl_solve_rows(&re, &mut gain);
                     // P_k = Q̃_k + Aᵀ·(P·A) − Seᵀ·K.
                     let mut next = [[0.0; NX]; NX];
                     for i in 0..NX {
@@ -309,12 +318,12 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
                 // `&`, not `&&`: no branch. NaN fails `d > 0.0`.
                 positive &= (d > 0.0) & (d < f64::INFINITY);
                 m[j][j] = d;
-                for p in j + 1..NU {
-                    let mut a = m[p][j];
-                    for k in 0..j {
-                        a -= m[p][k] * v[k];
+                for row in m.iter_mut().skip(j + 1) {
+                    let mut a = row[j];
+                    for (r, vk) in row.iter().zip(v.iter()).take(j) {
+                        a -= r * vk;
                     }
-                    m[p][j] = a / d;
+                    row[j] = a / d;
                 }
             }
             positive
@@ -336,6 +345,33 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
                 let x = b[i];
                 for k in 0..i {
                     b[k] -= m[i][k] * x;
+                }
+            }
+        }
+
+        /// Solves L·D·Lᵀ·X = B in place for the NX columns of B (NU × NX), a row of B at a time.
+        fn riccati_ldl_solve_rows(m: &[[f64; NU]; NU], b: &mut [[f64; NX]; NU]) {
+            for i in 0..NU {
+                for k in 0..i {
+                    let (l, bk) = (m[i][k], b[k]);
+                    for (x, y) in b[i].iter_mut().zip(bk.iter()) {
+                        *x -= l * y;
+                    }
+                }
+            }
+            for (i, row) in b.iter_mut().enumerate() {
+                let d = m[i][i];
+                for x in row.iter_mut() {
+                    *x /= d;
+                }
+            }
+            for i in (0..NU).rev() {
+                let bi = b[i];
+                for k in 0..i {
+                    let l = m[i][k];
+                    for (x, y) in b[k].iter_mut().zip(bi.iter()) {
+                        *x -= l * y;
+                    }
                 }
             }
         }
@@ -362,9 +398,9 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
                 #(#btp)*
                 let mut next = [0.0; NX];
                 #(#atp)*
-                for i in 0..NX {
-                    for c in 0..NU {
-                        next[i] -= m.gain[k][c][i] * ek[c];
+                for (g, ec) in m.gain[k].iter().zip(ek.iter()) {
+                    for (n, gi) in next.iter_mut().zip(g.iter()) {
+                        *n -= gi * ec;
                     }
                 }
                 pv = next;
@@ -375,12 +411,12 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
             let mut u = [[0.0; NU]; N];
             for k in 0..N {
                 let mut uk = [0.0; NU];
-                for c in 0..NU {
-                    let mut a = -e[k][c];
-                    for j in 0..NX {
-                        a -= m.gain[k][c][j] * x[j];
+                for ((u, g), ec) in uk.iter_mut().zip(m.gain[k].iter()).zip(e[k].iter()) {
+                    let mut a = -ec;
+                    for (gj, xj) in g.iter().zip(x.iter()) {
+                        a -= gj * xj;
                     }
-                    uk[c] = a;
+                    *u = a;
                 }
                 let mut next = [0.0; NX];
                 #(#ax)*
@@ -423,9 +459,8 @@ fn without(tokens: TokenStream, names: &[&str]) -> TokenStream {
     let mut out = TokenStream::new();
     let mut item: Vec<TokenTree> = Vec::new();
     let (mut keyword, mut name): (Option<String>, Option<String>) = (None, None);
-    let ends_at_semicolon = |k: &Option<String>| {
-        matches!(k.as_deref(), Some("const" | "static" | "type" | "use"))
-    };
+    let ends_at_semicolon =
+        |k: &Option<String>| matches!(k.as_deref(), Some("const" | "static" | "type" | "use"));
     for tt in tokens {
         item.push(tt.clone());
         let mut end = false;
@@ -439,8 +474,15 @@ fn without(tokens: TokenStream, names: &[&str]) -> TokenStream {
                     (None, _)
                         if matches!(
                             s.as_str(),
-                            "fn" | "const" | "static" | "type" | "use" | "struct" | "enum"
-                                | "impl" | "trait" | "mod"
+                            "fn" | "const"
+                                | "static"
+                                | "type"
+                                | "use"
+                                | "struct"
+                                | "enum"
+                                | "impl"
+                                | "trait"
+                                | "mod"
                         ) =>
                     {
                         keyword = Some(s)
@@ -448,9 +490,16 @@ fn without(tokens: TokenStream, names: &[&str]) -> TokenStream {
                     _ => {}
                 }
             }
-            TokenTree::Punct(p) if p.as_char() == ';' && (ends_at_semicolon(&keyword) || keyword.as_deref() == Some("struct")) => end = true,
+            TokenTree::Punct(p)
+                if p.as_char() == ';'
+                    && (ends_at_semicolon(&keyword) || keyword.as_deref() == Some("struct")) =>
+            {
+                end = true
+            }
             TokenTree::Group(g)
-                if g.delimiter() == Delimiter::Brace && keyword.is_some() && !ends_at_semicolon(&keyword) =>
+                if g.delimiter() == Delimiter::Brace
+                    && keyword.is_some()
+                    && !ends_at_semicolon(&keyword) =>
             {
                 end = true
             }

@@ -119,17 +119,20 @@ impl Stages {
     /// The stage model of `qp`, or why the Riccati form is not built for it.
     pub fn of(qp: &Qp) -> Result<Self, String> {
         let rows = &qp.rows;
-        if rows.slacks() > 0 {
-            return Err("soft rows share one slack per component over the horizon (a Schur complement, not built)".into());
+        let mut not_built = Vec::new();
+        if rows.stage.iter().any(Option::is_none) {
+            not_built.push("move bounds couple u_k and u_{k−1}");
         }
         if qp.R_du.iter().any(|v| *v != 0.0) {
-            return Err(
-                "`r_du` weights the moves, so a stage would carry u_{k−1} as a state (not built)"
-                    .into(),
+            not_built.push("`r_du` weights the moves, so a stage would carry u_{k−1} as a state");
+        }
+        if rows.slacks() > 0 {
+            not_built.push(
+                "soft rows share one slack per component over the horizon (a Schur complement)",
             );
         }
-        if rows.stage.iter().any(Option::is_none) {
-            return Err("move bounds couple u_k and u_{k−1} (not built)".into());
+        if !not_built.is_empty() {
+            return Err(format!("not built: {}", not_built.join("; ")));
         }
         let (nx, nu, N) = (qp.Sx.ncols(), qp.u_min.len(), qp.N);
         if N == 0 || qp.Sx.nrows() != N * nx || qp.Su.shape() != (N * nx, N * nu) {
@@ -327,7 +330,12 @@ impl Stages {
                 .iter()
                 .map(|&r| {
                     let row = &self.rows[r % self.rows.len()];
-                    let n = row.ax.iter().chain(row.au.iter()).filter(|v| **v != 0.0).count();
+                    let n = row
+                        .ax
+                        .iter()
+                        .chain(row.au.iter())
+                        .filter(|v| **v != 0.0)
+                        .count();
                     n * n
                 })
                 .sum::<usize>();
