@@ -596,116 +596,11 @@ pub mod hover {
             gl,
         }
     }
-    /// Forms H + Gᵀ·diag(w)·G (lower triangle, within the envelope) and factors it as L·D·Lᵀ in
-    /// place, adding a growing multiple of I when a pivot is not positive (a semidefinite H with few
-    /// active sides), as the reference does; `false` when every attempt is refused.
-    fn factor(w: &[f64; NSIDES], m: &mut [[f64; NV]; NV]) -> bool {
-        let mut wr = [0.0; NR];
-        for j in 0..NG {
-            add(&mut wr, SIDE_ROW[j], w[NB + j]);
-        }
-        let mut delta = 0.0;
-        for _ in 0..4 {
-            for (p, (row, h)) in m.iter_mut().zip(H.iter()).enumerate() {
-                for (e, v) in row.iter_mut().zip(h.iter()).take(p + 1).skip(FIRST[p]) {
-                    *e = *v;
-                }
-            }
-            for k in 0..NB {
-                let i = BOX_POS[k];
-                if let Some(row) = m.get_mut(i) {
-                    add(row, i, w[k]);
-                }
-            }
-            for (r, wj) in wr.iter().enumerate() {
-                let row_runs = runs(r);
-                for (ka, &(at_a, offset_a, len_a)) in row_runs.iter().enumerate() {
-                    let run_a = values(offset_a, len_a);
-                    for (ia, va) in run_a.iter().enumerate() {
-                        if let Some(target) = m.get_mut(at_a + ia) {
-                            let wa = wj * va;
-                            for &(at_b, offset_b, len_b) in row_runs.iter().take(ka) {
-                                let run_b = values(offset_b, len_b);
-                                for (e, vb) in span_mut(target, at_b, len_b)
-                                    .iter_mut()
-                                    .zip(run_b.iter())
-                                {
-                                    *e += wa * vb;
-                                }
-                            }
-                            for (e, vb) in span_mut(target, at_a, ia + 1)
-                                .iter_mut()
-                                .zip(run_a.iter())
-                            {
-                                *e += wa * vb;
-                            }
-                        }
-                    }
-                }
-            }
-            let scale = 1.0 + (0..NV).fold(0.0, |s, i| larger(s, m[i][i].abs()));
-            for (i, row) in m.iter_mut().enumerate() {
-                row[i] += delta;
-            }
-            if ldl(m) {
-                return true;
-            }
-            delta = if delta == 0.0 { 1e-12 * scale } else { delta * 1e3 };
-        }
-        false
-    }
-    /// L·D·Lᵀ of the lower triangle of `m` within the envelope (row p from FIRST[p]), in place (D on
-    /// the diagonal); `false` when a pivot is not positive and finite. It runs to the end either
-    /// way: the same instructions every time. Nothing fills outside the envelope.
-    fn ldl(m: &mut [[f64; NV]; NV]) -> bool {
-        let mut v = [0.0; NV];
-        let mut positive = true;
-        for j in 0..NV {
-            let fj = FIRST[j];
-            let mut d = m[j][j];
-            for k in fj..j {
-                v[k] = m[j][k] * m[k][k];
-                d -= m[j][k] * v[k];
-            }
-            positive &= (d > 0.0) & (d < f64::INFINITY);
-            m[j][j] = d;
-            for (p, row) in m.iter_mut().enumerate().take(REACH[j]).skip(j + 1) {
-                let fp = at_index(&FIRST, p);
-                if fp <= j {
-                    let mut a = row[j];
-                    for k in if fp > fj { fp } else { fj }..j {
-                        a -= row[k] * v[k];
-                    }
-                    row[j] = a / d;
-                }
-            }
-        }
-        positive
-    }
-    /// Solves L·D·Lᵀ x = b in place, within the envelope.
-    fn ldl_solve(m: &[[f64; NV]; NV], b: &mut [f64; NV]) {
-        for i in 0..NV {
-            let mut a = b[i];
-            for k in FIRST[i]..i {
-                a -= m[i][k] * b[k];
-            }
-            b[i] = a;
-        }
-        for i in 0..NV {
-            b[i] /= m[i][i];
-        }
-        for i in (0..NV).rev() {
-            let x = b[i];
-            for k in FIRST[i]..i {
-                b[k] -= m[i][k] * x;
-            }
-        }
-    }
     /// The Newton direction for the complementarity right-hand side rc (Λ·Δs + S·Δλ = −rc): from
     /// (H + Gᵀ·D·G)·Δz = −r_d − Gᵀ(D·r_p − rc/s), D = λ/s.
     #[allow(clippy::too_many_arguments)]
     fn direction(
-        m: &[[f64; NV]; NV],
+        m: &NormalFactor,
         r: &Residuals,
         s: &[f64; NSIDES],
         lambda: &[f64; NSIDES],
@@ -790,7 +685,7 @@ pub mod hover {
         lambda: &mut [f64; NSIDES],
         warm: bool,
     ) -> Outcome {
-        let mut m = [[0.0; NV]; NV];
+        let mut m = NORMAL_ZERO;
         let (mut dz, mut ds, mut dl) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
         let (mut zc, mut sc, mut lc) = ([0.0; NV], [1.0; NSIDES], [1.0; NSIDES]);
         let r = residuals(f, h, &zc, &sc, &lc);
@@ -891,6 +786,921 @@ pub mod hover {
             primal,
             dual,
             gap,
+        }
+    }
+    /// The normal matrix's Riccati factor: per stage k the gain K_k = Re_k⁻¹·Se_k and the L·D·Lᵀ of
+    /// Re_k = R̃_k + Bᵀ·P_{k+1}·B (L below the diagonal, D on it).
+    #[derive(Clone, Copy)]
+    struct NormalFactor {
+        gain: [[[f64; NX]; NU]; N],
+        pivot: [[[f64; NU]; NU]; N],
+    }
+    const NORMAL_ZERO: NormalFactor = NormalFactor {
+        gain: [[[0.0; NX]; NU]; N],
+        pivot: [[[0.0; NU]; NU]; N],
+    };
+    /// The stage variables (x, u): NX + NU.
+    const RICCATI_NXU: usize = NX + NU;
+    /// Factors H + Gᵀ·diag(w)·G in the Riccati form: the stage Hessians (the rows' weights added to
+    /// 2Q, 2Q_f and 2R), then the recursion, adding a growing multiple of I to every R̃_k (which is
+    /// M + δ·I) when a pivot is not positive, as the condensed form does; `false` when every
+    /// attempt is refused.
+    fn factor(w: &[f64; NSIDES], m: &mut NormalFactor) -> bool {
+        let mut wr = [0.0; RICCATI_NR];
+        for j in 0..NG {
+            add(&mut wr, at_index(&RICCATI_SIDE_ROW, j), w[NB + j]);
+        }
+        let mut z = [[[0.0; RICCATI_NXU]; RICCATI_NXU]; N + 1];
+        for (wk, &i) in w.iter().zip(RICCATI_BOX.iter()) {
+            let c = NX + i % NU;
+            if let Some(e) = z
+                .get_mut(i / NU)
+                .and_then(|s| s.get_mut(c))
+                .and_then(|r| r.get_mut(c))
+            {
+                *e += wk;
+            }
+        }
+        for (wj, &(k, q)) in wr.iter().zip(RICCATI_ROW.iter()) {
+            let terms: &[(usize, usize, f64)] = RICCATI_TERMS
+                .get(
+                    at_index(
+                        &RICCATI_TERM_START,
+                        q,
+                    )..at_index(&RICCATI_TERM_START, q + 1),
+                )
+                .unwrap_or(&[]);
+            if let Some(stage) = z.get_mut(k) {
+                for &(a, b, v) in terms {
+                    if let Some(e) = stage.get_mut(a).and_then(|r| r.get_mut(b)) {
+                        *e += wj * v;
+                    }
+                }
+            }
+        }
+        let mut largest = 0.0;
+        for stage in z.iter().take(N) {
+            for c in 0..NU {
+                largest = larger(
+                    largest,
+                    (RICCATI_R2[c][c] + stage[NX + c][NX + c]).abs(),
+                );
+            }
+        }
+        let scale = 1.0 + largest;
+        let mut delta = 0.0;
+        for _ in 0..4 {
+            if riccati(&z, delta, m) {
+                return true;
+            }
+            delta = if delta == 0.0 { 1e-12 * scale } else { delta * 1e3 };
+        }
+        false
+    }
+    /// The backward Riccati recursion over the stage Hessians `z` with δ on every R̃_k; `false` when
+    /// a pivot of an Re_k is not positive and finite. It runs to the end either way.
+    fn riccati(
+        z: &[[[f64; RICCATI_NXU]; RICCATI_NXU]; N + 1],
+        delta: f64,
+        m: &mut NormalFactor,
+    ) -> bool {
+        let mut p = [[0.0; NX]; NX];
+        for i in 0..NX {
+            for j in 0..NX {
+                p[i][j] = RICCATI_QF2[i][j] + z[N][i][j];
+            }
+        }
+        let mut positive = true;
+        for k in (0..N).rev() {
+            let zk = &z[k];
+            let mut pb = [[0.0; NU]; NX];
+            for i in 0..NX {
+                pb[i][0] += p[i][0] * -0.0007069f64;
+            }
+            for i in 0..NX {
+                pb[i][1] += p[i][0] * 0.0007773f64;
+            }
+            for i in 0..NX {
+                pb[i][2] += p[i][0] * 0.0007091f64;
+            }
+            for i in 0..NX {
+                pb[i][3] += p[i][0] * -0.0007795f64;
+            }
+            for i in 0..NX {
+                pb[i][0] += p[i][1] * 0.0007034f64;
+            }
+            for i in 0..NX {
+                pb[i][1] += p[i][1] * 0.0007747f64;
+            }
+            for i in 0..NX {
+                pb[i][2] += p[i][1] * -0.0007042f64;
+            }
+            for i in 0..NX {
+                pb[i][3] += p[i][1] * -0.0007739f64;
+            }
+            for i in 0..NX {
+                pb[i][0] += p[i][2] * 0.0052554f64;
+            }
+            for i in 0..NX {
+                pb[i][1] += p[i][2] * 0.0052554f64;
+            }
+            for i in 0..NX {
+                pb[i][2] += p[i][2] * 0.0052554f64;
+            }
+            for i in 0..NX {
+                pb[i][3] += p[i][2] * 0.0052554f64;
+            }
+            for i in 0..NX {
+                pb[i][0] += p[i][3] * -0.1720966f64;
+            }
+            for i in 0..NX {
+                pb[i][1] += p[i][3] * -0.1895213f64;
+            }
+            for i in 0..NX {
+                pb[i][2] += p[i][3] * 0.1722891f64;
+            }
+            for i in 0..NX {
+                pb[i][3] += p[i][3] * 0.1893288f64;
+            }
+            for i in 0..NX {
+                pb[i][0] += p[i][4] * -0.1729419f64;
+            }
+            for i in 0..NX {
+                pb[i][1] += p[i][4] * 0.190174f64;
+            }
+            for i in 0..NX {
+                pb[i][2] += p[i][4] * 0.1734809f64;
+            }
+            for i in 0..NX {
+                pb[i][3] += p[i][4] * -0.1907131f64;
+            }
+            for i in 0..NX {
+                pb[i][0] += p[i][5] * 0.0123423f64;
+            }
+            for i in 0..NX {
+                pb[i][1] += p[i][5] * -0.0045148f64;
+            }
+            for i in 0..NX {
+                pb[i][2] += p[i][5] * -0.0174024f64;
+            }
+            for i in 0..NX {
+                pb[i][3] += p[i][5] * 0.0095748f64;
+            }
+            for i in 0..NX {
+                pb[i][0] += p[i][6] * -0.056552f64;
+            }
+            for i in 0..NX {
+                pb[i][1] += p[i][6] * 0.0621869f64;
+            }
+            for i in 0..NX {
+                pb[i][2] += p[i][6] * 0.0567283f64;
+            }
+            for i in 0..NX {
+                pb[i][3] += p[i][6] * -0.0623632f64;
+            }
+            for i in 0..NX {
+                pb[i][0] += p[i][7] * 0.0562756f64;
+            }
+            for i in 0..NX {
+                pb[i][1] += p[i][7] * 0.0619735f64;
+            }
+            for i in 0..NX {
+                pb[i][2] += p[i][7] * -0.0563386f64;
+            }
+            for i in 0..NX {
+                pb[i][3] += p[i][7] * -0.0619105f64;
+            }
+            for i in 0..NX {
+                pb[i][0] += p[i][8] * 0.2102143f64;
+            }
+            for i in 0..NX {
+                pb[i][1] += p[i][8] * 0.2102143f64;
+            }
+            for i in 0..NX {
+                pb[i][2] += p[i][8] * 0.2102143f64;
+            }
+            for i in 0..NX {
+                pb[i][3] += p[i][8] * 0.2102143f64;
+            }
+            for i in 0..NX {
+                pb[i][0] += p[i][9] * -13.7677303f64;
+            }
+            for i in 0..NX {
+                pb[i][1] += p[i][9] * -15.1617018f64;
+            }
+            for i in 0..NX {
+                pb[i][2] += p[i][9] * 13.7831318f64;
+            }
+            for i in 0..NX {
+                pb[i][3] += p[i][9] * 15.1463003f64;
+            }
+            for i in 0..NX {
+                pb[i][0] += p[i][10] * -13.8353509f64;
+            }
+            for i in 0..NX {
+                pb[i][1] += p[i][10] * 15.2139209f64;
+            }
+            for i in 0..NX {
+                pb[i][2] += p[i][10] * 13.8784751f64;
+            }
+            for i in 0..NX {
+                pb[i][3] += p[i][10] * -15.2570451f64;
+            }
+            for i in 0..NX {
+                pb[i][0] += p[i][11] * 0.9873856f64;
+            }
+            for i in 0..NX {
+                pb[i][1] += p[i][11] * -0.361182f64;
+            }
+            for i in 0..NX {
+                pb[i][2] += p[i][11] * -1.392188f64;
+            }
+            for i in 0..NX {
+                pb[i][3] += p[i][11] * 0.7659845f64;
+            }
+            let mut re = [[0.0; NU]; NU];
+            for c in 0..NU {
+                for d in 0..NU {
+                    re[c][d] = RICCATI_R2[c][d] + zk[NX + c][NX + d];
+                }
+                re[c][c] += delta;
+            }
+            for d in 0..NU {
+                re[0][d] += -0.0007069f64 * pb[0][d];
+            }
+            for d in 0..NU {
+                re[1][d] += 0.0007773f64 * pb[0][d];
+            }
+            for d in 0..NU {
+                re[2][d] += 0.0007091f64 * pb[0][d];
+            }
+            for d in 0..NU {
+                re[3][d] += -0.0007795f64 * pb[0][d];
+            }
+            for d in 0..NU {
+                re[0][d] += 0.0007034f64 * pb[1][d];
+            }
+            for d in 0..NU {
+                re[1][d] += 0.0007747f64 * pb[1][d];
+            }
+            for d in 0..NU {
+                re[2][d] += -0.0007042f64 * pb[1][d];
+            }
+            for d in 0..NU {
+                re[3][d] += -0.0007739f64 * pb[1][d];
+            }
+            for d in 0..NU {
+                re[0][d] += 0.0052554f64 * pb[2][d];
+            }
+            for d in 0..NU {
+                re[1][d] += 0.0052554f64 * pb[2][d];
+            }
+            for d in 0..NU {
+                re[2][d] += 0.0052554f64 * pb[2][d];
+            }
+            for d in 0..NU {
+                re[3][d] += 0.0052554f64 * pb[2][d];
+            }
+            for d in 0..NU {
+                re[0][d] += -0.1720966f64 * pb[3][d];
+            }
+            for d in 0..NU {
+                re[1][d] += -0.1895213f64 * pb[3][d];
+            }
+            for d in 0..NU {
+                re[2][d] += 0.1722891f64 * pb[3][d];
+            }
+            for d in 0..NU {
+                re[3][d] += 0.1893288f64 * pb[3][d];
+            }
+            for d in 0..NU {
+                re[0][d] += -0.1729419f64 * pb[4][d];
+            }
+            for d in 0..NU {
+                re[1][d] += 0.190174f64 * pb[4][d];
+            }
+            for d in 0..NU {
+                re[2][d] += 0.1734809f64 * pb[4][d];
+            }
+            for d in 0..NU {
+                re[3][d] += -0.1907131f64 * pb[4][d];
+            }
+            for d in 0..NU {
+                re[0][d] += 0.0123423f64 * pb[5][d];
+            }
+            for d in 0..NU {
+                re[1][d] += -0.0045148f64 * pb[5][d];
+            }
+            for d in 0..NU {
+                re[2][d] += -0.0174024f64 * pb[5][d];
+            }
+            for d in 0..NU {
+                re[3][d] += 0.0095748f64 * pb[5][d];
+            }
+            for d in 0..NU {
+                re[0][d] += -0.056552f64 * pb[6][d];
+            }
+            for d in 0..NU {
+                re[1][d] += 0.0621869f64 * pb[6][d];
+            }
+            for d in 0..NU {
+                re[2][d] += 0.0567283f64 * pb[6][d];
+            }
+            for d in 0..NU {
+                re[3][d] += -0.0623632f64 * pb[6][d];
+            }
+            for d in 0..NU {
+                re[0][d] += 0.0562756f64 * pb[7][d];
+            }
+            for d in 0..NU {
+                re[1][d] += 0.0619735f64 * pb[7][d];
+            }
+            for d in 0..NU {
+                re[2][d] += -0.0563386f64 * pb[7][d];
+            }
+            for d in 0..NU {
+                re[3][d] += -0.0619105f64 * pb[7][d];
+            }
+            for d in 0..NU {
+                re[0][d] += 0.2102143f64 * pb[8][d];
+            }
+            for d in 0..NU {
+                re[1][d] += 0.2102143f64 * pb[8][d];
+            }
+            for d in 0..NU {
+                re[2][d] += 0.2102143f64 * pb[8][d];
+            }
+            for d in 0..NU {
+                re[3][d] += 0.2102143f64 * pb[8][d];
+            }
+            for d in 0..NU {
+                re[0][d] += -13.7677303f64 * pb[9][d];
+            }
+            for d in 0..NU {
+                re[1][d] += -15.1617018f64 * pb[9][d];
+            }
+            for d in 0..NU {
+                re[2][d] += 13.7831318f64 * pb[9][d];
+            }
+            for d in 0..NU {
+                re[3][d] += 15.1463003f64 * pb[9][d];
+            }
+            for d in 0..NU {
+                re[0][d] += -13.8353509f64 * pb[10][d];
+            }
+            for d in 0..NU {
+                re[1][d] += 15.2139209f64 * pb[10][d];
+            }
+            for d in 0..NU {
+                re[2][d] += 13.8784751f64 * pb[10][d];
+            }
+            for d in 0..NU {
+                re[3][d] += -15.2570451f64 * pb[10][d];
+            }
+            for d in 0..NU {
+                re[0][d] += 0.9873856f64 * pb[11][d];
+            }
+            for d in 0..NU {
+                re[1][d] += -0.361182f64 * pb[11][d];
+            }
+            for d in 0..NU {
+                re[2][d] += -1.392188f64 * pb[11][d];
+            }
+            for d in 0..NU {
+                re[3][d] += 0.7659845f64 * pb[11][d];
+            }
+            positive &= riccati_ldl(&mut re);
+            m.pivot[k] = re;
+            if k > 0 {
+                let mut pa = [[0.0; NX]; NX];
+                for i in 0..NX {
+                    pa[i][0] += p[i][0] * 1f64;
+                }
+                for i in 0..NX {
+                    pa[i][4] += p[i][0] * 0.024525f64;
+                }
+                for i in 0..NX {
+                    pa[i][6] += p[i][0] * 0.05f64;
+                }
+                for i in 0..NX {
+                    pa[i][10] += p[i][0] * 0.0002044f64;
+                }
+                for i in 0..NX {
+                    pa[i][1] += p[i][1] * 1f64;
+                }
+                for i in 0..NX {
+                    pa[i][3] += p[i][1] * -0.024525f64;
+                }
+                for i in 0..NX {
+                    pa[i][7] += p[i][1] * 0.05f64;
+                }
+                for i in 0..NX {
+                    pa[i][9] += p[i][1] * -0.0002044f64;
+                }
+                for i in 0..NX {
+                    pa[i][2] += p[i][2] * 1f64;
+                }
+                for i in 0..NX {
+                    pa[i][8] += p[i][2] * 0.05f64;
+                }
+                for i in 0..NX {
+                    pa[i][3] += p[i][3] * 1f64;
+                }
+                for i in 0..NX {
+                    pa[i][9] += p[i][3] * 0.025f64;
+                }
+                for i in 0..NX {
+                    pa[i][4] += p[i][4] * 1f64;
+                }
+                for i in 0..NX {
+                    pa[i][10] += p[i][4] * 0.025f64;
+                }
+                for i in 0..NX {
+                    pa[i][5] += p[i][5] * 1f64;
+                }
+                for i in 0..NX {
+                    pa[i][11] += p[i][5] * 0.025f64;
+                }
+                for i in 0..NX {
+                    pa[i][4] += p[i][6] * 0.981f64;
+                }
+                for i in 0..NX {
+                    pa[i][6] += p[i][6] * 1f64;
+                }
+                for i in 0..NX {
+                    pa[i][10] += p[i][6] * 0.0122625f64;
+                }
+                for i in 0..NX {
+                    pa[i][3] += p[i][7] * -0.981f64;
+                }
+                for i in 0..NX {
+                    pa[i][7] += p[i][7] * 1f64;
+                }
+                for i in 0..NX {
+                    pa[i][9] += p[i][7] * -0.0122625f64;
+                }
+                for i in 0..NX {
+                    pa[i][8] += p[i][8] * 1f64;
+                }
+                for i in 0..NX {
+                    pa[i][9] += p[i][9] * 1f64;
+                }
+                for i in 0..NX {
+                    pa[i][10] += p[i][10] * 1f64;
+                }
+                for i in 0..NX {
+                    pa[i][11] += p[i][11] * 1f64;
+                }
+                let mut se = [[0.0; NX]; NU];
+                for c in 0..NU {
+                    for j in 0..NX {
+                        se[c][j] = zk[NX + c][j];
+                    }
+                }
+                for c in 0..NU {
+                    se[c][0] += pb[0][c] * 1f64;
+                }
+                for c in 0..NU {
+                    se[c][4] += pb[0][c] * 0.024525f64;
+                }
+                for c in 0..NU {
+                    se[c][6] += pb[0][c] * 0.05f64;
+                }
+                for c in 0..NU {
+                    se[c][10] += pb[0][c] * 0.0002044f64;
+                }
+                for c in 0..NU {
+                    se[c][1] += pb[1][c] * 1f64;
+                }
+                for c in 0..NU {
+                    se[c][3] += pb[1][c] * -0.024525f64;
+                }
+                for c in 0..NU {
+                    se[c][7] += pb[1][c] * 0.05f64;
+                }
+                for c in 0..NU {
+                    se[c][9] += pb[1][c] * -0.0002044f64;
+                }
+                for c in 0..NU {
+                    se[c][2] += pb[2][c] * 1f64;
+                }
+                for c in 0..NU {
+                    se[c][8] += pb[2][c] * 0.05f64;
+                }
+                for c in 0..NU {
+                    se[c][3] += pb[3][c] * 1f64;
+                }
+                for c in 0..NU {
+                    se[c][9] += pb[3][c] * 0.025f64;
+                }
+                for c in 0..NU {
+                    se[c][4] += pb[4][c] * 1f64;
+                }
+                for c in 0..NU {
+                    se[c][10] += pb[4][c] * 0.025f64;
+                }
+                for c in 0..NU {
+                    se[c][5] += pb[5][c] * 1f64;
+                }
+                for c in 0..NU {
+                    se[c][11] += pb[5][c] * 0.025f64;
+                }
+                for c in 0..NU {
+                    se[c][4] += pb[6][c] * 0.981f64;
+                }
+                for c in 0..NU {
+                    se[c][6] += pb[6][c] * 1f64;
+                }
+                for c in 0..NU {
+                    se[c][10] += pb[6][c] * 0.0122625f64;
+                }
+                for c in 0..NU {
+                    se[c][3] += pb[7][c] * -0.981f64;
+                }
+                for c in 0..NU {
+                    se[c][7] += pb[7][c] * 1f64;
+                }
+                for c in 0..NU {
+                    se[c][9] += pb[7][c] * -0.0122625f64;
+                }
+                for c in 0..NU {
+                    se[c][8] += pb[8][c] * 1f64;
+                }
+                for c in 0..NU {
+                    se[c][9] += pb[9][c] * 1f64;
+                }
+                for c in 0..NU {
+                    se[c][10] += pb[10][c] * 1f64;
+                }
+                for c in 0..NU {
+                    se[c][11] += pb[11][c] * 1f64;
+                }
+                let mut gain = se;
+                riccati_ldl_solve_rows(&re, &mut gain);
+                let mut next = [[0.0; NX]; NX];
+                for i in 0..NX {
+                    for j in 0..NX {
+                        next[i][j] = RICCATI_Q2[i][j] + zk[i][j];
+                    }
+                }
+                for j in 0..NX {
+                    next[0][j] += 1f64 * pa[0][j];
+                }
+                for j in 0..NX {
+                    next[4][j] += 0.024525f64 * pa[0][j];
+                }
+                for j in 0..NX {
+                    next[6][j] += 0.05f64 * pa[0][j];
+                }
+                for j in 0..NX {
+                    next[10][j] += 0.0002044f64 * pa[0][j];
+                }
+                for j in 0..NX {
+                    next[1][j] += 1f64 * pa[1][j];
+                }
+                for j in 0..NX {
+                    next[3][j] += -0.024525f64 * pa[1][j];
+                }
+                for j in 0..NX {
+                    next[7][j] += 0.05f64 * pa[1][j];
+                }
+                for j in 0..NX {
+                    next[9][j] += -0.0002044f64 * pa[1][j];
+                }
+                for j in 0..NX {
+                    next[2][j] += 1f64 * pa[2][j];
+                }
+                for j in 0..NX {
+                    next[8][j] += 0.05f64 * pa[2][j];
+                }
+                for j in 0..NX {
+                    next[3][j] += 1f64 * pa[3][j];
+                }
+                for j in 0..NX {
+                    next[9][j] += 0.025f64 * pa[3][j];
+                }
+                for j in 0..NX {
+                    next[4][j] += 1f64 * pa[4][j];
+                }
+                for j in 0..NX {
+                    next[10][j] += 0.025f64 * pa[4][j];
+                }
+                for j in 0..NX {
+                    next[5][j] += 1f64 * pa[5][j];
+                }
+                for j in 0..NX {
+                    next[11][j] += 0.025f64 * pa[5][j];
+                }
+                for j in 0..NX {
+                    next[4][j] += 0.981f64 * pa[6][j];
+                }
+                for j in 0..NX {
+                    next[6][j] += 1f64 * pa[6][j];
+                }
+                for j in 0..NX {
+                    next[10][j] += 0.0122625f64 * pa[6][j];
+                }
+                for j in 0..NX {
+                    next[3][j] += -0.981f64 * pa[7][j];
+                }
+                for j in 0..NX {
+                    next[7][j] += 1f64 * pa[7][j];
+                }
+                for j in 0..NX {
+                    next[9][j] += -0.0122625f64 * pa[7][j];
+                }
+                for j in 0..NX {
+                    next[8][j] += 1f64 * pa[8][j];
+                }
+                for j in 0..NX {
+                    next[9][j] += 1f64 * pa[9][j];
+                }
+                for j in 0..NX {
+                    next[10][j] += 1f64 * pa[10][j];
+                }
+                for j in 0..NX {
+                    next[11][j] += 1f64 * pa[11][j];
+                }
+                for i in 0..NX {
+                    for j in 0..NX {
+                        let mut a = next[i][j];
+                        for c in 0..NU {
+                            a -= se[c][i] * gain[c][j];
+                        }
+                        next[i][j] = a;
+                    }
+                }
+                p = next;
+                m.gain[k] = gain;
+            }
+        }
+        positive
+    }
+    /// L·D·Lᵀ of an NU × NU matrix in place (D on the diagonal); `false` when a pivot is not positive
+    /// and finite. It runs to the end either way.
+    fn riccati_ldl(m: &mut [[f64; NU]; NU]) -> bool {
+        let mut v = [0.0; NU];
+        let mut positive = true;
+        for j in 0..NU {
+            let mut d = m[j][j];
+            for k in 0..j {
+                v[k] = m[j][k] * m[k][k];
+                d -= m[j][k] * v[k];
+            }
+            positive &= (d > 0.0) & (d < f64::INFINITY);
+            m[j][j] = d;
+            for row in m.iter_mut().skip(j + 1) {
+                let mut a = row[j];
+                for (r, vk) in row.iter().zip(v.iter()).take(j) {
+                    a -= r * vk;
+                }
+                row[j] = a / d;
+            }
+        }
+        positive
+    }
+    /// Solves L·D·Lᵀ x = b in place for an NU × NU factor of [`riccati_ldl`].
+    fn riccati_ldl_solve(m: &[[f64; NU]; NU], b: &mut [f64; NU]) {
+        for i in 0..NU {
+            let mut a = b[i];
+            for k in 0..i {
+                a -= m[i][k] * b[k];
+            }
+            b[i] = a;
+        }
+        for i in 0..NU {
+            b[i] /= m[i][i];
+        }
+        for i in (0..NU).rev() {
+            let x = b[i];
+            for k in 0..i {
+                b[k] -= m[i][k] * x;
+            }
+        }
+    }
+    /// Solves L·D·Lᵀ·X = B in place for the NX columns of B (NU × NX), a row of B at a time.
+    fn riccati_ldl_solve_rows(m: &[[f64; NU]; NU], b: &mut [[f64; NX]; NU]) {
+        for i in 0..NU {
+            for k in 0..i {
+                let (l, bk) = (m[i][k], b[k]);
+                for (x, y) in b[i].iter_mut().zip(bk.iter()) {
+                    *x -= l * y;
+                }
+            }
+        }
+        for (i, row) in b.iter_mut().enumerate() {
+            let d = m[i][i];
+            for x in row.iter_mut() {
+                *x /= d;
+            }
+        }
+        for i in (0..NU).rev() {
+            let bi = b[i];
+            for k in 0..i {
+                let l = m[i][k];
+                for (x, y) in b[k].iter_mut().zip(bi.iter()) {
+                    *x -= l * y;
+                }
+            }
+        }
+    }
+    /// Solves the normal system for the right-hand side b (the method's order) in place: the
+    /// backward sweep of the cost-to-go's linear term (e_k = Bᵀ·p − r_k, p ← Aᵀ·p − K_kᵀ·e_k) and the
+    /// forward rollout from x_0 = 0 (u_k = −K_k·x_k − Re_k⁻¹·e_k, x_{k+1} = A·x_k + B·u_k).
+    fn ldl_solve(m: &NormalFactor, b: &mut [f64; NV]) {
+        let mut r = [[0.0; NU]; N];
+        for (p, v) in b.iter().enumerate() {
+            let i = at_index(&ORDER, p);
+            if let Some(e) = r.get_mut(i / NU).and_then(|s| s.get_mut(i % NU)) {
+                *e = *v;
+            }
+        }
+        let mut pv = [0.0; NX];
+        let mut e = [[0.0; NU]; N];
+        for k in (0..N).rev() {
+            let mut ek = [0.0; NU];
+            for c in 0..NU {
+                ek[c] = -r[k][c];
+            }
+            ek[0] += -0.0007069f64 * pv[0];
+            ek[1] += 0.0007773f64 * pv[0];
+            ek[2] += 0.0007091f64 * pv[0];
+            ek[3] += -0.0007795f64 * pv[0];
+            ek[0] += 0.0007034f64 * pv[1];
+            ek[1] += 0.0007747f64 * pv[1];
+            ek[2] += -0.0007042f64 * pv[1];
+            ek[3] += -0.0007739f64 * pv[1];
+            ek[0] += 0.0052554f64 * pv[2];
+            ek[1] += 0.0052554f64 * pv[2];
+            ek[2] += 0.0052554f64 * pv[2];
+            ek[3] += 0.0052554f64 * pv[2];
+            ek[0] += -0.1720966f64 * pv[3];
+            ek[1] += -0.1895213f64 * pv[3];
+            ek[2] += 0.1722891f64 * pv[3];
+            ek[3] += 0.1893288f64 * pv[3];
+            ek[0] += -0.1729419f64 * pv[4];
+            ek[1] += 0.190174f64 * pv[4];
+            ek[2] += 0.1734809f64 * pv[4];
+            ek[3] += -0.1907131f64 * pv[4];
+            ek[0] += 0.0123423f64 * pv[5];
+            ek[1] += -0.0045148f64 * pv[5];
+            ek[2] += -0.0174024f64 * pv[5];
+            ek[3] += 0.0095748f64 * pv[5];
+            ek[0] += -0.056552f64 * pv[6];
+            ek[1] += 0.0621869f64 * pv[6];
+            ek[2] += 0.0567283f64 * pv[6];
+            ek[3] += -0.0623632f64 * pv[6];
+            ek[0] += 0.0562756f64 * pv[7];
+            ek[1] += 0.0619735f64 * pv[7];
+            ek[2] += -0.0563386f64 * pv[7];
+            ek[3] += -0.0619105f64 * pv[7];
+            ek[0] += 0.2102143f64 * pv[8];
+            ek[1] += 0.2102143f64 * pv[8];
+            ek[2] += 0.2102143f64 * pv[8];
+            ek[3] += 0.2102143f64 * pv[8];
+            ek[0] += -13.7677303f64 * pv[9];
+            ek[1] += -15.1617018f64 * pv[9];
+            ek[2] += 13.7831318f64 * pv[9];
+            ek[3] += 15.1463003f64 * pv[9];
+            ek[0] += -13.8353509f64 * pv[10];
+            ek[1] += 15.2139209f64 * pv[10];
+            ek[2] += 13.8784751f64 * pv[10];
+            ek[3] += -15.2570451f64 * pv[10];
+            ek[0] += 0.9873856f64 * pv[11];
+            ek[1] += -0.361182f64 * pv[11];
+            ek[2] += -1.392188f64 * pv[11];
+            ek[3] += 0.7659845f64 * pv[11];
+            let mut next = [0.0; NX];
+            next[0] += 1f64 * pv[0];
+            next[4] += 0.024525f64 * pv[0];
+            next[6] += 0.05f64 * pv[0];
+            next[10] += 0.0002044f64 * pv[0];
+            next[1] += 1f64 * pv[1];
+            next[3] += -0.024525f64 * pv[1];
+            next[7] += 0.05f64 * pv[1];
+            next[9] += -0.0002044f64 * pv[1];
+            next[2] += 1f64 * pv[2];
+            next[8] += 0.05f64 * pv[2];
+            next[3] += 1f64 * pv[3];
+            next[9] += 0.025f64 * pv[3];
+            next[4] += 1f64 * pv[4];
+            next[10] += 0.025f64 * pv[4];
+            next[5] += 1f64 * pv[5];
+            next[11] += 0.025f64 * pv[5];
+            next[4] += 0.981f64 * pv[6];
+            next[6] += 1f64 * pv[6];
+            next[10] += 0.0122625f64 * pv[6];
+            next[3] += -0.981f64 * pv[7];
+            next[7] += 1f64 * pv[7];
+            next[9] += -0.0122625f64 * pv[7];
+            next[8] += 1f64 * pv[8];
+            next[9] += 1f64 * pv[9];
+            next[10] += 1f64 * pv[10];
+            next[11] += 1f64 * pv[11];
+            for (g, ec) in m.gain[k].iter().zip(ek.iter()) {
+                for (n, gi) in next.iter_mut().zip(g.iter()) {
+                    *n -= gi * ec;
+                }
+            }
+            pv = next;
+            riccati_ldl_solve(&m.pivot[k], &mut ek);
+            e[k] = ek;
+        }
+        let mut x = [0.0; NX];
+        let mut u = [[0.0; NU]; N];
+        for k in 0..N {
+            let mut uk = [0.0; NU];
+            for ((u, g), ec) in uk.iter_mut().zip(m.gain[k].iter()).zip(e[k].iter()) {
+                let mut a = -ec;
+                for (gj, xj) in g.iter().zip(x.iter()) {
+                    a -= gj * xj;
+                }
+                *u = a;
+            }
+            let mut next = [0.0; NX];
+            next[0] += 1f64 * x[0];
+            next[0] += 0.024525f64 * x[4];
+            next[0] += 0.05f64 * x[6];
+            next[0] += 0.0002044f64 * x[10];
+            next[1] += 1f64 * x[1];
+            next[1] += -0.024525f64 * x[3];
+            next[1] += 0.05f64 * x[7];
+            next[1] += -0.0002044f64 * x[9];
+            next[2] += 1f64 * x[2];
+            next[2] += 0.05f64 * x[8];
+            next[3] += 1f64 * x[3];
+            next[3] += 0.025f64 * x[9];
+            next[4] += 1f64 * x[4];
+            next[4] += 0.025f64 * x[10];
+            next[5] += 1f64 * x[5];
+            next[5] += 0.025f64 * x[11];
+            next[6] += 0.981f64 * x[4];
+            next[6] += 1f64 * x[6];
+            next[6] += 0.0122625f64 * x[10];
+            next[7] += -0.981f64 * x[3];
+            next[7] += 1f64 * x[7];
+            next[7] += -0.0122625f64 * x[9];
+            next[8] += 1f64 * x[8];
+            next[9] += 1f64 * x[9];
+            next[10] += 1f64 * x[10];
+            next[11] += 1f64 * x[11];
+            next[0] += -0.0007069f64 * uk[0];
+            next[0] += 0.0007773f64 * uk[1];
+            next[0] += 0.0007091f64 * uk[2];
+            next[0] += -0.0007795f64 * uk[3];
+            next[1] += 0.0007034f64 * uk[0];
+            next[1] += 0.0007747f64 * uk[1];
+            next[1] += -0.0007042f64 * uk[2];
+            next[1] += -0.0007739f64 * uk[3];
+            next[2] += 0.0052554f64 * uk[0];
+            next[2] += 0.0052554f64 * uk[1];
+            next[2] += 0.0052554f64 * uk[2];
+            next[2] += 0.0052554f64 * uk[3];
+            next[3] += -0.1720966f64 * uk[0];
+            next[3] += -0.1895213f64 * uk[1];
+            next[3] += 0.1722891f64 * uk[2];
+            next[3] += 0.1893288f64 * uk[3];
+            next[4] += -0.1729419f64 * uk[0];
+            next[4] += 0.190174f64 * uk[1];
+            next[4] += 0.1734809f64 * uk[2];
+            next[4] += -0.1907131f64 * uk[3];
+            next[5] += 0.0123423f64 * uk[0];
+            next[5] += -0.0045148f64 * uk[1];
+            next[5] += -0.0174024f64 * uk[2];
+            next[5] += 0.0095748f64 * uk[3];
+            next[6] += -0.056552f64 * uk[0];
+            next[6] += 0.0621869f64 * uk[1];
+            next[6] += 0.0567283f64 * uk[2];
+            next[6] += -0.0623632f64 * uk[3];
+            next[7] += 0.0562756f64 * uk[0];
+            next[7] += 0.0619735f64 * uk[1];
+            next[7] += -0.0563386f64 * uk[2];
+            next[7] += -0.0619105f64 * uk[3];
+            next[8] += 0.2102143f64 * uk[0];
+            next[8] += 0.2102143f64 * uk[1];
+            next[8] += 0.2102143f64 * uk[2];
+            next[8] += 0.2102143f64 * uk[3];
+            next[9] += -13.7677303f64 * uk[0];
+            next[9] += -15.1617018f64 * uk[1];
+            next[9] += 13.7831318f64 * uk[2];
+            next[9] += 15.1463003f64 * uk[3];
+            next[10] += -13.8353509f64 * uk[0];
+            next[10] += 15.2139209f64 * uk[1];
+            next[10] += 13.8784751f64 * uk[2];
+            next[10] += -15.2570451f64 * uk[3];
+            next[11] += 0.9873856f64 * uk[0];
+            next[11] += -0.361182f64 * uk[1];
+            next[11] += -1.392188f64 * uk[2];
+            next[11] += 0.7659845f64 * uk[3];
+            x = next;
+            u[k] = uk;
+        }
+        for (p, o) in b.iter_mut().enumerate() {
+            let i = at_index(&ORDER, p);
+            *o = match u.get(i / NU).and_then(|s| s.get(i % NU)) {
+                Some(v) => *v,
+                None => 0.0,
+            };
         }
     }
     /// Whether every entry is finite.
@@ -11415,16 +12225,6 @@ pub mod hover {
         0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22,
         23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39,
     ];
-    /// The envelope of the normal matrix's lower triangle: row p from column FIRST[p]; REACH[j] is
-    /// one past the last row that reaches column j.
-    const FIRST: [usize; NV] = [
-        0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
-        0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
-    ];
-    const REACH: [usize; NV] = [
-        40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40,
-        40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40, 40,
-    ];
     /// Row p of H is nonzero only in columns H_LO[p]..H_HI[p].
     const H_LO: [usize; NV] = [
         0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
@@ -13118,6 +13918,206 @@ pub mod hover {
             1900.246943463447f64,
         ],
     ];
+    /// The Riccati form's stage weights: 2Q (stages 1 … N−1), 2Q_f (stage N) and 2R.
+    const RICCATI_Q2: [[f64; NX]; NX] = [
+        [200f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 200f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 200f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 8f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 8f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 800f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 8f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 8f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 8f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 4.0816326f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 4.0816326f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 8f64],
+    ];
+    const RICCATI_QF2: [[f64; NX]; NX] = [
+        [200f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 200f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 200f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 8f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 8f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 800f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 8f64, 0f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 8f64, 0f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 8f64, 0f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 4.0816326f64, 0f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 4.0816326f64, 0f64],
+        [0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 0f64, 8f64],
+    ];
+    const RICCATI_R2: [[f64; NU]; NU] = [
+        [8f64, 0f64, 0f64, 0f64],
+        [0f64, 8f64, 0f64, 0f64],
+        [0f64, 0f64, 8f64, 0f64],
+        [0f64, 0f64, 0f64, 8f64],
+    ];
+    /// Rows with a finite side, as in the condensed form: side j belongs to row RICCATI_SIDE_ROW[j].
+    const RICCATI_NR: usize = 120;
+    const RICCATI_SIDE_ROW: [usize; NG] = [
+        0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12,
+        12, 13, 13, 14, 14, 15, 15, 16, 16, 17, 17, 18, 18, 19, 19, 20, 20, 21, 21, 22,
+        22, 23, 23, 24, 24, 25, 25, 26, 26, 27, 27, 28, 28, 29, 29, 30, 30, 31, 31, 32,
+        32, 33, 33, 34, 34, 35, 35, 36, 36, 37, 37, 38, 38, 39, 39, 40, 40, 41, 41, 42,
+        42, 43, 43, 44, 44, 45, 45, 46, 46, 47, 47, 48, 48, 49, 49, 50, 50, 51, 51, 52,
+        52, 53, 53, 54, 54, 55, 55, 56, 56, 57, 57, 58, 58, 59, 59, 60, 60, 61, 61, 62,
+        62, 63, 63, 64, 64, 65, 65, 66, 66, 67, 67, 68, 68, 69, 69, 70, 70, 71, 71, 72,
+        72, 73, 73, 74, 74, 75, 75, 76, 76, 77, 77, 78, 78, 79, 79, 80, 80, 81, 81, 82,
+        82, 83, 83, 84, 84, 85, 85, 86, 86, 87, 87, 88, 88, 89, 89, 90, 90, 91, 91, 92,
+        92, 93, 93, 94, 94, 95, 95, 96, 96, 97, 97, 98, 98, 99, 99, 100, 100, 101, 101,
+        102, 102, 103, 103, 104, 104, 105, 105, 106, 106, 107, 107, 108, 108, 109, 109,
+        110, 110, 111, 111, 112, 112, 113, 113, 114, 114, 115, 115, 116, 116, 117, 117,
+        118, 118, 119, 119,
+    ];
+    /// Per row (its stage k, its kind q within a slot): its outer product on stage k's (x, u) is the
+    /// terms RICCATI_TERMS[RICCATI_TERM_START[q]..RICCATI_TERM_START[q + 1]], each (a, b, v_a·v_b).
+    const RICCATI_ROW: [(usize, usize); RICCATI_NR] = [
+        (1, 0),
+        (1, 1),
+        (1, 2),
+        (1, 3),
+        (1, 4),
+        (1, 5),
+        (1, 6),
+        (1, 7),
+        (1, 8),
+        (1, 9),
+        (1, 10),
+        (1, 11),
+        (2, 0),
+        (2, 1),
+        (2, 2),
+        (2, 3),
+        (2, 4),
+        (2, 5),
+        (2, 6),
+        (2, 7),
+        (2, 8),
+        (2, 9),
+        (2, 10),
+        (2, 11),
+        (3, 0),
+        (3, 1),
+        (3, 2),
+        (3, 3),
+        (3, 4),
+        (3, 5),
+        (3, 6),
+        (3, 7),
+        (3, 8),
+        (3, 9),
+        (3, 10),
+        (3, 11),
+        (4, 0),
+        (4, 1),
+        (4, 2),
+        (4, 3),
+        (4, 4),
+        (4, 5),
+        (4, 6),
+        (4, 7),
+        (4, 8),
+        (4, 9),
+        (4, 10),
+        (4, 11),
+        (5, 0),
+        (5, 1),
+        (5, 2),
+        (5, 3),
+        (5, 4),
+        (5, 5),
+        (5, 6),
+        (5, 7),
+        (5, 8),
+        (5, 9),
+        (5, 10),
+        (5, 11),
+        (6, 0),
+        (6, 1),
+        (6, 2),
+        (6, 3),
+        (6, 4),
+        (6, 5),
+        (6, 6),
+        (6, 7),
+        (6, 8),
+        (6, 9),
+        (6, 10),
+        (6, 11),
+        (7, 0),
+        (7, 1),
+        (7, 2),
+        (7, 3),
+        (7, 4),
+        (7, 5),
+        (7, 6),
+        (7, 7),
+        (7, 8),
+        (7, 9),
+        (7, 10),
+        (7, 11),
+        (8, 0),
+        (8, 1),
+        (8, 2),
+        (8, 3),
+        (8, 4),
+        (8, 5),
+        (8, 6),
+        (8, 7),
+        (8, 8),
+        (8, 9),
+        (8, 10),
+        (8, 11),
+        (9, 0),
+        (9, 1),
+        (9, 2),
+        (9, 3),
+        (9, 4),
+        (9, 5),
+        (9, 6),
+        (9, 7),
+        (9, 8),
+        (9, 9),
+        (9, 10),
+        (9, 11),
+        (10, 0),
+        (10, 1),
+        (10, 2),
+        (10, 3),
+        (10, 4),
+        (10, 5),
+        (10, 6),
+        (10, 7),
+        (10, 8),
+        (10, 9),
+        (10, 10),
+        (10, 11),
+    ];
+    const RICCATI_TERM_START: [usize; 12 + 1] = [
+        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12,
+    ];
+    const RICCATI_TERMS: [(usize, usize, f64); 12] = [
+        (0, 0, 1f64),
+        (1, 1, 1f64),
+        (2, 2, 1f64),
+        (3, 3, 1f64),
+        (4, 4, 1f64),
+        (5, 5, 1f64),
+        (6, 6, 1f64),
+        (7, 7, 1f64),
+        (8, 8, 1f64),
+        (9, 9, 1f64),
+        (10, 10, 1f64),
+        (11, 11, 1f64),
+    ];
+    /// Box side k bounds plan entry RICCATI_BOX[k] (input i % NU of stage i / NU).
+    const RICCATI_BOX: [usize; NB] = [
+        0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12,
+        12, 13, 13, 14, 14, 15, 15, 16, 16, 17, 17, 18, 18, 19, 19, 20, 20, 21, 21, 22,
+        22, 23, 23, 24, 24, 25, 25, 26, 26, 27, 27, 28, 28, 29, 29, 30, 30, 31, 31, 32,
+        32, 33, 33, 34, 34, 35, 35, 36, 36, 37, 37, 38, 38, 39, 39,
+    ];
     /// What the compiler proved and counted about this controller (see `codegen::certificate` for the
     /// bounds' forms). Every number is f64, computed once at compile time.
     pub mod report {
@@ -13149,9 +14149,9 @@ pub mod hover {
         /// Iterations a warm step needed: worst.
         pub const SAMPLED_WARM_WORST: usize = 13;
         /// The worst |U − U*|∞ / span over the sample at ITERATIONS.
-        pub const SAMPLED_WORST_ERROR: f64 = 0.00006066562910583828f64;
+        pub const SAMPLED_WORST_ERROR: f64 = 0.00006066562901280159f64;
         /// The worst hard-row violation (relative) over the sample at ITERATIONS.
-        pub const SAMPLED_WORST_VIOLATION: f64 = 0.000000000022735591187483806f64;
+        pub const SAMPLED_WORST_VIOLATION: f64 = 0.000000000022736301730219565f64;
         /// Final relative primal residual above which the solve falls back.
         pub const SAMPLED_PRIMAL_LIMIT: f64 = 0.000001f64;
         /// Final relative dual residual above which the solve falls back.
@@ -13175,9 +14175,9 @@ pub mod hover {
         /// X_max in f64.
         pub const COORDINATE_RANGE_F64: f64 = 1929212449766.9092f64;
         /// Multiply-adds of one solver iteration.
-        pub const MACS_PER_ITERATION: usize = 85560;
+        pub const MACS_PER_ITERATION: usize = 60084;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
-        pub const MACS_PER_CYCLE: usize = 1435800;
+        pub const MACS_PER_CYCLE: usize = 1000708;
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 13520;
         /// Bytes of `Mpc`.

@@ -1024,7 +1024,7 @@ pub mod paper_geofence {
     /// (H + Gᵀ·D·G)·Δz = −r_d − Gᵀ(D·r_p − rc/s), D = λ/s.
     #[allow(clippy::too_many_arguments)]
     fn direction(
-        m: &[[f64; NV]; NV],
+        m: &NormalFactor,
         r: &Residuals,
         s: &[f64; NSIDES],
         lambda: &[f64; NSIDES],
@@ -1109,7 +1109,7 @@ pub mod paper_geofence {
         lambda: &mut [f64; NSIDES],
         warm: bool,
     ) -> Outcome {
-        let mut m = [[0.0; NV]; NV];
+        let mut m = NORMAL_ZERO;
         let (mut dz, mut ds, mut dl) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
         let (mut zc, mut sc, mut lc) = ([0.0; NV], [1.0; NSIDES], [1.0; NSIDES]);
         let r = residuals(f, h, &zc, &sc, &lc);
@@ -1212,6 +1212,9 @@ pub mod paper_geofence {
             gap,
         }
     }
+    /// The normal matrix H + Gᵀ·diag(w)·G, factored in place as L·D·Lᵀ within the envelope.
+    type NormalFactor = [[f64; NV]; NV];
+    const NORMAL_ZERO: NormalFactor = [[0.0; NV]; NV];
     /// F·x + G·u (eq. 1), unrolled.
     #[inline(always)]
     fn predict_state(x: &[Real; NX], u: &[Real; NU]) -> [Real; NX] {
