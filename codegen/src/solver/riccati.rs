@@ -391,8 +391,8 @@ impl Factor {
         }
         let mut x = DVector::zeros(nx);
         let mut u = DVector::zeros(N * nu);
-        for k in 0..N {
-            let uk = -(&self.gains[k] * &x) - &e[k];
+        for (k, (K, ek)) in self.gains.iter().zip(&e).enumerate() {
+            let uk = -(K * &x) - ek;
             x = &self.A * &x + &self.B * &uk;
             u.rows_mut(k * nu, nu).copy_from(&uk);
         }
