@@ -192,3 +192,39 @@ fn the_cost_model_weighs_both_forms() {
         c.condensed_macs_per_iteration
     );
 }
+
+/// The emitted module carries the chosen form's kernels only: hover's the Riccati recursion in place of
+/// the envelope's L·D·Lᵀ (whose kernels and tables are gone), the quadcopter's the envelope's.
+#[test]
+fn the_emitted_module_has_the_chosen_forms_kernels() {
+    let emitted = |src: &str| {
+        codegen::generate_from_source(src, &codegen::Opt::default())
+            .unwrap()
+            .tokens
+            .to_string()
+    };
+    let count = |code: &str, item: &str| code.matches(item).count();
+    let hover = emitted(HOVER);
+    for (item, n) in [
+        ("fn factor (", 1),
+        ("fn ldl_solve (", 1),
+        ("fn riccati (", 1),
+        ("struct NormalFactor", 1),
+        ("fn ldl (", 0),
+        ("const FIRST :", 0),
+        ("const REACH :", 0),
+    ] {
+        assert_eq!(count(&hover, item), n, "hover: `{item}`");
+    }
+    let quadcopter = emitted(include_str!("../../specs/quadcopter.toml"));
+    for (item, n) in [
+        ("fn factor (", 1),
+        ("fn ldl (", 1),
+        ("fn ldl_solve (", 1),
+        ("type NormalFactor", 1),
+        ("const FIRST :", 1),
+        ("fn riccati (", 0),
+    ] {
+        assert_eq!(count(&quadcopter, item), n, "quadcopter: `{item}`");
+    }
+}
