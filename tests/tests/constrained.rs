@@ -21,6 +21,7 @@ mod exact;
 mpc_macros::mpc!(mod quadcopter = "../specs/quadcopter.toml");
 mpc_macros::mpc!(mod hover = "../specs/hover.toml");
 mpc_macros::mpc!(mod paper_limits = "../specs/paper-limits.toml");
+mpc_macros::mpc!(mod linear_riccati = "specs/linear-riccati.toml");
 // Three iterations, below what the region needs: the build warns (a deprecated item), as it should.
 #[allow(deprecated)]
 mod short {
@@ -35,6 +36,7 @@ fn problem(text: &str) -> codegen::Problem {
 const QUADCOPTER: &str = include_str!("../../specs/quadcopter.toml");
 const HOVER: &str = include_str!("../../specs/hover.toml");
 const PAPER_LIMITS: &str = include_str!("../../specs/paper-limits.toml");
+const LINEAR_RICCATI: &str = include_str!("../specs/linear-riccati.toml");
 
 /// The data of one solve: the state, a constant reference, the last input.
 struct Case {
@@ -316,6 +318,23 @@ fn generated_hover_in_the_riccati_form_meets_the_accuracy() {
         codegen::riccati::Form::Riccati
     );
     generated_meets_the_accuracy!(hover, "hover", HOVER);
+}
+
+/// The Riccati form with rows on (x_k, u_k) and on x_{k+1} alone (stage cross terms, which hover's
+/// state bounds lack): the generated controller against the oracle and against Clarabel.
+#[test]
+fn generated_riccati_form_with_rows_matches_the_oracle_and_clarabel() {
+    let p = problem(LINEAR_RICCATI);
+    assert_eq!(
+        codegen::riccati::Choice::of(&p.qp).form,
+        codegen::riccati::Form::Riccati
+    );
+    let (worst, fallbacks) = compare!(linear_riccati, p);
+    println!(
+        "linear-riccati: worst plan difference {worst:.3e} of the span, {fallbacks} fallbacks"
+    );
+    assert!(worst <= 1e-7, "{worst:e} of the span from the oracle");
+    generated_meets_the_accuracy!(linear_riccati, "linear-riccati", LINEAR_RICCATI);
 }
 
 #[test]
