@@ -47,6 +47,14 @@ x_min = [-1.0, -1.0]
 x_max = [1.0, 1.0]
 "#;
 
+/// SMALL with soft rows: the velocity bounds (one slack per component, shared by every stage and both
+/// sides) and the row on x_{k+1} (its own slack), so that the normal system has the slacks' block.
+fn soft() -> String {
+    SMALL
+        .replace("x_max = [inf, 2.0]", "x_max = [inf, 2.0]\nx_soft = 100.0")
+        .replace("upper = [4.0]", "upper = [4.0]\nsoft = 50.0")
+}
+
 fn problem(src: &str) -> codegen::Problem {
     let src = src.replace("iterations = \"auto\"", "iterations = 20");
     codegen::lower(&mpc_spec::load(&src).unwrap()).unwrap()
@@ -89,8 +97,12 @@ fn normal(problem: &ipm::InequalityQp, layout: &Layout, d: &DVector<f64>) -> DMa
 fn solves_agree(name: &str, src: &str, seed: u64) {
     let qp = qp(src);
     let stages = Stages::of(&qp).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let n = qp.N * qp.u_min.len();
-    let problem = mpc_qp(&qp, &DVector::zeros(n), &DVector::zeros(qp.rows.len()));
+    let problem = mpc_qp(
+        &qp,
+        &DVector::zeros(qp.N * qp.u_min.len()),
+        &DVector::zeros(qp.rows.len()),
+    );
+    let n = problem.n();
     let layout = Layout::of(&problem);
     assert!(!layout.rows.is_empty(), "{name}: the test needs rows");
     let mut stream = Stream(seed);
@@ -114,13 +126,17 @@ fn solves_agree(name: &str, src: &str, seed: u64) {
 fn the_riccati_solve_is_the_dense_solve_of_the_normal_system() {
     solves_agree("hover", HOVER, 1);
     solves_agree("small", SMALL, 2);
+    let soft = soft();
+    assert_eq!(qp(&soft).rows.slacks(), 2);
+    solves_agree("small, soft", &soft, 3);
 }
 
 /// The fixed-iteration method in both forms, cold and then warm along a closed loop: the same iterates
 /// to rounding (1e-9 of the input span on the plan).
 #[test]
 fn the_method_gives_the_same_iterates_in_either_form() {
-    for (name, src) in [("hover", HOVER), ("small", SMALL)] {
+    let soft = soft();
+    for (name, src) in [("hover", HOVER), ("small", SMALL), ("small, soft", &soft)] {
         let p = problem(src);
         let qp = p.qp.clone();
         let stages = Stages::of(&qp).unwrap();
@@ -161,7 +177,7 @@ fn the_method_gives_the_same_iterates_in_either_form() {
 fn unsupported_problems_keep_the_condensed_form() {
     let afti = qp(include_str!("../../specs/afti16.toml"));
     let why = Stages::of(&afti).unwrap_err();
-    assert!(why.contains("slack"), "{why}");
+    assert!(why.contains("r_du"), "{why}");
     let c = Choice::of(&afti);
     assert_eq!(c.form, Form::Condensed);
     assert!(c.riccati_macs_per_iteration.is_none() && c.riccati_unavailable.is_some());

@@ -372,7 +372,8 @@ fn normal_form_lines(choice: &codegen::riccati::Choice) -> Vec<(String, String)>
         &choice.riccati_unavailable,
         choice.riccati_macs_per_iteration,
     ) {
-        (Some(why), _) => format!("unavailable: {why}"),
+        (Some(why), Some(macs)) => format!("{macs} multiply-adds/iteration, unavailable: {why}"),
+        (Some(why), None) => format!("unavailable: {why}"),
         (None, Some(macs)) => {
             format!("{macs} multiply-adds/iteration (stage-wise Riccati recursion)")
         }

@@ -546,6 +546,8 @@ pub(crate) struct Counts {
     pub(crate) elementwise: usize,
     /// One solve with the factor.
     pub(crate) solve: usize,
+    /// One product G·z or Gᵀ·v.
+    pub(crate) g: usize,
 }
 
 fn counts(qp: &InequalityQp) -> Counts {
@@ -572,6 +574,7 @@ fn counts(qp: &InequalityQp) -> Counts {
         refinement: hz + 2 * g + solve,
         elementwise: 12 * (nb + ng),
         solve,
+        g,
     }
 }
 
@@ -922,8 +925,8 @@ fn run_observed(
     stages: Option<&Stages>,
     observe: &mut dyn FnMut(IpmResult),
 ) -> IpmResult {
-    // The Riccati form solves the MPC's QP, whose unknowns are the plan.
-    let stages = stages.filter(|s| qp.n() == s.N * s.B.ncols());
+    // The Riccati form solves the MPC's QP, whose unknowns are the plan and the slacks.
+    let stages = stages.filter(|s| qp.n() == s.N * s.B.ncols() + s.slack_quadratic.len());
     if !qp.consistent() || !qp.finite() {
         return failure(qp, start, 0);
     }

@@ -57,11 +57,24 @@ pub struct Choice {
     pub riccati_unavailable: Option<String>,
 }
 
+/// Whether the emitter builds the slacks' Schur complement ([`crate::emit`]): until it does, the
+/// Riccati form of a problem with soft rows is the reference's only and never chosen.
+pub const SLACKS_EMITTED: bool = false;
+
 impl Choice {
     /// The choice for `qp`.
     pub fn of(qp: &Qp) -> Self {
         let condensed = crate::solver::ipm::condensed_macs_per_iteration(qp);
         match Stages::of(qp) {
+            Ok(stages) if !SLACKS_EMITTED && !stages.slack_quadratic.is_empty() => Choice {
+                form: Form::Condensed,
+                condensed_macs_per_iteration: condensed,
+                riccati_macs_per_iteration: Some(stages.macs_per_iteration(qp)),
+                riccati_unavailable: Some(
+                    "not emitted: the soft rows' Schur complement is built in the reference only"
+                        .into(),
+                ),
+            },
             Ok(stages) => {
                 let riccati = stages.macs_per_iteration(qp);
                 Choice {
@@ -110,6 +123,12 @@ pub struct Stages {
     pub R2: DMatrix<f64>,
     /// Each row of a slot on its stage's variables.
     pub rows: Vec<StageRow>,
+    /// Each row of a slot's slack: (its index, the row's coefficient on it), `None` for a hard row.
+    pub slack: Vec<Option<(usize, f64)>>,
+    /// The slacks' quadratic weights q_σ (ns).
+    pub slack_quadratic: DVector<f64>,
+    /// The rows' coefficients on the plan U (m × N·nu), for the slacks' coupling.
+    row_u: DMatrix<f64>,
 }
 
 /// The stage model must reproduce H and the rows to this, relative to their largest entry.
@@ -126,11 +145,6 @@ impl Stages {
         if qp.R_du.iter().any(|v| *v != 0.0) {
             not_built.push("`r_du` weights the moves, so a stage would carry u_{k−1} as a state");
         }
-        if rows.slacks() > 0 {
-            not_built.push(
-                "soft rows share one slack per component over the horizon (a Schur complement)",
-            );
-        }
         if !not_built.is_empty() {
             return Err(format!("not built: {}", not_built.join("; ")));
         }
@@ -146,6 +160,15 @@ impl Stages {
             Qf2: &qp.Qf * 2.0,
             R2: &qp.R * 2.0,
             rows: rows.stage.iter().flatten().cloned().collect(),
+            slack: (0..rows.per_slot)
+                .map(|q| {
+                    (0..rows.slacks())
+                        .find(|&j| rows.A[(q, N * nu + j)] != 0.0)
+                        .map(|j| (j, rows.A[(q, N * nu + j)]))
+                })
+                .collect(),
+            slack_quadratic: rows.slack_quadratic.clone(),
+            row_u: rows.A.columns(0, N * nu).into_owned(),
         };
         stages.reproduces(qp)?;
         Ok(stages)
@@ -204,6 +227,19 @@ impl Stages {
         if !close(&A, &qp.rows.A.columns(0, n).into_owned()) {
             return Err("the stage rows do not reproduce the condensed rows".into());
         }
+        let ns = qp.rows.slacks();
+        let slacks_reproduced = (0..m).all(|r| {
+            (0..ns).all(|j| {
+                let c = match self.slack[r % per_slot] {
+                    Some((s, c)) if s == j => c,
+                    _ => 0.0,
+                };
+                qp.rows.A[(r, n + j)] == c
+            })
+        });
+        if !slacks_reproduced {
+            return Err("the rows' slacks differ from slot to slot".into());
+        }
         Ok(())
     }
 
@@ -230,7 +266,10 @@ impl Stages {
             .map(|_| &self.R2 + DMatrix::identity(nu, nu) * delta)
             .collect();
         for (k, &(i, _)) in boxed.iter().enumerate() {
-            R[i / nu][(i % nu, i % nu)] += d[k];
+            // The slacks' floor σ ≥ 0 is the Schur complement's ([`Stages::factor`]).
+            if i < N * nu {
+                R[i / nu][(i % nu, i % nu)] += d[k];
+            }
         }
         let per_slot = self.rows.len();
         for (side, &(r, _)) in rows.iter().enumerate() {
@@ -271,12 +310,46 @@ impl Stages {
             pivots.push(chol);
         }
         pivots.reverse();
-        Some(Factor {
+        let mut f = Factor {
             A: A.clone(),
             B: B.clone(),
             gains,
             pivots,
-        })
+            coupling: DMatrix::zeros(N * self.nu(), 0),
+            schur: None,
+        };
+        let ns = self.slack_quadratic.len();
+        if ns == 0 {
+            return Some(f);
+        }
+        // The slacks' block and its coupling to the plan: M_σσ = diag(q_σ) + δ·I + the floor's and the
+        // soft sides' weights, M_uσ = Σ_sides d·c·a_u (c the side's coefficient on its slack).
+        let n = N * self.nu();
+        let mut Mss = DMatrix::from_diagonal(&self.slack_quadratic.map(|q| q + delta));
+        for (k, &(i, _)) in boxed.iter().enumerate() {
+            if i >= n {
+                Mss[(i - n, i - n)] += d[k];
+            }
+        }
+        let mut Mus = DMatrix::zeros(n, ns);
+        let per_slot = self.rows.len();
+        for (side, &(r, _)) in rows.iter().enumerate() {
+            if let Some((j, c)) = self.slack[r % per_slot] {
+                let w = d[boxed.len() + side];
+                Mss[(j, j)] += w * c * c;
+                let mut col = Mus.column_mut(j);
+                col += self.row_u.row(r).transpose() * (w * c);
+            }
+        }
+        // Y = M_uu⁻¹·M_uσ, one Riccati solve per slack; S = M_σσ − M_uσᵀ·Y.
+        let mut Y = DMatrix::zeros(n, ns);
+        for j in 0..ns {
+            Y.set_column(j, &f.solve_plan(&Mus.column(j).into_owned()));
+        }
+        let S = Mss - Mus.transpose() * &Y;
+        f.schur = Some(S.cholesky()?);
+        f.coupling = Y;
+        Some(f)
     }
 
     /// The scale of the regularisation: 1 + the largest |diagonal entry| of the R̃_k for weights `d`.
@@ -342,12 +415,29 @@ impl Stages {
         let ldl = ldl_macs(nu);
         let stage = 2 * nx * a + nx * b + nu * b + nu * a + ldl + nx * nu * nu + nx * nx * nu;
         let first = nx * b + nu * b + ldl;
-        forming + (N - 1) * stage + first
+        // The slacks: per slack its sides' weights and Gᵀ of them (M_uσ's column), a plan solve (Y's
+        // column); S = M_σσ − M_uσᵀ·Y and its L·D·Lᵀ.
+        let ns = self.slack_quadratic.len();
+        let g = crate::solver::ipm::mpc_counts(qp).g;
+        let slacks = if ns == 0 {
+            0
+        } else {
+            ns * (layout.rows.len() + g + self.plan_solve_macs()) + ns * ns * N * nu + ldl_macs(ns)
+        };
+        forming + (N - 1) * stage + first + slacks
     }
 
     /// Multiply-adds of one emitted solve: per stage Bᵀp, Aᵀp (the nonzeros), Kᵀe (nx·nu), Re⁻¹e
-    /// (nu²), then K·x (nx·nu), A·x and B·u (the nonzeros).
+    /// (nu²), then K·x (nx·nu), A·x and B·u (the nonzeros); with slacks, their Schur complement's
+    /// elimination.
     pub fn solve_macs(&self) -> usize {
+        let ns = self.slack_quadratic.len();
+        // With slacks: Yᵀ·r_u, S⁻¹(·) and Y·Δσ.
+        self.plan_solve_macs() + 2 * ns * self.N * self.nu() + ns * ns
+    }
+
+    /// Multiply-adds of one solve with M_uu, on the plan.
+    fn plan_solve_macs(&self) -> usize {
         let (nx, nu) = (self.nx(), self.nu());
         let (a, b) = self.nonzeros();
         self.N * (2 * a + 2 * b + 2 * nx * nu + nu * nu)
@@ -367,20 +457,37 @@ struct StageHessians {
     R: Vec<DMatrix<f64>>,
 }
 
-/// The Riccati factor: per stage the gain K_k = Re_k⁻¹·Se_k and Re_k's Cholesky factor.
+/// The Riccati factor: per stage the gain K_k = Re_k⁻¹·Se_k and Re_k's Cholesky factor; with slacks,
+/// Y = M_uu⁻¹·M_uσ and the Cholesky factor of the Schur complement S = M_σσ − M_uσᵀ·Y.
 #[derive(Clone, Debug)]
 pub struct Factor {
     A: DMatrix<f64>,
     B: DMatrix<f64>,
     gains: Vec<DMatrix<f64>>,
     pivots: Vec<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
+    coupling: DMatrix<f64>,
+    schur: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
 }
 
 impl Factor {
-    /// The solution ΔU of the normal system for the right-hand side r (N·nu): a backward sweep of the
-    /// cost-to-go's linear term p (e_k = Bᵀp_{k+1} − r_k, p_k = Aᵀp_{k+1} − K_kᵀe_k) and a forward
-    /// rollout from x_0 = 0 (u_k = −K_k·x_k − Re_k⁻¹e_k).
+    /// The solution Δz = (ΔU, Δσ) of the normal system for the right-hand side r = (r_u, r_σ): with
+    /// x = M_uu⁻¹·r_u ([`Factor::solve_plan`]), Δσ = S⁻¹·(r_σ − Yᵀ·r_u) and ΔU = x − Y·Δσ.
     pub fn solve(&self, r: &DVector<f64>) -> DVector<f64> {
+        let n = self.coupling.nrows();
+        let x = self.solve_plan(&r.rows(0, n).into_owned());
+        let Some(schur) = &self.schur else {
+            return x;
+        };
+        let ns = self.coupling.ncols();
+        let ds = schur.solve(&(r.rows(n, ns) - self.coupling.tr_mul(&r.rows(0, n))));
+        let du = x - &self.coupling * &ds;
+        DVector::from_iterator(n + ns, du.iter().chain(ds.iter()).copied())
+    }
+
+    /// M_uu⁻¹·r for r on the plan (N·nu): a backward sweep of the cost-to-go's linear term p
+    /// (e_k = Bᵀp_{k+1} − r_k, p_k = Aᵀp_{k+1} − K_kᵀe_k) and a forward rollout from x_0 = 0
+    /// (u_k = −K_k·x_k − Re_k⁻¹e_k).
+    pub fn solve_plan(&self, r: &DVector<f64>) -> DVector<f64> {
         let (nx, nu, N) = (self.A.nrows(), self.B.ncols(), self.gains.len());
         let mut p = DVector::zeros(nx);
         let mut e = vec![DVector::zeros(nu); N];
