@@ -154,6 +154,10 @@ fn variants() -> Vec<(String, String)> {
     );
     out.push(("riccati_f64_rows".to_string(), riccati));
     out.push(("riccati_f32_rows".to_string(), riccati_f32));
+    out.push((
+        "riccati_soft_rows".to_string(),
+        tests("linear-riccati-soft.toml"),
+    ));
     // ADMM in both scalars on a small plant with every kind of row, weighted moves and a disturbance
     // model (certified in seconds).
     for scalar in ["f32", "f64"] {

@@ -22,6 +22,7 @@ mpc_macros::mpc!(mod quadcopter = "../specs/quadcopter.toml");
 mpc_macros::mpc!(mod hover = "../specs/hover.toml");
 mpc_macros::mpc!(mod paper_limits = "../specs/paper-limits.toml");
 mpc_macros::mpc!(mod linear_riccati = "specs/linear-riccati.toml");
+mpc_macros::mpc!(mod linear_riccati_soft = "specs/linear-riccati-soft.toml");
 // Three iterations, below what the region needs: the build warns (a deprecated item), as it should.
 #[allow(deprecated)]
 mod short {
@@ -37,6 +38,7 @@ const QUADCOPTER: &str = include_str!("../../specs/quadcopter.toml");
 const HOVER: &str = include_str!("../../specs/hover.toml");
 const PAPER_LIMITS: &str = include_str!("../../specs/paper-limits.toml");
 const LINEAR_RICCATI: &str = include_str!("../specs/linear-riccati.toml");
+const LINEAR_RICCATI_SOFT: &str = include_str!("../specs/linear-riccati-soft.toml");
 
 /// The data of one solve: the state, a constant reference, the last input.
 struct Case {
@@ -335,6 +337,27 @@ fn generated_riccati_form_with_rows_matches_the_oracle_and_clarabel() {
     );
     assert!(worst <= 1e-7, "{worst:e} of the span from the oracle");
     generated_meets_the_accuracy!(linear_riccati, "linear-riccati", LINEAR_RICCATI);
+}
+
+/// The same with soft rows: the slacks' Schur complement in the Riccati form.
+#[test]
+fn generated_riccati_form_with_soft_rows_matches_the_oracle_and_clarabel() {
+    let p = problem(LINEAR_RICCATI_SOFT);
+    assert_eq!(p.qp.rows.slacks(), 3);
+    assert_eq!(
+        codegen::riccati::Choice::of(&p.qp).form,
+        codegen::riccati::Form::Riccati
+    );
+    let (worst, fallbacks) = compare!(linear_riccati_soft, p);
+    println!(
+        "linear-riccati-soft: worst plan difference {worst:.3e} of the span, {fallbacks} fallbacks"
+    );
+    assert!(worst <= 1e-7, "{worst:e} of the span from the oracle");
+    generated_meets_the_accuracy!(
+        linear_riccati_soft,
+        "linear-riccati-soft",
+        LINEAR_RICCATI_SOFT
+    );
 }
 
 #[test]

@@ -175,6 +175,150 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
         wide.matrix(&stages.Qf2),
         wide.matrix(&stages.R2),
     );
+    // The soft rows' slacks: their Schur complement, emitted only where there are slacks.
+    let ns = stages.slack_quadratic.len();
+    let soft = ns > 0;
+    let slack_fields = soft.then(|| {
+        quote! {
+            /// Y = M_uu⁻¹·M_uσ, a row per slack (the plan in stage order).
+            coupling: [[f64; NP]; NS],
+            /// The L·D·Lᵀ of the Schur complement S = M_σσ − M_uσᵀ·Y.
+            schur: [[f64; NS]; NS],
+        }
+    });
+    let slack_zero = soft.then(|| {
+        quote! {
+            coupling: [[0.0; NP]; NS],
+            schur: [[0.0; NS]; NS],
+        }
+    });
+    let schur_call = soft.then(|| quote!(&riccati_schur(w, delta, m)));
+    let slack_rs = soft.then(|| quote!(let mut rs = [0.0; NS];));
+    let slack_put = soft.then(|| {
+        quote! {
+            // The slacks follow the plan (ORDER is constant: the same branch every time).
+            if i >= NP {
+                put(&mut rs, i - NP, *v);
+            }
+        }
+    });
+    let write_back = if soft {
+        quote! {
+            // Δσ = S⁻¹·(r_σ − Yᵀ·r_u), ΔU = M_uu⁻¹·r_u − Y·Δσ.
+            let ru = riccati_flat(&r);
+            for (sj, y) in rs.iter_mut().zip(m.coupling.iter()) {
+                *sj -= dot(y, &ru);
+            }
+            riccati_ldl_solve(&m.schur, &mut rs);
+            let mut du = riccati_flat(&u);
+            for (y, sj) in m.coupling.iter().zip(rs.iter()) {
+                for (d, yi) in du.iter_mut().zip(y.iter()) {
+                    *d -= yi * sj;
+                }
+            }
+            for (p, o) in b.iter_mut().enumerate() {
+                let i = at_index(&ORDER, p);
+                *o = if i < NP { at(&du, i) } else { at(&rs, i - NP) };
+            }
+        }
+    } else {
+        quote! {
+            for (p, o) in b.iter_mut().enumerate() {
+                let i = at_index(&ORDER, p);
+                *o = match u.get(i / NU).and_then(|s| s.get(i % NU)) {
+                    Some(v) => *v,
+                    None => 0.0,
+                };
+            }
+        }
+    };
+    let slack_kernels = soft.then(|| {
+        quote! {
+            /// The slacks' Schur complement for the weights `w` and δ on its diagonal (M + δ·I): Y =
+            /// M_uu⁻¹·M_uσ, a plan solve per slack (M_uσ's column j is the plan part of Gᵀ of slack j's
+            /// sides' weights), and the L·D·Lᵀ of S = M_σσ − M_uσᵀ·Y; `false` when a pivot of S is not
+            /// positive and finite.
+            fn riccati_schur(w: &[f64; NSIDES], delta: f64, m: &mut NormalFactor) -> bool {
+                let mut s = [[0.0; NS]; NS];
+                for (j, row) in s.iter_mut().enumerate() {
+                    row[j] = RICCATI_SQ[j] + delta;
+                }
+                // The floor σ ≥ 0 (RICCATI_BOX is constant: the same branch every time).
+                for (wk, &i) in w.iter().zip(RICCATI_BOX.iter()) {
+                    if i >= NP {
+                        if let Some(e) = s.get_mut(i - NP).and_then(|row| row.get_mut(i - NP)) {
+                            *e += wk;
+                        }
+                    }
+                }
+                let mut coupling = [[0.0; NP]; NS];
+                let mut columns = [[0.0; NP]; NS];
+                for (j, (y, column)) in coupling.iter_mut().zip(columns.iter_mut()).enumerate() {
+                    let mut v = [0.0; NSIDES];
+                    for (t, &(sj, c)) in RICCATI_SIDE_SLACK.iter().enumerate() {
+                        // RICCATI_SIDE_SLACK is constant: the same branch every time.
+                        if sj == j {
+                            let wt = at(w, NB + t);
+                            put(&mut v, NB + t, wt * c);
+                            if let Some(e) = s.get_mut(j).and_then(|row| row.get_mut(j)) {
+                                *e += wt * c * c;
+                            }
+                        }
+                    }
+                    let mut g = [0.0; NV];
+                    g_tmul(&v, &mut g);
+                    let mut r = [[0.0; NU]; N];
+                    for (p, x) in g.iter().enumerate() {
+                        let i = at_index(&ORDER, p);
+                        if let Some(e) = r.get_mut(i / NU).and_then(|s| s.get_mut(i % NU)) {
+                            *e = *x;
+                        }
+                    }
+                    *column = riccati_flat(&r);
+                    *y = riccati_flat(&riccati_solve(m, &r));
+                }
+                for (row, column) in s.iter_mut().zip(columns.iter()) {
+                    for (e, y) in row.iter_mut().zip(coupling.iter()) {
+                        *e -= dot(column, y);
+                    }
+                }
+                let positive = riccati_ldl(&mut s);
+                m.coupling = coupling;
+                m.schur = s;
+                positive
+            }
+
+            /// A plan in stage order, flat.
+            fn riccati_flat(u: &[[f64; NU]; N]) -> [f64; NP] {
+                let mut out = [0.0; NP];
+                for (o, v) in out.iter_mut().zip(u.iter().flatten()) {
+                    *o = *v;
+                }
+                out
+            }
+        }
+    });
+    let slack_tables = soft.then(|| {
+        let side_slack = layout.rows.iter().map(|&(r, sign)| {
+            match stages.slack.get(r % per_slot).copied().flatten() {
+                Some((j, c)) => {
+                    let (j, c) = (lit(j), wide.lit(sign * c));
+                    quote!((#j, #c))
+                }
+                None => {
+                    let (j, c) = (lit(ns), wide.lit(0.0));
+                    quote!((#j, #c))
+                }
+            }
+        });
+        let sq = wide.vector(stages.slack_quadratic.iter().copied());
+        quote! {
+            /// Side j's slack and its coefficient on it, (slack, ±1), or (NS, 0) for a hard row's side.
+            const RICCATI_SIDE_SLACK: [(usize, f64); NG] = [#(#side_slack),*];
+            /// The slacks' quadratic weights q_σ.
+            const RICCATI_SQ: [f64; NS] = #sq;
+        }
+    });
     let kernels = quote! {
         /// The normal matrix's Riccati factor: per stage k the gain K_k = Re_k⁻¹·Se_k and the L·D·Lᵀ of
         /// Re_k = R̃_k + Bᵀ·P_{k+1}·B (L below the diagonal, D on it).
@@ -182,11 +326,13 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
         struct NormalFactor {
             gain: [[[f64; NX]; NU]; N],
             pivot: [[[f64; NU]; NU]; N],
+            #slack_fields
         }
 
         const NORMAL_ZERO: NormalFactor = NormalFactor {
             gain: [[[0.0; NX]; NU]; N],
             pivot: [[[0.0; NU]; NU]; N],
+            #slack_zero
         };
 
         /// The stage variables (x, u): NX + NU.
@@ -204,8 +350,9 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
             }
             let mut z = [[[0.0; RICCATI_NXU]; RICCATI_NXU]; N + 1];
             for (wk, &i) in w.iter().zip(RICCATI_BOX.iter()) {
+                // The plan's (the slacks' floor is their Schur complement's; RICCATI_BOX is constant).
                 let c = NX + i % NU;
-                if let Some(e) = z.get_mut(i / NU).and_then(|s| s.get_mut(c)).and_then(|r| r.get_mut(c)) {
+                if let Some(e) = z.get_mut(i / NU).filter(|_| i < NP).and_then(|s| s.get_mut(c)).and_then(|r| r.get_mut(c)) {
                     *e += wk;
                 }
             }
@@ -230,7 +377,7 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
             let scale = 1.0 + largest;
             let mut delta = 0.0;
             for _ in 0..4 {
-                if riccati(&z, delta, m) {
+                if riccati(&z, delta, m) #schur_call {
                     return true;
                 }
                 delta = if delta == 0.0 { 1e-12 * scale } else { delta * 1e3 };
@@ -306,10 +453,10 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
 
         /// L·D·Lᵀ of an NU × NU matrix in place (D on the diagonal); `false` when a pivot is not positive
         /// and finite. It runs to the end either way.
-        fn riccati_ldl(m: &mut [[f64; NU]; NU]) -> bool {
-            let mut v = [0.0; NU];
+        fn riccati_ldl<const K: usize>(m: &mut [[f64; K]; K]) -> bool {
+            let mut v = [0.0; K];
             let mut positive = true;
-            for j in 0..NU {
+            for j in 0..K {
                 let mut d = m[j][j];
                 for k in 0..j {
                     v[k] = m[j][k] * m[k][k];
@@ -330,18 +477,18 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
         }
 
         /// Solves L·D·Lᵀ x = b in place for an NU × NU factor of [`riccati_ldl`].
-        fn riccati_ldl_solve(m: &[[f64; NU]; NU], b: &mut [f64; NU]) {
-            for i in 0..NU {
+        fn riccati_ldl_solve<const K: usize>(m: &[[f64; K]; K], b: &mut [f64; K]) {
+            for i in 0..K {
                 let mut a = b[i];
                 for k in 0..i {
                     a -= m[i][k] * b[k];
                 }
                 b[i] = a;
             }
-            for i in 0..NU {
+            for i in 0..K {
                 b[i] /= m[i][i];
             }
-            for i in (0..NU).rev() {
+            for i in (0..K).rev() {
                 let x = b[i];
                 for k in 0..i {
                     b[k] -= m[i][k] * x;
@@ -376,18 +523,27 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
             }
         }
 
-        /// Solves the normal system for the right-hand side b (the method's order) in place: the
-        /// backward sweep of the cost-to-go's linear term (e_k = Bᵀ·p − r_k, p ← Aᵀ·p − K_kᵀ·e_k) and the
-        /// forward rollout from x_0 = 0 (u_k = −K_k·x_k − Re_k⁻¹·e_k, x_{k+1} = A·x_k + B·u_k).
+        /// Solves the normal system for the right-hand side b (the method's order) in place: the plan's
+        /// part by [`riccati_solve`], the slacks' (when there are) by their Schur complement.
         fn ldl_solve(m: &NormalFactor, b: &mut [f64; NV]) {
             // Plan entry k·NU + c is input c of stage k.
             let mut r = [[0.0; NU]; N];
+            #slack_rs
             for (p, v) in b.iter().enumerate() {
                 let i = at_index(&ORDER, p);
                 if let Some(e) = r.get_mut(i / NU).and_then(|s| s.get_mut(i % NU)) {
                     *e = *v;
                 }
+                #slack_put
             }
+            let u = riccati_solve(m, &r);
+            #write_back
+        }
+
+        /// M_uu⁻¹·r for r on the plan, in stage order: the backward sweep of the cost-to-go's linear
+        /// term (e_k = Bᵀ·p − r_k, p ← Aᵀ·p − K_kᵀ·e_k) and the forward rollout from x_0 = 0
+        /// (u_k = −K_k·x_k − Re_k⁻¹·e_k, x_{k+1} = A·x_k + B·u_k).
+        fn riccati_solve(m: &NormalFactor, r: &[[f64; NU]; N]) -> [[f64; NU]; N] {
             let mut pv = [0.0; NX];
             let mut e = [[0.0; NU]; N];
             for k in (0..N).rev() {
@@ -424,14 +580,10 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
                 x = next;
                 u[k] = uk;
             }
-            for (p, o) in b.iter_mut().enumerate() {
-                let i = at_index(&ORDER, p);
-                *o = match u.get(i / NU).and_then(|s| s.get(i % NU)) {
-                    Some(v) => *v,
-                    None => 0.0,
-                };
-            }
+            u
         }
+
+        #slack_kernels
     };
     let tables = quote! {
         /// The Riccati form's stage weights: 2Q (stages 1 … N−1), 2Q_f (stage N) and 2R.
@@ -446,8 +598,10 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
         const RICCATI_ROW: [(usize, usize); RICCATI_NR] = [#(#row_stage),*];
         const RICCATI_TERM_START: [usize; #n_kinds + 1] = [#(#term_start_lit),*];
         const RICCATI_TERMS: [(usize, usize, f64); #n_terms] = [#(#terms_lit),*];
-        /// Box side k bounds plan entry RICCATI_BOX[k] (input i % NU of stage i / NU).
+        /// Box side k bounds unknown RICCATI_BOX[k]: plan entry i is input i % NU of stage i / NU, the
+        /// slacks follow the plan.
         const RICCATI_BOX: [usize; NB] = [#(#box_index),*];
+        #slack_tables
     };
     (kernels, tables)
 }

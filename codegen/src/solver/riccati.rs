@@ -59,7 +59,7 @@ pub struct Choice {
 
 /// Whether the emitter builds the slacks' Schur complement ([`crate::emit`]): until it does, the
 /// Riccati form of a problem with soft rows is the reference's only and never chosen.
-pub const SLACKS_EMITTED: bool = false;
+pub const SLACKS_EMITTED: bool = true;
 
 impl Choice {
     /// The choice for `qp`.
@@ -422,7 +422,10 @@ impl Stages {
         let slacks = if ns == 0 {
             0
         } else {
-            ns * (layout.rows.len() + g + self.plan_solve_macs()) + ns * ns * N * nu + ldl_macs(ns)
+            2 * layout.rows.len()
+                + ns * (g + self.plan_solve_macs())
+                + ns * ns * N * nu
+                + ldl_macs(ns)
         };
         forming + (N - 1) * stage + first + slacks
     }
