@@ -4,7 +4,8 @@
 //! regularised retries, no reachable panic, every table index checked), which they replace where the
 //! cost model chooses the Riccati form.
 //!
-//! The factor is per stage the gain K_k (NU × NX) and the L·D·Lᵀ of Re_k (NU × NU). The recursion
+//! The factor is per stage the gain K_k (NU × NX) and the L·D·Lᵀ of Re_k (NU × NU), and with soft rows
+//! Y = M_uu⁻¹·M_uσ and the L·D·Lᵀ of the slacks' Schur complement (emitted only then). The recursion
 //! visits only the nonzeros of A and B: each nonzero is a line of the emitted code (a loop over the
 //! dense dimension for the matrix products), the dense dimensions are loops, so the code grows with
 //! nnz(A) + nnz(B), not with the horizon. The method's unknowns stay in the envelope's order (the

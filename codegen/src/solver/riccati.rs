@@ -8,16 +8,21 @@
 //! the rows on stage k (a row's weight w the sum of its sides' λ/s). A backward Riccati recursion
 //! factors it (per stage Re_k = R̃_k + BᵀP_{k+1}B, K_k = Re_k⁻¹(S̃_k + BᵀP_{k+1}A),
 //! P_k = Q̃_k + AᵀP_{k+1}A − (S̃_k + BᵀP_{k+1}A)ᵀK_k), and a backward sweep of the linear term and a
-//! forward rollout solve it, in O(N·(nx³ + …)) where the dense factorisation is O(N³·nu³).
+//! forward rollout solve it, in O(N·(nx·nnz(A) + nx²·nu + …)) where the dense factorisation is
+//! O((N·nu)³).
 //!
-//! Built for the input box, state bounds and row groups (with or without `au`), hard. Not built, so
-//! that the condensed form is used ([`Stages::of`] says why): move bounds (a row on u_k − u_{k−1}),
-//! weighted moves (`r_du`: the stage would carry u_{k−1} as a state), and soft rows (their slacks are
-//! shared by every stage: a Schur complement).
+//! The slacks of soft rows are shared by every stage, so they are not stage variables: with
+//! z = (U, σ) the normal matrix is [M_uu M_uσ; M_σu M_σσ], M_uu in the Riccati form above, and the
+//! slacks are eliminated by the Schur complement S = M_σσ − M_uσᵀ·M_uu⁻¹·M_uσ (one plan solve per slack
+//! to form it, ns × ns).
+//!
+//! Built for the input box, state bounds and row groups (with or without `au`), hard or soft. Not
+//! built, so that the condensed form is used ([`Stages::of`] says why): move bounds (a row on
+//! u_k − u_{k−1}) and weighted moves (`r_du`): a stage would carry u_{k−1} as a state.
 //!
 //! The regularisation of a refused factorisation is the condensed one's, M + δ·I, which here is
-//! R̃_k + δ·I at every stage; δ is relative to the largest diagonal entry of the R̃_k (the condensed
-//! form's: of M), so the two forms regularise alike but not identically.
+//! R̃_k + δ·I at every stage and M_σσ + δ·I; δ is relative to the largest diagonal entry of the R̃_k
+//! (the condensed form's: of M), so the two forms regularise alike but not identically.
 #![allow(non_snake_case)]
 
 use crate::constraints::StageRow;
@@ -57,24 +62,11 @@ pub struct Choice {
     pub riccati_unavailable: Option<String>,
 }
 
-/// Whether the emitter builds the slacks' Schur complement ([`crate::emit`]): until it does, the
-/// Riccati form of a problem with soft rows is the reference's only and never chosen.
-pub const SLACKS_EMITTED: bool = true;
-
 impl Choice {
     /// The choice for `qp`.
     pub fn of(qp: &Qp) -> Self {
         let condensed = crate::solver::ipm::condensed_macs_per_iteration(qp);
         match Stages::of(qp) {
-            Ok(stages) if !SLACKS_EMITTED && !stages.slack_quadratic.is_empty() => Choice {
-                form: Form::Condensed,
-                condensed_macs_per_iteration: condensed,
-                riccati_macs_per_iteration: Some(stages.macs_per_iteration(qp)),
-                riccati_unavailable: Some(
-                    "not emitted: the soft rows' Schur complement is built in the reference only"
-                        .into(),
-                ),
-            },
             Ok(stages) => {
                 let riccati = stages.macs_per_iteration(qp);
                 Choice {
