@@ -815,6 +815,7 @@ pub mod hover {
             let c = NX + i % NU;
             if let Some(e) = z
                 .get_mut(i / NU)
+                .filter(|_| i < NP)
                 .and_then(|s| s.get_mut(c))
                 .and_then(|r| r.get_mut(c))
             {
@@ -1438,10 +1439,10 @@ pub mod hover {
     }
     /// L·D·Lᵀ of an NU × NU matrix in place (D on the diagonal); `false` when a pivot is not positive
     /// and finite. It runs to the end either way.
-    fn riccati_ldl(m: &mut [[f64; NU]; NU]) -> bool {
-        let mut v = [0.0; NU];
+    fn riccati_ldl<const K: usize>(m: &mut [[f64; K]; K]) -> bool {
+        let mut v = [0.0; K];
         let mut positive = true;
-        for j in 0..NU {
+        for j in 0..K {
             let mut d = m[j][j];
             for k in 0..j {
                 v[k] = m[j][k] * m[k][k];
@@ -1460,18 +1461,18 @@ pub mod hover {
         positive
     }
     /// Solves L·D·Lᵀ x = b in place for an NU × NU factor of [`riccati_ldl`].
-    fn riccati_ldl_solve(m: &[[f64; NU]; NU], b: &mut [f64; NU]) {
-        for i in 0..NU {
+    fn riccati_ldl_solve<const K: usize>(m: &[[f64; K]; K], b: &mut [f64; K]) {
+        for i in 0..K {
             let mut a = b[i];
             for k in 0..i {
                 a -= m[i][k] * b[k];
             }
             b[i] = a;
         }
-        for i in 0..NU {
+        for i in 0..K {
             b[i] /= m[i][i];
         }
-        for i in (0..NU).rev() {
+        for i in (0..K).rev() {
             let x = b[i];
             for k in 0..i {
                 b[k] -= m[i][k] * x;
@@ -1504,9 +1505,8 @@ pub mod hover {
             }
         }
     }
-    /// Solves the normal system for the right-hand side b (the method's order) in place: the
-    /// backward sweep of the cost-to-go's linear term (e_k = Bᵀ·p − r_k, p ← Aᵀ·p − K_kᵀ·e_k) and the
-    /// forward rollout from x_0 = 0 (u_k = −K_k·x_k − Re_k⁻¹·e_k, x_{k+1} = A·x_k + B·u_k).
+    /// Solves the normal system for the right-hand side b (the method's order) in place: the plan's
+    /// part by [`riccati_solve`], the slacks' (when there are) by their Schur complement.
     fn ldl_solve(m: &NormalFactor, b: &mut [f64; NV]) {
         let mut r = [[0.0; NU]; N];
         for (p, v) in b.iter().enumerate() {
@@ -1515,6 +1515,19 @@ pub mod hover {
                 *e = *v;
             }
         }
+        let u = riccati_solve(m, &r);
+        for (p, o) in b.iter_mut().enumerate() {
+            let i = at_index(&ORDER, p);
+            *o = match u.get(i / NU).and_then(|s| s.get(i % NU)) {
+                Some(v) => *v,
+                None => 0.0,
+            };
+        }
+    }
+    /// M_uu⁻¹·r for r on the plan, in stage order: the backward sweep of the cost-to-go's linear
+    /// term (e_k = Bᵀ·p − r_k, p ← Aᵀ·p − K_kᵀ·e_k) and the forward rollout from x_0 = 0
+    /// (u_k = −K_k·x_k − Re_k⁻¹·e_k, x_{k+1} = A·x_k + B·u_k).
+    fn riccati_solve(m: &NormalFactor, r: &[[f64; NU]; N]) -> [[f64; NU]; N] {
         let mut pv = [0.0; NX];
         let mut e = [[0.0; NU]; N];
         for k in (0..N).rev() {
@@ -1695,13 +1708,7 @@ pub mod hover {
             x = next;
             u[k] = uk;
         }
-        for (p, o) in b.iter_mut().enumerate() {
-            let i = at_index(&ORDER, p);
-            *o = match u.get(i / NU).and_then(|s| s.get(i % NU)) {
-                Some(v) => *v,
-                None => 0.0,
-            };
-        }
+        u
     }
     /// Whether every entry is finite.
     #[inline(always)]
@@ -14111,7 +14118,8 @@ pub mod hover {
         (10, 10, 1f64),
         (11, 11, 1f64),
     ];
-    /// Box side k bounds plan entry RICCATI_BOX[k] (input i % NU of stage i / NU).
+    /// Box side k bounds unknown RICCATI_BOX[k]: plan entry i is input i % NU of stage i / NU, the
+    /// slacks follow the plan.
     const RICCATI_BOX: [usize; NB] = [
         0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12,
         12, 13, 13, 14, 14, 15, 15, 16, 16, 17, 17, 18, 18, 19, 19, 20, 20, 21, 21, 22,
