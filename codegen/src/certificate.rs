@@ -137,6 +137,9 @@ pub struct Certificate {
     pub sampled: Option<crate::evidence::Evidence>,
     /// `[mpc] accuracy`.
     pub accuracy: f64,
+    /// The interior-point method's form of its normal system, with the multiply-adds of an iteration in
+    /// each form ([`crate::solver::riccati::Choice`]); `None` for the other methods.
+    pub normal_form: Option<crate::solver::riccati::Choice>,
     /// The method as written (`auto` when it was not); the method used is the problem's.
     pub method_requested: mpc_spec::Method,
     /// What `method = "auto"` weighed ([`crate::choice`]); empty for a written method.
@@ -593,6 +596,8 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
         ),
         sampled: qp.evidence.clone(),
         accuracy: qp.accuracy,
+        normal_form: (plan.algorithm.is_none() && qp.method == mpc_spec::Method::Ipm)
+            .then(|| crate::solver::riccati::Choice::of(qp)),
         method_requested: p.requested,
         candidates: p.candidates.clone(),
         disturbance_time_constant: p.filter.as_ref().filter(|f| f.nd > 0).map(|f| {

@@ -77,6 +77,19 @@ impl RowKind {
     }
 }
 
+/// A row of a slot on its stage's variables, for the Riccati form of the interior-point method
+/// ([`crate::solver::riccati`]): in slot j it is ax·x_{j+lag} + au·u_j (plus data), with lag 1 for state
+/// bounds and `ax`-only rows (au zero) and lag 0 for rows with an `au`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StageRow {
+    /// 0: the row is on (x_j, u_j); 1: on x_{j+1}.
+    pub lag: usize,
+    /// Its coefficients on the stage's state (nx).
+    pub ax: DVector<f64>,
+    /// Its coefficients on the stage's input (nu).
+    pub au: DVector<f64>,
+}
+
 /// The lowered rows; empty when the spec constrains the input box only.
 #[derive(Clone, Debug)]
 pub struct Rows {
@@ -96,6 +109,9 @@ pub struct Rows {
     pub per_slot: usize,
     /// What each row of a slot constrains (per_slot entries).
     pub kinds: Vec<RowKind>,
+    /// Each row of a slot on its stage's variables (per_slot entries); `None` for a move row, which
+    /// couples u_j and u_{j−1}.
+    pub stage: Vec<Option<StageRow>>,
     /// The slacks' linear weights w (ns).
     pub slack_weight: DVector<f64>,
     /// The slacks' quadratic weights [`SOFT_QUADRATIC`]·w (ns).
@@ -116,6 +132,7 @@ impl Rows {
             Wu: DMatrix::zeros(0, nu),
             per_slot: 0,
             kinds: Vec::new(),
+            stage: Vec::new(),
             slack_weight: DVector::zeros(0),
             slack_quadratic: DVector::zeros(0),
             soft: Vec::new(),
@@ -324,7 +341,30 @@ pub fn lower(c: &Constraints, Sx: &DMatrix<f64>, Su: &DMatrix<f64>, nu: usize) -
     };
     let slots: Vec<Vec<(Row, RowKind)>> = (0..N).map(slot).collect();
     let per_slot = slots[0].len();
-    let kinds = slots[0].iter().map(|(_, k)| k.clone()).collect();
+    let kinds: Vec<RowKind> = slots[0].iter().map(|(_, k)| k.clone()).collect();
+    let stage = kinds
+        .iter()
+        .map(|k| match k {
+            RowKind::State { index, .. } => Some(StageRow {
+                lag: 1,
+                ax: unit(nx, *index),
+                au: DVector::zeros(nu),
+            }),
+            RowKind::Move { .. } => None,
+            RowKind::Group { group, row, .. } => {
+                let g = &c.rows[*group];
+                let with_input = g.au.data.iter().any(|v| *v != 0.0);
+                Some(StageRow {
+                    lag: usize::from(!with_input),
+                    ax: DVector::from_fn(nx, |i, _| g.ax.get(*row, i)),
+                    au: DVector::from_fn(
+                        nu,
+                        |i, _| if with_input { g.au.get(*row, i) } else { 0.0 },
+                    ),
+                })
+            }
+        })
+        .collect();
     let rows: Vec<&Row> = slots.iter().flatten().map(|(r, _)| r).collect();
     let m = rows.len();
     let ns = weights.len();
@@ -351,6 +391,7 @@ pub fn lower(c: &Constraints, Sx: &DMatrix<f64>, Su: &DMatrix<f64>, nu: usize) -
         Wu,
         per_slot,
         kinds,
+        stage,
         slack_quadratic: &weight * SOFT_QUADRATIC,
         slack_weight: weight,
         soft: rows.iter().map(|r| r.slack.is_some()).collect(),

@@ -59,6 +59,7 @@ pub use mpc_spec::{Diagnostic, Diagnostics, Spec};
 pub use plan::{plan, Plan};
 pub use solver::admm;
 pub use solver::ipm;
+pub use solver::riccati;
 
 use proc_macro2::{Ident, Span, TokenStream};
 

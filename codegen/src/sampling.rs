@@ -26,7 +26,7 @@ use crate::evidence::Limits;
 pub use crate::evidence::{Evidence, Region};
 use crate::lower::{Problem, Qp};
 use crate::solver::ipm::{
-    control_step, mpc_macs_per_iteration, mpc_qp, shifted_start, solve, trajectory, violations,
+    chosen_stages, control_step, mpc_macs_per_iteration, mpc_qp, shifted_start, solve, violations,
     Fallback, InequalityQp, IpmResult, Start, Status,
 };
 use crate::solver::Algorithm;
@@ -161,12 +161,13 @@ impl Sampled for InteriorPoint {
 
     fn trajectory(
         &self,
-        _qp: &Qp,
+        qp: &Qp,
         problem: &InequalityQp,
         start: &Start,
         iterations: usize,
     ) -> Vec<Iterate> {
-        trajectory(problem, start, iterations)
+        // In the form the emitted method uses (the same iterates to rounding).
+        crate::ipm::trajectory_in(problem, start, iterations, chosen_stages(qp).as_ref())
             .into_iter()
             .map(|r| interior_iterate(&r))
             .collect()

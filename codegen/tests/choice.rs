@@ -195,3 +195,80 @@ fn the_cheapest_candidate_that_reaches_accuracy_wins() {
         "{c:?}"
     );
 }
+
+/// The interior-point method's form of its normal system for every shipped spec that uses the method,
+/// pinned: the Riccati form where it is available for the problem and counts fewer multiply-adds per
+/// iteration (hover: a box on every state, sparse dynamics), the condensed form otherwise. The
+/// quadcopter's Riccati form is available but dearer (three rows a stage), as are paper-limits' and
+/// paper-geofence's (soft rows: the slacks' Schur complement; and the condensed form splits into the
+/// axes); afti16 weights its moves (`r_du`), for which the Riccati form is not built.
+#[test]
+fn shipped_specs_normal_system_form() {
+    use codegen::riccati::{Choice, Form};
+    // (name, spec, form, Riccati form available, Riccati form counted)
+    let specs: &[(&str, &str, Form, bool, bool)] = &[
+        (
+            "hover",
+            include_str!("../../specs/hover.toml"),
+            Form::Riccati,
+            true,
+            true,
+        ),
+        (
+            "quadcopter",
+            include_str!("../../specs/quadcopter.toml"),
+            Form::Condensed,
+            true,
+            true,
+        ),
+        (
+            "afti16",
+            include_str!("../../specs/afti16.toml"),
+            Form::Condensed,
+            false,
+            false,
+        ),
+        (
+            "paper-limits",
+            include_str!("../../specs/paper-limits.toml"),
+            Form::Condensed,
+            true,
+            true,
+        ),
+        (
+            "paper-geofence",
+            include_str!("../../specs/paper-geofence.toml"),
+            Form::Condensed,
+            true,
+            true,
+        ),
+    ];
+    for (name, src, form, available, counted) in specs {
+        let p = lower(&load(src).unwrap()).unwrap();
+        assert_eq!(p.qp.method, Method::Ipm, "{name}");
+        let c = Choice::of(&p.qp);
+        println!("{name}: {c:?}");
+        assert_eq!(c.form, *form, "{name}: {c:?}");
+        assert_eq!(c.riccati_unavailable.is_none(), *available, "{name}: {c:?}");
+        assert_eq!(
+            c.riccati_macs_per_iteration.is_some(),
+            *counted,
+            "{name}: {c:?}"
+        );
+        // The chosen form is the cheaper of those available, and it is what the cost model counts.
+        let riccati = c.riccati_macs_per_iteration.unwrap_or(usize::MAX);
+        assert_eq!(
+            c.form == Form::Riccati,
+            *available && riccati < c.condensed_macs_per_iteration,
+            "{name}: {c:?}"
+        );
+        assert_eq!(
+            codegen::ipm::mpc_macs_per_iteration(&p.qp),
+            c.macs_per_iteration(),
+            "{name}"
+        );
+        // `mpcc check --json` carries it.
+        let g = codegen::generate_from_source(src, &Opt::default()).unwrap();
+        assert_eq!(g.certificate.normal_form.as_ref(), Some(&c), "{name}");
+    }
+}

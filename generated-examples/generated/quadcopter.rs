@@ -5014,45 +5014,45 @@ pub mod quadcopter {
         let d0 = m[0][0];
         positive &= (d0 > 0.0) & (d0 < f64::INFINITY);
         m[0][0] = d0;
-        m[1][0] = (m[1][0]) / d0;
-        m[2][0] = (m[2][0]) / d0;
-        m[3][0] = (m[3][0]) / d0;
-        m[4][0] = (m[4][0]) / d0;
-        m[5][0] = (m[5][0]) / d0;
-        m[6][0] = (m[6][0]) / d0;
-        m[7][0] = (m[7][0]) / d0;
-        m[8][0] = (m[8][0]) / d0;
-        m[9][0] = (m[9][0]) / d0;
-        m[10][0] = (m[10][0]) / d0;
-        m[11][0] = (m[11][0]) / d0;
-        m[12][0] = (m[12][0]) / d0;
-        m[13][0] = (m[13][0]) / d0;
-        m[14][0] = (m[14][0]) / d0;
-        m[15][0] = (m[15][0]) / d0;
-        m[16][0] = (m[16][0]) / d0;
-        m[17][0] = (m[17][0]) / d0;
-        m[18][0] = (m[18][0]) / d0;
-        m[19][0] = (m[19][0]) / d0;
-        m[20][0] = (m[20][0]) / d0;
-        m[21][0] = (m[21][0]) / d0;
-        m[22][0] = (m[22][0]) / d0;
-        m[23][0] = (m[23][0]) / d0;
-        m[24][0] = (m[24][0]) / d0;
-        m[25][0] = (m[25][0]) / d0;
-        m[26][0] = (m[26][0]) / d0;
-        m[27][0] = (m[27][0]) / d0;
-        m[28][0] = (m[28][0]) / d0;
-        m[29][0] = (m[29][0]) / d0;
-        m[30][0] = (m[30][0]) / d0;
-        m[31][0] = (m[31][0]) / d0;
-        m[32][0] = (m[32][0]) / d0;
-        m[33][0] = (m[33][0]) / d0;
-        m[34][0] = (m[34][0]) / d0;
-        m[35][0] = (m[35][0]) / d0;
-        m[36][0] = (m[36][0]) / d0;
-        m[37][0] = (m[37][0]) / d0;
-        m[38][0] = (m[38][0]) / d0;
-        m[39][0] = (m[39][0]) / d0;
+        m[1][0] /= d0;
+        m[2][0] /= d0;
+        m[3][0] /= d0;
+        m[4][0] /= d0;
+        m[5][0] /= d0;
+        m[6][0] /= d0;
+        m[7][0] /= d0;
+        m[8][0] /= d0;
+        m[9][0] /= d0;
+        m[10][0] /= d0;
+        m[11][0] /= d0;
+        m[12][0] /= d0;
+        m[13][0] /= d0;
+        m[14][0] /= d0;
+        m[15][0] /= d0;
+        m[16][0] /= d0;
+        m[17][0] /= d0;
+        m[18][0] /= d0;
+        m[19][0] /= d0;
+        m[20][0] /= d0;
+        m[21][0] /= d0;
+        m[22][0] /= d0;
+        m[23][0] /= d0;
+        m[24][0] /= d0;
+        m[25][0] /= d0;
+        m[26][0] /= d0;
+        m[27][0] /= d0;
+        m[28][0] /= d0;
+        m[29][0] /= d0;
+        m[30][0] /= d0;
+        m[31][0] /= d0;
+        m[32][0] /= d0;
+        m[33][0] /= d0;
+        m[34][0] /= d0;
+        m[35][0] /= d0;
+        m[36][0] /= d0;
+        m[37][0] /= d0;
+        m[38][0] /= d0;
+        m[39][0] /= d0;
         v[0] = m[1][0] * m[0][0];
         let d1 = m[1][1] - m[1][0] * v[0];
         positive &= (d1 > 0.0) & (d1 < f64::INFINITY);
@@ -9442,7 +9442,7 @@ pub mod quadcopter {
     }
     /// Solves L·D·Lᵀ x = b in place, within the envelope, written out.
     fn ldl_solve(m: &[[f64; NV]; NV], b: &mut [f64; NV]) {
-        b[1] = b[1] - m[1][0] * b[0];
+        b[1] -= m[1][0] * b[0];
         b[2] = b[2] - m[2][0] * b[0] - m[2][1] * b[1];
         b[3] = b[3] - m[3][0] * b[0] - m[3][1] * b[1] - m[3][2] * b[2];
         b[4] = b[4] - m[4][0] * b[0] - m[4][1] * b[1] - m[4][2] * b[2] - m[4][3] * b[3];
@@ -10517,7 +10517,7 @@ pub mod quadcopter {
     /// (H + Gᵀ·D·G)·Δz = −r_d − Gᵀ(D·r_p − rc/s), D = λ/s.
     #[allow(clippy::too_many_arguments)]
     fn direction(
-        m: &[[f64; NV]; NV],
+        m: &NormalFactor,
         r: &Residuals,
         s: &[f64; NSIDES],
         lambda: &[f64; NSIDES],
@@ -10602,7 +10602,7 @@ pub mod quadcopter {
         lambda: &mut [f64; NSIDES],
         warm: bool,
     ) -> Outcome {
-        let mut m = [[0.0; NV]; NV];
+        let mut m = NORMAL_ZERO;
         let (mut dz, mut ds, mut dl) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
         let (mut zc, mut sc, mut lc) = ([0.0; NV], [1.0; NSIDES], [1.0; NSIDES]);
         let r = residuals(f, h, &zc, &sc, &lc);
@@ -10707,6 +10707,9 @@ pub mod quadcopter {
             gap,
         }
     }
+    /// The normal matrix H + Gᵀ·diag(w)·G, factored in place as L·D·Lᵀ within the envelope.
+    type NormalFactor = [[f64; NV]; NV];
+    const NORMAL_ZERO: NormalFactor = [[0.0; NV]; NV];
     /// Whether every entry is finite.
     #[inline(always)]
     fn all_finite(v: &[Real]) -> bool {

@@ -164,6 +164,12 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             ),
         );
     }
+    if let Some(choice) = &c.normal_form {
+        sections.push((
+            "normal system of the interior-point method (cost model: the cheaper form that is built)",
+            normal_form_lines(choice),
+        ));
+    }
     sections.push((
         "emission of the gradient (cost model; force with [codegen] emission)",
         emission_lines(c),
@@ -346,6 +352,40 @@ fn target_lines(step: &codegen::target::StepCost) -> Vec<(String, String)> {
         ),
         ("control step".to_string(), cost),
         ("sampling period".to_string(), period),
+    ]
+}
+
+/// One line per form of the interior-point method's normal system: its multiply-adds per iteration, or
+/// why it is not built for the problem, and which one is used.
+fn normal_form_lines(choice: &codegen::riccati::Choice) -> Vec<(String, String)> {
+    use codegen::riccati::Form;
+    let name = |form: Form| {
+        format!(
+            "{}{}",
+            form.name(),
+            if form == choice.form { " (chosen)" } else { "" }
+        )
+    };
+    let riccati = match (
+        &choice.riccati_unavailable,
+        choice.riccati_macs_per_iteration,
+    ) {
+        (Some(why), Some(macs)) => format!("{macs} multiply-adds/iteration, unavailable: {why}"),
+        (Some(why), None) => format!("unavailable: {why}"),
+        (None, Some(macs)) => {
+            format!("{macs} multiply-adds/iteration (stage-wise Riccati recursion)")
+        }
+        (None, None) => "unavailable".to_string(),
+    };
+    vec![
+        (
+            name(Form::Condensed),
+            format!(
+                "{} multiply-adds/iteration (L·D·Lᵀ of H + Gᵀ·diag(λ/s)·G within its envelope)",
+                choice.condensed_macs_per_iteration
+            ),
+        ),
+        (name(Form::Riccati), riccati),
     ]
 }
 

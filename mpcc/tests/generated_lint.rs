@@ -144,6 +144,20 @@ fn variants() -> Vec<(String, String)> {
     assert_ne!(offset_free, rows, "paper-limits.toml: no `[kalman]`");
     out.push(("interior_f32_rows".to_string(), rows));
     out.push(("interior_f32_offset_free".to_string(), offset_free));
+    // The interior-point method in the Riccati form of its normal system, with rows on (x_k, u_k) and
+    // on x_{k+1} alone, in both scalars of the API (hover's checked-in module has state bounds only).
+    let riccati = tests("linear-riccati.toml");
+    let riccati_f32 = riccati.replace("scalar = \"f64\"", "scalar = \"f32\"");
+    assert_ne!(
+        riccati_f32, riccati,
+        "linear-riccati.toml: no `scalar = \"f64\"`"
+    );
+    out.push(("riccati_f64_rows".to_string(), riccati));
+    out.push(("riccati_f32_rows".to_string(), riccati_f32));
+    out.push((
+        "riccati_soft_rows".to_string(),
+        tests("linear-riccati-soft.toml"),
+    ));
     // ADMM in both scalars on a small plant with every kind of row, weighted moves and a disturbance
     // model (certified in seconds).
     for scalar in ["f32", "f64"] {

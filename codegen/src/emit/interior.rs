@@ -419,7 +419,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             }
         }
     };
-    Sections {
+    let sections = Sections {
         constants: quote! {
             /// Entries of the plan, N·NU.
             pub const NP: usize = N * NU;
@@ -820,7 +820,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             /// (H + Gᵀ·D·G)·Δz = −r_d − Gᵀ(D·r_p − rc/s), D = λ/s.
             #[allow(clippy::too_many_arguments)]
             fn direction(
-                m: &[[f64; NV]; NV],
+                m: &NormalFactor,
                 r: &Residuals,
                 s: &[f64; NSIDES],
                 lambda: &[f64; NSIDES],
@@ -911,7 +911,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 lambda: &mut [f64; NSIDES],
                 warm: bool,
             ) -> Outcome {
-                let mut m = [[0.0; NV]; NV];
+                let mut m = NORMAL_ZERO;
                 let (mut dz, mut ds, mut dl) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
                 // The cold start.
                 let (mut zc, mut sc, mut lc) = ([0.0; NV], [1.0; NSIDES], [1.0; NSIDES]);
@@ -1064,5 +1064,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             /// in the method's order.
             pub const H: [[f64; NV]; NV] = #hv;
         },
-    }
+    };
+    // The normal system in the form the cost model chooses.
+    super::riccati::form(p, sections)
 }

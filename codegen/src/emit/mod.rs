@@ -7,6 +7,7 @@ mod interior;
 mod kalman;
 mod mpc;
 mod report;
+mod riccati;
 mod rows;
 mod screening;
 mod sparse;

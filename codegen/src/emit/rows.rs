@@ -288,12 +288,15 @@ pub fn ldl(envelope: &Envelope) -> TokenStream {
             positive &= (#d > 0.0) & (#d < f64::INFINITY);
             #mjj = #d;
         });
-        for p in j + 1..envelope.reach(j) {
-            let fp = first[p];
+        for (p, &fp) in first.iter().enumerate().take(envelope.reach(j)).skip(j + 1) {
             if fp > j {
                 continue;
             }
             let mpj = m(p, j);
+            if fp.max(fj) == j {
+                factor.push(quote!(#mpj /= #d;));
+                continue;
+            }
             let terms = (fp.max(fj)..j).map(|k| {
                 let (a, b) = (m(p, k), at("v", k));
                 quote!(- #a * #b)
@@ -303,6 +306,11 @@ pub fn ldl(envelope: &Envelope) -> TokenStream {
     }
     let forward = (0..n).filter(|&i| first[i] < i).map(|i| {
         let bi = at("b", i);
+        if first[i] + 1 == i {
+            // One term: `b -= l·x` (the same rounding as `b = b − l·x`, which clippy would flag).
+            let (a, b) = (m(i, i - 1), at("b", i - 1));
+            return quote!(#bi -= #a * #b;);
+        }
         let terms = (first[i]..i).map(|k| {
             let (a, b) = (m(i, k), at("b", k));
             quote!(- #a * #b)

@@ -23,15 +23,34 @@
 
 use crate::evidence::Limits;
 use crate::lower::Qp;
+use crate::solver::riccati::{Choice, Form, Stages};
 use nalgebra::{DMatrix, DVector};
 
 /// Its name in prose.
 pub const TITLE: &str =
     "A primal-dual interior-point method (Mehrotra's predictor-corrector, dense, f64)";
 
-/// [`macs_per_iteration`] of the MPC's QP ([`mpc_qp`]), whose structure does not depend on the data.
+/// Multiply-adds of one iteration of the emitted method on the MPC's QP ([`mpc_qp`]), whose structure
+/// does not depend on the data, in the form the cost model chooses ([`crate::solver::riccati::Choice`]).
 pub fn mpc_macs_per_iteration(qp: &Qp) -> usize {
+    crate::solver::riccati::Choice::of(qp).macs_per_iteration()
+}
+
+/// [`macs_per_iteration`] of the MPC's QP: the condensed form's count.
+pub fn condensed_macs_per_iteration(qp: &Qp) -> usize {
     macs_per_iteration(&structure_of(qp))
+}
+
+/// The parts of the condensed count of the MPC's QP, which the Riccati form shares but for the normal
+/// matrix's forming, factorisation and solves.
+pub(crate) fn mpc_counts(qp: &Qp) -> Counts {
+    counts(&structure_of(qp))
+}
+
+/// The finite sides and the visited structure of the MPC's QP.
+pub(crate) fn mpc_structure(qp: &Qp) -> (Layout, Sparsity) {
+    let s = structure_of(qp);
+    (Layout::of(&s), Sparsity::of(&s))
 }
 
 /// The MPC's QP with zero data: its structure, which is all the counts need.
@@ -44,8 +63,16 @@ fn structure_of(qp: &Qp) -> InequalityQp {
 /// the normal matrix H + GᵀG formed and factored, and one direction. The emitted method computes it on
 /// every solve, warm or not, so that its control flow does not depend on the data.
 pub fn mpc_cold_start_macs(qp: &Qp) -> usize {
-    let c = counts(&structure_of(qp));
-    c.residuals + c.normal + c.factor + c.direction
+    let choice = crate::solver::riccati::Choice::of(qp);
+    match crate::solver::riccati::Stages::of(qp) {
+        Ok(stages) if choice.form == crate::solver::riccati::Form::Riccati => {
+            stages.cold_start_macs(qp)
+        }
+        _ => {
+            let c = counts(&structure_of(qp));
+            c.residuals + c.normal + c.factor + c.direction
+        }
+    }
 }
 
 /// Where the normal matrix H + Gᵀ·diag(d)·G can be nonzero, whatever the weights d: H's nonzeros, the
@@ -138,30 +165,12 @@ impl Sparsity {
     }
 }
 
-/// Multiply-adds of one iteration of a Riccati-structured variant (not built), by the same rule, for
-/// the cost model to weigh against the dense form: the stage-wise factorisation of the KKT system
-/// (per stage 2nx³ + 3nx²nu + nx·nu² + nu³/6, the Riccati recursion with the stage's Hessian raised by
-/// its rows' weights, Σ nnz²/2 of the rows on the stage's (x, u)), one recursion per soft slack shared
-/// over the horizon (its Schur complement), two directions and the refinement (a forward and a
-/// backward sweep each, N·(2nx² + 4nx·nu + 2nu²)), the residuals through the dynamics (N·2(nx² + nx·nu))
-/// and the element-wise work, 12 per side.
-pub fn riccati_macs_per_iteration(qp: &Qp) -> usize {
-    let (nx, nu, N) = (qp.Sx.ncols(), qp.u_min.len(), qp.N);
-    let rows = &qp.rows;
-    let ns = rows.slacks();
-    let stage_nnz = |k: &crate::constraints::RowKind| match k {
-        crate::constraints::RowKind::State { .. } => 1,
-        crate::constraints::RowKind::Move { .. } => 2,
-        crate::constraints::RowKind::Group { .. } => nx + nu,
-    };
-    let forming: usize = rows.kinds.iter().map(|k| stage_nnz(k).pow(2) / 2 + 1).sum();
-    let nnz: usize = rows.kinds.iter().map(stage_nnz).sum();
-    let factor = N * (2 * nx.pow(3) + 3 * nx * nx * nu + nx * nu * nu + nu.pow(3) / 6);
-    let sweep = N * (2 * nx * nx + 4 * nx * nu + 2 * nu * nu);
-    let slacks = ns * sweep + ns.pow(3) / 6;
-    let residuals = 2 * N * (nx * nx + nx * nu) + 2 * nnz;
-    let sides = 2 * N * nu + 2 * rows.len() + ns;
-    factor + forming + slacks + (2 + REFINEMENT) * (sweep + 2 * nnz) + residuals + 12 * sides
+/// Multiply-adds of one iteration in the Riccati form ([`crate::solver::riccati`]), by the same rule as
+/// the condensed count and of what is emitted; `None` where that form is not built for the problem.
+pub fn riccati_macs_per_iteration(qp: &Qp) -> Option<usize> {
+    crate::solver::riccati::Stages::of(qp)
+        .ok()
+        .map(|s| s.macs_per_iteration(qp))
 }
 
 /// The fraction of the step to the boundary of s > 0, λ > 0 that an iteration takes.
@@ -278,6 +287,8 @@ impl InequalityQp {
 struct Sides {
     /// Box side k: sign·z_index ≤ h_k.
     boxed: Vec<(usize, f64)>,
+    /// Row side k: sign·A_row·z ≤ h_(nb + k).
+    rows: Vec<(usize, f64)>,
     /// The rows' sides, ±A_r.
     G: DMatrix<f64>,
     /// All right-hand sides, box sides first.
@@ -353,6 +364,7 @@ impl Sides {
         };
         Sides {
             boxed: layout.boxed,
+            rows: layout.rows,
             G,
             h: DVector::from_vec(h),
         }
@@ -467,6 +479,25 @@ pub fn solve_fixed(qp: &InequalityQp, start: &Start, iterations: usize) -> IpmRe
     run(qp, start, None, iterations)
 }
 
+/// [`solve_fixed`] with the normal system solved in the Riccati form of `stages` (the MPC's QP of
+/// [`mpc_qp`] only), or in the condensed form for `None`: the same iterates to rounding.
+pub fn solve_fixed_in(
+    qp: &InequalityQp,
+    start: &Start,
+    iterations: usize,
+    stages: Option<&Stages>,
+) -> IpmResult {
+    run_observed(qp, start, None, iterations, stages, &mut |_| {})
+}
+
+/// The stages of the Riccati form where the cost model chooses it for `qp` ([`Choice`]), else `None`.
+pub fn chosen_stages(qp: &Qp) -> Option<Stages> {
+    match Choice::of(qp).form {
+        Form::Riccati => Stages::of(qp).ok(),
+        Form::Condensed => None,
+    }
+}
+
 /// A cold solve until the relative residuals, the gap and the complementarity ([`IpmResult`]) are at
 /// most `tolerance`, at most `max_iterations` iterations.
 pub fn solve(qp: &InequalityQp, tolerance: f64, max_iterations: usize) -> IpmResult {
@@ -504,13 +535,19 @@ pub fn macs_per_iteration(qp: &InequalityQp) -> usize {
 }
 
 /// The parts of [`macs_per_iteration`].
-struct Counts {
-    residuals: usize,
-    normal: usize,
-    factor: usize,
-    direction: usize,
-    refinement: usize,
-    elementwise: usize,
+pub(crate) struct Counts {
+    pub(crate) residuals: usize,
+    pub(crate) normal: usize,
+    pub(crate) factor: usize,
+    /// One direction, its solve included.
+    pub(crate) direction: usize,
+    /// One refinement step, its solve included.
+    pub(crate) refinement: usize,
+    pub(crate) elementwise: usize,
+    /// One solve with the factor.
+    pub(crate) solve: usize,
+    /// One product G·z or Gᵀ·v.
+    pub(crate) g: usize,
 }
 
 fn counts(qp: &InequalityQp) -> Counts {
@@ -536,6 +573,8 @@ fn counts(qp: &InequalityQp) -> Counts {
         // H Δz, Gᵀ Δλ, a solve and G of its result.
         refinement: hz + 2 * g + solve,
         elementwise: 12 * (nb + ng),
+        solve,
+        g,
     }
 }
 
@@ -647,6 +686,49 @@ fn factor(M: DMatrix<f64>) -> Option<nalgebra::Cholesky<f64, nalgebra::Dyn>> {
     None
 }
 
+/// A factor of the normal matrix, in either form.
+enum Factored {
+    Dense(nalgebra::Cholesky<f64, nalgebra::Dyn>),
+    Riccati(crate::solver::riccati::Factor),
+}
+
+impl Factored {
+    /// The normal system's solution for the right-hand side b.
+    fn solve(&self, b: &DVector<f64>) -> DVector<f64> {
+        match self {
+            Factored::Dense(c) => c.solve(b),
+            Factored::Riccati(f) => f.solve(b),
+        }
+    }
+}
+
+/// The normal matrix H + Gᵀ diag(d) G factored in the condensed form ([`factor`]) or, with `stages`,
+/// in the Riccati form, regularised alike: R̃_k + δ·I at every stage is M + δ·I, δ growing from
+/// 1e-12·(1 + the largest diagonal entry of the R̃_k).
+fn factor_normal(
+    qp: &InequalityQp,
+    sides: &Sides,
+    d: &DVector<f64>,
+    stages: Option<&Stages>,
+) -> Option<Factored> {
+    let Some(stages) = stages else {
+        return factor(sides.normal(&qp.H, d)).map(Factored::Dense);
+    };
+    let scale = stages.scale(&sides.boxed, &sides.rows, d);
+    let mut delta = 0.0;
+    for _ in 0..4 {
+        if let Some(f) = stages.factor(&sides.boxed, &sides.rows, d, delta) {
+            return Some(Factored::Riccati(f));
+        }
+        delta = if delta == 0.0 {
+            1e-12 * scale
+        } else {
+            delta * 1e3
+        };
+    }
+    None
+}
+
 /// The Newton direction for the complementarity right-hand side rc (Λ Δs + S Δλ = −rc): from
 /// (H + Gᵀ D G) Δz = −r_d − Gᵀ(D r_p − rc/s), D = λ/s, then [`REFINEMENT`] steps of iterative
 /// refinement on the unreduced system's first block H Δz + Gᵀ Δλ = −r_d (the other two hold by
@@ -656,7 +738,7 @@ fn factor(M: DMatrix<f64>) -> Option<nalgebra::Cholesky<f64, nalgebra::Dyn>> {
 fn direction(
     H: &DMatrix<f64>,
     sides: &Sides,
-    chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>,
+    chol: &Factored,
     r: &Residuals,
     p: &Point,
     rc: &DVector<f64>,
@@ -699,7 +781,12 @@ fn step_to_boundary(p: &Point, d: &Direction) -> f64 {
     alpha
 }
 
-fn start_point(qp: &InequalityQp, sides: &Sides, start: &Start) -> Option<Point> {
+fn start_point(
+    qp: &InequalityQp,
+    sides: &Sides,
+    start: &Start,
+    stages: Option<&Stages>,
+) -> Option<Point> {
     let n = qp.n();
     let m = sides.len();
     let floor = |v: &DVector<f64>| v.map(|x| x.max(WARM_FLOOR));
@@ -711,7 +798,7 @@ fn start_point(qp: &InequalityQp, sides: &Sides, start: &Start) -> Option<Point>
                 lambda: DVector::from_element(m, 1.0),
             };
             let r = residuals(qp, sides, &p);
-            let chol = factor(sides.normal(&qp.H, &DVector::from_element(m, 1.0)))?;
+            let chol = factor_normal(qp, sides, &DVector::from_element(m, 1.0), stages)?;
             let d = direction(
                 &qp.H,
                 sides,
@@ -799,15 +886,26 @@ fn infeasible(sides: &Sides, lambda: &DVector<f64>) -> bool {
 }
 
 fn run(qp: &InequalityQp, start: &Start, tolerance: Option<f64>, iterations: usize) -> IpmResult {
-    run_observed(qp, start, tolerance, iterations, &mut |_| {})
+    run_observed(qp, start, tolerance, iterations, None, &mut |_| {})
 }
 
 /// Every iterate of [`solve_fixed`] from `start`: element k is what `solve_fixed(qp, start, k)`
 /// returns, for k = 1 … (up to `iterations`; fewer when the solve stops early on infeasibility or a
 /// failure, whose result is then last). Element 0 is the start.
 pub fn trajectory(qp: &InequalityQp, start: &Start, iterations: usize) -> Vec<IpmResult> {
+    trajectory_in(qp, start, iterations, None)
+}
+
+/// [`trajectory`] with the normal system solved in the Riccati form of `stages` (the MPC's QP of
+/// [`mpc_qp`] only), or in the condensed form for `None`.
+pub fn trajectory_in(
+    qp: &InequalityQp,
+    start: &Start,
+    iterations: usize,
+    stages: Option<&Stages>,
+) -> Vec<IpmResult> {
     let mut out = Vec::with_capacity(iterations + 1);
-    let last = run_observed(qp, start, None, iterations, &mut |r| out.push(r));
+    let last = run_observed(qp, start, None, iterations, stages, &mut |r| out.push(r));
     // A solve that stopped on infeasibility or a failure ends with that result, in the place of the
     // iterate it judged.
     match out.last_mut() {
@@ -824,8 +922,11 @@ fn run_observed(
     start: &Start,
     tolerance: Option<f64>,
     iterations: usize,
+    stages: Option<&Stages>,
     observe: &mut dyn FnMut(IpmResult),
 ) -> IpmResult {
+    // The Riccati form solves the MPC's QP, whose unknowns are the plan and the slacks.
+    let stages = stages.filter(|s| qp.n() == s.N * s.B.ncols() + s.slack_quadratic.len());
     if !qp.consistent() || !qp.finite() {
         return failure(qp, start, 0);
     }
@@ -856,7 +957,7 @@ fn run_observed(
             _ => failure(qp, start, 0),
         };
     }
-    let Some(mut p) = start_point(qp, &sides, start) else {
+    let Some(mut p) = start_point(qp, &sides, start, stages) else {
         return failure(qp, start, 0);
     };
     let mut r = residuals(qp, &sides, &p);
@@ -888,7 +989,7 @@ fn run_observed(
             return result(p, &r, k, Status::Converged);
         }
         let mu = p.s.dot(&p.lambda) / m as f64;
-        let Some(chol) = factor(sides.normal(&qp.H, &p.lambda.component_div(&p.s))) else {
+        let Some(chol) = factor_normal(qp, &sides, &p.lambda.component_div(&p.s), stages) else {
             return ended(p, &r, k, Status::NumericalFailure, finished);
         };
         // Predictor: the affine-scaling direction (σ = 0).
@@ -1046,7 +1147,7 @@ pub fn control_step(
     limits: &Limits,
 ) -> Step {
     let problem = mpc_qp(qp, f, offset);
-    let result = solve_fixed(&problem, start, iterations);
+    let result = solve_fixed_in(&problem, start, iterations, chosen_stages(qp).as_ref());
     let n = f.len();
     let trusted = matches!(result.status, Status::IterationLimit | Status::Converged)
         && result.primal_residual <= limits.primal

@@ -15,6 +15,7 @@ pub mod admm;
 mod fgm;
 mod gradient;
 pub mod ipm;
+pub mod riccati;
 
 pub use fgm::Fgm;
 pub use gradient::Gradient;
