@@ -34,9 +34,9 @@ fn line_at(source: &str, span: &std::ops::Range<usize>) -> String {
 
 /// The one error the compiler gives for `src`.
 fn refusal(src: &str) -> Diagnostic {
-    let diags = generate_from_source(src, &Opt::default())
-        .err()
-        .expect("the spec must be refused");
+    let Err(diags) = generate_from_source(src, &Opt::default()) else {
+        panic!("the spec must be refused");
+    };
     let all: Vec<_> = diags.iter().cloned().collect();
     assert_eq!(all.len(), 1, "{all:?}");
     all.into_iter().next().unwrap()
