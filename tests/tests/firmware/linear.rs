@@ -9,8 +9,13 @@ use flight_sim::{
     Setpoint,
 };
 
-mpc_macros::mpc!(mod quadcopter_m4f = "../firmware-template/specs/quadcopter-m4f.toml");
-use quadcopter_m4f as q;
+// OSQP's angle bound π/6 is data, written to f32's digits in the emitted tables; clippy reads the literal
+// as an approximate FRAC_PI_6 (as in tests/admm.rs).
+#[allow(clippy::approx_constant)]
+mod generated {
+    mpc_macros::mpc!(pub mod quadcopter_m4f = "../firmware-template/specs/quadcopter-m4f.toml");
+}
+use generated::quadcopter_m4f as q;
 
 const QUADCOPTER_M4F: &str = "firmware-template/specs/quadcopter-m4f.toml";
 /// Cycles flown in the test: 10 s of the yaw step at 0.1 s, as `scripts/firmware.sh --cycles 100` (each
@@ -222,4 +227,40 @@ fn quadcopter_flies_on_the_emulated_cortex_m4_and_agrees_with_the_host() {
 fn quadcopter_firmware_links_no_panicking_code() {
     let found = panicking_symbols(&m4_quadcopter_flight().elf);
     assert!(found.is_empty(), "links panicking code: {found:?}");
+}
+
+/// The same firmware on the emulated Zynq (`scripts/firmware.sh --cycles 100 SPEC`): the A9's VFP runs the
+/// same f32 operations, so its commands are the M4F's and the host's to the bit.
+#[test]
+fn quadcopter_flies_on_the_emulated_zynq_with_the_same_commands() {
+    static F: OnceLock<Flight> = OnceLock::new();
+    let f = F.get_or_init(|| {
+        build_and_fly(
+            ZYNQ,
+            Some(QUADCOPTER_M4F),
+            "quadcopter-m4f",
+            Some(QUADCOPTER_CYCLES),
+        )
+    });
+    assert_eq!(f.status, Some(0), "firmware exit status\n{}", f.uart);
+    let r = &f.result;
+    assert_eq!(r["ok"], Value::Bool(true), "{r}");
+    assert_eq!(r["board"], ZYNQ.name);
+    assert_eq!(uint(r, "cycles"), QUADCOPTER_CYCLES as u64);
+    let host = host_run(QUADCOPTER_CYCLES);
+    let fw = firmware_commands(&f.uart);
+    let bits = |c: &[[f32; q::NU]]| -> Vec<[u32; q::NU]> {
+        c.iter().map(|u| u.map(f32::to_bits)).collect()
+    };
+    assert_eq!(bits(&fw), bits(&host.commands));
+    assert_eq!(uint(r, "fallback_cycles"), host.fallbacks, "{r}");
+    assert_eq!(
+        r["commands_fnv1a64"],
+        m4_quadcopter_flight().result["commands_fnv1a64"],
+        "Cortex-A9 vs Cortex-M4F"
+    );
+    assert_deterministic(r, TICK_SPREAD);
+    let found = panicking_symbols(&f.elf);
+    assert!(found.is_empty(), "links panicking code: {found:?}");
+    print_figures(f, ZYNQ);
 }
