@@ -107,6 +107,9 @@ fn the_quadcopter_on_the_m4f_builds_with_admm_in_f32_within_its_period() {
     };
     assert_eq!(body(QUADCOPTER_M4F), body(&on_m4f(QUADCOPTER)));
     let g = generate_from_source(QUADCOPTER_M4F, &Opt::default()).unwrap();
+    // By the estimate (2.8 cycles a multiply-add): 51 %. The emulated M4F measures 10.6 instructions a
+    // multiply-add for this ADMM (BENCHMARKS.md), which would not fit: the estimate is the first-order
+    // kernels' figure, not yet ADMM's own.
     let load = g.step.load().expect("the M4F has a clock");
     assert!(load > 0.2 && load < 1.0, "{load}");
     assert_eq!(g.problem.requested, Method::Auto);
