@@ -2,7 +2,7 @@
 # Builds firmware-template with a controller spec baked in, runs it on the emulated board and exits
 # with the firmware's own status (0: the closed loop flew and passed its checks).
 #
-#   scripts/firmware.sh [--board zynq|netduinoplus2] [--cycles N] [--build-only] [--elf-out PATH] [SPEC]
+#   scripts/firmware.sh [--board zynq|netduinoplus2] [--cycles N] [--linear] [--build-only] [--elf-out PATH] [SPEC]
 #
 # Boards: zynq (default; Zynq-7000, Cortex-A9, QEMU xilinx-zynq-a9, target armv7a-none-eabihf) and
 # netduinoplus2 (alias stm32f405; Cortex-M4F, QEMU netduinoplus2, target thumbv7em-none-eabihf).
@@ -10,14 +10,17 @@
 # copied to firmware-template/spec-override/spec.toml and built with the `spec-override` feature:
 # `mpc!` takes a literal path, and its `include_str!` makes cargo rebuild when that file changes.
 # --cycles N flies the first N control cycles of the reference flight instead of all 8671 (built in:
-# FIRMWARE_CYCLES). --elf-out copies the built ELF to PATH. One invocation at a time builds (a lock file in the
+# FIRMWARE_CYCLES). --linear flies the spec's own linear model under its state-feedback controller
+# instead of the drone (the `linear` feature, firmware-template/src/linear.rs: from rest to state 2 = 1,
+# 100 cycles unless --cycles); it is on by itself when SPEC's model is `type = "linear"`.
+# --elf-out copies the built ELF to PATH. One invocation at a time builds (a lock file in the
 # template's target/), since all share the template's build directory and spec-override file.
 # Missing tools (qemu-system-arm, nightly's rust-src) are installed when possible.
 #
 # Environment: FIRMWARE_TIMEOUT (seconds for the emulated run, default 600).
 set -euo pipefail
 
-usage() { sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; }
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 template="$root/firmware-template"
@@ -26,6 +29,7 @@ build_only=0
 elf_out=""
 spec=""
 cycles=""
+linear=0
 while [ $# -gt 0 ]; do
     case "$1" in
         --board) [ $# -ge 2 ] || { usage >&2; exit 2; }; board=$2; shift 2 ;;
@@ -33,6 +37,7 @@ while [ $# -gt 0 ]; do
         --build-only) build_only=1; shift ;;
         --cycles) [ $# -ge 2 ] || { usage >&2; exit 2; }; cycles=$2; shift 2 ;;
         --cycles=*) cycles=${1#*=}; shift ;;
+        --linear) linear=1; shift ;;
         --elf-out) [ $# -ge 2 ] || { usage >&2; exit 2; }; elf_out=$(realpath -m "$2"); shift 2 ;;
         -h|--help) usage; exit 0 ;;
         -*) echo "firmware.sh: unknown option $1" >&2; usage >&2; exit 2 ;;
@@ -77,6 +82,12 @@ if [ -n "$spec" ]; then
     # Copy only on change: a new mtime alone would rebuild the firmware.
     cmp -s "$spec" "$template/spec-override/spec.toml" || cp "$spec" "$template/spec-override/spec.toml"
     features=(--features spec-override)
+    # A linear model: the plant the firmware flies is the spec's own (src/linear.rs).
+    grep -Eq '^[[:space:]]*type[[:space:]]*=[[:space:]]*"linear"' "$spec" && linear=1
+fi
+if [ "$linear" = 1 ]; then
+    [ -n "$spec" ] || { echo "firmware.sh: --linear needs a SPEC with a linear model" >&2; exit 2; }
+    features=(--features spec-override,linear)
 fi
 
 cd "$template"

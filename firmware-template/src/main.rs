@@ -11,6 +11,10 @@
 //! The board is picked by the build target (build.rs sets `cfg(board)`): `armv7a-none-eabihf`
 //! is the Zynq-7000 (`src/zynq/`), `thumbv7em-none-eabihf` the STM32F405 (`src/stm32f405/`).
 //! Everything in this file, `report`, `stats`, `console` and `decimal` is shared.
+//!
+//! With the `linear` feature (scripts/firmware.sh sets it for a spec whose model is
+//! `type = "linear"`) the firmware flies that spec's own linear model under its state-feedback
+//! controller instead of the drone: `linear.rs`, with its own summary and `RESULT`.
 #![no_std]
 #![no_main]
 // The generated controller's NEON kernels (cfg set by build.rs on the A9): arm's intrinsics are nightly-only.
@@ -21,14 +25,23 @@
 mod board;
 mod console;
 mod decimal;
+#[cfg(feature = "linear")]
+mod linear;
+#[cfg(not(feature = "linear"))]
 mod report;
+mod spec;
 mod stack;
+// The tracking errors are the drone's: the linear mode reports commands instead.
+#[cfg_attr(feature = "linear", allow(dead_code))]
 mod stats;
 
+#[cfg(not(feature = "linear"))]
 use core::hint::black_box;
 
+#[cfg(not(feature = "linear"))]
 use flight_sim::{cast, fly, Controller, Reference, Scenario, Trajectory, NU, NX, NY};
 
+#[cfg(not(feature = "linear"))]
 use stats::{Errors, Ticks};
 
 // The spec baked in. `mpc!` takes a literal path (relative to this folder); scripts/firmware.sh
@@ -57,9 +70,10 @@ const SPEC_TEXT: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/", sp
 
 /// Seed of the noise streams; the host test flies the same one.
 const SEED: u64 = 1;
-/// Control cycles flown: the whole ~111 s reference flight at 12.8 ms per cycle, or the first
+/// Control cycles flown (the paper's loop; `linear::CYCLES` for the linear one): the whole ~111 s reference flight at 12.8 ms per cycle, or the first
 /// `FIRMWARE_CYCLES` of it when that is set at build time (`scripts/firmware.sh --cycles N`; the
 /// tests fly 10 s of the interior-point specs, which cost a few million instructions a cycle).
+#[cfg(not(feature = "linear"))]
 const CYCLES: usize = match option_env!("FIRMWARE_CYCLES") {
     Some(n) => parse_cycles(n),
     None => FULL_FLIGHT,
@@ -81,11 +95,13 @@ const fn parse_cycles(n: &str) -> usize {
     v
 }
 /// A tracking error above this, m, on any axis means the controller lost the drone.
+#[cfg(not(feature = "linear"))]
 const LOST_M: f64 = 2.0;
 /// Iterations of the timer calibration loop (2 instructions each).
 const CALIB_ITERS: u32 = 1_000_000;
 
 /// The generated controller, with each call timed.
+#[cfg(not(feature = "linear"))]
 struct Timed<'t> {
     controller: ctrl::Controller,
     timer: &'t board::Timer,
@@ -94,6 +110,7 @@ struct Timed<'t> {
     status: report::StatusCounts,
 }
 
+#[cfg(not(feature = "linear"))]
 impl Controller for Timed<'_> {
     fn step<R: Reference>(&mut self, k: usize, z: &[f64; NY], reference: &R) -> [f64; NU] {
         // Evaluating the reference and converting to the controller's scalar is the
@@ -140,6 +157,7 @@ fn timed_loop(timer: &board::Timer, iters: u32) -> u64 {
     timer.since(t0)
 }
 
+#[cfg(not(feature = "linear"))]
 #[no_mangle]
 extern "C" fn main() -> ! {
     let mut serial = board::Serial::new();
@@ -177,6 +195,13 @@ extern "C" fn main() -> ! {
         },
     );
     board::exit(if ok { 0 } else { 1 })
+}
+
+/// The linear mode's entry: `linear::run`.
+#[cfg(feature = "linear")]
+#[no_mangle]
+extern "C" fn main() -> ! {
+    linear::run()
 }
 
 #[panic_handler]

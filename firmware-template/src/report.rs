@@ -5,29 +5,9 @@ use flight_sim::Scenario;
 
 use crate::board::{self, Serial};
 use crate::console::Console;
+use crate::spec::{hex, SCALAR, SPEC_FNV1A64};
 use crate::stats::{micrometres, Errors, Ticks};
-use crate::{ctrl, LOST_M, SPEC_PATH, SPEC_TEXT};
-
-/// FNV-1a (64-bit) of the baked spec's text, so a test can check which spec a binary holds.
-const SPEC_FNV1A64: u64 = fnv1a64(SPEC_TEXT.as_bytes());
-
-const fn fnv1a64(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut i = 0;
-    while i < bytes.len() {
-        h ^= bytes[i] as u64;
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        i += 1;
-    }
-    h
-}
-
-/// The controller's scalar type, by size.
-const SCALAR: &str = if core::mem::size_of::<ctrl::Real>() == 4 {
-    "f32"
-} else {
-    "f64"
-};
+use crate::{ctrl, LOST_M, SPEC_PATH};
 
 /// Everything a finished run reports.
 pub struct Run<'a> {
@@ -128,7 +108,7 @@ pub fn result(out: &mut Serial, run: &Run) -> bool {
     out.str("RESULT {\"spec\":\"")
         .str(SPEC_PATH)
         .str("\",\"spec_fnv1a64\":\"");
-    hex(out, SPEC_FNV1A64);
+    hex(out, SPEC_FNV1A64, 16);
     out.str("\",\"board\":\"")
         .str(board::NAME)
         .str("\",\"scalar\":\"")
@@ -235,13 +215,5 @@ fn axes(out: &mut Serial, v: &[Option<u64>; 3], sep: &str) {
             Some(v) => out.u64(*v),
             None => out.str("null"),
         };
-    }
-}
-
-/// `v` as 16 lowercase hex digits.
-fn hex(out: &mut Serial, v: u64) {
-    for shift in (0..16).rev() {
-        let d = ((v >> (4 * shift)) & 0xf) as u8;
-        out.byte(if d < 10 { b'0' + d } else { b'a' + d - 10 });
     }
 }

@@ -694,3 +694,7 @@ fn paper_limits_firmware_links_no_panicking_code() {
     let found = panicking_symbols(&f.elf);
     assert!(found.is_empty(), "links panicking code: {found:?}");
 }
+
+/// The linear mode: OSQP's quadcopter flown on its own model on the Cortex-M4F (issue 18.4).
+#[path = "firmware/linear.rs"]
+mod linear;

@@ -446,13 +446,26 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 v.iter().fold(0.0, |m: f64, x| m.max(#wide_of_abs))
             }
 
+            /// Row j of A in compressed rows: its columns and values. The tables are consistent by
+            /// construction; `get` keeps the indexing free of panicking paths, which the compiler cannot
+            /// rule out for indices read from a table.
+            #[inline(always)]
+            fn a_row(j: usize) -> (&'static [usize], &'static [Real]) {
+                let span = A_START[j]..A_START[j + 1];
+                (
+                    A_COL.get(span.clone()).unwrap_or(&[]),
+                    A_VAL.get(span).unwrap_or(&[]),
+                )
+            }
+
             /// C x = [x; A x].
             fn c_mul(x: &[Real; NV], out: &mut [Real; NC]) {
                 out[..NV].copy_from_slice(x);
                 for j in 0..NG {
+                    let (cols, vals) = a_row(j);
                     let mut a = 0.0;
-                    for k in A_START[j]..A_START[j + 1] {
-                        a += A_VAL[k] * x[A_COL[k]];
+                    for (&c, &v) in cols.iter().zip(vals) {
+                        a += v * x.get(c).copied().unwrap_or(0.0);
                     }
                     out[NV + j] = a;
                 }
@@ -462,8 +475,11 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             fn c_tmul(v: &[Real; NC], out: &mut [Real; NV]) {
                 out.copy_from_slice(&v[..NV]);
                 for j in 0..NG {
-                    for k in A_START[j]..A_START[j + 1] {
-                        out[A_COL[k]] += A_VAL[k] * v[NV + j];
+                    let (cols, vals) = a_row(j);
+                    for (&c, &a) in cols.iter().zip(vals) {
+                        if let Some(o) = out.get_mut(c) {
+                            *o += a * v[NV + j];
+                        }
                     }
                 }
             }
@@ -481,7 +497,9 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 for i in (0..NV).rev() {
                     let mut s = b[i];
                     for j in i + 1..NV {
-                        s -= L[j * (j + 1) / 2 + i] * b[j];
+                        // Column i of L below the diagonal: the index is inside the packed factor for
+                        // i < j < NV, which the compiler does not see.
+                        s -= L.get(j * (j + 1) / 2 + i).copied().unwrap_or(0.0) * b[j];
                     }
                     b[i] = s * L_INV[i];
                 }
@@ -593,11 +611,11 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             fn violations(plan: &[Real; NP], lower: &[Real; NC], upper: &[Real; NC]) -> (f64, f64) {
                 let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
                 for j in 0..NG {
+                    let (cols, vals) = a_row(j);
                     let mut a = 0.0;
-                    for k in A_START[j]..A_START[j + 1] {
-                        let c = A_COL[k];
-                        if c < NP {
-                            a += A_VAL[k] * plan[c];
+                    for (&c, &v) in cols.iter().zip(vals) {
+                        if let Some(p) = plan.get(c) {
+                            a += v * *p;
                         }
                     }
                     let (lo, hi, a) = (#wide_row_lower, #wide_row_upper, #wide_a);
