@@ -39,10 +39,15 @@ elf="target/$target/release/peers-firmware"
 results="target/peers-$board.results"
 mkdir -p target
 
-build() { # PROBLEMS FEATURES...
+build() { # PROBLEMS FEATURES... (a failed build stops the script: no stale image is run or sized)
     local list="$1"; shift
-    PEERS_PROBLEMS="$list" cargo build -q --release --target "$target" "$@" 2>&1 |
-        grep -v 'unstable feature\|not stably supported\|^ *|$\|^ *= note\|generated [0-9]* warning\|^$' >&2 || true
+    local log="target/peers-build.log"
+    if ! PEERS_PROBLEMS="$list" cargo build -q --release --target "$target" "$@" 2>"$log"; then
+        cat "$log" >&2
+        echo "run.sh: cargo build failed ($list $*)" >&2
+        exit 1
+    fi
+    grep -v 'unstable feature\|not stably supported\|^ *|$\|^ *= note\|generated [0-9]* warning\|^$' "$log" >&2 || true
 }
 
 run() { # prints the RESULT lines; exit status the firmware's

@@ -253,6 +253,29 @@ macro_rules! ours {
     };
 }
 
+/// The replay without a solver, in every firmware image: the same steps, states, last inputs,
+/// reference and exact solutions read and the same bookkeeping, so that the code and data sizes of
+/// an image with one solver minus one with neither (`firmware/run.sh --sizes`) are the solver's own.
+/// `pub fn baseline(timing, outcome)` in each problem module.
+#[macro_export]
+macro_rules! baseline {
+    () => {
+        /// Reads every step's data as a replay does, solving nothing (the plan is zero).
+        pub fn baseline<T: $crate::Timing>(timing: &mut T, out: &mut $crate::Outcome) {
+            for s in 0..STEPS {
+                let ticks = timing.time(&mut || {
+                    core::hint::black_box((&X0[s], &U_LAST[s], &REFERENCE));
+                });
+                let error = $crate::plan_error(
+                    core::iter::repeat_n(0.0, N * NU),
+                    core::hint::black_box(&Z_STAR[s][..]),
+                );
+                out.add(ticks, 0, error, 0, true);
+            }
+        }
+    };
+}
+
 /// Replays the steps of `data` through DAQP (set up once, hot-started from the previous working
 /// set). `None` if its setup failed (out of memory or DAQP's flag). Each step is timed in two spans,
 /// forming f and the bounds, then DAQP's update and solve; their sum is the solve's cost.

@@ -153,6 +153,25 @@ fn run_ours(
     result(serial, name, "generated", &o, &probe.stack, 0, calib);
 }
 
+/// The replay without a solver (`baseline`), in every image whatever its features, so that
+/// `run.sh --sizes` subtracts the replay's own code and data: a `RESULT` line with solver `none`.
+#[inline(never)]
+fn run_baseline(
+    serial: &mut board::Serial,
+    timer: &board::Timer,
+    calib: (u64, u64),
+    name: &str,
+    replay: impl FnOnce(&mut Probe<'_>, &mut Outcome),
+) {
+    let mut probe = Probe {
+        timer,
+        stack: stack::CycleProbe::new(),
+    };
+    let mut o = Outcome::new();
+    replay(&mut probe, &mut o);
+    result(serial, name, "none", &o, &probe.stack, 0, calib);
+}
+
 /// DAQP on one problem, in a frame of its own: 0 if every solve ended optimal, 1 if not, 2 if it
 /// could not be set up.
 #[inline(never)]
@@ -192,6 +211,7 @@ extern "C" fn main() -> ! {
     serial.str(board::TIMER).str("\n");
     let mut status = 0;
     peers::for_each_problem!(p => {
+        run_baseline(&mut serial, &timer, calib, p::NAME, |t, o| p::baseline(t, o));
         #[cfg(feature = "ours")]
         run_ours(&mut serial, &timer, calib, p::NAME, |t, o| p::ours(t, o));
         #[cfg(feature = "daqp")]
