@@ -1,7 +1,8 @@
 //! The peers replay on firmware-template's boards: every dumped problem (`peers/data/`, baked in by
 //! the `peers` crate) solved step by step by the generated solver and by DAQP, each solve timed by the
 //! board's timer and its stack measured by the template's probe, with one `RESULT {json}` line per
-//! solver and problem on the serial port. Exit status 0 if every DAQP solve ended optimal, 1 if not,
+//! solver and problem on the serial port (and one with solver `none` for the replay without a solver,
+//! which every image runs so that `run.sh --sizes` subtracts it). Exit status 0 if every DAQP solve ended optimal, 1 if not,
 //! 2 if DAQP could not be set up (out of heap), 20 on a panic, the board's statuses on an exception.
 //!
 //! The board modules, the stack probe and the console are firmware-template's own files, compiled
@@ -20,7 +21,11 @@ mod board;
 mod console;
 #[path = "../../../firmware-template/src/decimal.rs"]
 mod decimal;
+// DAQP's `malloc`; its bookkeeping is read by `run_daqp` only.
+#[cfg_attr(not(feature = "daqp"), allow(dead_code))]
 mod heap;
+// The template's probe; its whole-run `high_water` is not used here.
+#[allow(dead_code)]
 #[path = "../../../firmware-template/src/stack.rs"]
 mod stack;
 
@@ -136,6 +141,7 @@ fn result(
 }
 
 /// The generated solver on one problem (`replay` is the problem's `ours`), in a frame of its own.
+#[cfg(feature = "ours")]
 #[inline(never)]
 fn run_ours(
     serial: &mut board::Serial,
@@ -174,6 +180,7 @@ fn run_baseline(
 
 /// DAQP on one problem, in a frame of its own: 0 if every solve ended optimal, 1 if not, 2 if it
 /// could not be set up.
+#[cfg(feature = "daqp")]
 #[inline(never)]
 fn run_daqp(
     serial: &mut board::Serial,
