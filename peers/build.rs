@@ -222,5 +222,5 @@ fn problem(code: &mut String, name: &str, module: &str, spec: &str, d: &Value) {
         code,
         "    /// The QP's data as slices.\n    pub fn data() -> crate::Data {{ crate::Data {{ name: NAME, nx: NX, nu: NU, nr: N * NZ, np: N * NU, n: NV, m: M, steps: STEPS, h: &H, fx: &F_X, fr: &F_R, fu: &F_U, w: &W_SLACK, z_min: &Z_MIN, z_max: &Z_MAX, a: &A, lower: &LOWER, upper: &UPPER, wx: &W_X, wu: &W_U, reference: &REFERENCE, x0: X0.as_flattened(), u_last: U_LAST.as_flattened(), z_star: Z_STAR.as_flattened() }} }}"
     );
-    let _ = writeln!(code, "    crate::ours!();\n}}");
+    let _ = writeln!(code, "    crate::ours!();\n    crate::baseline!();\n}}");
 }

@@ -31,7 +31,11 @@ dump() {
 case "$cmd" in
     dump) dump ;;
     accuracy) (cd peers && cargo run -q --release --bin accuracy) ;;
-    bench) (cd peers && cargo bench --bench peers -- "$@") ;;
+    bench)
+        # `scripts/peers.sh bench -- --warm-up-time 1`: one `--` for cargo, not two.
+        [[ "${1:-}" != "--" ]] || shift
+        (cd peers && cargo bench --bench peers -- "$@")
+        ;;
     firmware) exec "$root/peers/firmware/run.sh" "$@" ;;
     *)
         sed -n '2,11p' "$0"

@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # The peers replay under QEMU, and the code and data each solver adds to the image.
 #
-#   peers/firmware/run.sh [--board zynq|netduinoplus2] [--sizes] [PROBLEM ...]
+#   peers/firmware/run.sh [--board zynq|netduinoplus2] [--solver ours|daqp] [--sizes] [PROBLEM ...]
 #
 # PROBLEMs: paper paper-limits quadcopter hover (default: all). Zynq runs them in one image; the
 # STM32F405 one image per problem (its 1 MiB of flash holds one problem's dump). Each run prints
 # the firmware's RESULT lines (also appended to target/peers-<board>.results) and a table.
-# --sizes also builds each problem with the generated solver alone, DAQP alone and neither, and
+# --solver builds the image with that solver alone (hover's image with both does not fit the
+# STM32F405's flash: run it once per solver). --sizes also builds each problem with the generated
+# solver alone, DAQP alone and neither, and
 # prints the differences of `arm-none-eabi-size -A` (the replay's data is in all three).
 # Needs: scripts/fetch-daqp.sh, scripts/peers.sh dump, gcc-arm-none-eabi + libnewlib-arm-none-eabi
 # (apt-get; installed here when missing), qemu-system-arm, nightly with rust-src.
@@ -15,11 +17,13 @@ here="$(cd "$(dirname "$0")" && pwd)"
 cd "$here"
 board=zynq
 sizes=0
+solver=()
 problems=()
 while [[ $# -gt 0 ]]; do
     case "$1" in
         --board) board="$2"; shift 2 ;;
         --sizes) sizes=1; shift ;;
+        --solver) solver=(--no-default-features --features "$2"); shift 2 ;;
         *) problems+=("$1"); shift ;;
     esac
 done
@@ -39,10 +43,15 @@ elf="target/$target/release/peers-firmware"
 results="target/peers-$board.results"
 mkdir -p target
 
-build() { # PROBLEMS FEATURES...
+build() { # PROBLEMS FEATURES... (a failed build stops the script: no stale image is run or sized)
     local list="$1"; shift
-    PEERS_PROBLEMS="$list" cargo build -q --release --target "$target" "$@" 2>&1 |
-        grep -v 'unstable feature\|not stably supported\|^ *|$\|^ *= note\|generated [0-9]* warning\|^$' >&2 || true
+    local log="target/peers-build.log"
+    if ! PEERS_PROBLEMS="$list" cargo build -q --release --target "$target" "$@" 2>"$log"; then
+        cat "$log" >&2
+        echo "run.sh: cargo build failed ($list $*)" >&2
+        exit 1
+    fi
+    grep -v 'unstable feature\|not stably supported\|^ *|$\|^ *= note\|generated [0-9]* warning\|^$' "$log" >&2 || true
 }
 
 run() { # prints the RESULT lines; exit status the firmware's
@@ -58,7 +67,7 @@ else
 fi
 status=0
 for g in "${groups[@]}"; do
-    build "$g"
+    build "$g" "${solver[@]}"
     out="$(run)" || status=$?
     echo "$out"
     grep '^RESULT' <<<"$out" >> "$results" || true

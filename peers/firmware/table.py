@@ -11,6 +11,8 @@ def results(lines):
         if not line.startswith("RESULT "):
             continue
         r = json.loads(line[len("RESULT "):])
+        if r["solver"] == "none":  # the replay without a solver, for --sizes
+            continue
         q = lambda k: " / ".join(f"{r[k + '_' + s]:,}" for s in ("min", "median", "p99", "max"))
         e = lambda k: f"{r[k] * 1e-15:.1e}"
         solver = "generated" if r["solver"] == "generated" else "DAQP"

@@ -238,14 +238,50 @@ macro_rules! ours {
             for s in 0..STEPS {
                 let x0: [Real; ctrl::NX] = core::array::from_fn(|j| X0[s][j] as Real);
                 let ticks = timing.time(&mut || {
-                    core::hint::black_box(
-                        mpc.solve(core::hint::black_box(&x0), core::hint::black_box(&xref)),
+                    solve_once(
+                        &mut mpc,
+                        core::hint::black_box(&x0),
+                        core::hint::black_box(&xref),
                     );
                 });
                 let plan = mpc.plan();
                 let error = $crate::plan_error(
                     plan.iter().flat_map(|u| u.iter().map(|&v| v as f64)),
                     &Z_STAR[s][..N * NU],
+                );
+                out.add(ticks, 0, error, 0, true);
+            }
+        }
+
+        /// One solve in a frame of its own, below the stack pointer at which the probe paints: inlined
+        /// into the replay, the solve's locals would sit in the replay's frame, above it, uncounted.
+        #[inline(never)]
+        fn solve_once(
+            mpc: &mut ctrl::Mpc,
+            x0: &[ctrl::Real; ctrl::NX],
+            xref: &[[ctrl::Real; ctrl::NX]; ctrl::N],
+        ) {
+            core::hint::black_box(mpc.solve(x0, xref));
+        }
+    };
+}
+
+/// The replay without a solver, in every firmware image: the same steps, states, last inputs,
+/// reference and exact solutions read and the same bookkeeping, so that the code and data sizes of
+/// an image with one solver minus one with neither (`firmware/run.sh --sizes`) are the solver's own.
+/// `pub fn baseline(timing, outcome)` in each problem module.
+#[macro_export]
+macro_rules! baseline {
+    () => {
+        /// Reads every step's data as a replay does, solving nothing (the plan is zero).
+        pub fn baseline<T: $crate::Timing>(timing: &mut T, out: &mut $crate::Outcome) {
+            for s in 0..STEPS {
+                let ticks = timing.time(&mut || {
+                    core::hint::black_box((&X0[s], &U_LAST[s], &REFERENCE));
+                });
+                let error = $crate::plan_error(
+                    core::iter::repeat_n(0.0, N * NU),
+                    core::hint::black_box(&Z_STAR[s][..]),
                 );
                 out.add(ticks, 0, error, 0, true);
             }

@@ -1,7 +1,8 @@
 //! The peers replay on firmware-template's boards: every dumped problem (`peers/data/`, baked in by
 //! the `peers` crate) solved step by step by the generated solver and by DAQP, each solve timed by the
 //! board's timer and its stack measured by the template's probe, with one `RESULT {json}` line per
-//! solver and problem on the serial port. Exit status 0 if every DAQP solve ended optimal, 1 if not,
+//! solver and problem on the serial port (and one with solver `none` for the replay without a solver,
+//! which every image runs so that `run.sh --sizes` subtracts it). Exit status 0 if every DAQP solve ended optimal, 1 if not,
 //! 2 if DAQP could not be set up (out of heap), 20 on a panic, the board's statuses on an exception.
 //!
 //! The board modules, the stack probe and the console are firmware-template's own files, compiled
@@ -20,7 +21,11 @@ mod board;
 mod console;
 #[path = "../../../firmware-template/src/decimal.rs"]
 mod decimal;
+// DAQP's `malloc`; its bookkeeping is read by `run_daqp` only.
+#[cfg_attr(not(feature = "daqp"), allow(dead_code))]
 mod heap;
+// The template's probe; its whole-run `high_water` is not used here.
+#[allow(dead_code)]
 #[path = "../../../firmware-template/src/stack.rs"]
 mod stack;
 
@@ -136,6 +141,7 @@ fn result(
 }
 
 /// The generated solver on one problem (`replay` is the problem's `ours`), in a frame of its own.
+#[cfg(feature = "ours")]
 #[inline(never)]
 fn run_ours(
     serial: &mut board::Serial,
@@ -153,8 +159,28 @@ fn run_ours(
     result(serial, name, "generated", &o, &probe.stack, 0, calib);
 }
 
+/// The replay without a solver (`baseline`), in every image whatever its features, so that
+/// `run.sh --sizes` subtracts the replay's own code and data: a `RESULT` line with solver `none`.
+#[inline(never)]
+fn run_baseline(
+    serial: &mut board::Serial,
+    timer: &board::Timer,
+    calib: (u64, u64),
+    name: &str,
+    replay: impl FnOnce(&mut Probe<'_>, &mut Outcome),
+) {
+    let mut probe = Probe {
+        timer,
+        stack: stack::CycleProbe::new(),
+    };
+    let mut o = Outcome::new();
+    replay(&mut probe, &mut o);
+    result(serial, name, "none", &o, &probe.stack, 0, calib);
+}
+
 /// DAQP on one problem, in a frame of its own: 0 if every solve ended optimal, 1 if not, 2 if it
 /// could not be set up.
+#[cfg(feature = "daqp")]
 #[inline(never)]
 fn run_daqp(
     serial: &mut board::Serial,
@@ -192,6 +218,7 @@ extern "C" fn main() -> ! {
     serial.str(board::TIMER).str("\n");
     let mut status = 0;
     peers::for_each_problem!(p => {
+        run_baseline(&mut serial, &timer, calib, p::NAME, |t, o| p::baseline(t, o));
         #[cfg(feature = "ours")]
         run_ours(&mut serial, &timer, calib, p::NAME, |t, o| p::ours(t, o));
         #[cfg(feature = "daqp")]
