@@ -4633,87 +4633,15 @@ pub mod afti16 {
     const REST: [f64; NU] = [0f64, 0f64];
     /// The slacks' penalty weights w (the linear term of the slacks).
     const SLACK_WEIGHT: [f64; NS] = [100000f64];
-    /// Box sides: BOX_SIGN·z[BOX_POS] ≤ BOX_H, z in the method's order (upper then lower bound per
-    /// plan entry, then σ ≥ 0).
-    const BOX_POS: [usize; NB] = [
-        0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12,
-        12, 13, 13, 14, 14, 15, 15, 16, 16, 17, 17, 18, 18, 19, 19, 20,
-    ];
-    const BOX_SIGN: [f64; NB] = [
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        -1f64,
-    ];
+    /// Box sides' right-hand sides: ±z_i ≤ BOX_H (upper then lower bound per plan entry, then
+    /// σ ≥ 0; the signs and positions are written into the kernels).
     const BOX_H: [f64; NB] = [
         25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64,
         25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64,
         25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64,
         25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 25f64, 0f64,
     ];
-    /// Side j is SIDE_SIGN[j]·(row SIDE_ROW[j]) ≤ h_j, with h_j = SIDE_H[j] − SIDE_X[j]·x0 (− …).
-    const SIDE_ROW: [usize; NG] = [
-        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19,
-    ];
-    const SIDE_SIGN: [f64; NG] = [
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-        1f64,
-        -1f64,
-    ];
+    /// Side j is ±(its row) ≤ h_j, with h_j = SIDE_H[j] − SIDE_X[j]·x0 (− …).
     const SIDE_H: [f64; NG] = [
         0.5f64,
         0.5f64,
@@ -4868,15 +4796,6 @@ pub mod afti16 {
     /// the normal matrix's independent blocks (the drone's axes) side by side.
     const ORDER: [usize; NV] = [
         0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20,
-    ];
-    /// The envelope of the normal matrix's lower triangle: row p from column FIRST[p]; REACH[j] is
-    /// one past the last row that reaches column j.
-    const FIRST: [usize; NV] = [
-        0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
-    ];
-    const REACH: [usize; NV] = [
-        21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21, 21,
-        21,
     ];
     /// The method's Hessian blkdiag(H, diag(q_σ)) (eq. 9's H, then the slacks' quadratic weights),
     /// in the method's order.

@@ -496,10 +496,10 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 }
                 for i in (0..NV).rev() {
                     let mut s = b[i];
-                    for j in i + 1..NV {
+                    for (j, bj) in b.iter().enumerate().skip(i + 1) {
                         // Column i of L below the diagonal: the index is inside the packed factor for
                         // i < j < NV, which the compiler does not see.
-                        s -= L.get(j * (j + 1) / 2 + i).copied().unwrap_or(0.0) * b[j];
+                        s -= L.get(j * (j + 1) / 2 + i).copied().unwrap_or(0.0) * bj;
                     }
                     b[i] = s * L_INV[i];
                 }

@@ -55,7 +55,6 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     let (g_mul, g_tmul, h_mul) = (written.g_mul(), written.g_tmul(), written.h_mul(&h_method));
     // Box sides: ±z_i ≤ ±bound, constant.
     let box_pos = layout.boxed.iter().map(|(i, _)| lit(position[*i]));
-    let box_sign = wide.vector(layout.boxed.iter().map(|(_, s)| *s));
     let box_h = wide.vector(
         layout
             .boxed
@@ -87,7 +86,6 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     });
     let row_val = wide.vector(row_val.iter().copied());
     let side_row = sparsity.side_row.iter().map(|r| lit(*r));
-    let side_sign = wide.vector(layout.rows.iter().map(|(_, sign)| *sign));
     let nr_lit = lit(nr);
     let side = |M: &DMatrix<f64>| {
         DMatrix::from_fn(ng, M.ncols(), |j, c| {
@@ -249,6 +247,22 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
         }
         delta = if delta == 0.0 { 1e-12 * scale } else { delta * 1e3 };
     };
+    // The envelope's tables, for the loops that read them (the loop forming reads FIRST, the loop
+    // L·D·Lᵀ both); written-out kernels have them as constants.
+    let ldl_loops = !rows::ldl_written_out(envelope);
+    let first_table = (ldl_loops || !written.form_written_out()).then(|| {
+        quote! {
+            /// The envelope of the normal matrix's lower triangle: row p from column FIRST[p].
+            const FIRST: [usize; NV] = [#(#first_lit),*];
+        }
+    });
+    let reach_table = ldl_loops.then(|| {
+        quote! {
+            /// REACH[j]: one past the last row of the envelope that reaches column j.
+            const REACH: [usize; NV] = [#(#reach_lit),*];
+        }
+    });
+    let envelope_tables = quote!(#first_table #reach_table);
     let (factor, form_tables) = if written.form_written_out() {
         let form = written.form(&h_method);
         (
@@ -355,6 +369,9 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             /// The rows with a finite side as runs of consecutive positions (z in the method's order): row
             /// r is the runs RUNS[RUN_START[r]..RUN_START[r + 1]], a run (at, offset, len) the values
             /// ROW_VAL[offset..offset + len] at positions at..at + len.
+            /// Box side k is at position BOX_POS[k]; side j belongs to row SIDE_ROW[j].
+            const BOX_POS: [usize; NB] = [#(#box_pos),*];
+            const SIDE_ROW: [usize; NG] = [#(#side_row),*];
             const RUN_START: [usize; NR + 1] = [#(#run_start_lit),*];
             const RUNS: [(usize, usize, usize); #n_runs] = [#(#runs_lit),*];
             const ROW_VAL: [f64; #row_nnz] = #row_val;
@@ -1040,14 +1057,10 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             const REST: [f64; NU] = #rest;
             /// The slacks' penalty weights w (the linear term of the slacks).
             const SLACK_WEIGHT: [f64; NS] = #slack_weight;
-            /// Box sides: BOX_SIGN·z[BOX_POS] ≤ BOX_H, z in the method's order (upper then lower bound per
-            /// plan entry, then σ ≥ 0).
-            const BOX_POS: [usize; NB] = [#(#box_pos),*];
-            const BOX_SIGN: [f64; NB] = #box_sign;
+            /// Box sides' right-hand sides: ±z_i ≤ BOX_H (upper then lower bound per plan entry, then
+            /// σ ≥ 0; the signs and positions are written into the kernels).
             const BOX_H: [f64; NB] = #box_h;
-            /// Side j is SIDE_SIGN[j]·(row SIDE_ROW[j]) ≤ h_j, with h_j = SIDE_H[j] − SIDE_X[j]·x0 (− …).
-            const SIDE_ROW: [usize; NG] = [#(#side_row),*];
-            const SIDE_SIGN: [f64; NG] = #side_sign;
+            /// Side j is ±(its row) ≤ h_j, with h_j = SIDE_H[j] − SIDE_X[j]·x0 (− …).
             const SIDE_H: [f64; NG] = #side_h;
             /// Whether a side belongs to a soft row (its violation is priced, not forbidden).
             const SIDE_SOFT: [bool; NG] = [#(#side_soft),*];
@@ -1056,10 +1069,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             /// The method's order: position p holds unknown ORDER[p] (plan entries, then slacks). It puts
             /// the normal matrix's independent blocks (the drone's axes) side by side.
             const ORDER: [usize; NV] = [#(#order_lit),*];
-            /// The envelope of the normal matrix's lower triangle: row p from column FIRST[p]; REACH[j] is
-            /// one past the last row that reaches column j.
-            const FIRST: [usize; NV] = [#(#first_lit),*];
-            const REACH: [usize; NV] = [#(#reach_lit),*];
+            #envelope_tables
             /// The method's Hessian blkdiag(H, diag(q_σ)) (eq. 9's H, then the slacks' quadratic weights),
             /// in the method's order.
             pub const H: [[f64; NV]; NV] = #hv;

@@ -38,6 +38,8 @@ const CONDENSED_ONLY: &[&str] = &[
     "span",
     "span_mut",
     "RUN_START",
+    "BOX_POS",
+    "SIDE_ROW",
     "RUNS",
     "ROW_VAL",
 ];
