@@ -169,15 +169,12 @@ fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
         iterations: qp.iterations,
         macs_per_iteration,
         macs_per_solve: qp.iterations * macs_per_iteration + once,
-        // The interior-point method computes in f64 whatever the module's scalar.
-        cycles_per_solve: crate::target::machine(spec.codegen.target).cycles(
-            qp.iterations * macs_per_iteration + once,
-            if spec.mpc.method == Method::Ipm {
-                mpc_spec::Scalar::F64
-            } else {
-                spec.codegen.scalar
-            },
-        ),
+        cycles_per_solve: {
+            let machine = crate::target::machine(spec.codegen.target);
+            let scalar = crate::target::solver_scalar(spec.mpc.method, spec.codegen.scalar);
+            (qp.iterations * macs_per_iteration + once) as f64
+                * machine.solver_cycles_per_mac(spec.mpc.method, scalar)
+        },
         certified,
         reaches_accuracy,
         chosen: false,

@@ -19,6 +19,8 @@
 //! | cortex-m4f | f64 | 1,665,603 (`firmware-template/specs/paper-f64-n10.toml`, software floating point) | 10,236 | 163 | 1 | 163 |
 //! | cortex-a9 | f64, interior-point method | 3,470,290 (`specs/paper-limits.toml`) | 514,480 | 6.7 | 1.5 | 10.1 |
 //! | cortex-m4f | f64, interior-point method | not run (the method is refused there) | | | 1 | 305 |
+//! | cortex-a9 | f32, ADMM | 13,333,810 (`firmware-template/specs/quadcopter-m4f.toml`, on the VFP) | 3,060,790 | 4.36 | 1.5 | 6.6 |
+//! | cortex-m4f | f32, ADMM | 12,003,230 (`firmware-template/specs/quadcopter-m4f.toml`) | 3,060,790 | 3.92 | 1 | 4.0 |
 //!
 //! The instruction counts are BENCHMARKS.md's: "Runtime hardening" (both boards' `paper.toml` with
 //! screening) and "Firmware (emulated Zynq-7000)" and "Firmware (emulated Cortex-M4F)" (the f64 rows). Under QEMU they are instructions, not cycles: the A9's 1.5 cycles
@@ -29,12 +31,18 @@
 //! interior-point method's row is its own: besides its multiply-adds it divides, selects and checks per
 //! side (`scripts/firmware.sh --cycles 30 specs/paper-limits.toml`, ticks × 10; BENCHMARKS.md, "The
 //! interior-point method on the emulated Zynq"). The M4F's is the A9's ratio to plain f64 (10.1 / 5.4)
-//! times the M4F's soft-float f64: derived, not measured, as the method is refused there.
+//! times the M4F's soft-float f64: derived, not measured, as the method is refused there. ADMM's rows
+//! are its own too (`scripts/firmware.sh --cycles 100 [--board netduinoplus2]
+//! firmware-template/specs/quadcopter-m4f.toml`; BENCHMARKS.md, "ADMM on the emulated Cortex-M4F"): its
+//! products are written out, but every iteration also clamps and updates each row's z and y, which its
+//! multiply-add count leaves out; rounded up. ADMM in f64 is taken at its f32 figure where f64 is in
+//! hardware (the same scalar instructions on the VFP) and scaled by the soft-float ratio where it is not
+//! (derived, not measured).
 
 use crate::certificate::Resources;
 use crate::lower::Problem;
 use crate::plan::Plan;
-use mpc_spec::{Diagnostic, Diagnostics, Scalar, Spec, Target};
+use mpc_spec::{Diagnostic, Diagnostics, Method, Scalar, Spec, Target};
 
 /// The SIMD the emitted code can use on a machine.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -66,6 +74,9 @@ pub struct Machine {
     /// Estimated cycles per multiply-add of the interior-point method (f64): its iterations also divide,
     /// select and check element by element, work its multiply-add count leaves out.
     pub cycles_per_mac_ipm: f64,
+    /// Estimated cycles per multiply-add of ADMM in f32: its iterations also clamp and update every
+    /// row's z and y, work its multiply-add count leaves out.
+    pub cycles_per_mac_admm: f64,
 }
 
 /// The building machine: f64 in hardware, no SIMD assumed, no fixed clock. Its cycles per multiply-add
@@ -80,6 +91,7 @@ pub const HOST: Machine = Machine {
     cycles_per_mac_f32: 1.0,
     cycles_per_mac_f64: 1.0,
     cycles_per_mac_ipm: 1.0,
+    cycles_per_mac_admm: 1.0,
 };
 
 /// The Zynq-7000's Cortex-A9: VFPv3 with 32 double registers (f64 in hardware) and NEON (f32 only). The
@@ -94,6 +106,7 @@ pub const CORTEX_A9: Machine = Machine {
     cycles_per_mac_f32: 1.2,
     cycles_per_mac_f64: 5.4,
     cycles_per_mac_ipm: 10.1,
+    cycles_per_mac_admm: 6.6,
 };
 
 /// The STM32F405's Cortex-M4F: a single-precision FPU (FPv4-SP), no SIMD for floats (the M4's SIMD is
@@ -107,6 +120,7 @@ pub const CORTEX_M4F: Machine = Machine {
     cycles_per_mac_f32: 2.8,
     cycles_per_mac_f64: 163.0,
     cycles_per_mac_ipm: 305.0,
+    cycles_per_mac_admm: 4.0,
 };
 
 /// What the compiler knows of `target`.
@@ -127,6 +141,20 @@ impl Machine {
         }
     }
 
+    /// Estimated cycles per multiply-add of `method`'s iterations in `scalar` (see
+    /// [`solver_scalar`]): the interior-point method's and ADMM's own figures, the plain ones for the
+    /// first-order methods.
+    pub fn solver_cycles_per_mac(&self, method: Method, scalar: Scalar) -> f64 {
+        match (method, scalar) {
+            (Method::Ipm, _) => self.cycles_per_mac_ipm,
+            (Method::Admm, Scalar::F64) if !self.f64_in_hardware => {
+                self.cycles_per_mac_admm * self.cycles_per_mac_f64 / self.cycles_per_mac_f32
+            }
+            (Method::Admm, _) => self.cycles_per_mac_admm,
+            _ => self.cycles_per_mac(scalar),
+        }
+    }
+
     /// Estimated cycles of `macs` multiply-adds in `scalar`.
     pub fn cycles(&self, macs: usize, scalar: Scalar) -> f64 {
         macs as f64 * self.cycles_per_mac(scalar)
@@ -135,6 +163,16 @@ impl Machine {
     /// Cycles in a sampling period of `dt` seconds at the nominal clock; `None` without a fixed clock.
     pub fn period_cycles(&self, dt: f64) -> Option<f64> {
         self.clock_hz.map(|hz| hz * dt)
+    }
+}
+
+/// The scalar `method` computes in for a module in `scalar`: f64 for the interior-point method, which
+/// widens its data whatever the module's scalar, else the module's.
+pub fn solver_scalar(method: Method, scalar: Scalar) -> Scalar {
+    if method == Method::Ipm {
+        Scalar::F64
+    } else {
+        scalar
     }
 }
 
@@ -173,20 +211,16 @@ impl StepCost {
     /// `r` (`certificate::predicted`).
     pub fn of(spec: &Spec, p: &Problem, plan: &Plan, r: &Resources) -> Self {
         let machine = *machine(spec.codegen.target);
-        // The interior-point method widens its data and computes in f64 whatever `scalar` is.
-        let solver_scalar = if plan.algorithm.is_none() && p.qp.method == mpc_spec::Method::Ipm {
-            Scalar::F64
+        // The first-order methods' plan has their algorithm; the others are priced by their own figure.
+        let method = if plan.algorithm.is_some() {
+            Method::Fgm
         } else {
-            p.scalar
+            p.qp.method
         };
+        let solver_scalar = solver_scalar(method, p.scalar);
         let solver_macs = p.qp.iterations * r.macs_per_iteration + r.macs_once_per_solve;
         let other_macs = r.macs_per_cycle.saturating_sub(solver_macs);
-        let solver_cycles_per_mac =
-            if solver_scalar == Scalar::F64 && p.qp.method == mpc_spec::Method::Ipm {
-                machine.cycles_per_mac_ipm
-            } else {
-                machine.cycles_per_mac(solver_scalar)
-            };
+        let solver_cycles_per_mac = machine.solver_cycles_per_mac(method, solver_scalar);
         let solver_cycles = solver_macs as f64 * solver_cycles_per_mac;
         StepCost {
             machine,
@@ -251,8 +285,8 @@ pub fn check_period(spec: &Spec, cost: &StepCost) -> Result<(), Diagnostic> {
     .related(
         span("codegen.target"),
         format!(
-            "about {} cycles per multiply-add in {} here",
-            m.cycles_per_mac(cost.solver_scalar),
+            "about {} cycles per multiply-add of the solver in {} here",
+            cost.solver_cycles_per_mac,
             cost.solver_scalar.name()
         ),
     )

@@ -45,34 +45,13 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     let nc = nv + ng;
     let lit = Literal::usize_unsuffixed;
     let [nv_lit, ns_lit, ng_lit, nc_lit] = [nv, ns, ng, nc].map(lit);
-    // The factor of P + σI + CᵀRC, packed by rows (row i holds L_i0 … L_ii), and 1/L_ii. The settings'
-    // factor exists: the certificate ran with it.
+    // The factor of P + σI + CᵀRC. The settings' factor exists: the certificate ran with it.
     let L =
         admm::factor(&structure, &settings).unwrap_or_else(|| nalgebra::DMatrix::identity(nv, nv));
-    let packed = num.vector(
-        (0..nv)
-            .flat_map(|i| (0..=i).map(move |k| (i, k)))
-            .map(|(i, k)| L[(i, k)]),
-    );
-    let l_inv = num.vector((0..nv).map(|i| 1.0 / L[(i, i)]));
-    let nl = lit(nv * (nv + 1) / 2);
-    // The general rows in compressed rows, columns ascending (the reference's order).
-    let mut start = vec![0usize];
-    let (mut cols, mut vals) = (Vec::new(), Vec::new());
-    for r in 0..ng {
-        for c in 0..nv {
-            let v = structure.A[(r, c)];
-            if v != 0.0 {
-                cols.push(c);
-                vals.push(v);
-            }
-        }
-        start.push(cols.len());
-    }
-    let nnz = lit(cols.len());
-    let start_lit = start.iter().map(|s| lit(*s));
-    let col_lit = cols.iter().map(|c| lit(*c));
-    let val = num.vector(vals.iter().copied());
+    let Kernels {
+        code: kernel_code,
+        tables: kernel_tables,
+    } = kernels(num, &structure.A, &L);
     let rho_row = num.vector(settings.rho.iter().copied());
     let rho_inv = num.vector(settings.rho.iter().map(|r| 1.0 / r));
     let (sigma, alpha) = (num.lit(settings.sigma), num.lit(settings.alpha));
@@ -446,64 +425,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 v.iter().fold(0.0, |m: f64, x| m.max(#wide_of_abs))
             }
 
-            /// Row j of A in compressed rows: its columns and values. The tables are consistent by
-            /// construction; `get` keeps the indexing free of panicking paths, which the compiler cannot
-            /// rule out for indices read from a table.
-            #[inline(always)]
-            fn a_row(j: usize) -> (&'static [usize], &'static [Real]) {
-                let span = A_START[j]..A_START[j + 1];
-                (
-                    A_COL.get(span.clone()).unwrap_or(&[]),
-                    A_VAL.get(span).unwrap_or(&[]),
-                )
-            }
-
-            /// C x = [x; A x].
-            fn c_mul(x: &[Real; NV], out: &mut [Real; NC]) {
-                out[..NV].copy_from_slice(x);
-                for j in 0..NG {
-                    let (cols, vals) = a_row(j);
-                    let mut a = 0.0;
-                    for (&c, &v) in cols.iter().zip(vals) {
-                        a += v * x.get(c).copied().unwrap_or(0.0);
-                    }
-                    out[NV + j] = a;
-                }
-            }
-
-            /// Cᵀ v = v[..NV] + Aᵀ v[NV..].
-            fn c_tmul(v: &[Real; NC], out: &mut [Real; NV]) {
-                out.copy_from_slice(&v[..NV]);
-                for j in 0..NG {
-                    let (cols, vals) = a_row(j);
-                    for (&c, &a) in cols.iter().zip(vals) {
-                        if let Some(o) = out.get_mut(c) {
-                            *o += a * v[NV + j];
-                        }
-                    }
-                }
-            }
-
-            /// b ← K b = L⁻ᵀ L⁻¹ b: the forward substitution, then the backward one.
-            fn k_solve(b: &mut [Real; NV]) {
-                for i in 0..NV {
-                    let row = &L[i * (i + 1) / 2..i * (i + 1) / 2 + i];
-                    let mut s = b[i];
-                    for (l, w) in row.iter().zip(b.iter()) {
-                        s -= l * w;
-                    }
-                    b[i] = s * L_INV[i];
-                }
-                for i in (0..NV).rev() {
-                    let mut s = b[i];
-                    for (j, bj) in b.iter().enumerate().skip(i + 1) {
-                        // Column i of L below the diagonal: the index is inside the packed factor for
-                        // i < j < NV, which the compiler does not see.
-                        s -= L.get(j * (j + 1) / 2 + i).copied().unwrap_or(0.0) * bj;
-                    }
-                    b[i] = s * L_INV[i];
-                }
-            }
+            #kernel_code
 
             /// One iteration of OSQP's Algorithm 1 on (x, z, y); `dy` keeps the change of y.
             fn iterate(
@@ -610,14 +532,13 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             /// largest soft-row violation in its row's units, as the interior-point method reports them.
             fn violations(plan: &[Real; NP], lower: &[Real; NC], upper: &[Real; NC]) -> (f64, f64) {
                 let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
+                // The rows at the plan with its slacks zero (Cx's general rows).
+                let mut x = [0.0; NV];
+                x[..NP].copy_from_slice(plan);
+                let mut cx = [0.0; NC];
+                c_mul(&x, &mut cx);
                 for j in 0..NG {
-                    let (cols, vals) = a_row(j);
-                    let mut a = 0.0;
-                    for (&c, &v) in cols.iter().zip(vals) {
-                        if let Some(p) = plan.get(c) {
-                            a += v * *p;
-                        }
-                    }
+                    let a = cx[NV + j];
                     let (lo, hi, a) = (#wide_row_lower, #wide_row_upper, #wide_a);
                     // The rows' bounds without the data's offset, as the reference measures them.
                     let (bound_lo, bound_hi) = (#wide_bound_lower, #wide_bound_upper);
@@ -655,21 +576,212 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             /// Which rows of C have a finite lower / upper bound (whatever the data).
             const LOWER_FINITE: [bool; NC] = [#(#lower_finite),*];
             const UPPER_FINITE: [bool; NC] = [#(#upper_finite),*];
-            /// The general rows A in compressed rows: row j is Σ A_VAL[k]·x[A_COL[k]] over
-            /// k ∈ A_START[j]..A_START[j + 1].
-            const A_START: [usize; NG + 1] = [#(#start_lit),*];
-            const A_COL: [usize; #nnz] = [#(#col_lit),*];
-            const A_VAL: [Real; #nnz] = #val;
             #row_tables
             /// Row i's penalty ρ_i = RHO·(its curvature), and 1/ρ_i.
             const RHO_ROW: [Real; NC] = #rho_row;
             const RHO_INV: [Real; NC] = #rho_inv;
+            #kernel_tables
+            /// ADMM's P = blkdiag(H, diag(q_σ)): eq. 9's H, then the slacks' quadratic weights.
+            pub const H: [[Real; NV]; NV] = #hv;
+        },
+    }
+}
+
+/// Multiply-adds of one kernel (C·x and Cᵀ·v: one per nonzero of A; K·b: NV² of the two triangular
+/// solves) up to which it is written out, one statement per output with the coefficients as literals
+/// and every index a constant; past it the kernel loops over tables. At about 10 bytes a multiply-add
+/// this is at most ~160 KB of code per kernel.
+pub const WRITE_OUT_BUDGET: usize = 16_384;
+
+/// C·x, Cᵀ·v and K·b with what they read: the code, and the tables the loops need (none when written
+/// out).
+struct Kernels {
+    code: TokenStream,
+    tables: TokenStream,
+}
+
+/// The kernels over the general rows `A` (rows × NV) and the factor `L` of P + σI + CᵀRC, each in the
+/// reference's order of summation (`solver::admm::Operator::{C, Ct, solve}`): written out within
+/// [`WRITE_OUT_BUDGET`], which costs a few instructions a multiply-add where the loops over compressed
+/// rows cost some ten (BENCHMARKS.md, "ADMM on the Cortex-M4F"), else loops over tables.
+fn kernels(num: Num, A: &nalgebra::DMatrix<f64>, L: &nalgebra::DMatrix<f64>) -> Kernels {
+    let (ng, nv) = A.shape();
+    let lit = Literal::usize_unsuffixed;
+    let at = |name: &str, i: usize| {
+        let (name, i) = (quote::format_ident!("{}", name), lit(i));
+        quote!(#name[#i])
+    };
+    let rows: Vec<Vec<(usize, f64)>> = (0..ng)
+        .map(|r| {
+            (0..nv)
+                .filter(|&c| A[(r, c)] != 0.0)
+                .map(|c| (c, A[(r, c)]))
+                .collect()
+        })
+        .collect();
+    let nnz: usize = rows.iter().map(Vec::len).sum();
+    let mut code = Vec::new();
+    let mut tables = Vec::new();
+    if nnz <= WRITE_OUT_BUDGET {
+        // Row j of C·x below the identity: 0 + Σ a·x in column order (the reference's fold from zero).
+        let products = rows.iter().enumerate().map(|(j, row)| {
+            let (o, sum) = (
+                at("out", nv + j),
+                num.fold(quote!(0.0), row.iter().map(|&(c, a)| (a, at("x", c)))),
+            );
+            quote!(#o = #sum;)
+        });
+        // Column c of Cᵀ·v: v_c plus its rows' shares, rows ascending (the reference's order).
+        let columns = (0..nv).filter_map(|c| {
+            let terms: Vec<_> = rows
+                .iter()
+                .enumerate()
+                .filter_map(|(j, row)| {
+                    row.iter()
+                        .find(|&&(k, _)| k == c)
+                        .map(|&(_, a)| (a, at("v", nv + j)))
+                })
+                .collect();
+            (!terms.is_empty()).then(|| {
+                let (o, sum) = (at("out", c), num.fold(at("v", c), terms));
+                quote!(#o = #sum;)
+            })
+        });
+        code.push(quote! {
+            /// C x = [x; A x], written out.
+            fn c_mul(x: &[Real; NV], out: &mut [Real; NC]) {
+                out[..NV].copy_from_slice(x);
+                #(#products)*
+            }
+
+            /// Cᵀ v = v[..NV] + Aᵀ v[NV..], written out.
+            fn c_tmul(v: &[Real; NC], out: &mut [Real; NV]) {
+                out.copy_from_slice(&v[..NV]);
+                #(#columns)*
+            }
+        });
+    } else {
+        let mut start = vec![0usize];
+        let (mut cols, mut vals) = (Vec::new(), Vec::new());
+        for row in &rows {
+            for &(c, a) in row {
+                cols.push(c);
+                vals.push(a);
+            }
+            start.push(cols.len());
+        }
+        let nnz_lit = lit(nnz);
+        let start_lit = start.iter().map(|s| lit(*s));
+        let col_lit = cols.iter().map(|c| lit(*c));
+        let val = num.vector(vals.iter().copied());
+        code.push(quote! {
+            /// Row j of A in compressed rows: its columns and values. The tables are consistent by
+            /// construction; `get` keeps the indexing free of panicking paths, which the compiler cannot
+            /// rule out for indices read from a table.
+            #[inline(always)]
+            fn a_row(j: usize) -> (&'static [usize], &'static [Real]) {
+                let span = A_START[j]..A_START[j + 1];
+                (
+                    A_COL.get(span.clone()).unwrap_or(&[]),
+                    A_VAL.get(span).unwrap_or(&[]),
+                )
+            }
+
+            /// C x = [x; A x].
+            fn c_mul(x: &[Real; NV], out: &mut [Real; NC]) {
+                out[..NV].copy_from_slice(x);
+                for j in 0..NG {
+                    let (cols, vals) = a_row(j);
+                    let mut a = 0.0;
+                    for (&c, &v) in cols.iter().zip(vals) {
+                        a += v * x.get(c).copied().unwrap_or(0.0);
+                    }
+                    out[NV + j] = a;
+                }
+            }
+
+            /// Cᵀ v = v[..NV] + Aᵀ v[NV..].
+            fn c_tmul(v: &[Real; NC], out: &mut [Real; NV]) {
+                out.copy_from_slice(&v[..NV]);
+                for j in 0..NG {
+                    let (cols, vals) = a_row(j);
+                    for (&c, &a) in cols.iter().zip(vals) {
+                        if let Some(o) = out.get_mut(c) {
+                            *o += a * v[NV + j];
+                        }
+                    }
+                }
+            }
+        });
+        tables.push(quote! {
+            /// The general rows A in compressed rows: row j is Σ A_VAL[k]·x[A_COL[k]] over
+            /// k ∈ A_START[j]..A_START[j + 1].
+            const A_START: [usize; NG + 1] = [#(#start_lit),*];
+            const A_COL: [usize; #nnz_lit] = [#(#col_lit),*];
+            const A_VAL: [Real; #nnz_lit] = #val;
+        });
+    }
+    if nv * nv <= WRITE_OUT_BUDGET {
+        // b_i ← (b_i − Σ_k L_ik·b_k)·(1/L_ii), then b_i ← (b_i − Σ_j L_ji·b_j)·(1/L_ii), as the reference.
+        let step = |i: usize, terms: Vec<(f64, TokenStream)>| {
+            let (bi, inv) = (at("b", i), num.lit(1.0 / L[(i, i)]));
+            if terms.is_empty() {
+                return quote!(#bi *= #inv;);
+            }
+            let sum = num.fold(bi.clone(), terms);
+            quote!(#bi = (#sum) * #inv;)
+        };
+        let forward = (0..nv).map(|i| step(i, (0..i).map(|k| (-L[(i, k)], at("b", k))).collect()));
+        let backward = (0..nv)
+            .rev()
+            .map(|i| step(i, (i + 1..nv).map(|j| (-L[(j, i)], at("b", j))).collect()));
+        code.push(quote! {
+            /// b ← K b = L⁻ᵀ L⁻¹ b: the forward substitution, then the backward one, written out with L's
+            /// entries and 1/L_ii as literals.
+            fn k_solve(b: &mut [Real; NV]) {
+                #(#forward)*
+                #(#backward)*
+            }
+        });
+    } else {
+        let nl = lit(nv * (nv + 1) / 2);
+        let packed = num.vector(
+            (0..nv)
+                .flat_map(|i| (0..=i).map(move |k| (i, k)))
+                .map(|(i, k)| L[(i, k)]),
+        );
+        let l_inv = num.vector((0..nv).map(|i| 1.0 / L[(i, i)]));
+        code.push(quote! {
+            /// b ← K b = L⁻ᵀ L⁻¹ b: the forward substitution, then the backward one.
+            fn k_solve(b: &mut [Real; NV]) {
+                for i in 0..NV {
+                    let row = &L[i * (i + 1) / 2..i * (i + 1) / 2 + i];
+                    let mut s = b[i];
+                    for (l, w) in row.iter().zip(b.iter()) {
+                        s -= l * w;
+                    }
+                    b[i] = s * L_INV[i];
+                }
+                for i in (0..NV).rev() {
+                    let mut s = b[i];
+                    for (j, bj) in b.iter().enumerate().skip(i + 1) {
+                        // Column i of L below the diagonal: the index is inside the packed factor for
+                        // i < j < NV, which the compiler does not see.
+                        s -= L.get(j * (j + 1) / 2 + i).copied().unwrap_or(0.0) * bj;
+                    }
+                    b[i] = s * L_INV[i];
+                }
+            }
+        });
+        tables.push(quote! {
             /// The lower Cholesky factor L of P + σI + CᵀRC, packed by rows (row i: L_i0 … L_ii).
             const L: [Real; #nl] = #packed;
             /// 1 / L_ii.
             const L_INV: [Real; NV] = #l_inv;
-            /// ADMM's P = blkdiag(H, diag(q_σ)): eq. 9's H, then the slacks' quadratic weights.
-            pub const H: [[Real; NV]; NV] = #hv;
-        },
+        });
+    }
+    Kernels {
+        code: quote!(#(#code)*),
+        tables: quote!(#(#tables)*),
     }
 }

@@ -93,6 +93,34 @@ impl Num {
         }
         out.unwrap_or_else(|| self.unsigned(0.0))
     }
+
+    /// `base ± c₁·v₁ ± c₂·v₂ …` evaluated left to right, the exact tokens of the fold
+    /// `terms.fold(base, |acc, (c, v)| acc + c·v)` in the emitted type: a coefficient's sign becomes the
+    /// operator (acc + (−c)·v = acc − c·v exactly), ±1 is a plain ±v (exact), and no term is skipped,
+    /// not even a zero (0·∞ is NaN, as in the fold). Unlike [`Num::sum`], for kernels that must match a
+    /// reference to the bit.
+    pub fn fold(
+        self,
+        base: TokenStream,
+        terms: impl IntoIterator<Item = (f64, TokenStream)>,
+    ) -> TokenStream {
+        let mut acc = base;
+        for (c, v) in terms {
+            let c = self.round(c);
+            let term = if c.abs() == 1.0 {
+                v
+            } else {
+                let m = self.unsigned(c.abs());
+                quote!(#m * #v)
+            };
+            acc = if c.is_sign_negative() {
+                quote!(#acc - #term)
+            } else {
+                quote!(#acc + #term)
+            };
+        }
+        acc
+    }
 }
 
 /// Whether `v` is a product `x * y` at its top level (a single value is one token tree, or a name and
