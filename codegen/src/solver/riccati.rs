@@ -65,7 +65,7 @@ pub struct Choice {
 impl Choice {
     /// The choice for `qp`.
     pub fn of(qp: &Qp) -> Self {
-        let condensed = crate::solver::ipm::condensed_macs_per_iteration(qp);
+        let condensed = crate::solver::ipm::condensed::condensed_macs_per_iteration(qp);
         match Stages::of(qp) {
             Ok(stages) => {
                 let riccati = stages.macs_per_iteration(qp);
@@ -236,7 +236,7 @@ impl Stages {
     }
 
     /// The stage Hessians for the weights `d` of the sides (box sides `boxed`, then row sides `rows`,
-    /// as [`crate::solver::ipm::Layout`]) and the regularisation `delta` on every R̃_k:
+    /// as [`crate::solver::ipm::condensed::Layout`]) and the regularisation `delta` on every R̃_k:
     /// (Q̃_k for k = 0 … N, S̃_k and R̃_k for k = 0 … N−1).
     fn hessians(
         &self,
@@ -355,23 +355,23 @@ impl Stages {
     }
 
     /// Multiply-adds of one iteration in the Riccati form, by the rule of
-    /// [`crate::solver::ipm::macs_per_iteration`]: the condensed form's residuals, right-hand sides,
+    /// [`crate::solver::ipm::condensed::macs_per_iteration`]: the condensed form's residuals, right-hand sides,
     /// refinement and element-wise work, with the normal matrix's forming, factorisation and solves
     /// replaced by [`Stages::factor_macs`] and [`Stages::solve_macs`].
     pub fn macs_per_iteration(&self, qp: &Qp) -> usize {
-        let c = crate::solver::ipm::mpc_counts(qp);
-        let solves = 2 + crate::solver::ipm::REFINEMENT;
+        let c = crate::solver::ipm::condensed::mpc_counts(qp);
+        let solves = 2 + crate::solver::ipm::condensed::REFINEMENT;
         c.residuals
             + self.factor_macs(qp)
             + solves * self.solve_macs()
             + (c.direction - c.solve) * 2
-            + crate::solver::ipm::REFINEMENT * (c.refinement - c.solve)
+            + crate::solver::ipm::condensed::REFINEMENT * (c.refinement - c.solve)
             + c.elementwise
     }
 
     /// Multiply-adds of the cold start in the Riccati form (one factorisation, one direction).
     pub fn cold_start_macs(&self, qp: &Qp) -> usize {
-        let c = crate::solver::ipm::mpc_counts(qp);
+        let c = crate::solver::ipm::condensed::mpc_counts(qp);
         c.residuals + self.factor_macs(qp) + c.direction - c.solve + self.solve_macs()
     }
 
@@ -388,7 +388,7 @@ impl Stages {
     pub fn factor_macs(&self, qp: &Qp) -> usize {
         let (nx, nu, N) = (self.nx(), self.nu(), self.N);
         let (a, b) = self.nonzeros();
-        let (layout, sparsity) = crate::solver::ipm::mpc_structure(qp);
+        let (layout, sparsity) = crate::solver::ipm::condensed::mpc_structure(qp);
         let forming: usize = layout.boxed.len()
             + sparsity
                 .rows
@@ -410,7 +410,7 @@ impl Stages {
         // The slacks: per slack its sides' weights and Gᵀ of them (M_uσ's column), a plan solve (Y's
         // column); S = M_σσ − M_uσᵀ·Y and its L·D·Lᵀ.
         let ns = self.slack_quadratic.len();
-        let g = crate::solver::ipm::mpc_counts(qp).g;
+        let g = crate::solver::ipm::condensed::mpc_counts(qp).g;
         let slacks = if ns == 0 {
             0
         } else {

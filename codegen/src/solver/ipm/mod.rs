@@ -26,6 +26,14 @@ use crate::lower::Qp;
 use crate::solver::riccati::{Choice, Form, Stages};
 use nalgebra::{DMatrix, DVector};
 
+pub mod condensed;
+
+pub use condensed::{
+    condensed_macs_per_iteration, macs_per_iteration, mpc_qp, normal_pattern, side_bound,
+    InequalityQp, Layout, Sparsity, REFINEMENT,
+};
+use condensed::{counts, structure_of, Sides};
+
 /// Its name in prose.
 pub const TITLE: &str =
     "A primal-dual interior-point method (Mehrotra's predictor-corrector, dense, f64)";
@@ -34,29 +42,6 @@ pub const TITLE: &str =
 /// does not depend on the data, in the form the cost model chooses ([`crate::solver::riccati::Choice`]).
 pub fn mpc_macs_per_iteration(qp: &Qp) -> usize {
     crate::solver::riccati::Choice::of(qp).macs_per_iteration()
-}
-
-/// [`macs_per_iteration`] of the MPC's QP: the condensed form's count.
-pub fn condensed_macs_per_iteration(qp: &Qp) -> usize {
-    macs_per_iteration(&structure_of(qp))
-}
-
-/// The parts of the condensed count of the MPC's QP, which the Riccati form shares but for the normal
-/// matrix's forming, factorisation and solves.
-pub(crate) fn mpc_counts(qp: &Qp) -> Counts {
-    counts(&structure_of(qp))
-}
-
-/// The finite sides and the visited structure of the MPC's QP.
-pub(crate) fn mpc_structure(qp: &Qp) -> (Layout, Sparsity) {
-    let s = structure_of(qp);
-    (Layout::of(&s), Sparsity::of(&s))
-}
-
-/// The MPC's QP with zero data: its structure, which is all the counts need.
-fn structure_of(qp: &Qp) -> InequalityQp {
-    let n = qp.N * qp.u_min.len();
-    mpc_qp(qp, &DVector::zeros(n), &DVector::zeros(qp.rows.len()))
 }
 
 /// Multiply-adds of the cold start of the MPC's QP, by the rule of [`macs_per_iteration`]: the residuals,
@@ -72,96 +57,6 @@ pub fn mpc_cold_start_macs(qp: &Qp) -> usize {
             let c = counts(&structure_of(qp));
             c.residuals + c.normal + c.factor + c.direction
         }
-    }
-}
-
-/// Where the normal matrix H + Gᵀ·diag(d)·G can be nonzero, whatever the weights d: H's nonzeros, the
-/// diagonal, and each row's outer product of its nonzero columns. Its [`crate::structure::Envelope`]
-/// is what the emitted factorisation visits.
-pub fn normal_pattern(qp: &InequalityQp) -> DMatrix<bool> {
-    let n = qp.n();
-    let mut pattern = DMatrix::from_fn(n, n, |i, j| i == j || qp.H[(i, j)] != 0.0);
-    for r in 0..qp.A.nrows() {
-        let cols: Vec<usize> = (0..n).filter(|&c| qp.A[(r, c)] != 0.0).collect();
-        for &a in &cols {
-            for &b in &cols {
-                pattern[(a, b)] = true;
-            }
-        }
-    }
-    pattern
-}
-
-/// The structure the emitted method visits, read off the QP's nonzeros (so it is the same for any
-/// data): the unknowns reordered by the envelope of the normal matrix (independent axes become
-/// diagonal blocks), per reordered row of H the span of columns that can be nonzero, and the rows
-/// with a finite side, each once however many of its two sides are finite (a two-sided row's sides
-/// are ±the same product, and their weights add up in the normal matrix).
-#[derive(Clone, Debug)]
-pub struct Sparsity {
-    /// The ordering and the factor's envelope.
-    pub envelope: crate::structure::Envelope,
-    /// Per position p, the positions [lo, hi) where row p of the reordered H can be nonzero.
-    pub h_span: Vec<(usize, usize)>,
-    /// The rows with a finite side, in the order of [`Layout::rows`]: the row's index in `A`.
-    pub rows: Vec<usize>,
-    /// Per side of [`Layout::rows`], its row's index in `rows`.
-    pub side_row: Vec<usize>,
-    /// Per entry of `rows`, its nonzero columns as positions, ascending.
-    pub row_positions: Vec<Vec<usize>>,
-}
-
-impl Sparsity {
-    /// The structure of `qp`.
-    pub fn of(qp: &InequalityQp) -> Self {
-        let n = qp.n();
-        let envelope = crate::structure::Envelope::of(&normal_pattern(qp));
-        let h_span = (0..n)
-            .map(|p| {
-                let i = envelope.order[p];
-                let cols: Vec<usize> = (0..n)
-                    .filter(|&q| q == p || qp.H[(i, envelope.order[q])] != 0.0)
-                    .collect();
-                (cols[0], cols[cols.len() - 1] + 1)
-            })
-            .collect();
-        let layout = Layout::of(qp);
-        let mut rows: Vec<usize> = Vec::new();
-        let mut side_row = Vec::new();
-        for &(r, _) in &layout.rows {
-            if rows.last() != Some(&r) {
-                rows.push(r);
-            }
-            side_row.push(rows.len() - 1);
-        }
-        let row_positions = rows
-            .iter()
-            .map(|&r| {
-                let mut cols: Vec<usize> = (0..n)
-                    .filter(|&c| qp.A[(r, c)] != 0.0)
-                    .map(|c| envelope.position[c])
-                    .collect();
-                cols.sort_unstable();
-                cols
-            })
-            .collect();
-        Sparsity {
-            envelope,
-            h_span,
-            rows,
-            side_row,
-            row_positions,
-        }
-    }
-
-    /// Multiply-adds of H·z over the spans.
-    pub fn h_macs(&self) -> usize {
-        self.h_span.iter().map(|(lo, hi)| hi - lo).sum()
-    }
-
-    /// Nonzeros of the distinct rows.
-    pub fn row_nnz(&self) -> usize {
-        self.row_positions.iter().map(Vec::len).sum()
     }
 }
 
@@ -181,10 +76,6 @@ pub const FRACTION: f64 = 0.99;
 /// 1 did best for a shifted (z, s, λ) among 1e-4 … 100.
 pub const WARM_FLOOR: f64 = 1.0;
 
-/// Iterative refinement steps of the corrector's direction (the predictor only sets
-/// the centering and is not refined).
-pub const REFINEMENT: usize = 1;
-
 /// A fixed-iteration solve stops moving once its relative residuals, and its gap relative to the
 /// objective, are below this: the point is optimal to rounding.
 pub const FINISHED: f64 = 1e-12;
@@ -192,224 +83,6 @@ pub const FINISHED: f64 = 1e-12;
 /// The infeasibility certificate's tolerance: λ ≥ 0 with ‖Gᵀλ‖∞ ≤ this · (−hᵀλ) proves G z ≤ h empty
 /// (Farkas), for z of order one.
 pub const INFEASIBILITY_TOLERANCE: f64 = 1e-8;
-
-/// min ½zᵀHz + fᵀz subject to z_min ≤ z ≤ z_max and lower ≤ A z ≤ upper; ±∞ entries drop their side.
-#[derive(Clone, Debug)]
-pub struct InequalityQp {
-    /// The Hessian (n × n), symmetric positive semidefinite.
-    pub H: DMatrix<f64>,
-    /// The linear term (n).
-    pub f: DVector<f64>,
-    /// Lower bounds on z (n).
-    pub z_min: DVector<f64>,
-    /// Upper bounds on z (n).
-    pub z_max: DVector<f64>,
-    /// The general rows (m × n).
-    pub A: DMatrix<f64>,
-    /// Lower bounds of the rows (m).
-    pub lower: DVector<f64>,
-    /// Upper bounds of the rows (m).
-    pub upper: DVector<f64>,
-}
-
-impl InequalityQp {
-    /// Today's condensed QP: ½UᵀHU + fᵀU over the input box repeated for the N steps, no rows.
-    pub fn from_box(qp: &Qp, f: &DVector<f64>) -> Self {
-        let nu = qp.u_min.len();
-        let n = qp.N * nu;
-        InequalityQp {
-            H: qp.H.clone(),
-            f: f.clone(),
-            z_min: DVector::from_fn(n, |i, _| qp.u_min[i % nu]),
-            z_max: DVector::from_fn(n, |i, _| qp.u_max[i % nu]),
-            A: DMatrix::zeros(0, n),
-            lower: DVector::zeros(0),
-            upper: DVector::zeros(0),
-        }
-    }
-
-    /// The same problem with the rows lower ≤ A z ≤ upper appended.
-    pub fn with_rows(
-        mut self,
-        A: &DMatrix<f64>,
-        lower: &DVector<f64>,
-        upper: &DVector<f64>,
-    ) -> Self {
-        let (m0, m, n) = (self.A.nrows(), A.nrows(), self.A.ncols());
-        let mut stacked = DMatrix::zeros(m0 + m, n);
-        stacked.rows_mut(0, m0).copy_from(&self.A);
-        stacked.rows_mut(m0, m).copy_from(A);
-        self.A = stacked;
-        self.lower = DVector::from_iterator(m0 + m, self.lower.iter().chain(lower.iter()).copied());
-        self.upper = DVector::from_iterator(m0 + m, self.upper.iter().chain(upper.iter()).copied());
-        self
-    }
-
-    /// The number of unknowns n.
-    pub fn n(&self) -> usize {
-        self.H.nrows()
-    }
-
-    /// The number of finite sides: the length of s and λ.
-    pub fn sides(&self) -> usize {
-        Sides::new(self).len()
-    }
-
-    /// Whether the dimensions agree.
-    fn consistent(&self) -> bool {
-        let n = self.n();
-        let m = self.A.nrows();
-        self.H.ncols() == n
-            && self.f.len() == n
-            && self.z_min.len() == n
-            && self.z_max.len() == n
-            && self.A.ncols() == n
-            && self.lower.len() == m
-            && self.upper.len() == m
-    }
-
-    /// Whether the data can be iterated on: finite H, f, A, and bounds that are not NaN.
-    fn finite(&self) -> bool {
-        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
-        let not_nan = |v: &[f64]| v.iter().all(|x| !x.is_nan());
-        finite(self.H.as_slice())
-            && finite(self.f.as_slice())
-            && finite(self.A.as_slice())
-            && not_nan(self.z_min.as_slice())
-            && not_nan(self.z_max.as_slice())
-            && not_nan(self.lower.as_slice())
-            && not_nan(self.upper.as_slice())
-    }
-}
-
-/// The finite sides as G z ≤ h: the box sides first (one ±1 entry each, kept as index and sign so the
-/// normal matrix gains a diagonal), then the rows' sides (dense).
-struct Sides {
-    /// Box side k: sign·z_index ≤ h_k.
-    boxed: Vec<(usize, f64)>,
-    /// Row side k: sign·A_row·z ≤ h_(nb + k).
-    rows: Vec<(usize, f64)>,
-    /// The rows' sides, ±A_r.
-    G: DMatrix<f64>,
-    /// All right-hand sides, box sides first.
-    h: DVector<f64>,
-}
-
-/// Which sides of an [`InequalityQp`] are finite, in the order the method stacks them: per entry of z
-/// its upper then its lower bound, then per row its upper then its lower side. Each side is an index
-/// (of z or of the rows) and a sign (+1 upper, −1 lower); its right-hand side is sign·bound.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Layout {
-    /// Box sides: sign·z_index ≤ sign·bound.
-    pub boxed: Vec<(usize, f64)>,
-    /// Row sides: sign·A_row·z ≤ sign·bound.
-    pub rows: Vec<(usize, f64)>,
-}
-
-impl Layout {
-    /// The finite sides of `qp`.
-    pub fn of(qp: &InequalityQp) -> Self {
-        let mut boxed = Vec::new();
-        for i in 0..qp.n() {
-            if qp.z_max[i].is_finite() {
-                boxed.push((i, 1.0));
-            }
-            if qp.z_min[i].is_finite() {
-                boxed.push((i, -1.0));
-            }
-        }
-        let mut rows = Vec::new();
-        for r in 0..qp.A.nrows() {
-            if qp.upper[r].is_finite() {
-                rows.push((r, 1.0));
-            }
-            if qp.lower[r].is_finite() {
-                rows.push((r, -1.0));
-            }
-        }
-        Layout { boxed, rows }
-    }
-}
-
-/// A side's right-hand side: sign·bound (the upper bound, or minus the lower one).
-pub fn side_bound(sign: f64, lower: f64, upper: f64) -> f64 {
-    if sign > 0.0 {
-        upper
-    } else {
-        -lower
-    }
-}
-
-impl Sides {
-    fn new(qp: &InequalityQp) -> Self {
-        let n = qp.n();
-        let layout = Layout::of(qp);
-        let mut h: Vec<f64> = layout
-            .boxed
-            .iter()
-            .map(|&(i, sign)| side_bound(sign, qp.z_min[i], qp.z_max[i]))
-            .collect();
-        let rows: Vec<_> = layout
-            .rows
-            .iter()
-            .map(|&(r, sign)| {
-                h.push(side_bound(sign, qp.lower[r], qp.upper[r]));
-                qp.A.row(r) * sign
-            })
-            .collect();
-        let G = if rows.is_empty() {
-            DMatrix::zeros(0, n)
-        } else {
-            DMatrix::from_rows(&rows)
-        };
-        Sides {
-            boxed: layout.boxed,
-            rows: layout.rows,
-            G,
-            h: DVector::from_vec(h),
-        }
-    }
-
-    fn len(&self) -> usize {
-        self.h.len()
-    }
-
-    /// G z.
-    fn mul(&self, z: &DVector<f64>) -> DVector<f64> {
-        let nb = self.boxed.len();
-        let mut out = DVector::zeros(self.len());
-        for (k, (i, sign)) in self.boxed.iter().enumerate() {
-            out[k] = sign * z[*i];
-        }
-        out.rows_mut(nb, self.G.nrows()).copy_from(&(&self.G * z));
-        out
-    }
-
-    /// Gᵀ v.
-    fn tmul(&self, v: &DVector<f64>) -> DVector<f64> {
-        let nb = self.boxed.len();
-        let mut out = self.G.tr_mul(&v.rows(nb, self.G.nrows()));
-        for (k, (i, sign)) in self.boxed.iter().enumerate() {
-            out[*i] += sign * v[k];
-        }
-        out
-    }
-
-    /// H + Gᵀ diag(d) G.
-    fn normal(&self, H: &DMatrix<f64>, d: &DVector<f64>) -> DMatrix<f64> {
-        let nb = self.boxed.len();
-        let mut M = H.clone();
-        for (k, (i, _)) in self.boxed.iter().enumerate() {
-            M[(*i, *i)] += d[k];
-        }
-        let mut DG = self.G.clone();
-        for (r, mut row) in DG.row_iter_mut().enumerate() {
-            row *= d[nb + r];
-        }
-        M += self.G.tr_mul(&DG);
-        M
-    }
-}
 
 /// Where the iteration starts.
 #[derive(Clone, Debug)]
@@ -512,70 +185,6 @@ pub fn solve_from(
     max_iterations: usize,
 ) -> IpmResult {
     run(qp, start, Some(tolerance), max_iterations)
-}
-
-/// Multiply-adds of one iteration of the emitted method, by the calibration rule of issue 17 (a
-/// product counts its multiplications, a factorisation its inner products) applied to what the
-/// emitted code visits ([`Sparsity`]): the envelope, the spans of H, and each two-sided row once.
-/// With one dense block this is the calibration's dense count (mat-vec n², Cholesky n³/6, forming
-/// GᵀDG Σ_r nnz_r²/2):
-/// - residuals: H z over the spans, G z and Gᵀλ (nnz of the distinct rows, plus a term per side);
-/// - the normal matrix, Σ_r nnz_r(nnz_r + 1)/2 over the distinct rows, and its L·D·Lᵀ within the
-///   envelope ([`crate::structure::Envelope::ldl_macs`]);
-/// - two directions (predictor, corrector), each a right-hand side Gᵀ(·), the triangular solves
-///   within the envelope and G Δz;
-/// - [`REFINEMENT`] steps of the corrector: H Δz, Gᵀ Δλ, a solve and G of its result;
-/// - the element-wise work on s and λ, about 12 per side.
-///
-/// The cold start costs one more factorisation, of H + GᵀG, and one direction
-/// ([`mpc_cold_start_macs`]).
-pub fn macs_per_iteration(qp: &InequalityQp) -> usize {
-    let c = counts(qp);
-    c.residuals + c.normal + c.factor + 2 * c.direction + REFINEMENT * c.refinement + c.elementwise
-}
-
-/// The parts of [`macs_per_iteration`].
-pub(crate) struct Counts {
-    pub(crate) residuals: usize,
-    pub(crate) normal: usize,
-    pub(crate) factor: usize,
-    /// One direction, its solve included.
-    pub(crate) direction: usize,
-    /// One refinement step, its solve included.
-    pub(crate) refinement: usize,
-    pub(crate) elementwise: usize,
-    /// One solve with the factor.
-    pub(crate) solve: usize,
-    /// One product G·z or Gᵀ·v.
-    pub(crate) g: usize,
-}
-
-fn counts(qp: &InequalityQp) -> Counts {
-    let layout = Layout::of(qp);
-    let sparsity = Sparsity::of(qp);
-    let (nb, ng) = (layout.boxed.len(), layout.rows.len());
-    // G z and Gᵀ v: each distinct row once, then one signed term per side.
-    let g = sparsity.row_nnz() + nb + ng;
-    let solve = sparsity.envelope.solve_macs();
-    let hz = sparsity.h_macs();
-    let normal = sparsity
-        .row_positions
-        .iter()
-        .map(|c| c.len() * (c.len() + 1) / 2)
-        .sum::<usize>()
-        + nb
-        + ng;
-    Counts {
-        residuals: hz + 2 * g,
-        normal,
-        factor: sparsity.envelope.ldl_macs(),
-        direction: 2 * g + solve,
-        // H Δz, Gᵀ Δλ, a solve and G of its result.
-        refinement: hz + 2 * g + solve,
-        elementwise: 12 * (nb + ng),
-        solve,
-        g,
-    }
 }
 
 /// The iterate.
@@ -1039,41 +648,6 @@ fn run_observed(
         Status::IterationLimit
     };
     ended(p, &r, iterations, status, finished)
-}
-
-/// The MPC's QP of one control step on z = (U, σ): ½zᵀ·blkdiag(H, diag(q_σ))·z + (f, w)ᵀz over the
-/// input box and σ ≥ 0, with the rows of [`crate::constraints`] shifted by their data `offset`
-/// (Wx·x0 + Wd·d + Wu·u₋₁).
-pub fn mpc_qp(qp: &Qp, f: &DVector<f64>, offset: &DVector<f64>) -> InequalityQp {
-    let rows = &qp.rows;
-    let (n, ns) = (f.len(), rows.slacks());
-    let nu = qp.u_min.len();
-    let nv = n + ns;
-    let mut H = DMatrix::zeros(nv, nv);
-    H.view_mut((0, 0), (n, n)).copy_from(&qp.H);
-    for j in 0..ns {
-        H[(n + j, n + j)] = rows.slack_quadratic[j];
-    }
-    let A = if rows.is_empty() {
-        DMatrix::zeros(0, nv)
-    } else {
-        rows.A.clone()
-    };
-    InequalityQp {
-        H,
-        f: DVector::from_iterator(nv, f.iter().chain(rows.slack_weight.iter()).copied()),
-        z_min: DVector::from_fn(nv, |i, _| if i < n { qp.u_min[i % nu] } else { 0.0 }),
-        z_max: DVector::from_fn(nv, |i, _| {
-            if i < n {
-                qp.u_max[i % nu]
-            } else {
-                f64::INFINITY
-            }
-        }),
-        A,
-        lower: &rows.lower - offset,
-        upper: &rows.upper - offset,
-    }
 }
 
 /// How an interior-point control step made its plan.
