@@ -399,6 +399,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     // `&`, not `&&`: no branch. NaN fails `d > 0.0`.
                     positive &= (d > 0.0) & (d < f64::INFINITY);
                     m[j][j] = d;
+                    // One division a column; the entries below are multiplied by its reciprocal.
+                    let inverse = 1.0 / d;
                     for (p, row) in m.iter_mut().enumerate().take(REACH[j]).skip(j + 1) {
                         // FIRST is constant: the same branch every time.
                         let fp = at_index(&FIRST, p);
@@ -407,7 +409,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                             for k in if fp > fj { fp } else { fj }..j {
                                 a -= row[k] * v[k];
                             }
-                            row[j] = a / d;
+                            row[j] = a * inverse;
                         }
                     }
                 }
@@ -833,6 +835,34 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
 
             #ldl_kernels
 
+            /// What an iteration divides by, computed once: 1/s, 1/λ and the normal matrix's weights
+            /// λ/s = λ·(1/s). The directions and the steps to the boundary multiply by them, so an
+            /// iteration divides twice per side instead of some seventeen times (a division costs the
+            /// A9's VFP tens of cycles, a multiplication one or two).
+            struct Scaling {
+                inv_s: [f64; NSIDES],
+                inv_lambda: [f64; NSIDES],
+                w: [f64; NSIDES],
+            }
+
+            impl Scaling {
+                /// s = λ = 1 (the cold start's point): every entry 1, exactly.
+                const ONES: Scaling = Scaling {
+                    inv_s: [1.0; NSIDES],
+                    inv_lambda: [1.0; NSIDES],
+                    w: [1.0; NSIDES],
+                };
+
+                /// Recomputed in place for (s, λ): one buffer for the whole solve.
+                fn update(&mut self, s: &[f64; NSIDES], lambda: &[f64; NSIDES]) {
+                    for k in 0..NSIDES {
+                        self.inv_s[k] = 1.0 / s[k];
+                        self.inv_lambda[k] = 1.0 / lambda[k];
+                        self.w[k] = lambda[k] * self.inv_s[k];
+                    }
+                }
+            }
+
             /// The Newton direction for the complementarity right-hand side rc (Λ·Δs + S·Δλ = −rc): from
             /// (H + Gᵀ·D·G)·Δz = −r_d − Gᵀ(D·r_p − rc/s), D = λ/s.
             #[allow(clippy::too_many_arguments)]
@@ -841,15 +871,17 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 r: &Residuals,
                 s: &[f64; NSIDES],
                 lambda: &[f64; NSIDES],
+                scale: &Scaling,
                 rc: &[f64; NSIDES],
                 dz: &mut [f64; NV],
                 ds: &mut [f64; NSIDES],
                 dl: &mut [f64; NSIDES],
                 refinement: usize,
             ) {
+                let Scaling { inv_s, inv_lambda, w } = scale;
                 let mut t = [0.0; NSIDES];
                 for k in 0..NSIDES {
-                    t[k] = lambda[k] / s[k] * r.primal[k] - rc[k] / s[k];
+                    t[k] = (lambda[k] * r.primal[k] - rc[k]) * inv_s[k];
                 }
                 g_tmul(&t, dz);
                 for (v, rd) in dz.iter_mut().zip(r.dual.iter()) {
@@ -859,8 +891,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 let mut gdz = [0.0; NSIDES];
                 g_mul(dz, &mut gdz);
                 for k in 0..NSIDES {
-                    dl[k] = lambda[k] / s[k] * (gdz[k] + r.primal[k]) - rc[k] / s[k];
-                    ds[k] = -(rc[k] + s[k] * dl[k]) / lambda[k];
+                    dl[k] = (lambda[k] * (gdz[k] + r.primal[k]) - rc[k]) * inv_s[k];
+                    ds[k] = -(rc[k] + s[k] * dl[k]) * inv_lambda[k];
                 }
                 // Iterative refinement on H·Δz + Gᵀ·Δλ = −r_d, whose digits the normal matrix loses when
                 // λ/s spans many orders of magnitude.
@@ -877,26 +909,28 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                         dz[i] += e[i];
                     }
                     for k in 0..NSIDES {
-                        let cl = lambda[k] / s[k] * gdz[k];
+                        let cl = w[k] * gdz[k];
                         dl[k] += cl;
-                        ds[k] += -(s[k] * cl) / lambda[k];
+                        ds[k] += -(s[k] * cl) * inv_lambda[k];
                     }
                 }
             }
 
-            /// The largest α keeping s + αΔs ≥ 0 and λ + αΔλ ≥ 0 (infinite when nothing decreases).
-            fn step_to_boundary(s: &[f64; NSIDES], lambda: &[f64; NSIDES], ds: &[f64; NSIDES], dl: &[f64; NSIDES]) -> f64 {
-                // Both ratios are computed and the least positive one kept, on the bits (no branch on the
-                // data, no float select): s, λ > 0, so −s/Δs is positive exactly where Δs < 0; elsewhere it is
-                // negative or −∞ (+∞ for Δs = −0, NaN for a NaN Δs), whose bits as an integer are above every
-                // positive double's (or +∞'s), so the integer minimum passes them over, as the reference's
-                // `if Δs < 0`.
-                let mut least = f64::INFINITY.to_bits();
+            /// The largest α keeping s + αΔs ≥ 0 and λ + αΔλ ≥ 0 (infinite when nothing decreases):
+            /// 1 / max(−Δs/s, −Δλ/λ, 0), with one division.
+            fn step_to_boundary(scale: &Scaling, ds: &[f64; NSIDES], dl: &[f64; NSIDES]) -> f64 {
+                // Every rate is computed and the largest kept, on the bits (no branch on the data, no float
+                // select): s, λ > 0, so −Δs/s is positive exactly where Δs < 0; elsewhere it is negative or
+                // −0 (a NaN Δs gives a NaN of either sign), and a negative double's bits as an i64 are
+                // negative, below +0's zero, so the integer maximum passes them over, as the reference's
+                // `if Δs < 0`. A positive NaN wins and makes α NaN: the step is then not finite and not
+                // taken.
+                let mut greatest = 0_i64;
                 for k in 0..NSIDES {
-                    least = least.min((-s[k] / ds[k]).to_bits());
-                    least = least.min((-lambda[k] / dl[k]).to_bits());
+                    greatest = greatest.max((-ds[k] * scale.inv_s[k]).to_bits() as i64);
+                    greatest = greatest.max((-dl[k] * scale.inv_lambda[k]).to_bits() as i64);
                 }
-                f64::from_bits(least)
+                1.0 / f64::from_bits(greatest as u64)
             }
 
             /// Whether every entry is finite (every entry is looked at: no early exit).
@@ -933,12 +967,13 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 // The cold start.
                 let (mut zc, mut sc, mut lc) = ([0.0; NV], [1.0; NSIDES], [1.0; NSIDES]);
                 let r = residuals(f, h, &zc, &sc, &lc);
-                let cold_factored = factor(&[1.0; NSIDES], &mut m);
+                let mut scale = Scaling::ONES;
+                let cold_factored = factor(&scale.w, &mut m);
                 let mut rc = [0.0; NSIDES];
                 for k in 0..NSIDES {
                     rc[k] = sc[k] * lc[k];
                 }
-                direction(&m, &r, &sc, &lc, &rc, &mut dz, &mut ds, &mut dl, 0);
+                direction(&m, &r, &sc, &lc, &scale, &rc, &mut dz, &mut ds, &mut dl, 0);
                 for i in 0..NV {
                     zc[i] += dz[i];
                 }
@@ -969,19 +1004,16 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                         & (r.relative_dual <= FINISHED)
                         & (r.gap <= FINISHED * r.objective_scale));
                     let mu = dot(s, lambda) / NSIDES as f64;
-                    let mut w = [0.0; NSIDES];
-                    for k in 0..NSIDES {
-                        w[k] = lambda[k] / s[k];
-                    }
-                    let factored = factor(&w, &mut m);
+                    scale.update(s, lambda);
+                    let factored = factor(&scale.w, &mut m);
                     failed |= live & !factored;
                     live &= factored;
                     // Predictor: the affine-scaling direction.
                     for k in 0..NSIDES {
                         rc[k] = s[k] * lambda[k];
                     }
-                    direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl, 0);
-                    let alpha = smaller(1.0, step_to_boundary(s, lambda, &ds, &dl));
+                    direction(&m, &r, s, lambda, &scale, &rc, &mut dz, &mut ds, &mut dl, 0);
+                    let alpha = smaller(1.0, step_to_boundary(&scale, &ds, &dl));
                     let mut mu_affine = 0.0;
                     for k in 0..NSIDES {
                         mu_affine += (s[k] + alpha * ds[k]) * (lambda[k] + alpha * dl[k]);
@@ -993,8 +1025,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     for k in 0..NSIDES {
                         rc[k] = s[k] * lambda[k] + ds[k] * dl[k] - sigma * mu;
                     }
-                    direction(&m, &r, s, lambda, &rc, &mut dz, &mut ds, &mut dl, REFINEMENT);
-                    let alpha = smaller(1.0, FRACTION * step_to_boundary(s, lambda, &ds, &dl));
+                    direction(&m, &r, s, lambda, &scale, &rc, &mut dz, &mut ds, &mut dl, REFINEMENT);
+                    let alpha = smaller(1.0, FRACTION * step_to_boundary(&scale, &ds, &dl));
                     let (mut zn, mut sn, mut ln) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
                     for i in 0..NV {
                         zn[i] = z[i] + alpha * dz[i];

@@ -288,20 +288,27 @@ pub fn ldl(envelope: &Envelope) -> TokenStream {
             positive &= (#d > 0.0) & (#d < f64::INFINITY);
             #mjj = #d;
         });
+        // One division a column: the entries below multiply by its reciprocal.
+        let inverse = format_ident!("inverse{}", j);
+        let mut below = Vec::new();
         for (p, &fp) in first.iter().enumerate().take(envelope.reach(j)).skip(j + 1) {
             if fp > j {
                 continue;
             }
             let mpj = m(p, j);
             if fp.max(fj) == j {
-                factor.push(quote!(#mpj /= #d;));
+                below.push(quote!(#mpj *= #inverse;));
                 continue;
             }
             let terms = (fp.max(fj)..j).map(|k| {
                 let (a, b) = (m(p, k), at("v", k));
                 quote!(- #a * #b)
             });
-            factor.push(quote!(#mpj = (#mpj #(#terms)*) / #d;));
+            below.push(quote!(#mpj = (#mpj #(#terms)*) * #inverse;));
+        }
+        if !below.is_empty() {
+            factor.push(quote!(let #inverse = 1.0 / #d;));
+            factor.extend(below);
         }
     }
     let forward = (0..n).filter(|&i| first[i] < i).map(|i| {
