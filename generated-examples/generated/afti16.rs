@@ -1298,6 +1298,235 @@ pub mod afti16 {
             gl,
         }
     }
+    /// What an iteration divides by, computed once: 1/s, 1/λ and the normal matrix's weights
+    /// λ/s = λ·(1/s). The directions and the steps to the boundary multiply by them, so an
+    /// iteration divides twice per side instead of some seventeen times (a division costs the
+    /// A9's VFP tens of cycles, a multiplication one or two).
+    struct Scaling {
+        inv_s: [f64; NSIDES],
+        inv_lambda: [f64; NSIDES],
+        w: [f64; NSIDES],
+    }
+    impl Scaling {
+        /// s = λ = 1 (the cold start's point): every entry 1, exactly.
+        const ONES: Scaling = Scaling {
+            inv_s: [1.0; NSIDES],
+            inv_lambda: [1.0; NSIDES],
+            w: [1.0; NSIDES],
+        };
+        /// Recomputed in place for (s, λ): one buffer for the whole solve.
+        fn update(&mut self, s: &[f64; NSIDES], lambda: &[f64; NSIDES]) {
+            for k in 0..NSIDES {
+                self.inv_s[k] = 1.0 / s[k];
+                self.inv_lambda[k] = 1.0 / lambda[k];
+                self.w[k] = lambda[k] * self.inv_s[k];
+            }
+        }
+    }
+    /// The Newton direction for the complementarity right-hand side rc (Λ·Δs + S·Δλ = −rc): from
+    /// (H + Gᵀ·D·G)·Δz = −r_d − Gᵀ(D·r_p − rc/s), D = λ/s.
+    #[allow(clippy::too_many_arguments)]
+    fn direction(
+        m: &NormalFactor,
+        r: &Residuals,
+        s: &[f64; NSIDES],
+        lambda: &[f64; NSIDES],
+        scale: &Scaling,
+        rc: &[f64; NSIDES],
+        dz: &mut [f64; NV],
+        ds: &mut [f64; NSIDES],
+        dl: &mut [f64; NSIDES],
+        refinement: usize,
+    ) {
+        let Scaling { inv_s, inv_lambda, w } = scale;
+        let mut t = [0.0; NSIDES];
+        for k in 0..NSIDES {
+            t[k] = (lambda[k] * r.primal[k] - rc[k]) * inv_s[k];
+        }
+        g_tmul(&t, dz);
+        for (v, rd) in dz.iter_mut().zip(r.dual.iter()) {
+            *v = -rd - *v;
+        }
+        ldl_solve(m, dz);
+        let mut gdz = [0.0; NSIDES];
+        g_mul(dz, &mut gdz);
+        for k in 0..NSIDES {
+            dl[k] = (lambda[k] * (gdz[k] + r.primal[k]) - rc[k]) * inv_s[k];
+            ds[k] = -(rc[k] + s[k] * dl[k]) * inv_lambda[k];
+        }
+        for _ in 0..refinement {
+            let (mut e, mut hdz) = ([0.0; NV], [0.0; NV]);
+            g_tmul(dl, &mut e);
+            h_mul(dz, &mut hdz);
+            for i in 0..NV {
+                e[i] = -r.dual[i] - (hdz[i] + e[i]);
+            }
+            ldl_solve(m, &mut e);
+            g_mul(&e, &mut gdz);
+            for i in 0..NV {
+                dz[i] += e[i];
+            }
+            for k in 0..NSIDES {
+                let cl = w[k] * gdz[k];
+                dl[k] += cl;
+                ds[k] += -(s[k] * cl) * inv_lambda[k];
+            }
+        }
+    }
+    /// The largest α keeping s + αΔs ≥ 0 and λ + αΔλ ≥ 0 (infinite when nothing decreases):
+    /// 1 / max(−Δs/s, −Δλ/λ, 0), with one division.
+    fn step_to_boundary(scale: &Scaling, ds: &[f64; NSIDES], dl: &[f64; NSIDES]) -> f64 {
+        let mut greatest = 0_i64;
+        for k in 0..NSIDES {
+            greatest = greatest.max((-ds[k] * scale.inv_s[k]).to_bits() as i64);
+            greatest = greatest.max((-dl[k] * scale.inv_lambda[k]).to_bits() as i64);
+        }
+        1.0 / f64::from_bits(greatest as u64)
+    }
+    /// Whether every entry is finite (every entry is looked at: no early exit).
+    #[inline(always)]
+    fn finite64(v: &[f64]) -> bool {
+        v.iter().fold(true, |ok, x| ok & x.is_finite())
+    }
+    /// Whether every entry is positive (every entry is looked at).
+    #[inline(always)]
+    fn positive64(v: &[f64]) -> bool {
+        v.iter().fold(true, |ok, x| ok & (*x > 0.0))
+    }
+    /// The fixed-iteration Mehrotra predictor-corrector from (z, s, λ) (a warm start, its slacks and
+    /// multipliers raised to at least WARM_FLOOR) or from the cold start (one affine step from z = 0,
+    /// s = λ = 1, then s, λ ← max(1, |·|)). Leaves the last finite point in (z, s, λ).
+    ///
+    /// The control flow does not depend on the data: the cold start is computed on every solve
+    /// (and used when `warm` is false), every one of the ITERATIONS iterations is computed, and a
+    /// point that is held (optimal to rounding, a refused factorisation, a non-finite or
+    /// non-positive step, infeasibility) keeps being held by selection, not by a `break`. Only a
+    /// pivot that is not positive costs more (the regularised retries in `factor`).
+    fn interior_point(
+        f: &[f64; NV],
+        h: &[f64; NSIDES],
+        z: &mut [f64; NV],
+        s: &mut [f64; NSIDES],
+        lambda: &mut [f64; NSIDES],
+        warm: bool,
+    ) -> Outcome {
+        let mut m = NORMAL_ZERO;
+        let (mut dz, mut ds, mut dl) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
+        let (mut zc, mut sc, mut lc) = ([0.0; NV], [1.0; NSIDES], [1.0; NSIDES]);
+        let r = residuals(f, h, &zc, &sc, &lc);
+        let mut scale = Scaling::ONES;
+        let cold_factored = factor(&scale.w, &mut m);
+        let mut rc = [0.0; NSIDES];
+        for k in 0..NSIDES {
+            rc[k] = sc[k] * lc[k];
+        }
+        direction(&m, &r, &sc, &lc, &scale, &rc, &mut dz, &mut ds, &mut dl, 0);
+        for i in 0..NV {
+            zc[i] += dz[i];
+        }
+        for k in 0..NSIDES {
+            sc[k] = larger(1.0, (sc[k] + ds[k]).abs());
+            lc[k] = larger(1.0, (lc[k] + dl[k]).abs());
+        }
+        for v in s.iter_mut().chain(lambda.iter_mut()) {
+            *v = larger(WARM_FLOOR, *v);
+        }
+        let pick = warm as usize;
+        let kept = (*z, *s, *lambda);
+        *z = *[&zc, &kept.0][pick];
+        *s = *[&sc, &kept.1][pick];
+        *lambda = *[&lc, &kept.2][pick];
+        let started = (warm | cold_factored) & finite64(z) & finite64(s)
+            & finite64(lambda);
+        let mut r = residuals(f, h, z, s, lambda);
+        let (mut live, mut failed, mut infeasible) = (started, !started, false);
+        let mut iterations = 0;
+        for _ in 0..ITERATIONS {
+            live
+                &= !((r.relative_primal <= FINISHED) & (r.relative_dual <= FINISHED)
+                    & (r.gap <= FINISHED * r.objective_scale));
+            let mu = dot(s, lambda) / NSIDES as f64;
+            scale.update(s, lambda);
+            let factored = factor(&scale.w, &mut m);
+            failed |= live & !factored;
+            live &= factored;
+            for k in 0..NSIDES {
+                rc[k] = s[k] * lambda[k];
+            }
+            direction(&m, &r, s, lambda, &scale, &rc, &mut dz, &mut ds, &mut dl, 0);
+            let alpha = smaller(1.0, step_to_boundary(&scale, &ds, &dl));
+            let mut mu_affine = 0.0;
+            for k in 0..NSIDES {
+                mu_affine += (s[k] + alpha * ds[k]) * (lambda[k] + alpha * dl[k]);
+            }
+            mu_affine /= NSIDES as f64;
+            let ratio = smaller(larger(mu_affine / mu, 0.0), 1.0);
+            let sigma = choose(mu > 0.0, ratio * ratio * ratio, 0.0);
+            for k in 0..NSIDES {
+                rc[k] = s[k] * lambda[k] + ds[k] * dl[k] - sigma * mu;
+            }
+            direction(
+                &m,
+                &r,
+                s,
+                lambda,
+                &scale,
+                &rc,
+                &mut dz,
+                &mut ds,
+                &mut dl,
+                REFINEMENT,
+            );
+            let alpha = smaller(1.0, FRACTION * step_to_boundary(&scale, &ds, &dl));
+            let (mut zn, mut sn, mut ln) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
+            for i in 0..NV {
+                zn[i] = z[i] + alpha * dz[i];
+            }
+            for k in 0..NSIDES {
+                sn[k] = s[k] + alpha * ds[k];
+                ln[k] = lambda[k] + alpha * dl[k];
+            }
+            let stepped = finite64(&zn) & finite64(&sn) & finite64(&ln) & positive64(&sn)
+                & positive64(&ln);
+            failed |= live & !stepped;
+            live &= stepped;
+            let pick = live as usize;
+            let kept = (*z, *s, *lambda);
+            *z = *[&kept.0, &zn][pick];
+            *s = *[&kept.1, &sn][pick];
+            *lambda = *[&kept.2, &ln][pick];
+            r = residuals(f, h, z, s, lambda);
+            iterations += live as u32;
+            let htl = dot(h, lambda);
+            let certified = ((htl < 0.0)
+                & (amax(&r.gl) <= INFEASIBILITY_TOLERANCE * -htl))
+                | (amax(lambda) > 1e15);
+            infeasible |= live & certified;
+            live &= !certified;
+        }
+        let ended = if infeasible {
+            Ended::Infeasible
+        } else if failed {
+            Ended::Failure
+        } else {
+            Ended::Iterations
+        };
+        let (primal, dual, gap) = if started {
+            (r.relative_primal, r.relative_dual, r.gap)
+        } else {
+            (f64::INFINITY, f64::INFINITY, f64::INFINITY)
+        };
+        Outcome {
+            ended,
+            iterations,
+            primal,
+            dual,
+            gap,
+        }
+    }
+    /// The normal matrix H + Gᵀ·diag(w)·G, factored in place as L·D·Lᵀ within the envelope.
+    type NormalFactor = [[f64; NV]; NV];
+    const NORMAL_ZERO: NormalFactor = [[0.0; NV]; NV];
     /// Forms H + Gᵀ·diag(w)·G (lower triangle, within the envelope) and factors it as L·D·Lᵀ in
     /// place, adding a growing multiple of I when a pivot is not positive (a semidefinite H with few
     /// active sides), as the reference does; `false` when every attempt is refused.
@@ -3652,235 +3881,6 @@ pub mod afti16 {
         b[1] -= m[2][1] * b[2];
         b[0] -= m[1][0] * b[1];
     }
-    /// What an iteration divides by, computed once: 1/s, 1/λ and the normal matrix's weights
-    /// λ/s = λ·(1/s). The directions and the steps to the boundary multiply by them, so an
-    /// iteration divides twice per side instead of some seventeen times (a division costs the
-    /// A9's VFP tens of cycles, a multiplication one or two).
-    struct Scaling {
-        inv_s: [f64; NSIDES],
-        inv_lambda: [f64; NSIDES],
-        w: [f64; NSIDES],
-    }
-    impl Scaling {
-        /// s = λ = 1 (the cold start's point): every entry 1, exactly.
-        const ONES: Scaling = Scaling {
-            inv_s: [1.0; NSIDES],
-            inv_lambda: [1.0; NSIDES],
-            w: [1.0; NSIDES],
-        };
-        /// Recomputed in place for (s, λ): one buffer for the whole solve.
-        fn update(&mut self, s: &[f64; NSIDES], lambda: &[f64; NSIDES]) {
-            for k in 0..NSIDES {
-                self.inv_s[k] = 1.0 / s[k];
-                self.inv_lambda[k] = 1.0 / lambda[k];
-                self.w[k] = lambda[k] * self.inv_s[k];
-            }
-        }
-    }
-    /// The Newton direction for the complementarity right-hand side rc (Λ·Δs + S·Δλ = −rc): from
-    /// (H + Gᵀ·D·G)·Δz = −r_d − Gᵀ(D·r_p − rc/s), D = λ/s.
-    #[allow(clippy::too_many_arguments)]
-    fn direction(
-        m: &NormalFactor,
-        r: &Residuals,
-        s: &[f64; NSIDES],
-        lambda: &[f64; NSIDES],
-        scale: &Scaling,
-        rc: &[f64; NSIDES],
-        dz: &mut [f64; NV],
-        ds: &mut [f64; NSIDES],
-        dl: &mut [f64; NSIDES],
-        refinement: usize,
-    ) {
-        let Scaling { inv_s, inv_lambda, w } = scale;
-        let mut t = [0.0; NSIDES];
-        for k in 0..NSIDES {
-            t[k] = (lambda[k] * r.primal[k] - rc[k]) * inv_s[k];
-        }
-        g_tmul(&t, dz);
-        for (v, rd) in dz.iter_mut().zip(r.dual.iter()) {
-            *v = -rd - *v;
-        }
-        ldl_solve(m, dz);
-        let mut gdz = [0.0; NSIDES];
-        g_mul(dz, &mut gdz);
-        for k in 0..NSIDES {
-            dl[k] = (lambda[k] * (gdz[k] + r.primal[k]) - rc[k]) * inv_s[k];
-            ds[k] = -(rc[k] + s[k] * dl[k]) * inv_lambda[k];
-        }
-        for _ in 0..refinement {
-            let (mut e, mut hdz) = ([0.0; NV], [0.0; NV]);
-            g_tmul(dl, &mut e);
-            h_mul(dz, &mut hdz);
-            for i in 0..NV {
-                e[i] = -r.dual[i] - (hdz[i] + e[i]);
-            }
-            ldl_solve(m, &mut e);
-            g_mul(&e, &mut gdz);
-            for i in 0..NV {
-                dz[i] += e[i];
-            }
-            for k in 0..NSIDES {
-                let cl = w[k] * gdz[k];
-                dl[k] += cl;
-                ds[k] += -(s[k] * cl) * inv_lambda[k];
-            }
-        }
-    }
-    /// The largest α keeping s + αΔs ≥ 0 and λ + αΔλ ≥ 0 (infinite when nothing decreases):
-    /// 1 / max(−Δs/s, −Δλ/λ, 0), with one division.
-    fn step_to_boundary(scale: &Scaling, ds: &[f64; NSIDES], dl: &[f64; NSIDES]) -> f64 {
-        let mut greatest = 0_i64;
-        for k in 0..NSIDES {
-            greatest = greatest.max((-ds[k] * scale.inv_s[k]).to_bits() as i64);
-            greatest = greatest.max((-dl[k] * scale.inv_lambda[k]).to_bits() as i64);
-        }
-        1.0 / f64::from_bits(greatest as u64)
-    }
-    /// Whether every entry is finite (every entry is looked at: no early exit).
-    #[inline(always)]
-    fn finite64(v: &[f64]) -> bool {
-        v.iter().fold(true, |ok, x| ok & x.is_finite())
-    }
-    /// Whether every entry is positive (every entry is looked at).
-    #[inline(always)]
-    fn positive64(v: &[f64]) -> bool {
-        v.iter().fold(true, |ok, x| ok & (*x > 0.0))
-    }
-    /// The fixed-iteration Mehrotra predictor-corrector from (z, s, λ) (a warm start, its slacks and
-    /// multipliers raised to at least WARM_FLOOR) or from the cold start (one affine step from z = 0,
-    /// s = λ = 1, then s, λ ← max(1, |·|)). Leaves the last finite point in (z, s, λ).
-    ///
-    /// The control flow does not depend on the data: the cold start is computed on every solve
-    /// (and used when `warm` is false), every one of the ITERATIONS iterations is computed, and a
-    /// point that is held (optimal to rounding, a refused factorisation, a non-finite or
-    /// non-positive step, infeasibility) keeps being held by selection, not by a `break`. Only a
-    /// pivot that is not positive costs more (the regularised retries in `factor`).
-    fn interior_point(
-        f: &[f64; NV],
-        h: &[f64; NSIDES],
-        z: &mut [f64; NV],
-        s: &mut [f64; NSIDES],
-        lambda: &mut [f64; NSIDES],
-        warm: bool,
-    ) -> Outcome {
-        let mut m = NORMAL_ZERO;
-        let (mut dz, mut ds, mut dl) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
-        let (mut zc, mut sc, mut lc) = ([0.0; NV], [1.0; NSIDES], [1.0; NSIDES]);
-        let r = residuals(f, h, &zc, &sc, &lc);
-        let mut scale = Scaling::ONES;
-        let cold_factored = factor(&scale.w, &mut m);
-        let mut rc = [0.0; NSIDES];
-        for k in 0..NSIDES {
-            rc[k] = sc[k] * lc[k];
-        }
-        direction(&m, &r, &sc, &lc, &scale, &rc, &mut dz, &mut ds, &mut dl, 0);
-        for i in 0..NV {
-            zc[i] += dz[i];
-        }
-        for k in 0..NSIDES {
-            sc[k] = larger(1.0, (sc[k] + ds[k]).abs());
-            lc[k] = larger(1.0, (lc[k] + dl[k]).abs());
-        }
-        for v in s.iter_mut().chain(lambda.iter_mut()) {
-            *v = larger(WARM_FLOOR, *v);
-        }
-        let pick = warm as usize;
-        let kept = (*z, *s, *lambda);
-        *z = *[&zc, &kept.0][pick];
-        *s = *[&sc, &kept.1][pick];
-        *lambda = *[&lc, &kept.2][pick];
-        let started = (warm | cold_factored) & finite64(z) & finite64(s)
-            & finite64(lambda);
-        let mut r = residuals(f, h, z, s, lambda);
-        let (mut live, mut failed, mut infeasible) = (started, !started, false);
-        let mut iterations = 0;
-        for _ in 0..ITERATIONS {
-            live
-                &= !((r.relative_primal <= FINISHED) & (r.relative_dual <= FINISHED)
-                    & (r.gap <= FINISHED * r.objective_scale));
-            let mu = dot(s, lambda) / NSIDES as f64;
-            scale.update(s, lambda);
-            let factored = factor(&scale.w, &mut m);
-            failed |= live & !factored;
-            live &= factored;
-            for k in 0..NSIDES {
-                rc[k] = s[k] * lambda[k];
-            }
-            direction(&m, &r, s, lambda, &scale, &rc, &mut dz, &mut ds, &mut dl, 0);
-            let alpha = smaller(1.0, step_to_boundary(&scale, &ds, &dl));
-            let mut mu_affine = 0.0;
-            for k in 0..NSIDES {
-                mu_affine += (s[k] + alpha * ds[k]) * (lambda[k] + alpha * dl[k]);
-            }
-            mu_affine /= NSIDES as f64;
-            let ratio = smaller(larger(mu_affine / mu, 0.0), 1.0);
-            let sigma = choose(mu > 0.0, ratio * ratio * ratio, 0.0);
-            for k in 0..NSIDES {
-                rc[k] = s[k] * lambda[k] + ds[k] * dl[k] - sigma * mu;
-            }
-            direction(
-                &m,
-                &r,
-                s,
-                lambda,
-                &scale,
-                &rc,
-                &mut dz,
-                &mut ds,
-                &mut dl,
-                REFINEMENT,
-            );
-            let alpha = smaller(1.0, FRACTION * step_to_boundary(&scale, &ds, &dl));
-            let (mut zn, mut sn, mut ln) = ([0.0; NV], [0.0; NSIDES], [0.0; NSIDES]);
-            for i in 0..NV {
-                zn[i] = z[i] + alpha * dz[i];
-            }
-            for k in 0..NSIDES {
-                sn[k] = s[k] + alpha * ds[k];
-                ln[k] = lambda[k] + alpha * dl[k];
-            }
-            let stepped = finite64(&zn) & finite64(&sn) & finite64(&ln) & positive64(&sn)
-                & positive64(&ln);
-            failed |= live & !stepped;
-            live &= stepped;
-            let pick = live as usize;
-            let kept = (*z, *s, *lambda);
-            *z = *[&kept.0, &zn][pick];
-            *s = *[&kept.1, &sn][pick];
-            *lambda = *[&kept.2, &ln][pick];
-            r = residuals(f, h, z, s, lambda);
-            iterations += live as u32;
-            let htl = dot(h, lambda);
-            let certified = ((htl < 0.0)
-                & (amax(&r.gl) <= INFEASIBILITY_TOLERANCE * -htl))
-                | (amax(lambda) > 1e15);
-            infeasible |= live & certified;
-            live &= !certified;
-        }
-        let ended = if infeasible {
-            Ended::Infeasible
-        } else if failed {
-            Ended::Failure
-        } else {
-            Ended::Iterations
-        };
-        let (primal, dual, gap) = if started {
-            (r.relative_primal, r.relative_dual, r.gap)
-        } else {
-            (f64::INFINITY, f64::INFINITY, f64::INFINITY)
-        };
-        Outcome {
-            ended,
-            iterations,
-            primal,
-            dual,
-            gap,
-        }
-    }
-    /// The normal matrix H + Gᵀ·diag(w)·G, factored in place as L·D·Lᵀ within the envelope.
-    type NormalFactor = [[f64; NV]; NV];
-    const NORMAL_ZERO: NormalFactor = [[0.0; NV]; NV];
     /// F·x + G·u (eq. 1), unrolled.
     #[inline(always)]
     fn predict_state(x: &[Real; NX], u: &[Real; NU]) -> [Real; NX] {

@@ -358,12 +358,6 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             fn span_mut(v: &mut [f64], at: usize, len: usize) -> &mut [f64] {
                 v.get_mut(at..at + len).unwrap_or(&mut [])
             }
-
-            /// `v[at..at + len]`, empty past its end.
-            #[inline(always)]
-            fn span(v: &[f64], at: usize, len: usize) -> &[f64] {
-                v.get(at..at + len).unwrap_or(&[])
-            }
             },
             quote! {
             /// The rows with a finite side as runs of consecutive positions (z in the method's order): row
@@ -831,10 +825,6 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 }
             }
 
-            #factor
-
-            #ldl_kernels
-
             /// What an iteration divides by, computed once: 1/s, 1/λ and the normal matrix's weights
             /// λ/s = λ·(1/s). The directions and the steps to the boundary multiply by them, so an
             /// iteration divides twice per side instead of some seventeen times (a division costs the
@@ -1096,17 +1086,28 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             const SIDE_H: [f64; NG] = #side_h;
             /// Whether a side belongs to a soft row (its violation is priced, not forbidden).
             const SIDE_SOFT: [bool; NG] = [#(#side_soft),*];
-            #form_tables
             #side_tables
             /// The method's order: position p holds unknown ORDER[p] (plan entries, then slacks). It puts
             /// the normal matrix's independent blocks (the drone's axes) side by side.
             const ORDER: [usize; NV] = [#(#order_lit),*];
-            #envelope_tables
             /// The method's Hessian blkdiag(H, diag(q_σ)) (eq. 9's H, then the slacks' quadratic weights),
             /// in the method's order.
             pub const H: [[f64; NV]; NV] = #hv;
         },
     };
-    // The normal system in the form the cost model chooses.
-    super::riccati::form(p, sections)
+    // The normal system in the form the cost model chooses: the condensed one's kernels and tables, or
+    // the Riccati form's.
+    let condensed = super::riccati::NormalSystem {
+        kernels: quote! {
+            /// The normal matrix H + Gᵀ·diag(w)·G, factored in place as L·D·Lᵀ within the envelope.
+            type NormalFactor = [[f64; NV]; NV];
+            const NORMAL_ZERO: NormalFactor = [[0.0; NV]; NV];
+
+            #factor
+
+            #ldl_kernels
+        },
+        tables: quote!(#form_tables #envelope_tables),
+    };
+    super::riccati::form(p, sections, condensed)
 }

@@ -19,58 +19,26 @@ use crate::solver::ipm::{mpc_qp, Layout, Sparsity};
 use crate::solver::riccati::{Choice, Form, Stages};
 use mpc_spec::Scalar;
 use nalgebra::{DMatrix, DVector};
-use proc_macro2::{Delimiter, Literal, TokenStream, TokenTree};
+use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
-/// The condensed form's items that the Riccati form replaces or leaves unused: its factorisation (and
-/// the forming, written out or over the rows' runs, with that loop's helpers and tables), its solve and
-/// the envelope's tables. Names it does not emit for a spec are passed over.
-const CONDENSED_ONLY: &[&str] = &[
-    "factor",
-    "form",
-    "ldl",
-    "ldl_solve",
-    "FIRST",
-    "REACH",
-    "add",
-    "runs",
-    "values",
-    "span",
-    "span_mut",
-    "RUN_START",
-    "BOX_POS",
-    "SIDE_ROW",
-    "RUNS",
-    "ROW_VAL",
-];
+/// The kernels and tables of one form of the normal system: `NormalFactor`, `NORMAL_ZERO`, `factor` and
+/// `ldl_solve`, with the helpers and tables they alone read.
+pub(crate) struct NormalSystem {
+    pub(crate) kernels: TokenStream,
+    pub(crate) tables: TokenStream,
+}
 
-/// The interior-point method's sections in the form the cost model chooses for `p`: as they are, with
-/// `NormalFactor` the normal matrix, for the condensed form; with the Riccati form's `factor`,
-/// `ldl_solve` and tables in place of the condensed ones otherwise.
-pub fn form(p: &Problem, sections: Sections) -> Sections {
+/// The interior-point method's sections completed with the normal system in the form the cost model
+/// chooses for `p`: `condensed` (the normal matrix) or the Riccati form's.
+pub fn form(p: &Problem, sections: Sections, condensed: NormalSystem) -> Sections {
     let qp = &p.qp;
-    let stages = match Stages::of(qp) {
-        Ok(stages) if Choice::of(qp).form == Form::Riccati => stages,
-        _ => {
-            let Sections {
-                constants,
-                api,
-                kernels,
-                tables,
-            } = sections;
-            return Sections {
-                constants,
-                api,
-                kernels: quote! {
-                    #kernels
-
-                    /// The normal matrix H + Gᵀ·diag(w)·G, factored in place as L·D·Lᵀ within the envelope.
-                    type NormalFactor = [[f64; NV]; NV];
-                    const NORMAL_ZERO: NormalFactor = [[0.0; NV]; NV];
-                },
-                tables,
-            };
+    let system = match Stages::of(qp) {
+        Ok(stages) if Choice::of(qp).form == Form::Riccati => {
+            let (kernels, tables) = emit(qp, &stages);
+            NormalSystem { kernels, tables }
         }
+        _ => condensed,
     };
     let Sections {
         constants,
@@ -78,16 +46,15 @@ pub fn form(p: &Problem, sections: Sections) -> Sections {
         kernels,
         tables,
     } = sections;
-    let (kernels, tables) = (
-        without(kernels, CONDENSED_ONLY),
-        without(tables, CONDENSED_ONLY),
-    );
-    let (riccati_kernels, riccati_tables) = emit(qp, &stages);
+    let NormalSystem {
+        kernels: system_kernels,
+        tables: system_tables,
+    } = system;
     Sections {
         constants,
         api,
-        kernels: quote!(#kernels #riccati_kernels),
-        tables: quote!(#tables #riccati_tables),
+        kernels: quote!(#kernels #system_kernels),
+        tables: quote!(#tables #system_tables),
     }
 }
 
@@ -632,104 +599,4 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
         #slack_tables
     };
     (kernels, tables)
-}
-
-/// `tokens` without the items (functions, constants, statics, types) named in `names`; every other
-/// token as it was. An item is its attributes and visibility, its keyword and name, and what follows up
-/// to its body's braces (a function, a struct, an impl …) or its `;` (a constant, a type, a use).
-fn without(tokens: TokenStream, names: &[&str]) -> TokenStream {
-    let mut out = TokenStream::new();
-    let mut item: Vec<TokenTree> = Vec::new();
-    let (mut keyword, mut name): (Option<String>, Option<String>) = (None, None);
-    let ends_at_semicolon =
-        |k: &Option<String>| matches!(k.as_deref(), Some("const" | "static" | "type" | "use"));
-    for tt in tokens {
-        item.push(tt.clone());
-        let mut end = false;
-        match &tt {
-            TokenTree::Ident(i) => {
-                let s = i.to_string();
-                match (&keyword, name.is_some()) {
-                    // `const fn` is a function.
-                    (Some(k), false) if k == "const" && s == "fn" => keyword = Some(s),
-                    (Some(_), false) => name = Some(s),
-                    (None, _)
-                        if matches!(
-                            s.as_str(),
-                            "fn" | "const"
-                                | "static"
-                                | "type"
-                                | "use"
-                                | "struct"
-                                | "enum"
-                                | "impl"
-                                | "trait"
-                                | "mod"
-                        ) =>
-                    {
-                        keyword = Some(s)
-                    }
-                    _ => {}
-                }
-            }
-            TokenTree::Punct(p)
-                if p.as_char() == ';'
-                    && (ends_at_semicolon(&keyword) || keyword.as_deref() == Some("struct")) =>
-            {
-                end = true
-            }
-            TokenTree::Group(g)
-                if g.delimiter() == Delimiter::Brace
-                    && keyword.is_some()
-                    && !ends_at_semicolon(&keyword) =>
-            {
-                end = true
-            }
-            _ => {}
-        }
-        if end {
-            let drop = name.as_deref().is_some_and(|n| names.contains(&n));
-            if !drop {
-                out.extend(item.drain(..));
-            }
-            item.clear();
-            keyword = None;
-            name = None;
-        }
-    }
-    out.extend(item);
-    out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::without;
-    use quote::quote;
-
-    #[test]
-    fn without_drops_the_named_items_only() {
-        let tokens = quote! {
-            /// Kept.
-            #[inline(always)]
-            fn kept(a: &[f64; 3]) -> f64 { a[0] }
-            /// Dropped.
-            fn factor(w: &[f64; 2], m: &mut [[f64; 2]; 2]) -> bool { let x = [0.0; 2]; true }
-            const FIRST: [usize; 2] = [0, 1];
-            const fn ldl() {}
-            struct S { a: [f64; 2] }
-            struct T(f64);
-            const KEPT: S = S { a: [0.0; 2] };
-        };
-        let out = without(tokens, &["factor", "FIRST", "ldl"]).to_string();
-        let expected = quote! {
-            /// Kept.
-            #[inline(always)]
-            fn kept(a: &[f64; 3]) -> f64 { a[0] }
-            struct S { a: [f64; 2] }
-            struct T(f64);
-            const KEPT: S = S { a: [0.0; 2] };
-        }
-        .to_string();
-        assert_eq!(out, expected);
-    }
 }
