@@ -480,18 +480,8 @@ pub enum Start {
     },
 }
 
-/// How a solve ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Status {
-    /// [`solve`]'s tolerance was met.
-    Converged,
-    /// The iterations ran out (a fixed-iteration solve always ends so; the residuals say how close).
-    IterationLimit,
-    /// The last change of y certifies that the rows admit no x (OSQP §3.4).
-    Infeasible,
-    /// Inconsistent data or settings, a K that does not exist, or a non-finite iterate.
-    NumericalFailure,
-}
+/// How a solve ended: the constrained methods' shared status.
+pub use crate::solver::Status;
 
 /// One iterate, in f64 whatever it was computed in.
 #[derive(Clone, Debug)]

@@ -25,6 +25,22 @@ use nalgebra::{DMatrix, DVector};
 use proc_macro2::{Ident, Literal, TokenStream};
 use std::fmt::Debug;
 
+/// How a constrained method's solve ended ([`ipm`] and [`admm`] alike).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    /// The solve's tolerance was met (the methods' `solve` only; a fixed-iteration solve never ends so).
+    Converged,
+    /// The iterations ran out: a fixed-iteration solve always ends so, and the residuals say how close it
+    /// came.
+    IterationLimit,
+    /// The constraints admit no plan: the interior-point method's multipliers certify it (λ ≥ 0,
+    /// Gᵀλ ≈ 0, hᵀλ < 0) or diverged; ADMM's last change of y certifies it (OSQP §3.4).
+    Infeasible,
+    /// Non-finite or inconsistent data or settings, a linear system that cannot be factored (even
+    /// regularised), or a non-finite step or iterate.
+    NumericalFailure,
+}
+
 /// The first-order algorithm that `method` names; `None` for the interior-point method ([`ipm`]) and
 /// ADMM ([`admm`]), which are not iterations on the box and have their own emitters
 /// (`emit/interior.rs`, `emit/admm.rs`): the phases tell them apart by `Qp::method`.

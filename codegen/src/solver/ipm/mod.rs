@@ -104,22 +104,8 @@ pub enum Start {
     },
 }
 
-/// How a solve ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Status {
-    /// The relative residuals, the gap and the complementarity are below the tolerance ([`solve`]
-    /// only).
-    Converged,
-    /// The iterations ran out: [`solve`] before the tolerance, or [`solve_fixed`] always (it checks no
-    /// tolerance; the residuals say how close it came).
-    IterationLimit,
-    /// The multipliers certify that the constraints admit no z (λ ≥ 0, Gᵀλ ≈ 0, hᵀλ < 0), or they
-    /// diverged.
-    Infeasible,
-    /// Non-finite or inconsistent data, a normal matrix that Cholesky refuses even regularised, or a
-    /// non-finite step: z is the start (or zero) or the last finite iterate.
-    NumericalFailure,
-}
+/// How a solve ended: the constrained methods' shared status.
+pub use crate::solver::Status;
 
 /// What a solve returns. z is always finite.
 #[derive(Clone, Debug)]
