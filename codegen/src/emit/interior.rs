@@ -377,24 +377,26 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
         rows::ldl(envelope)
     } else {
         quote! {
-            /// L·D·Lᵀ of the lower triangle of `m` within the envelope (row p from FIRST[p]), in place (D on
+            /// L·D·Lᵀ of the lower triangle of `m` within the envelope (row p from FIRST[p]), in place (1/D on
             /// the diagonal); `false` when a pivot is not positive and finite. It runs to the end either
             /// way: the same instructions every time. Nothing fills outside the envelope.
             fn ldl(m: &mut [[f64; NV]; NV]) -> bool {
-                let mut v = [0.0; NV];
+                let (mut v, mut pivots) = ([0.0; NV], [0.0; NV]);
                 let mut positive = true;
                 for j in 0..NV {
                     let fj = FIRST[j];
                     let mut d = m[j][j];
                     for k in fj..j {
-                        v[k] = m[j][k] * m[k][k];
+                        v[k] = m[j][k] * pivots[k];
                         d -= m[j][k] * v[k];
                     }
                     // `&`, not `&&`: no branch. NaN fails `d > 0.0`.
                     positive &= (d > 0.0) & (d < f64::INFINITY);
-                    m[j][j] = d;
-                    // One division a column; the entries below are multiplied by its reciprocal.
+                    pivots[j] = d;
+                    // One division a column: the entries below, and the solves, multiply by its
+                    // reciprocal, which the diagonal keeps.
                     let inverse = 1.0 / d;
+                    m[j][j] = inverse;
                     for (p, row) in m.iter_mut().enumerate().take(REACH[j]).skip(j + 1) {
                         // FIRST is constant: the same branch every time.
                         let fp = at_index(&FIRST, p);
@@ -420,7 +422,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     b[i] = a;
                 }
                 for i in 0..NV {
-                    b[i] /= m[i][i];
+                    b[i] *= m[i][i];
                 }
                 // Lᵀ by rows of L: x_i is final once every later row has given its share.
                 for i in (0..NV).rev() {

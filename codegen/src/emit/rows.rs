@@ -276,39 +276,37 @@ pub fn ldl(envelope: &Envelope) -> TokenStream {
     for j in 0..n {
         let fj = first[j];
         let d = format_ident!("d{}", j);
+        // D_k is `d{k}`: the diagonal keeps 1/D_k.
         let pivots = (fj..j).map(|k| {
-            let (v, mjk, mkk) = (at("v", k), m(j, k), m(k, k));
-            quote!(#v = #mjk * #mkk;)
+            let (v, mjk, dk) = (at("v", k), m(j, k), format_ident!("d{}", k));
+            quote!(#v = #mjk * #dk;)
         });
         let (mjj, terms) = (m(j, j), (fj..j).map(|k| (m(j, k), at("v", k))));
         let terms = terms.map(|(a, b)| quote!(- #a * #b));
+        // One division a column: the entries below, and the solves, multiply by its reciprocal, which the
+        // diagonal keeps.
+        let inverse = format_ident!("inverse{}", j);
         factor.push(quote! {
             #(#pivots)*
             let #d = #mjj #(#terms)*;
             positive &= (#d > 0.0) & (#d < f64::INFINITY);
-            #mjj = #d;
+            let #inverse = 1.0 / #d;
+            #mjj = #inverse;
         });
-        // One division a column: the entries below multiply by its reciprocal.
-        let inverse = format_ident!("inverse{}", j);
-        let mut below = Vec::new();
         for (p, &fp) in first.iter().enumerate().take(envelope.reach(j)).skip(j + 1) {
             if fp > j {
                 continue;
             }
             let mpj = m(p, j);
             if fp.max(fj) == j {
-                below.push(quote!(#mpj *= #inverse;));
+                factor.push(quote!(#mpj *= #inverse;));
                 continue;
             }
             let terms = (fp.max(fj)..j).map(|k| {
                 let (a, b) = (m(p, k), at("v", k));
                 quote!(- #a * #b)
             });
-            below.push(quote!(#mpj = (#mpj #(#terms)*) * #inverse;));
-        }
-        if !below.is_empty() {
-            factor.push(quote!(let #inverse = 1.0 / #d;));
-            factor.extend(below);
+            factor.push(quote!(#mpj = (#mpj #(#terms)*) * #inverse;));
         }
     }
     let forward = (0..n).filter(|&i| first[i] < i).map(|i| {
@@ -326,7 +324,7 @@ pub fn ldl(envelope: &Envelope) -> TokenStream {
     });
     let diagonal = (0..n).map(|i| {
         let (bi, mii) = (at("b", i), m(i, i));
-        quote!(#bi /= #mii;)
+        quote!(#bi *= #mii;)
     });
     let backward = (0..n).rev().flat_map(|i| {
         (first[i]..i).map(move |k| {
@@ -335,7 +333,7 @@ pub fn ldl(envelope: &Envelope) -> TokenStream {
         })
     });
     quote! {
-        /// L·D·Lᵀ of the lower triangle of `m` within the envelope, in place (D on the diagonal),
+        /// L·D·Lᵀ of the lower triangle of `m` within the envelope, in place (1/D on the diagonal),
         /// written out; `false` when a pivot is not positive and finite. Nothing fills outside the
         /// envelope.
         fn ldl(m: &mut [[f64; NV]; NV]) -> bool {
