@@ -169,12 +169,9 @@ fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
         iterations: qp.iterations,
         macs_per_iteration,
         macs_per_solve: qp.iterations * macs_per_iteration + once,
-        cycles_per_solve: {
-            let machine = crate::target::machine(spec.codegen.target);
-            let scalar = crate::target::solver_scalar(spec.mpc.method, spec.codegen.scalar);
-            (qp.iterations * macs_per_iteration + once) as f64
-                * machine.solver_cycles_per_mac(spec.mpc.method, scalar)
-        },
+        cycles_per_solve: (qp.iterations * macs_per_iteration + once) as f64
+            * crate::target::machine(spec.codegen.target)
+                .solver_cycles_per_mac(spec.mpc.method, spec.codegen.scalar),
         certified,
         reaches_accuracy,
         chosen: false,

@@ -195,7 +195,7 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
         budget::before_emission(spec, &build_cost, resources.macs_filter, own.as_ref())?;
     }
     // A step that cannot fit the sampling period at the target's clock is refused before the analyses.
-    let step = target::StepCost::of(spec, &problem, &plan, &resources);
+    let step = target::StepCost::of(spec, &problem, &resources);
     target::check_period(spec, &step)?;
     let certificate = certify(&problem, &plan);
     let mut warnings = certificate::review(spec, &certificate)?;

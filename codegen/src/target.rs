@@ -41,7 +41,6 @@
 
 use crate::certificate::Resources;
 use crate::lower::Problem;
-use crate::plan::Plan;
 use mpc_spec::{Diagnostic, Diagnostics, Method, Scalar, Spec, Target};
 
 /// The SIMD the emitted code can use on a machine.
@@ -141,11 +140,11 @@ impl Machine {
         }
     }
 
-    /// Estimated cycles per multiply-add of `method`'s iterations in `scalar` (see
-    /// [`solver_scalar`]): the interior-point method's and ADMM's own figures, the plain ones for the
-    /// first-order methods.
+    /// Estimated cycles per multiply-add of `method`'s iterations in a module of `scalar`, in the scalar
+    /// the method computes in ([`solver_scalar`]): the interior-point method's and ADMM's own figures,
+    /// the plain ones for the first-order methods.
     pub fn solver_cycles_per_mac(&self, method: Method, scalar: Scalar) -> f64 {
-        match (method, scalar) {
+        match (method, solver_scalar(method, scalar)) {
             (Method::Ipm, _) => self.cycles_per_mac_ipm,
             (Method::Admm, Scalar::F64) if !self.f64_in_hardware => {
                 self.cycles_per_mac_admm * self.cycles_per_mac_f64 / self.cycles_per_mac_f32
@@ -207,20 +206,15 @@ pub struct StepCost {
 }
 
 impl StepCost {
-    /// The cost of one control step of `p`, lowered from `spec` and planned as `plan`, whose resources are
+    /// The cost of one control step of `p`, lowered from `spec`, whose resources are
     /// `r` (`certificate::predicted`).
-    pub fn of(spec: &Spec, p: &Problem, plan: &Plan, r: &Resources) -> Self {
+    pub fn of(spec: &Spec, p: &Problem, r: &Resources) -> Self {
         let machine = *machine(spec.codegen.target);
-        // The first-order methods' plan has their algorithm; the others are priced by their own figure.
-        let method = if plan.algorithm.is_some() {
-            Method::Fgm
-        } else {
-            p.qp.method
-        };
+        let method = p.qp.method;
         let solver_scalar = solver_scalar(method, p.scalar);
         let solver_macs = p.qp.iterations * r.macs_per_iteration + r.macs_once_per_solve;
         let other_macs = r.macs_per_cycle.saturating_sub(solver_macs);
-        let solver_cycles_per_mac = machine.solver_cycles_per_mac(method, solver_scalar);
+        let solver_cycles_per_mac = machine.solver_cycles_per_mac(method, p.scalar);
         let solver_cycles = solver_macs as f64 * solver_cycles_per_mac;
         StepCost {
             machine,

@@ -135,7 +135,7 @@ fn no_shipped_spec_is_refused() {
             }
             let mut on = spec.clone();
             on.codegen.target = *t;
-            let cost = StepCost::of(&on, &g.problem, &g.plan, &g.certificate.resources);
+            let cost = StepCost::of(&on, &g.problem, &g.certificate.resources);
             // paper.toml and its variants in f64 on the M4F's soft float do not fit: only f32 there.
             if !m.f64_in_hardware && spec.codegen.scalar == Scalar::F64 {
                 continue;

@@ -10,7 +10,7 @@
 #![allow(non_snake_case)]
 
 use super::constrained::{offsets, status_types, Offsets};
-use super::tokens::Num;
+use super::tokens::{at, Num};
 use super::Sections;
 use crate::lower::Problem;
 use crate::solver::admm::{self, INFEASIBILITY_TOLERANCE};
@@ -48,9 +48,10 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     // The factor of P + σI + CᵀRC. The settings' factor exists: the certificate ran with it.
     let L =
         admm::factor(&structure, &settings).unwrap_or_else(|| nalgebra::DMatrix::identity(nv, nv));
-    let Kernels {
-        code: kernel_code,
+    let Sections {
+        kernels: kernel_code,
         tables: kernel_tables,
+        ..
     } = kernels(num, &structure.A, &L);
     let rho_row = num.vector(settings.rho.iter().copied());
     let rho_inv = num.vector(settings.rho.iter().map(|r| 1.0 / r));
@@ -593,24 +594,14 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
 /// this is at most ~160 KB of code per kernel.
 pub const WRITE_OUT_BUDGET: usize = 16_384;
 
-/// C·x, Cᵀ·v and K·b with what they read: the code, and the tables the loops need (none when written
-/// out).
-struct Kernels {
-    code: TokenStream,
-    tables: TokenStream,
-}
-
 /// The kernels over the general rows `A` (rows × NV) and the factor `L` of P + σI + CᵀRC, each in the
 /// reference's order of summation (`solver::admm::Operator::{C, Ct, solve}`): written out within
 /// [`WRITE_OUT_BUDGET`], which costs a few instructions a multiply-add where the loops over compressed
-/// rows cost some ten (BENCHMARKS.md, "ADMM on the Cortex-M4F"), else loops over tables.
-fn kernels(num: Num, A: &nalgebra::DMatrix<f64>, L: &nalgebra::DMatrix<f64>) -> Kernels {
+/// rows cost some ten (BENCHMARKS.md, "ADMM on the emulated Cortex-M4F"), else loops over tables.
+/// The tables are those the loops need (none when written out).
+fn kernels(num: Num, A: &nalgebra::DMatrix<f64>, L: &nalgebra::DMatrix<f64>) -> Sections {
     let (ng, nv) = A.shape();
     let lit = Literal::usize_unsuffixed;
-    let at = |name: &str, i: usize| {
-        let (name, i) = (quote::format_ident!("{}", name), lit(i));
-        quote!(#name[#i])
-    };
     let rows: Vec<Vec<(usize, f64)>> = (0..ng)
         .map(|r| {
             (0..nv)
@@ -780,8 +771,9 @@ fn kernels(num: Num, A: &nalgebra::DMatrix<f64>, L: &nalgebra::DMatrix<f64>) -> 
             const L_INV: [Real; NV] = #l_inv;
         });
     }
-    Kernels {
-        code: quote!(#(#code)*),
+    Sections {
+        kernels: quote!(#(#code)*),
         tables: quote!(#(#tables)*),
+        ..Sections::default()
     }
 }

@@ -1099,7 +1099,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     };
     // The normal system in the form the cost model chooses: the condensed one's kernels and tables, or
     // the Riccati form's.
-    let condensed = super::riccati::NormalSystem {
+    let condensed = Sections {
         kernels: quote! {
             /// The normal matrix H + Gᵀ·diag(w)·G, factored in place as L·D·Lᵀ within the envelope.
             type NormalFactor = [[f64; NV]; NV];
@@ -1110,6 +1110,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             #ldl_kernels
         },
         tables: quote!(#form_tables #envelope_tables),
+        ..Sections::default()
     };
     super::riccati::form(p, sections, condensed)
 }

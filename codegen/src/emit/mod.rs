@@ -35,6 +35,21 @@ pub(crate) struct Sections {
     pub tables: TokenStream,
 }
 
+impl Sections {
+    /// `self` with `other`'s items after its own, section by section.
+    pub(crate) fn append(self, other: Sections) -> Sections {
+        let (a, b) = (self, other);
+        let (c1, c2, p1, p2) = (a.constants, b.constants, a.api, b.api);
+        let (k1, k2, t1, t2) = (a.kernels, b.kernels, a.tables, b.tables);
+        Sections {
+            constants: quote!(#c1 #c2),
+            api: quote!(#p1 #p2),
+            kernels: quote!(#k1 #k2),
+            tables: quote!(#t1 #t2),
+        }
+    }
+}
+
 /// Where the spec came from, for the module's docs and for rebuild tracking.
 #[derive(Clone, Debug)]
 pub enum Origin {

@@ -22,44 +22,20 @@ use nalgebra::{DMatrix, DVector};
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
-/// The kernels and tables of one form of the normal system: `NormalFactor`, `NORMAL_ZERO`, `factor` and
-/// `ldl_solve`, with the helpers and tables they alone read.
-pub(crate) struct NormalSystem {
-    pub(crate) kernels: TokenStream,
-    pub(crate) tables: TokenStream,
-}
-
 /// The interior-point method's sections completed with the normal system in the form the cost model
-/// chooses for `p`: `condensed` (the normal matrix) or the Riccati form's.
-pub fn form(p: &Problem, sections: Sections, condensed: NormalSystem) -> Sections {
+/// chooses for `p`: `condensed` (the normal matrix's `NormalFactor`, `NORMAL_ZERO`, `factor` and
+/// `ldl_solve`, with the helpers and tables they alone read) or the Riccati form's.
+pub fn form(p: &Problem, sections: Sections, condensed: Sections) -> Sections {
     let qp = &p.qp;
     let system = match Stages::of(qp) {
-        Ok(stages) if Choice::of(qp).form == Form::Riccati => {
-            let (kernels, tables) = emit(qp, &stages);
-            NormalSystem { kernels, tables }
-        }
+        Ok(stages) if Choice::of(qp).form == Form::Riccati => emit(qp, &stages),
         _ => condensed,
     };
-    let Sections {
-        constants,
-        api,
-        kernels,
-        tables,
-    } = sections;
-    let NormalSystem {
-        kernels: system_kernels,
-        tables: system_tables,
-    } = system;
-    Sections {
-        constants,
-        api,
-        kernels: quote!(#kernels #system_kernels),
-        tables: quote!(#tables #system_tables),
-    }
+    sections.append(system)
 }
 
 /// The Riccati form's kernels and tables.
-fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
+fn emit(qp: &crate::lower::Qp, stages: &Stages) -> Sections {
     let wide = Num(Scalar::F64);
     let lit = Literal::usize_unsuffixed;
     let structure = mpc_qp(
@@ -598,5 +574,9 @@ fn emit(qp: &crate::lower::Qp, stages: &Stages) -> (TokenStream, TokenStream) {
         const RICCATI_BOX: [usize; NB] = [#(#box_index),*];
         #slack_tables
     };
-    (kernels, tables)
+    Sections {
+        kernels,
+        tables,
+        ..Sections::default()
+    }
 }

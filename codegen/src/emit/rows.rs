@@ -11,7 +11,7 @@
 //! model's count). Only the forming can grow large (a dense row of the condensed QP has N·nu
 //! entries); above [`FORM_BUDGET`] terms it stays a loop over the rows' runs (`interior.rs`).
 
-use super::tokens::Num;
+use super::tokens::{at, Num};
 use crate::solver::ipm::{InequalityQp, Layout, Sparsity};
 use crate::structure::Envelope;
 use mpc_spec::Scalar;
@@ -237,12 +237,6 @@ impl<'a> Rows<'a> {
 
 fn lit(i: usize) -> Literal {
     Literal::usize_unsuffixed(i)
-}
-
-/// `name[i]` with a constant index.
-fn at(name: &str, i: usize) -> TokenStream {
-    let (name, i) = (format_ident!("{}", name), lit(i));
-    quote!(#name[#i])
 }
 
 /// `v` or `-v` for a side's sign ±1.

@@ -140,6 +140,15 @@ pub fn at2(name: &TokenStream, i: usize, cols: usize) -> TokenStream {
     quote!(#name[#r][#c])
 }
 
+/// `name[i]` with a constant index, for a local array named by a string.
+pub fn at(name: &str, i: usize) -> TokenStream {
+    let (name, i) = (
+        quote::format_ident!("{}", name),
+        Literal::usize_unsuffixed(i),
+    );
+    quote!(#name[#i])
+}
+
 /// `name[i]`.
 pub fn at1(name: &TokenStream, i: usize) -> TokenStream {
     let i = Literal::usize_unsuffixed(i);
