@@ -333,7 +333,7 @@ impl Certificate {
             field("sampled.limits.dual", "SAMPLED_DUAL_LIMIT", "Final relative dual residual above which the solve falls back.", SAMPLED, "fallback above relative dual residual", Plain, Real(e.limits.dual)),
         ];
         fields.splice(at..at, evidence);
-        if let Some(rho) = e.rho {
+        if let Some(rho) = e.admm.map(|a| a.rho) {
             let at = fields
                 .iter()
                 .position(|f| f.json == "sampled.limits.primal")

@@ -142,10 +142,24 @@ pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
     let mut problem = lower::uncertified(spec)?;
     let evidence = match (spec.mpc.method, solver::algorithm(spec.mpc.method)) {
         (mpc_spec::Method::Admm, _) => {
-            // ρ measured on part of the sample, then the whole sample at that ρ.
+            // ρ measured on part of the sample (in f64, where the forms agree), then the whole sample
+            // at that ρ in the written form; without one, the direct form, and in f32 the residual
+            // form where the direct one misses `accuracy` (its rounded factor biases the fixed point).
             let (rho, tuning_macs) = sampling::tune_admm(spec, &problem)?;
-            let method = sampling::Admm::new(&problem, rho, tuning_macs);
-            Some(sampling::certify(spec, &problem, &method, 0)?)
+            let certify = |form| {
+                let method = sampling::Admm::new(&problem, rho, form, tuning_macs);
+                sampling::certify(spec, &problem, &method, 0)
+            };
+            match spec.mpc.admm_form {
+                Some(form) => Some(certify(form)?),
+                None => match certify(admm::Form::Direct) {
+                    Ok(evidence) => Some(evidence),
+                    Err(_) if problem.scalar == mpc_spec::Scalar::F32 => {
+                        Some(certify(admm::Form::Residual)?)
+                    }
+                    Err(e) => return Err(e),
+                },
+            }
         }
         (_, None) => Some(sampling::certify(
             spec,

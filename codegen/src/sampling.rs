@@ -22,7 +22,7 @@
 //! [`LIMIT_FLOOR`]), above which the emitted solver falls back.
 #![allow(non_snake_case)]
 
-use crate::evidence::Limits;
+use crate::evidence::{AdmmTuning, Limits};
 pub use crate::evidence::{Evidence, Region};
 use crate::lower::{Problem, Qp};
 use crate::solver::ipm::{
@@ -106,8 +106,8 @@ pub trait Sampled {
     fn macs_per_iteration(&self, qp: &Qp) -> usize;
     /// Whether the method's final residuals are limited at run time ([`Limits`]).
     fn limits_residuals(&self) -> bool;
-    /// A tuned parameter the evidence reports (ADMM's ρ); `None` for a method without one.
-    fn rho(&self) -> Option<f64> {
+    /// The tuned parameters the evidence reports (ADMM's ρ and form); `None` for a method without them.
+    fn admm(&self) -> Option<AdmmTuning> {
         None
     }
     /// Multiply-adds spent before the sample (ADMM's tuning of ρ), counted against the build's budget.
@@ -320,7 +320,7 @@ pub struct Admm {
     pub rho: f64,
     /// Whether the iteration runs in f32.
     pub f32: bool,
-    /// [`crate::admm::mpc_settings`] at `rho`.
+    /// [`crate::admm::mpc_settings`] at `rho`, in the form sampled.
     pub settings: crate::admm::Settings,
     /// The multiply-adds the tuning spent.
     pub tuning_macs: f64,
@@ -330,12 +330,12 @@ pub struct Admm {
 pub const ADMM_PROBE: (usize, usize) = (256, 20000);
 
 impl Admm {
-    /// ADMM on `p` at penalty `rho`, in `p`'s scalar.
-    pub fn new(p: &Problem, rho: f64, tuning_macs: f64) -> Self {
+    /// ADMM on `p` at penalty `rho` in `form`, in `p`'s scalar.
+    pub fn new(p: &Problem, rho: f64, form: crate::admm::Form, tuning_macs: f64) -> Self {
         Admm {
             rho,
             f32: p.scalar == mpc_spec::Scalar::F32,
-            settings: crate::admm::mpc_settings(&p.qp, rho),
+            settings: crate::admm::mpc_settings(&p.qp, rho).in_form(form),
             tuning_macs,
         }
     }
@@ -413,15 +413,18 @@ impl Sampled for Admm {
     }
 
     fn macs_per_iteration(&self, qp: &Qp) -> usize {
-        crate::admm::mpc_macs_per_iteration(qp)
+        crate::admm::mpc_macs_per_iteration_in(qp, self.settings.form)
     }
 
     fn limits_residuals(&self) -> bool {
         true
     }
 
-    fn rho(&self) -> Option<f64> {
-        Some(self.rho)
+    fn admm(&self) -> Option<AdmmTuning> {
+        Some(AdmmTuning {
+            rho: self.rho,
+            form: self.settings.form,
+        })
     }
 
     fn spent_before(&self) -> f64 {
@@ -496,7 +499,8 @@ pub fn tune_admm(spec: &Spec, p: &Problem) -> Result<(f64, f64), Diagnostics> {
             c.last = u;
         }
     }
-    let per_iteration = crate::admm::mpc_macs_per_iteration(qp) as f64;
+    let per_iteration =
+        crate::admm::mpc_macs_per_iteration_in(qp, crate::admm::Form::Direct) as f64;
     let settings = |problem: &InequalityQp, rho: f64| crate::admm::Settings::scaled(problem, rho);
     let tuned = crate::admm::tune_rho(&cases, &settings, qp.accuracy, ADMM_PROBE.1);
     match tuned {
@@ -710,7 +714,7 @@ pub fn certify<M: Sampled>(
         limits,
         fallbacks: warm.fallbacks,
         sample_macs: spent.macs,
-        rho: method.rho(),
+        admm: method.admm(),
     })
 }
 

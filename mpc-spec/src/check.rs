@@ -295,6 +295,10 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
         method,
         method_requested,
         step,
+        admm_form: raw
+            .admm_form
+            .as_ref()
+            .and_then(|f| AdmmForm::from_name(&f.value)),
         outputs: outputs?,
         q: q?,
         r: r?,
@@ -600,6 +604,16 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
     let name = method.name();
     if method == Method::Auto {
         return;
+    }
+    if let Some(form) = raw.admm_form.as_ref().filter(|_| method != Method::Admm) {
+        diags.push(
+            Diagnostic::new(
+                format!("`admm_form` is a setting of `method = \"admm\"`, not of `method = \"{name}\"`"),
+                form.span.clone(),
+            )
+            .label("how ADMM computes its x-update")
+            .note("hint: remove `admm_form`, or write `method = \"admm\"` (or `\"auto\"`, which weighs ADMM with it)"),
+        );
     }
     if method.box_only() {
         let solver = if requested == Method::Auto {

@@ -23,6 +23,7 @@ pub const MPC_KEYS: &[&str] = &[
     "accept_unstable",
     "method",
     "step",
+    "admm_form",
     "q",
     "r",
     "qf",
@@ -78,6 +79,8 @@ pub const MODEL_TYPES: &[&str] = &["double_integrator", "linear"];
 pub const TIMES: &[&str] = crate::TimeDomain::NAMES;
 /// Values of `[mpc] method`.
 pub const METHODS: &[&str] = crate::Method::NAMES;
+/// Spellings of `[mpc] admm_form`: `auto` (the certificate's choice) or an [`crate::AdmmForm`].
+pub const ADMM_FORMS: &[&str] = &["auto", "direct", "residual"];
 /// Values of `[kalman] filter`.
 pub const FILTERS: &[&str] = crate::FilterKind::NAMES;
 /// Values of `[codegen] scalar`.

@@ -168,6 +168,19 @@ spelled! {
     }
 }
 
+spelled! {
+    /// How ADMM computes its x-update, `[mpc] admm_form` (the compiler's choice when absent or
+    /// `"auto"`). The two give the same iterates in exact arithmetic.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub enum AdmmForm {
+        /// x̃ = K·(σx − q + Cᵀ(Rz − y)), K applied through its factor computed at build time.
+        Direct = "direct",
+        /// x̃ = x + K·(CᵀR(z − Cx) − (Px + q + Cᵀy)): one product with P and one with C more an
+        /// iteration, and a fixed point that the rounding of the factor does not move.
+        Residual = "residual",
+    }
+}
+
 /// `[mpc] iterations`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Iterations {
@@ -331,6 +344,9 @@ pub struct Mpc {
     pub method_requested: Method,
     /// The step size.
     pub step: Step,
+    /// ADMM's x-update as written; `None`: the certificate's choice (direct, or residual where the
+    /// direct form misses `accuracy` in f32).
+    pub admm_form: Option<AdmmForm>,
     /// The tracked outputs z = C_z x, `outputs` (nz × nx); `None`: the whole state is tracked (C_z = I).
     pub outputs: Option<Matrix>,
     /// Stage weight on the tracked outputs, nz × nz (nz = nx without `outputs`).

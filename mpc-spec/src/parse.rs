@@ -72,6 +72,7 @@ pub struct Raw {
     pub accept_unstable: Option<Located<bool>>,
     pub method: Option<Located<String>>,
     pub step: Option<Located<Option<f64>>>,
+    pub admm_form: Option<Located<String>>,
     pub q: Option<Located<MatrixInput>>,
     pub r: Option<Located<MatrixInput>>,
     pub qf: Option<Located<MatrixInput>>,
@@ -229,6 +230,9 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
             .get("method")
             .and_then(|v| p.choice(v, "mpc.method", keys::METHODS));
         raw.step = t.get("step").and_then(|v| p.step(v));
+        raw.admm_form = t
+            .get("admm_form")
+            .and_then(|v| p.choice(v, "mpc.admm_form", keys::ADMM_FORMS));
         raw.q = p
             .required(t, "mpc", "q", &span)
             .and_then(|v| p.matrix_input(v, "mpc.q", false));

@@ -382,6 +382,53 @@ fn ipm_takes_no_step_nor_tolerance() {
 }
 
 #[test]
+fn admm_form_is_admm_s_and_spelled() {
+    let admm = |extra: &str| with_method("method = \"admm\"\n", extra);
+    assert_eq!(
+        load(&admm("admm_form = \"residual\"\n"))
+            .unwrap()
+            .mpc
+            .admm_form,
+        Some(AdmmForm::Residual)
+    );
+    assert_eq!(
+        load(&admm("admm_form = \"direct\"\n"))
+            .unwrap()
+            .mpc
+            .admm_form,
+        Some(AdmmForm::Direct)
+    );
+    // "auto" and its absence leave the form to the certificate; `method = "auto"` weighs ADMM with it.
+    assert_eq!(
+        load(&admm("admm_form = \"auto\"\n")).unwrap().mpc.admm_form,
+        None
+    );
+    assert_eq!(load(&admm("")).unwrap().mpc.admm_form, None);
+    let auto = with_method("", "admm_form = \"residual\"\nx_min = [-1, -1]\n");
+    assert_eq!(load(&auto).unwrap().mpc.admm_form, Some(AdmmForm::Residual));
+    // Another method: located at the value, with the way out.
+    let (msg, at, note) = only_error(&ipm("admm_form = \"residual\"\n"));
+    assert_eq!(
+        msg,
+        "`admm_form` is a setting of `method = \"admm\"`, not of `method = \"ipm\"`"
+    );
+    assert_eq!(at, "\"residual\"");
+    assert!(note.unwrap().contains("remove `admm_form`"));
+    let (msg, _, _) = only_error(&with_method(
+        "method = \"fgm\"\n",
+        "admm_form = \"direct\"\n",
+    ));
+    assert!(msg.contains("not of `method = \"fgm\"`"), "{msg}");
+    // A misspelling names the choices.
+    let diags = load(&admm("admm_form = \"residuals\"\n")).unwrap_err();
+    let text = format!("{diags:?}");
+    assert!(
+        text.contains("residual") && text.contains("direct"),
+        "{text}"
+    );
+}
+
+#[test]
 fn auto_iterations_need_tolerance_or_a_region_for_first_order_methods() {
     let src = ipm("").replace("iterations = 20", "iterations = \"auto\"");
     assert_eq!(load(&src).unwrap().mpc.iterations, Iterations::Auto);

@@ -166,6 +166,11 @@ fn variants() -> Vec<(String, String)> {
             tests(&format!("linear-admm-{scalar}.toml")),
         ));
     }
+    // Its x-update in residual form (no σ in the right-hand side, P·x in the iteration).
+    out.push((
+        "admm_residual_rows".to_string(),
+        tests("linear-admm-residual-f32.toml"),
+    ));
     out
 }
 

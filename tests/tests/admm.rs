@@ -10,6 +10,8 @@
 //!   other (the triangle inequality; the observed figure is printed);
 //! - every generated solve, f64 and f32, within `accuracy` of Clarabel on cold draws and a warm closed
 //!   loop inside the region;
+//! - the x-update in residual form (`tests/specs/linear-admm-residual-{f64,f32}.toml`, the linear plant
+//!   with `admm_form = "residual"`): the same checks;
 //! - the fallback: infeasible hard rows and data that overflow f32 give a finite command inside the input
 //!   box and a status that says so; non-finite data the rest input.
 // OSQP's angle bound π/6 is data, written to f32's digits in the emitted tables; clippy reads the
@@ -31,11 +33,15 @@ mpc_macros::mpc!(mod quadcopter64 = "specs/quadcopter-admm-f64.toml");
 mpc_macros::mpc!(mod quadcopter32 = "specs/quadcopter-admm-f32.toml");
 mpc_macros::mpc!(mod linear64 = "specs/linear-admm-f64.toml");
 mpc_macros::mpc!(mod linear32 = "specs/linear-admm-f32.toml");
+mpc_macros::mpc!(mod residual64 = "specs/linear-admm-residual-f64.toml");
+mpc_macros::mpc!(mod residual32 = "specs/linear-admm-residual-f32.toml");
 
 const QUADCOPTER64: &str = include_str!("../specs/quadcopter-admm-f64.toml");
 const QUADCOPTER32: &str = include_str!("../specs/quadcopter-admm-f32.toml");
 const LINEAR64: &str = include_str!("../specs/linear-admm-f64.toml");
 const LINEAR32: &str = include_str!("../specs/linear-admm-f32.toml");
+const RESIDUAL64: &str = include_str!("../specs/linear-admm-residual-f64.toml");
+const RESIDUAL32: &str = include_str!("../specs/linear-admm-residual-f32.toml");
 
 fn accuracy(text: &str) -> f64 {
     mpc_spec::load(text).unwrap().mpc.accuracy
@@ -191,6 +197,10 @@ fn generated_f64_matches_the_oracle() {
             "linear",
             run!(linear64, problem(LINEAR64), 0x17, 8, 10, 1.5, false),
         ),
+        (
+            "linear, residual form",
+            run!(residual64, problem(RESIDUAL64), 0x17, 8, 10, 1.5, false),
+        ),
     ] {
         println!("{name} f64: {seen:?}");
         assert!(
@@ -227,6 +237,16 @@ fn generated_solves_meet_the_accuracy() {
             "linear f32",
             run!(linear32, problem(LINEAR32), 0xacc, 8, 10, 1.0, true),
             accuracy(LINEAR32),
+        ),
+        (
+            "linear f64, residual form",
+            run!(residual64, problem(RESIDUAL64), 0xacc, 8, 10, 1.0, true),
+            accuracy(RESIDUAL64),
+        ),
+        (
+            "linear f32, residual form",
+            run!(residual32, problem(RESIDUAL32), 0xacc, 8, 10, 1.0, true),
+            accuracy(RESIDUAL32),
         ),
     ];
     for (name, seen, accuracy) in cases {

@@ -37,7 +37,9 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     let np = N * nu;
     let structure = mpc_qp(qp, &DVector::zeros(np), &DVector::zeros(qp.rows.len()));
     let settings = admm::certified_settings(qp).unwrap_or_else(|| admm::mpc_settings(qp, 1.0));
-    let rho = qp.evidence.as_ref().and_then(|e| e.rho).unwrap_or(1.0);
+    let tuning = admm::tuning(qp);
+    let rho = tuning.map_or(1.0, |t| t.rho);
+    let form = tuning.map_or(admm::Form::Direct, |t| t.form);
     let rows = &qp.rows;
     let ns = rows.slacks();
     let nv = np + ns;
@@ -197,8 +199,56 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     );
     let (wide_bound_lower, wide_bound_upper) =
         (widen(quote!(ROW_LOWER[j])), widen(quote!(ROW_UPPER[j])));
+    let x_tilde = match form {
+        admm::Form::Direct => quote! {
+            // x̃ = K (σx − q + Cᵀ(Rz − y)).
+            let mut w = [0.0; NC];
+            for i in 0..NC {
+                w[i] = RHO_ROW[i] * z[i] - y[i];
+            }
+            let mut xt = [0.0; NV];
+            c_tmul(&w, &mut xt);
+            // (σx − q) + Cᵀw, the reference's sum (addition commutes exactly).
+            for i in 0..NV {
+                xt[i] += SIGMA * x[i] - q[i];
+            }
+            k_solve(&mut xt);
+        },
+        admm::Form::Residual => quote! {
+            // x̃ = x + K (Cᵀ(R(z − Cx) − y) − (Px + q)): the bracket is the x-update's KKT residual, so
+            // the fixed point does not depend on the rounding of the factor (the residual form).
+            let mut cx = [0.0; NC];
+            c_mul(x, &mut cx);
+            let mut w = [0.0; NC];
+            for i in 0..NC {
+                w[i] = RHO_ROW[i] * (z[i] - cx[i]) - y[i];
+            }
+            let mut xt = [0.0; NV];
+            c_tmul(&w, &mut xt);
+            for (i, row) in H.iter().enumerate() {
+                xt[i] -= dot(row, x) + q[i];
+            }
+            k_solve(&mut xt);
+            for (t, xi) in xt.iter_mut().zip(x.iter()) {
+                *t += *xi;
+            }
+        },
+    };
+    // σ enters the direct form's right-hand side; the residual form has it only inside the factor.
+    let sigma_table = (form == admm::Form::Direct).then(|| {
+        quote! {
+            /// The proximal weight σ.
+            const SIGMA: Real = #sigma;
+        }
+    });
+    let form_doc = match form {
+        admm::Form::Direct => "",
+        admm::Form::Residual => {
+            " The x-update is in residual form (x̃ = x + K·r, r its KKT residual), whose fixed point the\n rounding of the factor does not move."
+        }
+    };
     let mpc_doc = format!(
-        " Fixed-iteration, warm-started MPC with state, output and rate constraints: ADMM (OSQP's\n operator splitting) in {real_name}, dense on the condensed QP, with its factor computed at build time."
+        " Fixed-iteration, warm-started MPC with state, output and rate constraints: ADMM (OSQP's\n operator splitting) in {real_name}, dense on the condensed QP, with its factor computed at build time.{form_doc}"
     );
     let mpc_doc: Vec<&str> = mpc_doc.split('\n').collect();
     Sections {
@@ -438,18 +488,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 y: &mut [Real; NC],
                 dy: &mut [Real; NC],
             ) {
-                // x̃ = K (σx − q + Cᵀ(Rz − y)).
-                let mut w = [0.0; NC];
-                for i in 0..NC {
-                    w[i] = RHO_ROW[i] * z[i] - y[i];
-                }
-                let mut xt = [0.0; NV];
-                c_tmul(&w, &mut xt);
-                // (σx − q) + Cᵀw, the reference's sum (addition commutes exactly).
-                for i in 0..NV {
-                    xt[i] += SIGMA * x[i] - q[i];
-                }
-                k_solve(&mut xt);
+                #x_tilde
                 let mut zt = [0.0; NC];
                 c_mul(&xt, &mut zt);
                 for (xi, t) in x.iter_mut().zip(xt.iter()) {
@@ -558,8 +597,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             /// OSQP's over-relaxation α, and 1 − α.
             const ALPHA: Real = #alpha;
             const BETA: Real = 1.0 - ALPHA;
-            /// The proximal weight σ.
-            const SIGMA: Real = #sigma;
+            #sigma_table
             /// OSQP's primal infeasibility tolerance ε.
             const INFEASIBILITY_TOLERANCE: f64 = #infeasibility;
             /// Row sides per slot: a warm start shifts the rows' z and y by this.

@@ -7,7 +7,8 @@
 //! z_min ≤ x ≤ z_max as C's identity rows and the general rows A after them. One iteration, with R =
 //! diag(ρ) one penalty per row of C and K = (P + σI + CᵀRC)⁻¹ factored once at build time (M = L Lᵀ):
 //!
-//! - x̃ = K (σx − q + Cᵀ(Rz − y)), z̃ = C x̃;
+//! - x̃ = K (σx − q + Cᵀ(Rz − y)), z̃ = C x̃ (the direct [`Form`]; the residual form computes the
+//!   same x̃ as x + K (CᵀR(z − Cx) − (Px + q + Cᵀy)), whose fixed point K's rounding does not move);
 //! - x ← α x̃ + (1 − α) x;
 //! - z ← Π[l,u](α z̃ + (1 − α) z + R⁻¹y);
 //! - y ← y + R(α z̃ + (1 − α) z_old − z).
@@ -31,7 +32,7 @@
 //! curvature [`row_scales`], so one number serves rows of different units.
 #![allow(non_snake_case)]
 
-use crate::evidence::Limits;
+use crate::evidence::{AdmmTuning, Limits};
 use crate::lower::Qp;
 use crate::solver::ipm::{self, InequalityQp, IpmResult, Layout};
 use nalgebra::{DMatrix, DVector};
@@ -117,7 +118,17 @@ fn clamp<T: Real>(v: T, lo: T, hi: T) -> T {
     }
 }
 
-/// The method's parameters: one penalty per row of C (the n box rows, then the general rows), σ and α.
+/// How x̃ is computed: directly, x̃ = K·(σx − q + Cᵀ(Rz − y)), or from the x-update's KKT residual,
+/// x̃ = x + K·(CᵀR(z − Cx) − (Px + q + Cᵀy)). The same iterates in exact arithmetic; they differ in
+/// what the rounding of the factor does. The factor rounded to the module's scalar is the exact factor
+/// of P + E + σI + CᵀRC with ‖E‖ ≈ ε‖CᵀRC‖, so the direct form's fixed point solves the QP with P + E:
+/// a bias, which f32 makes visible on an ill-conditioned H (hover, κ(H) = 2.8e4). The residual form's
+/// bracket is zero at a fixed point whatever K's rounding, for one product with P and one with C more
+/// an iteration ([`macs_per_iteration`]).
+pub use mpc_spec::AdmmForm as Form;
+
+/// The method's parameters: one penalty per row of C (the n box rows, then the general rows), σ, α and
+/// the form of the x-update.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
     /// ρ_i per row of C = [I; A].
@@ -126,6 +137,8 @@ pub struct Settings {
     pub sigma: f64,
     /// α.
     pub alpha: f64,
+    /// How x̃ is computed.
+    pub form: Form,
 }
 
 /// Each row's curvature: the objective's curvature along the row, 1/(c_i P⁻¹ c_iᵀ) (the inverse of
@@ -168,13 +181,19 @@ pub fn sigma_of(qp: &InequalityQp) -> f64 {
 }
 
 impl Settings {
-    /// ρ times [`row_scales`] on every row, [`sigma_of`], [`ALPHA`].
+    /// ρ times [`row_scales`] on every row, [`sigma_of`], [`ALPHA`], the direct form.
     pub fn scaled(qp: &InequalityQp, rho: f64) -> Self {
         Settings {
             rho: row_scales(qp) * rho,
             sigma: sigma_of(qp),
             alpha: ALPHA,
+            form: Form::Direct,
         }
+    }
+
+    /// The same settings with the x-update in `form`.
+    pub fn in_form(self, form: Form) -> Self {
+        Settings { form, ..self }
     }
 }
 
@@ -208,6 +227,8 @@ pub struct Operator<T> {
     pub sigma: T,
     /// α.
     pub alpha: T,
+    /// How x̃ is computed.
+    pub form: Form,
 }
 
 /// The lower Cholesky factor L of M = P + σI + CᵀRC (M = L Lᵀ) in f64, `None` when M is not positive
@@ -277,6 +298,7 @@ impl<T: Real> Operator<T> {
             rho_inv: settings.rho.iter().map(|v| T::of(1.0 / v)).collect(),
             sigma: T::of(settings.sigma),
             alpha: T::of(settings.alpha),
+            form: settings.form,
         }
     }
 
@@ -326,19 +348,53 @@ impl<T: Real> Operator<T> {
         b
     }
 
+    /// P x, each row summed from zero in column order.
+    fn P(&self, x: &[T]) -> Vec<T> {
+        let n = self.n;
+        (0..n)
+            .map(|i| {
+                self.P[i * n..(i + 1) * n]
+                    .iter()
+                    .zip(x)
+                    .fold(T::ZERO, |acc, (a, b)| acc + *a * *b)
+            })
+            .collect()
+    }
+
+    /// x̃, the solution of (P + σI + CᵀRC) x̃ = σx − q + Cᵀ(Rz − y), in the settings' form.
+    fn x_tilde(&self, p: &Iterate<T>) -> Vec<T> {
+        let n = self.n;
+        match self.form {
+            Form::Direct => {
+                // x̃ = K (σx − q + Cᵀ(Rz − y)).
+                let w: Vec<T> = (0..self.rows())
+                    .map(|i| self.rho[i] * p.z[i] - p.y[i])
+                    .collect();
+                let ctw = self.Ct(&w);
+                let rhs: Vec<T> = (0..n)
+                    .map(|i| self.sigma * p.x[i] - self.q[i] + ctw[i])
+                    .collect();
+                self.solve(rhs)
+            }
+            Form::Residual => {
+                // x̃ = x + K (Cᵀ(R(z − Cx) − y) − (Px + q)).
+                let cx = self.C(&p.x);
+                let w: Vec<T> = (0..self.rows())
+                    .map(|i| self.rho[i] * (p.z[i] - cx[i]) - p.y[i])
+                    .collect();
+                let ctw = self.Ct(&w);
+                let px = self.P(&p.x);
+                let r: Vec<T> = (0..n).map(|i| ctw[i] - (px[i] + self.q[i])).collect();
+                let d = self.solve(r);
+                p.x.iter().zip(&d).map(|(x, d)| *x + *d).collect()
+            }
+        }
+    }
+
     /// One iteration of OSQP's Algorithm 1 on (x, z, y).
     pub fn iterate(&self, p: &mut Iterate<T>) {
-        let n = self.n;
         let one = T::of(1.0);
-        // rhs = σx − q + Cᵀ(Rz − y).
-        let w: Vec<T> = (0..self.rows())
-            .map(|i| self.rho[i] * p.z[i] - p.y[i])
-            .collect();
-        let ctw = self.Ct(&w);
-        let rhs: Vec<T> = (0..n)
-            .map(|i| self.sigma * p.x[i] - self.q[i] + ctw[i])
-            .collect();
-        let xt = self.solve(rhs);
+        let xt = self.x_tilde(p);
         let zt = self.C(&xt);
         let (a, b) = (self.alpha, one - self.alpha);
         for (x, t) in p.x.iter_mut().zip(&xt) {
@@ -365,14 +421,7 @@ impl<T: Real> Operator<T> {
         let amax = |v: &[T]| v.iter().fold(0.0_f64, |m, x| m.max(x.wide().abs()));
         let cx = self.C(&p.x);
         let primal: Vec<T> = cx.iter().zip(&p.z).map(|(a, b)| *a - *b).collect();
-        let px: Vec<T> = (0..n)
-            .map(|i| {
-                self.P[i * n..(i + 1) * n]
-                    .iter()
-                    .zip(&p.x)
-                    .fold(T::ZERO, |acc, (a, b)| acc + *a * *b)
-            })
-            .collect();
+        let px = self.P(&p.x);
         let cty = self.Ct(&p.y);
         let dual: Vec<T> = (0..n).map(|i| px[i] + self.q[i] + cty[i]).collect();
         let nan = |v: &[T]| v.iter().any(|x| !x.finite());
@@ -643,11 +692,16 @@ pub fn duals_from_ipm(qp: &InequalityQp, r: &IpmResult) -> DVector<f64> {
 /// Multiply-adds of one iteration by the calibration rule of issue 17 (mat-vec n², sparse products
 /// their nonzeros, a few per element): K·rhs n², Cᵀ(·) and C x̃ nnz(A) each, about 3 per unknown
 /// (rhs, x) and 5 per row of C (the relaxation, the projection, y). The final residuals (once a solve)
-/// are not included: [`residual_macs`]. K·rhs is the two triangular solves with L, n² together.
-pub fn macs_per_iteration(qp: &InequalityQp) -> usize {
+/// are not included: [`residual_macs`]. K·rhs is the two triangular solves with L, n² together. The
+/// residual form adds P x (n²) and C x (nnz(A), and one per row of C for z − Cx).
+pub fn macs_per_iteration(qp: &InequalityQp, form: Form) -> usize {
     let n = qp.n();
     let nnz = qp.A.iter().filter(|v| **v != 0.0).count();
-    n * n + 2 * nnz + 3 * n + 5 * (n + qp.A.nrows())
+    let direct = n * n + 2 * nnz + 3 * n + 5 * (n + qp.A.nrows());
+    match form {
+        Form::Direct => direct,
+        Form::Residual => direct + n * n + nnz + n + qp.A.nrows(),
+    }
 }
 
 /// Multiply-adds of the final residuals and the infeasibility test: P x (n²), C x, Cᵀy and Cᵀδy.
@@ -658,9 +712,15 @@ pub fn residual_macs(qp: &InequalityQp) -> usize {
 }
 
 /// [`macs_per_iteration`] of the MPC's QP ([`ipm::mpc_qp`]), whose structure does not depend on the
-/// data.
+/// data, in the form its certificate chose (direct before it is certified).
 pub fn mpc_macs_per_iteration(qp: &Qp) -> usize {
-    macs_per_iteration(&zero_data(qp))
+    let form = tuning(qp).map_or(Form::Direct, |t| t.form);
+    mpc_macs_per_iteration_in(qp, form)
+}
+
+/// [`macs_per_iteration`] of the MPC's QP in `form`.
+pub fn mpc_macs_per_iteration_in(qp: &Qp, form: Form) -> usize {
+    macs_per_iteration(&zero_data(qp), form)
 }
 
 /// [`residual_macs`] of the MPC's QP: once a solve.
@@ -967,9 +1027,15 @@ pub fn mpc_settings(qp: &Qp, rho: f64) -> Settings {
     Settings::scaled(&zero_data(qp), rho)
 }
 
-/// The settings a certified ADMM problem runs with: [`mpc_settings`] at the ρ its certificate tuned
-/// (`None` before it is certified, or for another method).
+/// What the certificate of an ADMM problem chose (`None` before it is certified, or for another
+/// method).
+pub fn tuning(qp: &Qp) -> Option<AdmmTuning> {
+    qp.evidence.as_ref()?.admm
+}
+
+/// The settings a certified ADMM problem runs with: [`mpc_settings`] at the ρ its certificate tuned,
+/// in the form it chose (`None` before it is certified, or for another method).
 pub fn certified_settings(qp: &Qp) -> Option<Settings> {
-    let rho = qp.evidence.as_ref()?.rho?;
-    Some(mpc_settings(qp, rho))
+    let t = tuning(qp)?;
+    Some(mpc_settings(qp, t.rho).in_form(t.form))
 }
