@@ -181,6 +181,8 @@ pub fn solver_scalar(method: Method, scalar: Scalar) -> Scalar {
 pub struct StepCost {
     /// The machine.
     pub machine: Machine,
+    /// The solver, in words (ADMM's form named where it is the residual one).
+    pub solver: &'static str,
     /// The solver's iterations per step.
     pub iterations: usize,
     /// Multiply-adds of one iteration.
@@ -216,8 +218,17 @@ impl StepCost {
         let other_macs = r.macs_per_cycle.saturating_sub(solver_macs);
         let solver_cycles_per_mac = machine.solver_cycles_per_mac(method, p.scalar);
         let solver_cycles = solver_macs as f64 * solver_cycles_per_mac;
+        let solver = match (method, crate::admm::tuning(&p.qp).map(|t| t.form)) {
+            (Method::Admm, Some(crate::admm::Form::Residual)) => "ADMM (residual form)",
+            (Method::Admm, _) => "ADMM",
+            (Method::Ipm, _) => "the interior-point method",
+            (Method::Fgm, _) => "FGM",
+            (Method::Gradient, _) => "projected gradient",
+            (Method::Auto, _) => "the solver",
+        };
         StepCost {
             machine,
+            solver,
             iterations: p.qp.iterations,
             macs_per_iteration: r.macs_per_iteration,
             solver_macs,
@@ -269,8 +280,9 @@ pub fn check_period(spec: &Spec, cost: &StepCost) -> Result<(), Diagnostic> {
     .related(
         span("mpc.iterations"),
         format!(
-            "{} iterations of {} multiply-adds in {}: {:.2e} cycles",
+            "{} iterations of {}, {} multiply-adds each, in {}: {:.2e} cycles",
             cost.iterations,
+            cost.solver,
             cost.macs_per_iteration,
             cost.solver_scalar.name(),
             cost.solver_cycles

@@ -80,6 +80,14 @@ fn hover_on_the_m4f_reaches_its_accuracy_in_residual_form_and_is_refused_on_its_
         line_at(&src, d.span.as_ref().expect("located")),
         "dt = 0.05"
     );
+    // The count's label names the solver and its form.
+    assert!(
+        d.related[0]
+            .1
+            .contains(" iterations of ADMM (residual form), "),
+        "{:?}",
+        d.related
+    );
 }
 
 #[test]
