@@ -333,12 +333,13 @@ impl Certificate {
             field("sampled.limits.dual", "SAMPLED_DUAL_LIMIT", "Final relative dual residual above which the solve falls back.", SAMPLED, "fallback above relative dual residual", Plain, Real(e.limits.dual)),
         ];
         fields.splice(at..at, evidence);
-        if let Some(rho) = e.admm.map(|a| a.rho) {
+        if let (Some(rho), Some(form)) = (e.rho, e.admm_form) {
+            let label = format!("ADMM's ρ (tuned on the sample), {} form", form.name());
             let at = fields
                 .iter()
                 .position(|f| f.json == "sampled.limits.primal")
                 .unwrap_or(fields.len());
-            fields.insert(at, field("sampled.rho", "SAMPLED_RHO", "ADMM's penalty ρ, tuned on the sample (each row's penalty is ρ times the row's curvature).", SAMPLED, "ADMM's ρ (tuned on the sample)", Plain, Real(rho)));
+            fields.insert(at, field("sampled.rho", "SAMPLED_RHO", "ADMM's penalty ρ, tuned on the sample (each row's penalty is ρ times the row's curvature).", SAMPLED, &label, Plain, Real(rho)));
         }
         fields
     }

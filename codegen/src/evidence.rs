@@ -59,18 +59,12 @@ pub struct Evidence {
     /// Multiply-adds the sample took at build time (against [`crate::budget::LOWERING_MACS`]), ADMM's
     /// tuning of ρ included.
     pub sample_macs: f64,
-    /// ADMM's parameters the sample was run with; `None` for the other methods.
-    pub admm: Option<AdmmTuning>,
-}
-
-/// ADMM's build-time choices, which the emitter and the oracle run with.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct AdmmTuning {
-    /// The penalty ρ, tuned on the sample ([`crate::admm::tune_rho`]; each row's penalty is ρ times its
-    /// curvature, [`crate::admm::row_scales`]).
-    pub rho: f64,
-    /// How x̃ is computed ([`crate::admm::Form`]).
-    pub form: mpc_spec::AdmmForm,
+    /// ADMM's penalty ρ, tuned on the sample ([`crate::admm::tune_rho`]; each row's penalty is ρ times
+    /// its curvature, [`crate::admm::row_scales`]); `None` for the other methods.
+    pub rho: Option<f64>,
+    /// How ADMM's x-update is computed ([`crate::admm::Form`]), chosen or as written; `None` for the
+    /// other methods.
+    pub admm_form: Option<mpc_spec::AdmmForm>,
 }
 
 /// The limits above which a fixed-iteration solve is not trusted and [`crate::ipm::Fallback::WarmStart`] is used.

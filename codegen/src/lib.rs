@@ -145,20 +145,20 @@ pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
             // ρ measured on part of the sample (in f64, where the forms agree), then the whole sample
             // at that ρ in the written form; without one, the direct form, and in f32 the residual
             // form where the direct one misses `accuracy` (its rounded factor biases the fixed point).
+            // The retry counts the failed attempt's multiply-adds against the build's budget.
             let (rho, tuning_macs) = sampling::tune_admm(spec, &problem)?;
-            let certify = |form| {
-                let method = sampling::Admm::new(&problem, rho, form, tuning_macs);
-                sampling::certify(spec, &problem, &method, 0)
+            let certify = |form, spent| {
+                let method = sampling::Admm::new(&problem, rho, form, spent);
+                sampling::certify_metered(spec, &problem, &method, 0)
             };
-            match spec.mpc.admm_form {
-                Some(form) => Some(certify(form)?),
-                None => match certify(admm::Form::Direct) {
-                    Ok(evidence) => Some(evidence),
-                    Err(_) if problem.scalar == mpc_spec::Scalar::F32 => {
-                        Some(certify(admm::Form::Residual)?)
-                    }
-                    Err(e) => return Err(e),
-                },
+            let form = spec.mpc.admm_form.unwrap_or(admm::Form::Direct);
+            let retry = spec.mpc.admm_form.is_none() && problem.scalar == mpc_spec::Scalar::F32;
+            match certify(form, tuning_macs) {
+                Ok(evidence) => Some(evidence),
+                Err((_, spent)) if retry => Some(
+                    certify(admm::Form::Residual, spent).map_err(|(diagnostics, _)| diagnostics)?,
+                ),
+                Err((diagnostics, _)) => return Err(diagnostics),
             }
         }
         (_, None) => Some(sampling::certify(

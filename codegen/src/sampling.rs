@@ -22,7 +22,7 @@
 //! [`LIMIT_FLOOR`]), above which the emitted solver falls back.
 #![allow(non_snake_case)]
 
-use crate::evidence::{AdmmTuning, Limits};
+use crate::evidence::Limits;
 pub use crate::evidence::{Evidence, Region};
 use crate::lower::{Problem, Qp};
 use crate::solver::ipm::{
@@ -107,7 +107,7 @@ pub trait Sampled {
     /// Whether the method's final residuals are limited at run time ([`Limits`]).
     fn limits_residuals(&self) -> bool;
     /// The tuned parameters the evidence reports (ADMM's ρ and form); `None` for a method without them.
-    fn admm(&self) -> Option<AdmmTuning> {
+    fn admm(&self) -> Option<crate::admm::Tuned> {
         None
     }
     /// Multiply-adds spent before the sample (ADMM's tuning of ρ), counted against the build's budget.
@@ -420,8 +420,8 @@ impl Sampled for Admm {
         true
     }
 
-    fn admm(&self) -> Option<AdmmTuning> {
-        Some(AdmmTuning {
+    fn admm(&self) -> Option<crate::admm::Tuned> {
+        Some(crate::admm::Tuned {
             rho: self.rho,
             form: self.settings.form,
         })
@@ -583,11 +583,32 @@ pub fn certify<M: Sampled>(
     method: &M,
     floor: usize,
 ) -> Result<Evidence, Diagnostics> {
-    let region = resolve_region(spec, p)?;
-    check_budget(spec, p, method)?;
+    certify_metered(spec, p, method, floor).map_err(|(d, _)| d)
+}
+
+/// [`certify`], with the multiply-adds spent (the method's [`Sampled::spent_before`] included) beside a
+/// failure, so that a retry counts them against the build's budget.
+pub fn certify_metered<M: Sampled>(
+    spec: &Spec,
+    p: &Problem,
+    method: &M,
+    floor: usize,
+) -> Result<Evidence, (Diagnostics, f64)> {
     let mut spent = Spent {
         macs: method.spent_before(),
     };
+    certify_spending(spec, p, method, floor, &mut spent).map_err(|d| (d, spent.macs))
+}
+
+fn certify_spending<M: Sampled>(
+    spec: &Spec,
+    p: &Problem,
+    method: &M,
+    floor: usize,
+    spent: &mut Spent,
+) -> Result<Evidence, Diagnostics> {
+    let region = resolve_region(spec, p)?;
+    check_budget(spec, p, method)?;
     let qp = &p.qp;
     let span = |key: &str| spec.spans.get(key);
     let Sample {
@@ -611,9 +632,7 @@ pub fn certify<M: Sampled>(
             infeasible_cases += 1;
             continue;
         }
-        let measured = measure(
-            method, qp, &problem, &cold, &exact, &offset, 0, &mut spent, spec,
-        )?;
+        let measured = measure(method, qp, &problem, &cold, &exact, &offset, 0, spent, spec)?;
         let Some((run, k)) = measured else {
             return Err(not_reached(spec, method, "a cold case", c).into());
         };
@@ -637,7 +656,7 @@ pub fn certify<M: Sampled>(
     let mut count = fixed.unwrap_or((cold_worst + margin(cold_worst)).max(floor));
     let mut warm = Warm::default();
     for _ in 0..4 {
-        warm = warm_sequences(p, method, &starts, steps, count, spec, &mut spent)?;
+        warm = warm_sequences(p, method, &starts, steps, count, spec, spent)?;
         let worst = warm
             .counts
             .iter()
@@ -714,7 +733,8 @@ pub fn certify<M: Sampled>(
         limits,
         fallbacks: warm.fallbacks,
         sample_macs: spent.macs,
-        admm: method.admm(),
+        rho: method.admm().map(|t| t.rho),
+        admm_form: method.admm().map(|t| t.form),
     })
 }
 

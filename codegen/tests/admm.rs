@@ -533,11 +533,11 @@ fn the_certificate_tunes_rho_and_samples_the_region() {
             let start = std::time::Instant::now();
             let p = codegen::lower(&spec).unwrap();
             let e = p.qp.evidence.as_ref().expect("ADMM is sampled");
-            let tuning = e.admm.expect("ADMM's certificate carries its ρ");
-            let rho = tuning.rho;
+            let rho = e.rho.expect("ADMM's certificate carries its ρ");
+            let form = e.admm_form.expect("and its form");
             println!(
                 "{name} admm {scalar}: ρ = {rho:.3e}, {:?} form, {} iterations (cold worst {}, warm worst {}), worst error {:.2e}, limits {:.1e}/{:.1e}, {} fallbacks, {:.2e} multiply-adds sampled, {:.1} s",
-                tuning.form, e.iterations, e.cold_worst, e.warm_worst, e.worst_error, e.limits.primal, e.limits.dual,
+                form, e.iterations, e.cold_worst, e.warm_worst, e.worst_error, e.limits.primal, e.limits.dual,
                 e.fallbacks, e.sample_macs, start.elapsed().as_secs_f64()
             );
             assert!(rho > 0.0 && rho.is_finite());

@@ -53,7 +53,7 @@ fn hover_on_the_m4f_reaches_its_accuracy_in_residual_form_and_is_refused_on_its_
     assert_eq!(p.qp.method, Method::Admm);
     let e = p.qp.evidence.as_ref().expect("sampled");
     assert_eq!(
-        e.admm.expect("ADMM's tuning").form,
+        e.admm_form.expect("ADMM's form"),
         codegen::admm::Form::Residual
     );
     assert!(e.worst_needed <= e.iterations, "{e:?}");

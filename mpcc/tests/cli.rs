@@ -229,6 +229,25 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 #[test]
+fn check_names_admm_s_rho_and_form() {
+    let spec = "tests/specs/linear-admm-residual-f32.toml";
+    let o = mpcc(&["check", spec, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["sampled"]["admm_form"], "residual");
+    assert!(v["sampled"]["rho"].as_f64().unwrap() > 0.0);
+    let text = stdout(&mpcc(&["check", spec]));
+    assert!(
+        text.contains("ADMM's ρ (tuned on the sample), residual form"),
+        "{text}"
+    );
+    // Another method has neither.
+    let o = mpcc(&["check", "specs/paper.toml", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["sampled"].is_null() || v["sampled"]["admm_form"].is_null());
+}
+
+#[test]
 fn check_reports_the_disturbance_time_constant_of_an_offset_free_spec() {
     let o = mpcc(&["check", "specs/paper-offset-free.toml", "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -32,7 +32,7 @@
 //! curvature [`row_scales`], so one number serves rows of different units.
 #![allow(non_snake_case)]
 
-use crate::evidence::{AdmmTuning, Limits};
+use crate::evidence::Limits;
 use crate::lower::Qp;
 use crate::solver::ipm::{self, InequalityQp, IpmResult, Layout};
 use nalgebra::{DMatrix, DVector};
@@ -1029,8 +1029,21 @@ pub fn mpc_settings(qp: &Qp, rho: f64) -> Settings {
 
 /// What the certificate of an ADMM problem chose (`None` before it is certified, or for another
 /// method).
-pub fn tuning(qp: &Qp) -> Option<AdmmTuning> {
-    qp.evidence.as_ref()?.admm
+pub fn tuning(qp: &Qp) -> Option<Tuned> {
+    let e = qp.evidence.as_ref()?;
+    Some(Tuned {
+        rho: e.rho?,
+        form: e.admm_form?,
+    })
+}
+
+/// ADMM's build-time choices, which the emitter and the oracle run with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tuned {
+    /// The penalty ρ ([`tune_rho`]).
+    pub rho: f64,
+    /// The x-update's form.
+    pub form: Form,
 }
 
 /// The settings a certified ADMM problem runs with: [`mpc_settings`] at the ρ its certificate tuned,
