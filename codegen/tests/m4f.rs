@@ -43,7 +43,7 @@ fn refusal(src: &str) -> Diagnostic {
 }
 
 /// Hover's ADMM reaches `accuracy` in f32 only in the residual form (the direct form's rounded factor
-/// biases its fixed point past it), and is then refused for its period: some 5,600 iterations of
+/// biases its fixed point past it), and is then refused for its period: some 2,800 iterations of
 /// 12,200 multiply-adds at 4 cycles each, against the 8.4e6 cycles of 50 ms at 168 MHz.
 #[test]
 fn hover_on_the_m4f_reaches_its_accuracy_in_residual_form_and_is_refused_on_its_period() {
@@ -101,7 +101,7 @@ fn paper_limits_on_the_m4f_is_refused_on_its_period() {
         "{}",
         d.message
     );
-    // About 5.7e7 cycles: ADMM's iterations at its 4.0 cycles a multiply-add, some 27 periods.
+    // About 3.7e7 cycles: ADMM's iterations at its 4.0 cycles a multiply-add, some 17 periods.
     let cycles: f64 = d.message["a control step needs about ".len()..]
         .split(' ')
         .next()

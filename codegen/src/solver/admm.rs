@@ -986,11 +986,14 @@ pub fn tune_rho(
     let mut iterations_run = 0;
     let mut trial =
         |rho: f64, grid: &mut Vec<(f64, Option<usize>)>, best: &mut Option<(f64, usize)>| {
+            // A count is known once the error has stayed settled for as long again ([`Case::needed`]),
+            // so a candidate that may beat the best count w runs up to about 2w.
             let limit = best.map_or(cap, |(_, w)| w.min(cap));
+            let run = best.map_or(cap, |(_, w)| (2 * w + 20).min(cap));
             let mut worst = 0;
             for c in cases {
                 let settings = settings(&c.qp, rho);
-                match c.needed_counted::<f64>(&settings, accuracy, limit, &mut iterations_run) {
+                match c.needed_counted::<f64>(&settings, accuracy, run, &mut iterations_run) {
                     Some(k) if k <= limit => worst = worst.max(k),
                     _ => {
                         grid.push((rho, None));
