@@ -148,7 +148,7 @@ pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
             // The retry counts the failed attempt's multiply-adds against the build's budget.
             let (rho, tuning_macs) = sampling::tune_admm(spec, &problem)?;
             let certify = |form, spent| {
-                let method = sampling::Admm::new(&problem, rho, form, spent);
+                let method = sampling::Admm::new(&problem, admm::Tuned { rho, form }, spent);
                 sampling::certify_metered(spec, &problem, &method, 0)
             };
             let form = spec.mpc.admm_form.unwrap_or(admm::Form::Direct);

@@ -316,11 +316,11 @@ fn plain_iterate(z: DVector<f64>) -> Iterate {
 /// f32 iteration: the certificate measures what the emitted solver does), warm-started from the
 /// shifted (x, z, y).
 pub struct Admm {
-    /// The penalty (each row's is ρ times its curvature).
-    pub rho: f64,
+    /// The penalty (each row's is ρ times its curvature) and the x-update's form.
+    pub tuned: crate::admm::Tuned,
     /// Whether the iteration runs in f32.
     pub f32: bool,
-    /// [`crate::admm::mpc_settings`] at `rho`, in the form sampled.
+    /// [`crate::admm::mpc_settings`] of `tuned`.
     pub settings: crate::admm::Settings,
     /// The multiply-adds the tuning spent.
     pub tuning_macs: f64,
@@ -330,12 +330,12 @@ pub struct Admm {
 pub const ADMM_PROBE: (usize, usize) = (256, 20000);
 
 impl Admm {
-    /// ADMM on `p` at penalty `rho` in `form`, in `p`'s scalar.
-    pub fn new(p: &Problem, rho: f64, form: crate::admm::Form, tuning_macs: f64) -> Self {
+    /// ADMM on `p` as `tuned` says, in `p`'s scalar.
+    pub fn new(p: &Problem, tuned: crate::admm::Tuned, tuning_macs: f64) -> Self {
         Admm {
-            rho,
+            tuned,
             f32: p.scalar == mpc_spec::Scalar::F32,
-            settings: crate::admm::mpc_settings(&p.qp, rho).in_form(form),
+            settings: crate::admm::mpc_settings(&p.qp, tuned.rho).in_form(tuned.form),
             tuning_macs,
         }
     }
@@ -421,10 +421,7 @@ impl Sampled for Admm {
     }
 
     fn admm(&self) -> Option<crate::admm::Tuned> {
-        Some(crate::admm::Tuned {
-            rho: self.rho,
-            form: self.settings.form,
-        })
+        Some(self.tuned)
     }
 
     fn spent_before(&self) -> f64 {
