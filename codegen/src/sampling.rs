@@ -320,7 +320,7 @@ pub struct Admm {
     pub tuned: crate::admm::Tuned,
     /// Whether the iteration runs in f32.
     pub f32: bool,
-    /// [`crate::admm::mpc_settings`] of `tuned`.
+    /// [`crate::admm::tuned_settings`] of `tuned`.
     pub settings: crate::admm::Settings,
     /// The multiply-adds the tuning spent.
     pub tuning_macs: f64,
@@ -335,7 +335,7 @@ impl Admm {
         Admm {
             tuned,
             f32: p.scalar == mpc_spec::Scalar::F32,
-            settings: crate::admm::mpc_settings(&p.qp, tuned.rho).in_form(tuned.form),
+            settings: crate::admm::tuned_settings(&p.qp, tuned),
             tuning_macs,
         }
     }

@@ -38,6 +38,10 @@ use crate::solver::ipm::{self, InequalityQp, IpmResult, Layout};
 use nalgebra::{DMatrix, DVector};
 use std::fmt::Debug;
 use std::ops::{Add, Div, Mul, Neg, Sub};
+use std::sync::Arc;
+
+mod stages;
+pub use stages::{program as stages_program, Program, Statement, Structure, ZERO_SLOT};
 
 /// Its name in prose.
 pub const TITLE: &str = "ADMM (OSQP's operator splitting, dense on the condensed QP)";
@@ -139,6 +143,8 @@ pub struct Settings {
     pub alpha: f64,
     /// How x̃ is computed.
     pub form: Form,
+    /// The stage-wise x-update ([`Structure::Riccati`]), or `None` for the condensed one.
+    pub stages: Option<Arc<Program>>,
 }
 
 /// Each row's curvature: the objective's curvature along the row, 1/(c_i P⁻¹ c_iᵀ) (the inverse of
@@ -188,12 +194,25 @@ impl Settings {
             sigma: sigma_of(qp),
             alpha: ALPHA,
             form: Form::Direct,
+            stages: None,
         }
     }
 
-    /// The same settings with the x-update in `form`.
+    /// The same settings with the x-update in `form` (condensed).
     pub fn in_form(self, form: Form) -> Self {
-        Settings { form, ..self }
+        Settings {
+            form,
+            stages: None,
+            ..self
+        }
+    }
+
+    /// How the x-update is solved.
+    pub fn structure(&self) -> Structure {
+        match self.stages {
+            Some(_) => Structure::Riccati,
+            None => Structure::Condensed,
+        }
     }
 }
 
@@ -202,7 +221,8 @@ impl Settings {
 pub struct Operator<T> {
     /// Unknowns n.
     pub n: usize,
-    /// The lower Cholesky factor L of K⁻¹ = P + σI + CᵀRC, row-major n × n (zero above the diagonal).
+    /// The lower Cholesky factor L of K⁻¹ = P + σI + CᵀRC, row-major n × n (zero above the diagonal);
+    /// empty with the stage-wise x-update.
     /// The factor, not K itself: a factor rounded to f32 is the exact factor of a matrix within
     /// ε·‖M‖ of M, where a rounded inverse is the inverse of one within ε·κ(M)·‖M‖, which moved the
     /// f32 iteration's fixed point by 1 % of the span on the hover QP (κ(H) = 2.8e4; `tests/admm.rs`).
@@ -229,6 +249,8 @@ pub struct Operator<T> {
     pub alpha: T,
     /// How x̃ is computed.
     pub form: Form,
+    /// The stage-wise x-update in T (`None`: the condensed one with L).
+    pub stages: Option<stages::Kernel<T>>,
 }
 
 /// The lower Cholesky factor L of M = P + σI + CᵀRC (M = L Lᵀ) in f64, `None` when M is not positive
@@ -254,24 +276,27 @@ impl<T: Real> Operator<T> {
         if settings.rho.len() != n + m || settings.rho.iter().any(|r| r.is_nan() || *r <= 0.0) {
             return None;
         }
-        let L = factor(qp, settings)?;
+        let L = match settings.stages {
+            Some(_) => DMatrix::zeros(0, 0),
+            None => factor(qp, settings)?,
+        };
         Some(Self::with_factor(qp, settings, &L))
     }
 
     /// As [`Operator::new`] with the factor L given (it depends on H, A and the settings only, not on
-    /// the data).
+    /// the data; unused, and may be empty, with the stage-wise x-update).
     pub fn with_factor(qp: &InequalityQp, settings: &Settings, L: &DMatrix<f64>) -> Self {
         let n = qp.n();
         let m = qp.A.nrows();
         let table = |M: &DMatrix<f64>| {
-            (0..n * n)
+            (0..M.nrows() * M.ncols())
                 .map(|k| T::of(M[(k / n, k % n)]))
                 .collect::<Vec<T>>()
         };
         Operator {
             n,
             L: table(L),
-            L_inv: (0..n).map(|i| T::of(1.0 / L[(i, i)])).collect(),
+            L_inv: (0..L.nrows()).map(|i| T::of(1.0 / L[(i, i)])).collect(),
             P: table(&qp.H),
             A: (0..m)
                 .map(|r| {
@@ -299,6 +324,7 @@ impl<T: Real> Operator<T> {
             sigma: T::of(settings.sigma),
             alpha: T::of(settings.alpha),
             form: settings.form,
+            stages: settings.stages.as_deref().map(stages::Kernel::new),
         }
     }
 
@@ -332,6 +358,9 @@ impl<T: Real> Operator<T> {
 
     /// K b = L⁻ᵀ L⁻¹ b: the forward substitution, then the backward one (n² multiply-adds).
     pub fn solve(&self, mut b: Vec<T>) -> Vec<T> {
+        if self.L.len() != self.n * self.n {
+            return vec![T::of(f64::NAN); self.n];
+        }
         let n = self.n;
         for i in 0..n {
             let row = &self.L[i * n..i * n + i];
@@ -361,10 +390,24 @@ impl<T: Real> Operator<T> {
             .collect()
     }
 
-    /// x̃, the solution of (P + σI + CᵀRC) x̃ = σx − q + Cᵀ(Rz − y), in the settings' form.
-    fn x_tilde(&self, p: &Iterate<T>) -> Vec<T> {
+    /// x̃, the solution of (P + σI + CᵀRC) x̃ = σx − q + Cᵀ(Rz − y), in the settings' form and
+    /// structure, and z̃ = C x̃.
+    fn x_tilde(&self, p: &Iterate<T>) -> (Vec<T>, Vec<T>) {
         let n = self.n;
-        match self.form {
+        if let (Form::Direct, Some(kernel)) = (self.form, &self.stages) {
+            // The rows' share of Cᵀw enters the stage-wise sweep, which gives z̃'s rows as it rolls out.
+            let w: Vec<T> = (0..self.rows())
+                .map(|i| self.rho[i] * p.z[i] - p.y[i])
+                .collect();
+            let b: Vec<T> = (0..n)
+                .map(|i| self.sigma * p.x[i] - self.q[i] + w[i])
+                .collect();
+            let (xt, rows) = kernel.solve(&b, &w[n..]);
+            let mut zt = xt.clone();
+            zt.extend(rows);
+            return (xt, zt);
+        }
+        let xt = match self.form {
             Form::Direct => {
                 // x̃ = K (σx − q + Cᵀ(Rz − y)).
                 let w: Vec<T> = (0..self.rows())
@@ -388,14 +431,15 @@ impl<T: Real> Operator<T> {
                 let d = self.solve(r);
                 p.x.iter().zip(&d).map(|(x, d)| *x + *d).collect()
             }
-        }
+        };
+        let zt = self.C(&xt);
+        (xt, zt)
     }
 
     /// One iteration of OSQP's Algorithm 1 on (x, z, y).
     pub fn iterate(&self, p: &mut Iterate<T>) {
         let one = T::of(1.0);
-        let xt = self.x_tilde(p);
-        let zt = self.C(&xt);
+        let (xt, zt) = self.x_tilde(p);
         let (a, b) = (self.alpha, one - self.alpha);
         for (x, t) in p.x.iter_mut().zip(&xt) {
             *x = a * *t + b * *x;
@@ -711,11 +755,23 @@ pub fn residual_macs(qp: &InequalityQp) -> usize {
     n * n + 3 * nnz + 4 * (n + qp.A.nrows())
 }
 
+/// [`macs_per_iteration`] with the x-update in the settings' structure: the stage-wise [`Program`]'s
+/// multiply-adds replace K·rhs and the products with C and Cᵀ.
+pub fn settings_macs_per_iteration(qp: &InequalityQp, settings: &Settings) -> usize {
+    match &settings.stages {
+        Some(program) => program.macs() + 3 * qp.n() + 5 * (qp.n() + qp.A.nrows()),
+        None => macs_per_iteration(qp, settings.form),
+    }
+}
+
 /// [`macs_per_iteration`] of the MPC's QP ([`ipm::mpc_qp`]), whose structure does not depend on the
-/// data, in the form its certificate chose (direct before it is certified).
+/// data, in the form and structure its certificate chose (condensed and direct before it is
+/// certified).
 pub fn mpc_macs_per_iteration(qp: &Qp) -> usize {
-    let form = tuning(qp).map_or(Form::Direct, |t| t.form);
-    mpc_macs_per_iteration_in(qp, form)
+    match certified_settings(qp) {
+        Some(settings) => settings_macs_per_iteration(&zero_data(qp), &settings),
+        None => mpc_macs_per_iteration_in(qp, Form::Direct),
+    }
 }
 
 /// [`macs_per_iteration`] of the MPC's QP in `form`.
@@ -1049,9 +1105,73 @@ pub struct Tuned {
     pub form: Form,
 }
 
-/// The settings a certified ADMM problem runs with: [`mpc_settings`] at the ρ its certificate tuned,
-/// in the form it chose (`None` before it is certified, or for another method).
+/// The settings a certified ADMM problem runs with: [`tuned_settings`] of what its certificate chose
+/// (`None` before it is certified, or for another method).
 pub fn certified_settings(qp: &Qp) -> Option<Settings> {
-    let t = tuning(qp)?;
-    Some(mpc_settings(qp, t.rho).in_form(t.form))
+    Some(tuned_settings(qp, tuning(qp)?))
+}
+
+/// [`mpc_settings`] at `tuned`'s ρ in its form, the x-update in the structure [`StructureChoice`]
+/// picks.
+pub fn tuned_settings(qp: &Qp, tuned: Tuned) -> Settings {
+    let settings = mpc_settings(qp, tuned.rho).in_form(tuned.form);
+    let choice = StructureChoice::of(qp, &settings);
+    Settings {
+        stages: choice.program.map(Arc::new),
+        ..settings
+    }
+}
+
+/// The cost model's choice of the x-update's [`Structure`], with both counts.
+#[derive(Clone, Debug)]
+pub struct StructureChoice {
+    /// The structure used: the stage-wise one where it is built for the problem and counts fewer
+    /// multiply-adds an iteration.
+    pub structure: Structure,
+    /// Multiply-adds of one iteration, condensed.
+    pub condensed_macs_per_iteration: usize,
+    /// Multiply-adds of one iteration, stage-wise (`None` where it is not built).
+    pub riccati_macs_per_iteration: Option<usize>,
+    /// Why the stage-wise x-update is not built for the problem.
+    pub riccati_unavailable: Option<String>,
+    /// The stage-wise program, where chosen.
+    pub program: Option<Program>,
+}
+
+impl StructureChoice {
+    /// The choice for `qp` with `settings` (their ρ, σ and form; their structure is ignored).
+    pub fn of(qp: &Qp, settings: &Settings) -> Self {
+        let structure_qp = zero_data(qp);
+        let condensed = Settings {
+            stages: None,
+            ..settings.clone()
+        };
+        let condensed_macs = settings_macs_per_iteration(&structure_qp, &condensed);
+        match stages::program(qp, settings) {
+            Ok(program) => {
+                let riccati = program.macs()
+                    + 3 * structure_qp.n()
+                    + 5 * (structure_qp.n() + structure_qp.A.nrows());
+                let chosen = riccati < condensed_macs;
+                StructureChoice {
+                    structure: if chosen {
+                        Structure::Riccati
+                    } else {
+                        Structure::Condensed
+                    },
+                    condensed_macs_per_iteration: condensed_macs,
+                    riccati_macs_per_iteration: Some(riccati),
+                    riccati_unavailable: None,
+                    program: chosen.then_some(program),
+                }
+            }
+            Err(why) => StructureChoice {
+                structure: Structure::Condensed,
+                condensed_macs_per_iteration: condensed_macs,
+                riccati_macs_per_iteration: None,
+                riccati_unavailable: Some(why),
+                program: None,
+            },
+        }
+    }
 }

@@ -456,12 +456,16 @@ struct StageHessians {
 /// Y = M_uu⁻¹·M_uσ and the Cholesky factor of the Schur complement S = M_σσ − M_uσᵀ·Y.
 #[derive(Clone, Debug)]
 pub struct Factor {
-    A: DMatrix<f64>,
-    B: DMatrix<f64>,
-    gains: Vec<DMatrix<f64>>,
-    pivots: Vec<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
-    coupling: DMatrix<f64>,
-    schur: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
+    pub(crate) A: DMatrix<f64>,
+    pub(crate) B: DMatrix<f64>,
+    /// K_k per stage (nu × nx).
+    pub(crate) gains: Vec<DMatrix<f64>>,
+    /// Re_k's Cholesky factor per stage.
+    pub(crate) pivots: Vec<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
+    /// Y = M_uu⁻¹·M_uσ (N·nu × ns).
+    pub(crate) coupling: DMatrix<f64>,
+    /// The Schur complement's Cholesky factor, with slacks.
+    pub(crate) schur: Option<nalgebra::Cholesky<f64, nalgebra::Dyn>>,
 }
 
 impl Factor {
