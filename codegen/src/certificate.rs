@@ -140,6 +140,9 @@ pub struct Certificate {
     /// The interior-point method's form of its normal system, with the multiply-adds of an iteration in
     /// each form ([`crate::solver::riccati::Choice`]); `None` for the other methods.
     pub normal_form: Option<crate::solver::riccati::Choice>,
+    /// ADMM's structure of its x-update, with the multiply-adds of an iteration in each
+    /// ([`crate::admm::StructureChoice`]); `None` for the other methods and before ρ is tuned.
+    pub admm_structure: Option<crate::admm::StructureChoice>,
     /// The method as written (`auto` when it was not); the method used is the problem's.
     pub method_requested: mpc_spec::Method,
     /// What `method = "auto"` weighed ([`crate::choice`]); empty for a written method.
@@ -599,6 +602,15 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
         accuracy: qp.accuracy,
         normal_form: (plan.algorithm.is_none() && qp.method == mpc_spec::Method::Ipm)
             .then(|| crate::solver::riccati::Choice::of(qp)),
+        admm_structure: (qp.method == mpc_spec::Method::Admm)
+            .then(|| crate::admm::tuning(qp))
+            .flatten()
+            .map(|t| {
+                crate::admm::StructureChoice::of(
+                    qp,
+                    &crate::admm::mpc_settings(qp, t.rho).in_form(t.form),
+                )
+            }),
         method_requested: p.requested,
         candidates: p.candidates.clone(),
         disturbance_time_constant: p.filter.as_ref().filter(|f| f.nd > 0).map(|f| {

@@ -413,7 +413,7 @@ impl Sampled for Admm {
     }
 
     fn macs_per_iteration(&self, qp: &Qp) -> usize {
-        crate::admm::mpc_macs_per_iteration_in(qp, self.settings.form)
+        crate::admm::mpc_settings_macs_per_iteration(qp, &self.settings)
     }
 
     fn limits_residuals(&self) -> bool {

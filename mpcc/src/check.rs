@@ -170,6 +170,12 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             normal_form_lines(choice),
         ));
     }
+    if let Some(choice) = &c.admm_structure {
+        sections.push((
+            "x-update of ADMM (cost model: the cheaper structure that is built)",
+            structure_lines(choice),
+        ));
+    }
     sections.push((
         "emission of the gradient (cost model; force with [codegen] emission)",
         emission_lines(c),
@@ -386,6 +392,43 @@ fn normal_form_lines(choice: &codegen::riccati::Choice) -> Vec<(String, String)>
             ),
         ),
         (name(Form::Riccati), riccati),
+    ]
+}
+
+/// One line per structure of ADMM's x-update: its multiply-adds per iteration, or why it is not built
+/// for the problem, and which one is used.
+fn structure_lines(choice: &codegen::admm::StructureChoice) -> Vec<(String, String)> {
+    use codegen::admm::Structure;
+    let name = |s: Structure| {
+        format!(
+            "{}{}",
+            s.name(),
+            if s == choice.structure {
+                " (chosen)"
+            } else {
+                ""
+            }
+        )
+    };
+    let riccati = match (
+        &choice.riccati_unavailable,
+        choice.riccati_macs_per_iteration,
+    ) {
+        (Some(why), _) => format!("unavailable: {why}"),
+        (None, Some(macs)) => format!(
+            "{macs} multiply-adds/iteration (Riccati sweep with gains computed at build time)"
+        ),
+        (None, None) => "unavailable".to_string(),
+    };
+    vec![
+        (
+            name(Structure::Condensed),
+            format!(
+                "{} multiply-adds/iteration (two triangular solves with the dense factor)",
+                choice.condensed_macs_per_iteration
+            ),
+        ),
+        (name(Structure::Riccati), riccati),
     ]
 }
 

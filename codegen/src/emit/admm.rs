@@ -47,14 +47,21 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     let nc = nv + ng;
     let lit = Literal::usize_unsuffixed;
     let [nv_lit, ns_lit, ng_lit, nc_lit] = [nv, ns, ng, nc].map(lit);
-    // The factor of P + σI + CᵀRC. The settings' factor exists: the certificate ran with it.
-    let L =
-        admm::factor(&structure, &settings).unwrap_or_else(|| nalgebra::DMatrix::identity(nv, nv));
+    // The factor of P + σI + CᵀRC, where the x-update is condensed. The settings' factor exists: the
+    // certificate ran with it.
+    let L = settings.stages.is_none().then(|| {
+        admm::factor(&structure, &settings).unwrap_or_else(|| nalgebra::DMatrix::identity(nv, nv))
+    });
     let Sections {
-        kernels: kernel_code,
-        tables: kernel_tables,
+        kernels: mut kernel_code,
+        tables: mut kernel_tables,
         ..
-    } = kernels(num, &structure.A, &L);
+    } = kernels(num, &structure.A, L.as_ref());
+    if let Some(program) = &settings.stages {
+        let staged = super::admm_stages::kernel(num, program, WRITE_OUT_BUDGET);
+        kernel_code.extend(staged.kernels);
+        kernel_tables.extend(staged.tables);
+    }
     let rho_row = num.vector(settings.rho.iter().copied());
     let rho_inv = num.vector(settings.rho.iter().map(|r| 1.0 / r));
     let (sigma, alpha) = (num.lit(settings.sigma), num.lit(settings.alpha));
@@ -199,8 +206,22 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     );
     let (wide_bound_lower, wide_bound_upper) =
         (widen(quote!(ROW_LOWER[j])), widen(quote!(ROW_UPPER[j])));
-    let x_tilde = match form {
-        admm::Form::Direct => quote! {
+    let x_tilde = match (form, &settings.stages) {
+        (admm::Form::Direct, Some(_)) => quote! {
+            // b = σx − q + w on the unknowns; the rows' share of Cᵀw and z̃ = C x̃ are the sweep's.
+            let mut w = [0.0; NC];
+            for i in 0..NC {
+                w[i] = RHO_ROW[i] * z[i] - y[i];
+            }
+            let mut b = [0.0; NV];
+            for i in 0..NV {
+                b[i] = SIGMA * x[i] - q[i] + w[i];
+            }
+            let mut xt = [0.0; NV];
+            let mut zt = [0.0; NC];
+            stage_solve(&b, &w, &mut xt, &mut zt);
+        },
+        (admm::Form::Direct, None) => quote! {
             // x̃ = K (σx − q + Cᵀ(Rz − y)).
             let mut w = [0.0; NC];
             for i in 0..NC {
@@ -213,8 +234,10 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 xt[i] += SIGMA * x[i] - q[i];
             }
             k_solve(&mut xt);
+            let mut zt = [0.0; NC];
+            c_mul(&xt, &mut zt);
         },
-        admm::Form::Residual => quote! {
+        (admm::Form::Residual, _) => quote! {
             // x̃ = x + K (Cᵀ(R(z − Cx) − y) − (Px + q)): the bracket is the x-update's KKT residual, so
             // the fixed point does not depend on the rounding of the factor (the residual form).
             let mut cx = [0.0; NC];
@@ -232,6 +255,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             for (t, xi) in xt.iter_mut().zip(x.iter()) {
                 *t += *xi;
             }
+            let mut zt = [0.0; NC];
+            c_mul(&xt, &mut zt);
         },
     };
     // σ enters the direct form's right-hand side; the residual form has it only inside the factor.
@@ -247,8 +272,12 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             " The x-update is in residual form (x̃ = x + K·r, r its KKT residual), whose fixed point the\n rounding of the factor does not move."
         }
     };
+    let structure_doc = match settings.structure() {
+        admm::Structure::Condensed => "dense on the condensed QP",
+        admm::Structure::Riccati => "its x-update solved stage by stage (a Riccati sweep)",
+    };
     let mpc_doc = format!(
-        " Fixed-iteration, warm-started MPC with state, output and rate constraints: ADMM (OSQP's\n operator splitting) in {real_name}, dense on the condensed QP, with its factor computed at build time.{form_doc}"
+        " Fixed-iteration, warm-started MPC with state, output and rate constraints: ADMM (OSQP's\n operator splitting) in {real_name}, {structure_doc}, with its factor computed at build time.{form_doc}"
     );
     let mpc_doc: Vec<&str> = mpc_doc.split('\n').collect();
     Sections {
@@ -489,8 +518,6 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 dy: &mut [Real; NC],
             ) {
                 #x_tilde
-                let mut zt = [0.0; NC];
-                c_mul(&xt, &mut zt);
                 for (xi, t) in x.iter_mut().zip(xt.iter()) {
                     *xi = ALPHA * t + BETA * *xi;
                 }
@@ -637,7 +664,7 @@ pub const WRITE_OUT_BUDGET: usize = 16_384;
 /// [`WRITE_OUT_BUDGET`], which costs a few instructions a multiply-add where the loops over compressed
 /// rows cost some ten (BENCHMARKS.md, "ADMM on the emulated Cortex-M4F"), else loops over tables.
 /// The tables are those the loops need (none when written out).
-fn kernels(num: Num, A: &nalgebra::DMatrix<f64>, L: &nalgebra::DMatrix<f64>) -> Sections {
+fn kernels(num: Num, A: &nalgebra::DMatrix<f64>, L: Option<&nalgebra::DMatrix<f64>>) -> Sections {
     let (ng, nv) = A.shape();
     let lit = Literal::usize_unsuffixed;
     let rows: Vec<Vec<(usize, f64)>> = (0..ng)
@@ -750,6 +777,13 @@ fn kernels(num: Num, A: &nalgebra::DMatrix<f64>, L: &nalgebra::DMatrix<f64>) -> 
             const A_VAL: [Real; #nnz_lit] = #val;
         });
     }
+    let Some(L) = L else {
+        return Sections {
+            kernels: quote!(#(#code)*),
+            tables: quote!(#(#tables)*),
+            ..Sections::default()
+        };
+    };
     if nv * nv <= WRITE_OUT_BUDGET {
         // b_i ← (b_i − Σ_k L_ik·b_k)·(1/L_ii), then b_i ← (b_i − Σ_j L_ji·b_j)·(1/L_ii), as the reference.
         let step = |i: usize, terms: Vec<(f64, TokenStream)>| {

@@ -1,6 +1,7 @@
 //! The emitter: `quote!` only, no math. It turns a lowered [`Problem`] into the generated module.
 
 mod admm;
+mod admm_stages;
 mod constrained;
 mod controller;
 mod interior;

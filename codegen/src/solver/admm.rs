@@ -764,6 +764,11 @@ pub fn settings_macs_per_iteration(qp: &InequalityQp, settings: &Settings) -> us
     }
 }
 
+/// [`settings_macs_per_iteration`] of the MPC's QP.
+pub fn mpc_settings_macs_per_iteration(qp: &Qp, settings: &Settings) -> usize {
+    settings_macs_per_iteration(&zero_data(qp), settings)
+}
+
 /// [`macs_per_iteration`] of the MPC's QP ([`ipm::mpc_qp`]), whose structure does not depend on the
 /// data, in the form and structure its certificate chose (condensed and direct before it is
 /// certified).
@@ -1123,7 +1128,7 @@ pub fn tuned_settings(qp: &Qp, tuned: Tuned) -> Settings {
 }
 
 /// The cost model's choice of the x-update's [`Structure`], with both counts.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct StructureChoice {
     /// The structure used: the stage-wise one where it is built for the problem and counts fewer
     /// multiply-adds an iteration.
@@ -1135,6 +1140,7 @@ pub struct StructureChoice {
     /// Why the stage-wise x-update is not built for the problem.
     pub riccati_unavailable: Option<String>,
     /// The stage-wise program, where chosen.
+    #[serde(skip)]
     pub program: Option<Program>,
 }
 

@@ -1,0 +1,125 @@
+//! ADMM's stage-wise x-update ([`crate::admm::Program`]) as `stage_solve`: the program's statements over
+//! one scratch array `s`, in its order and with its coefficients, so that the module matches the
+//! reference ([`crate::admm::Operator`] with `Structure::Riccati`) to the bit. Written out, one statement
+//! per line with the coefficients as literals, within [`super::admm::WRITE_OUT_BUDGET`] terms; past it a
+//! loop over the statements in compressed tables.
+
+use super::tokens::{at, Num};
+use super::Sections;
+use crate::admm::{Program, ZERO_SLOT};
+use proc_macro2::Literal;
+use quote::quote;
+
+/// `stage_solve(b, w, xt, zt)` and the tables it reads (none when written out).
+pub fn kernel(num: Num, program: &Program, write_out_budget: usize) -> Sections {
+    let lit = Literal::usize_unsuffixed;
+    let (slots, b_at, w_at, x_at, z_at) = (
+        lit(program.slots),
+        lit(program.b_at),
+        lit(program.w_at),
+        lit(program.x_at),
+        lit(program.z_at),
+    );
+    let (b_end, w_end, x_end, z_end) = (
+        lit(program.b_at + program.nv),
+        lit(program.w_at + program.m),
+        lit(program.x_at + program.nv),
+        lit(program.z_at + program.m),
+    );
+    let head = quote! {
+        let mut s = [0.0; #slots];
+        s[#b_at..#b_end].copy_from_slice(b);
+        s[#w_at..#w_end].copy_from_slice(&w[NV..]);
+    };
+    let tail = quote! {
+        xt.copy_from_slice(&s[#x_at..#x_end]);
+        zt[..NV].copy_from_slice(xt);
+        zt[NV..].copy_from_slice(&s[#z_at..#z_end]);
+    };
+    if program.terms() <= write_out_budget {
+        let statements = program.statements.iter().map(|st| {
+            let base = if st.base == ZERO_SLOT {
+                quote!(0.0)
+            } else {
+                at("s", st.base)
+            };
+            let sum = num.fold(base, st.terms.iter().map(|&(c, i)| (c, at("s", i))));
+            let out = at("s", st.out);
+            match st.scale {
+                Some(scale) => {
+                    let scale = num.lit(scale);
+                    quote!(#out = (#sum) * #scale;)
+                }
+                None => quote!(#out = #sum;),
+            }
+        });
+        return Sections {
+            kernels: quote! {
+                /// x̃ = (P + σI + CᵀRC)⁻¹·b and z̃ = C·x̃ stage by stage, written out: the rows' share of
+                /// Cᵀw as linear terms on the stages, the backward Riccati sweep with the gains computed
+                /// at build time, the forward rollout evaluating each row on its stage (and with slacks,
+                /// their Schur complement), in the scratch `s`.
+                fn stage_solve(b: &[Real; NV], w: &[Real; NC], xt: &mut [Real; NV], zt: &mut [Real; NC]) {
+                    #head
+                    #(#statements)*
+                    #tail
+                }
+            },
+            ..Sections::default()
+        };
+    }
+    let n = program.statements.len();
+    let mut start = vec![0usize];
+    let (mut slot, mut coefficient) = (Vec::new(), Vec::new());
+    for st in &program.statements {
+        for &(c, i) in &st.terms {
+            slot.push(i);
+            coefficient.push(c);
+        }
+        start.push(slot.len());
+    }
+    let (n_lit, terms_lit) = (lit(n), lit(slot.len()));
+    let outs = program.statements.iter().map(|st| lit(st.out));
+    let bases = program.statements.iter().map(|st| lit(st.base));
+    let starts = start.iter().map(|s| lit(*s));
+    let slots_lit = slot.iter().map(|s| lit(*s));
+    let coefficients = num.vector(coefficient.iter().copied());
+    let scales = num.vector(program.statements.iter().map(|st| st.scale.unwrap_or(1.0)));
+    Sections {
+        kernels: quote! {
+            /// x̃ = (P + σI + CᵀRC)⁻¹·b and z̃ = C·x̃ stage by stage: the statements of [`STAGE_OUT`]
+            /// in order over the scratch `s`, each s[out] = (s[base] + Σ c·s[slot])·scale (the
+            /// Riccati sweep with the gains computed at build time). The tables are consistent by
+            /// construction; `get` keeps the indexing free of panicking paths.
+            fn stage_solve(b: &[Real; NV], w: &[Real; NC], xt: &mut [Real; NV], zt: &mut [Real; NC]) {
+                #head
+                for k in 0..STAGE_STATEMENTS {
+                    let mut v = s.get(STAGE_BASE[k]).copied().unwrap_or(0.0);
+                    let span = STAGE_START[k]..STAGE_START[k + 1];
+                    let slots = STAGE_SLOT.get(span.clone()).unwrap_or(&[]);
+                    let coefficients = STAGE_COEFFICIENT.get(span).unwrap_or(&[]);
+                    for (&i, &c) in slots.iter().zip(coefficients) {
+                        v += c * s.get(i).copied().unwrap_or(0.0);
+                    }
+                    if let Some(o) = s.get_mut(STAGE_OUT[k]) {
+                        *o = v * STAGE_SCALE[k];
+                    }
+                }
+                #tail
+            }
+        },
+        tables: quote! {
+            /// The stage-wise x-update's statements: s[STAGE_OUT[k]] = (s[STAGE_BASE[k]] + Σ
+            /// STAGE_COEFFICIENT[t]·s[STAGE_SLOT[t]] over t ∈ STAGE_START[k]..STAGE_START[k + 1])
+            /// · STAGE_SCALE[k], slot 0 always zero.
+            const STAGE_STATEMENTS: usize = #n_lit;
+            const STAGE_OUT: [usize; #n_lit] = [#(#outs),*];
+            const STAGE_BASE: [usize; #n_lit] = [#(#bases),*];
+            const STAGE_START: [usize; #n_lit + 1] = [#(#starts),*];
+            const STAGE_SLOT: [usize; #terms_lit] = [#(#slots_lit),*];
+            const STAGE_COEFFICIENT: [Real; #terms_lit] = #coefficients;
+            const STAGE_SCALE: [Real; #n_lit] = #scales;
+        },
+        ..Sections::default()
+    }
+}
