@@ -143,22 +143,50 @@ pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
     let evidence = match (spec.mpc.method, solver::algorithm(spec.mpc.method)) {
         (mpc_spec::Method::Admm, _) => {
             // ρ measured on part of the sample (in f64, where the forms agree), then the whole sample
-            // at that ρ in the written form; without one, the direct form, and in f32 the residual
-            // form where the direct one misses `accuracy` (its rounded factor biases the fixed point).
-            // The retry counts the failed attempt's multiply-adds against the build's budget.
+            // at that ρ in the written form; without one, the direct form in f64. In f32 the direct
+            // form's rounded factor biases its fixed point, which on an ill-conditioned H costs many
+            // iterations or misses `accuracy`: the residual form first, then the direct one run at
+            // most as long as it could be cheaper, and the cheaper of the two is kept. Each attempt
+            // counts the earlier ones' multiply-adds against the build's budget.
             let (rho, tuning_macs) = sampling::tune_admm(spec, &problem)?;
-            let certify = |form, spent| {
-                let method = sampling::Admm::new(&problem, admm::Tuned { rho, form }, spent);
-                sampling::certify_metered(spec, &problem, &method, 0)
+            let method = |form, spent| sampling::Admm::new(&problem, admm::Tuned { rho, form }, spent);
+            let certify = |method: &sampling::Admm| {
+                sampling::certify_metered(spec, &problem, method, 0)
             };
-            let form = spec.mpc.admm_form.unwrap_or(admm::Form::Direct);
-            let retry = spec.mpc.admm_form.is_none() && problem.scalar == mpc_spec::Scalar::F32;
-            match certify(form, tuning_macs) {
-                Ok(evidence) => Some(evidence),
-                Err((_, spent)) if retry => Some(
-                    certify(admm::Form::Residual, spent).map_err(|(diagnostics, _)| diagnostics)?,
-                ),
-                Err((diagnostics, _)) => return Err(diagnostics),
+            let cost = |method: &sampling::Admm, e: &evidence::Evidence| {
+                e.iterations as f64 * sampling::Sampled::macs_per_iteration(method, &problem.qp) as f64
+            };
+            match spec.mpc.admm_form {
+                Some(form) => Some(certify(&method(form, tuning_macs)).map_err(|(d, _)| d)?),
+                None if problem.scalar == mpc_spec::Scalar::F64 => {
+                    Some(certify(&method(admm::Form::Direct, tuning_macs)).map_err(|(d, _)| d)?)
+                }
+                None => {
+                    let residual = method(admm::Form::Residual, tuning_macs);
+                    match certify(&residual) {
+                        Ok(e) => {
+                            let direct = method(admm::Form::Direct, e.sample_macs);
+                            let per_iteration =
+                                sampling::Sampled::macs_per_iteration(&direct, &problem.qp).max(1);
+                            let most = (cost(&residual, &e) / per_iteration as f64) as usize;
+                            let direct = direct.at_most(most);
+                            match certify(&direct) {
+                                Ok(d) if cost(&direct, &d) < cost(&residual, &e) => Some(d),
+                                Ok(d) => Some(evidence::Evidence {
+                                    sample_macs: d.sample_macs,
+                                    ..e
+                                }),
+                                Err((_, spent)) => Some(evidence::Evidence {
+                                    sample_macs: spent,
+                                    ..e
+                                }),
+                            }
+                        }
+                        Err((_, spent)) => Some(
+                            certify(&method(admm::Form::Direct, spent)).map_err(|(d, _)| d)?,
+                        ),
+                    }
+                }
             }
         }
         (_, None) => Some(sampling::certify(

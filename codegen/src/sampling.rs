@@ -324,6 +324,9 @@ pub struct Admm {
     pub settings: crate::admm::Settings,
     /// The multiply-adds the tuning spent.
     pub tuning_macs: f64,
+    /// The most iterations a case is run for ([`ADMM_PROBE`]'s, or less where a cheaper rival is
+    /// known).
+    pub most: usize,
 }
 
 /// The first and the most iterations an ADMM case is run for when its count is measured.
@@ -337,6 +340,15 @@ impl Admm {
             f32: p.scalar == mpc_spec::Scalar::F32,
             settings: crate::admm::tuned_settings(&p.qp, tuned),
             tuning_macs,
+            most: ADMM_PROBE.1,
+        }
+    }
+
+    /// The same, a case run for at most `most` iterations (at least the first probe's).
+    pub fn at_most(self, most: usize) -> Self {
+        Admm {
+            most: most.clamp(ADMM_PROBE.0, ADMM_PROBE.1),
+            ..self
         }
     }
 }
@@ -362,7 +374,7 @@ impl Sampled for Admm {
     }
 
     fn probe(&self) -> (usize, usize) {
-        ADMM_PROBE
+        (ADMM_PROBE.0, self.most)
     }
 
     fn trajectory(

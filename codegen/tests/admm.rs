@@ -551,9 +551,9 @@ fn the_certificate_tunes_rho_and_samples_the_region() {
     }
 }
 
-/// The stage-wise x-update (`Structure::Riccati`) gives the condensed one's iterates to rounding: on
-/// each shipped spec's cold cases, 50 iterations in f64 from the same start end within 1e-9 of the
-/// span of each other, and the cost model's counts are printed (`-- --nocapture`).
+/// The stage-wise x-update (`Structure::Riccati`) gives the condensed one's iterates to rounding, in
+/// both forms: on each shipped spec's cold cases, 50 iterations in f64 from the same start end within
+/// 1e-9 of the span of each other; the cost model's counts are printed (`-- --nocapture`).
 #[test]
 fn the_stage_wise_x_update_gives_the_condensed_iterates() {
     for (name, text) in [
@@ -563,29 +563,31 @@ fn the_stage_wise_x_update_gives_the_condensed_iterates() {
     ] {
         let s = load(text);
         let qp = s.qp();
-        let condensed = admm::mpc_settings(qp, 10.0);
-        let choice = admm::StructureChoice::of(qp, &condensed);
-        println!(
-            "{name}: condensed {} multiply-adds/iteration, stage-wise {:?} ({:?}), chosen {:?}",
-            choice.condensed_macs_per_iteration,
-            choice.riccati_macs_per_iteration,
-            choice.riccati_unavailable,
-            choice.structure
-        );
-        let program = admm::stages_program(qp, &condensed).unwrap();
-        let staged = Settings {
-            stages: Some(std::sync::Arc::new(program)),
-            ..condensed.clone()
-        };
-        for case in s.cold(7, 4) {
-            let a = admm::solve_fixed::<f64>(&case.qp, &condensed, &Start::Cold, 50);
-            let b = admm::solve_fixed::<f64>(&case.qp, &staged, &Start::Cold, 50);
-            let gap = (0..case.span.len())
-                .map(|i| (a.x[i] - b.x[i]).abs() / case.span[i])
-                .fold(0.0, f64::max);
-            let zgap = (&a.z - &b.z).amax() / (1.0 + a.z.amax());
-            println!("  plan gap {gap:.2e} of the span, z gap {zgap:.2e}");
-            assert!(gap <= 1e-9 && zgap <= 1e-9, "{name}: {gap:e} {zgap:e}");
+        for form in [Form::Direct, Form::Residual] {
+            let condensed = admm::mpc_settings(qp, 10.0).in_form(form);
+            let choice = admm::StructureChoice::of(qp, &condensed);
+            println!(
+                "{name}, {form:?}: condensed {} multiply-adds/iteration, stage-wise {:?} ({:?}), chosen {:?}",
+                choice.condensed_macs_per_iteration,
+                choice.riccati_macs_per_iteration,
+                choice.riccati_unavailable,
+                choice.structure
+            );
+            let program = admm::stages_program(qp, &condensed).unwrap();
+            let staged = Settings {
+                stages: Some(std::sync::Arc::new(program)),
+                ..condensed.clone()
+            };
+            for case in s.cold(7, 3) {
+                let a = admm::solve_fixed::<f64>(&case.qp, &condensed, &Start::Cold, 50);
+                let b = admm::solve_fixed::<f64>(&case.qp, &staged, &Start::Cold, 50);
+                let gap = (0..case.span.len())
+                    .map(|i| (a.x[i] - b.x[i]).abs() / case.span[i])
+                    .fold(0.0, f64::max);
+                let zgap = (&a.z - &b.z).amax() / (1.0 + a.z.amax());
+                println!("  plan gap {gap:.2e} of the span, z gap {zgap:.2e}");
+                assert!(gap <= 1e-9 && zgap <= 1e-9, "{name}: {gap:e} {zgap:e}");
+            }
         }
     }
 }

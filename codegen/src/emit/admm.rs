@@ -207,19 +207,10 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     let (wide_bound_lower, wide_bound_upper) =
         (widen(quote!(ROW_LOWER[j])), widen(quote!(ROW_UPPER[j])));
     let x_tilde = match (form, &settings.stages) {
-        (admm::Form::Direct, Some(_)) => quote! {
-            // b = σx − q + w on the unknowns; the rows' share of Cᵀw and z̃ = C x̃ are the sweep's.
-            let mut w = [0.0; NC];
-            for i in 0..NC {
-                w[i] = RHO_ROW[i] * z[i] - y[i];
-            }
-            let mut b = [0.0; NV];
-            for i in 0..NV {
-                b[i] = SIGMA * x[i] - q[i] + w[i];
-            }
+        (_, Some(_)) => quote! {
             let mut xt = [0.0; NV];
             let mut zt = [0.0; NC];
-            stage_solve(&b, &w, &mut xt, &mut zt);
+            stage_solve(x, z, y, q, &mut xt, &mut zt);
         },
         (admm::Form::Direct, None) => quote! {
             // x̃ = K (σx − q + Cᵀ(Rz − y)).
@@ -260,7 +251,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
         },
     };
     // σ enters the direct form's right-hand side; the residual form has it only inside the factor.
-    let sigma_table = (form == admm::Form::Direct).then(|| {
+    let sigma_table = (form == admm::Form::Direct && settings.stages.is_none()).then(|| {
         quote! {
             /// The proximal weight σ.
             const SIGMA: Real = #sigma;

@@ -1,4 +1,4 @@
-//! ADMM's stage-wise x-update ([`crate::admm::Program`]) as `stage_solve`: the program's statements over
+//! ADMM's stage-wise x-update ([`crate::admm::Program`]) as `stage_solve(x, z, y, q, xt, zt)`: the program's statements over
 //! one scratch array `s`, in its order and with its coefficients, so that the module matches the
 //! reference ([`crate::admm::Operator`] with `Structure::Riccati`) to the bit. Written out, one statement
 //! per line with the coefficients as literals, within [`super::admm::WRITE_OUT_BUDGET`] terms; past it a
@@ -10,31 +10,33 @@ use crate::admm::{Program, ZERO_SLOT};
 use proc_macro2::Literal;
 use quote::quote;
 
-/// `stage_solve(b, w, xt, zt)` and the tables it reads (none when written out).
+/// `stage_solve(x, z, y, q, xt, zt)` and the tables it reads (none when written out).
 pub fn kernel(num: Num, program: &Program, write_out_budget: usize) -> Sections {
     let lit = Literal::usize_unsuffixed;
-    let (slots, b_at, w_at, x_at, z_at) = (
-        lit(program.slots),
-        lit(program.b_at),
-        lit(program.w_at),
-        lit(program.x_at),
-        lit(program.z_at),
+    let (nv, nc) = (program.nv, program.nv + program.m);
+    let range = |at: usize, n: usize| {
+        let (a, b) = (lit(at), lit(at + n));
+        quote!(#a..#b)
+    };
+    let slots = lit(program.slots);
+    let (x_in, z_in, y_in, q_in) = (
+        range(program.x_in, nv),
+        range(program.z_in, nc),
+        range(program.y_in, nc),
+        range(program.q_in, nv),
     );
-    let (b_end, w_end, x_end, z_end) = (
-        lit(program.b_at + program.nv),
-        lit(program.w_at + program.m),
-        lit(program.x_at + program.nv),
-        lit(program.z_at + program.m),
-    );
+    let (x_out, z_out) = (range(program.x_at, nv), range(program.z_at, program.m));
     let head = quote! {
         let mut s = [0.0; #slots];
-        s[#b_at..#b_end].copy_from_slice(b);
-        s[#w_at..#w_end].copy_from_slice(&w[NV..]);
+        s[#x_in].copy_from_slice(x);
+        s[#z_in].copy_from_slice(z);
+        s[#y_in].copy_from_slice(y);
+        s[#q_in].copy_from_slice(q);
     };
     let tail = quote! {
-        xt.copy_from_slice(&s[#x_at..#x_end]);
+        xt.copy_from_slice(&s[#x_out]);
         zt[..NV].copy_from_slice(xt);
-        zt[NV..].copy_from_slice(&s[#z_at..#z_end]);
+        zt[NV..].copy_from_slice(&s[#z_out]);
     };
     if program.terms() <= write_out_budget {
         let statements = program.statements.iter().map(|st| {
@@ -55,11 +57,18 @@ pub fn kernel(num: Num, program: &Program, write_out_budget: usize) -> Sections 
         });
         return Sections {
             kernels: quote! {
-                /// x̃ = (P + σI + CᵀRC)⁻¹·b and z̃ = C·x̃ stage by stage, written out: the rows' share of
-                /// Cᵀw as linear terms on the stages, the backward Riccati sweep with the gains computed
-                /// at build time, the forward rollout evaluating each row on its stage (and with slacks,
-                /// their Schur complement), in the scratch `s`.
-                fn stage_solve(b: &[Real; NV], w: &[Real; NC], xt: &mut [Real; NV], zt: &mut [Real; NC]) {
+                /// x̃ and z̃ = C·x̃ at the iterate (x, z, y) stage by stage, written out: the right-hand
+                /// side (the rows' share of Cᵀw as linear terms on the stages), the backward Riccati
+                /// sweep with the gains computed at build time, the forward rollout evaluating each row
+                /// on its stage (and with slacks, their Schur complement), in the scratch `s`.
+                fn stage_solve(
+                    x: &[Real; NV],
+                    z: &[Real; NC],
+                    y: &[Real; NC],
+                    q: &[Real; NV],
+                    xt: &mut [Real; NV],
+                    zt: &mut [Real; NC],
+                ) {
                     #head
                     #(#statements)*
                     #tail
@@ -87,11 +96,18 @@ pub fn kernel(num: Num, program: &Program, write_out_budget: usize) -> Sections 
     let scales = num.vector(program.statements.iter().map(|st| st.scale.unwrap_or(1.0)));
     Sections {
         kernels: quote! {
-            /// x̃ = (P + σI + CᵀRC)⁻¹·b and z̃ = C·x̃ stage by stage: the statements of [`STAGE_OUT`]
+            /// x̃ and z̃ = C·x̃ at the iterate (x, z, y) stage by stage: the statements of [`STAGE_OUT`]
             /// in order over the scratch `s`, each s[out] = (s[base] + Σ c·s[slot])·scale (the
             /// Riccati sweep with the gains computed at build time). The tables are consistent by
             /// construction; `get` keeps the indexing free of panicking paths.
-            fn stage_solve(b: &[Real; NV], w: &[Real; NC], xt: &mut [Real; NV], zt: &mut [Real; NC]) {
+            fn stage_solve(
+                    x: &[Real; NV],
+                    z: &[Real; NC],
+                    y: &[Real; NC],
+                    q: &[Real; NV],
+                    xt: &mut [Real; NV],
+                    zt: &mut [Real; NC],
+                ) {
                 #head
                 for k in 0..STAGE_STATEMENTS {
                     let mut v = s.get(STAGE_BASE[k]).copied().unwrap_or(0.0);

@@ -394,15 +394,8 @@ impl<T: Real> Operator<T> {
     /// structure, and z̃ = C x̃.
     fn x_tilde(&self, p: &Iterate<T>) -> (Vec<T>, Vec<T>) {
         let n = self.n;
-        if let (Form::Direct, Some(kernel)) = (self.form, &self.stages) {
-            // The rows' share of Cᵀw enters the stage-wise sweep, which gives z̃'s rows as it rolls out.
-            let w: Vec<T> = (0..self.rows())
-                .map(|i| self.rho[i] * p.z[i] - p.y[i])
-                .collect();
-            let b: Vec<T> = (0..n)
-                .map(|i| self.sigma * p.x[i] - self.q[i] + w[i])
-                .collect();
-            let (xt, rows) = kernel.solve(&b, &w[n..]);
+        if let Some(kernel) = &self.stages {
+            let (xt, rows) = kernel.solve(&p.x, &p.z, &p.y, &self.q);
             let mut zt = xt.clone();
             zt.extend(rows);
             return (xt, zt);
@@ -759,7 +752,8 @@ pub fn residual_macs(qp: &InequalityQp) -> usize {
 /// multiply-adds replace K·rhs and the products with C and Cᵀ.
 pub fn settings_macs_per_iteration(qp: &InequalityQp, settings: &Settings) -> usize {
     match &settings.stages {
-        Some(program) => program.macs() + 3 * qp.n() + 5 * (qp.n() + qp.A.nrows()),
+        // The program computes w and the right-hand side; the relaxation, the projection and y are left.
+        Some(program) => program.macs() + qp.n() + 4 * (qp.n() + qp.A.nrows()),
         None => macs_per_iteration(qp, settings.form),
     }
 }
@@ -1155,9 +1149,13 @@ impl StructureChoice {
         let condensed_macs = settings_macs_per_iteration(&structure_qp, &condensed);
         match stages::program(qp, settings) {
             Ok(program) => {
-                let riccati = program.macs()
-                    + 3 * structure_qp.n()
-                    + 5 * (structure_qp.n() + structure_qp.A.nrows());
+                let riccati = settings_macs_per_iteration(
+                    &structure_qp,
+                    &Settings {
+                        stages: Some(Arc::new(program.clone())),
+                        ..condensed
+                    },
+                );
                 let chosen = riccati < condensed_macs;
                 StructureChoice {
                     structure: if chosen {

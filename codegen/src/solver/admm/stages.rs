@@ -63,9 +63,9 @@ pub struct Statement {
 /// The slot that is always 0.
 pub const ZERO_SLOT: usize = 0;
 
-/// The stage-wise solve as straight-line statements over a scratch array of [`Program::slots`] entries:
-/// b (the unknowns' right-hand side σx − q + w_box) at [`Program::b_at`], the rows' w at
-/// [`Program::w_at`]; x̃ ends at [`Program::x_at`] and z̃'s rows at [`Program::z_at`].
+/// The stage-wise x-update as straight-line statements over a scratch array of [`Program::slots`]
+/// entries: the iterate's x, z, y and the data's q in, x̃ out at [`Program::x_at`] and z̃'s general rows
+/// at [`Program::z_at`] (z̃'s box rows are x̃).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Program {
     /// Scratch entries.
@@ -74,10 +74,14 @@ pub struct Program {
     pub nv: usize,
     /// General rows.
     pub m: usize,
-    /// The first slot of b (nv).
-    pub b_at: usize,
-    /// The first slot of the rows' w (m).
-    pub w_at: usize,
+    /// The first slot of x (nv).
+    pub x_in: usize,
+    /// The first slot of z (nv + m).
+    pub z_in: usize,
+    /// The first slot of y (nv + m).
+    pub y_in: usize,
+    /// The first slot of q (nv).
+    pub q_in: usize,
     /// The first slot of x̃ (nv).
     pub x_at: usize,
     /// The first slot of z̃'s general rows (m).
@@ -171,11 +175,201 @@ impl Builder {
     }
 }
 
-/// Why the stage-wise x-update is not built for `qp`, or its [`Program`] for `settings` (direct form).
-pub fn program(qp: &Qp, settings: &Settings) -> Result<Program, String> {
-    if settings.form != super::Form::Direct {
-        return Err("the residual form's x-update is built condensed only".into());
+/// The stage model and its factor, for building a [`Program`].
+struct Sweep<'a> {
+    stages: &'a Stages,
+    factor: crate::solver::riccati::Factor,
+    nx: usize,
+    nu: usize,
+    N: usize,
+    per_slot: usize,
+    m: usize,
+    ns: usize,
+    /// ρ of the general rows.
+    rho_rows: nalgebra::DVector<f64>,
+    /// A_U·Y (m × ns): the rows' share of the slacks' correction.
+    row_coupling: DMatrix<f64>,
+}
+
+impl Sweep<'_> {
+    /// ρ·c of a row with slack coefficient c: its share of M_uσ.
+    fn rho_c(&self, row: usize, c: f64) -> f64 {
+        self.rho_rows[row] * c
     }
+
+    /// The states x_1 … x_N of the plan in `u` (slots, N·nu) rolled out from x_0 = 0 (slot per entry;
+    /// element 0 is x_0, all zero).
+    fn rollout(&self, b: &mut Builder, u: &[usize]) -> Vec<Vec<usize>> {
+        let (nx, nu, N) = (self.nx, self.nu, self.N);
+        let (A, B) = (&self.factor.A, &self.factor.B);
+        let mut states = vec![vec![ZERO_SLOT; nx]];
+        for k in 0..N {
+            let x = &states[k];
+            let next = (0..nx)
+                .map(|i| {
+                    let mut terms: Vec<(f64, usize)> = (0..nx).map(|l| (A[(i, l)], x[l])).collect();
+                    terms.extend((0..nu).map(|c| (B[(i, c)], u[k * nu + c])));
+                    b.value(ZERO_SLOT, terms, None)
+                })
+                .collect();
+            states.push(next);
+        }
+        states
+    }
+
+    /// Row `q` of slot `j` on the states and the plan (its slack left out): ax·x_{j+lag} + au·u_j.
+    fn row_terms(&self, states: &[Vec<usize>], u: &[usize], j: usize, q: usize) -> Vec<(f64, usize)> {
+        let row = &self.stages.rows[q];
+        let x = &states[j + row.lag];
+        let mut terms: Vec<(f64, usize)> = (0..self.nx).map(|i| (row.ax[i], x[i])).collect();
+        if row.lag == 0 {
+            terms.extend((0..self.nu).map(|c| (row.au[c], u[j * self.nu + c])));
+        }
+        terms
+    }
+
+    /// M⁻¹·(rhs + the rows' Cᵀw + `state_terms`): `rhs` on the unknowns (N·nu, then ns), `w` on the
+    /// rows (m), `state_terms[k][i]` more terms of the linear term on x_k (k = 1 … N). Returns the
+    /// solution's slots (nv) and the rows at it (m, their slacks included), written into `out` = (x̃'s
+    /// first slot, the rows' first slot) when given.
+    fn solve(
+        &self,
+        b: &mut Builder,
+        rhs: &[usize],
+        w: &[usize],
+        state_terms: &[Vec<Vec<(f64, usize)>>],
+        out: Option<(usize, usize)>,
+    ) -> Result<(Vec<usize>, Vec<usize>), String> {
+        let (nx, nu, N, per_slot, m, ns) = (self.nx, self.nu, self.N, self.per_slot, self.m, self.ns);
+        let np = N * nu;
+        let rows = &self.stages.rows;
+        let (A, B) = (&self.factor.A, &self.factor.B);
+        // The linear terms: r_j on the inputs, g_k on the states (k = 1 … N; x_0 = 0 has none).
+        let r: Vec<usize> = (0..np)
+            .map(|i| {
+                let (j, c) = (i / nu, i % nu);
+                let terms = (0..per_slot).map(|q| (rows[q].au[c], w[j * per_slot + q])).collect();
+                b.value(rhs[i], terms, None)
+            })
+            .collect();
+        let mut g = vec![vec![ZERO_SLOT; nx]; N + 1];
+        for (k, gk) in g.iter_mut().enumerate().skip(1) {
+            for (i, gki) in gk.iter_mut().enumerate() {
+                let mut terms: Vec<(f64, usize)> = (0..N)
+                    .flat_map(|j| (0..per_slot).map(move |q| (j, q)))
+                    .filter(|&(j, q)| j + rows[q].lag == k)
+                    .map(|(j, q)| (rows[q].ax[i], w[j * per_slot + q]))
+                    .collect();
+                if let Some(more) = state_terms.get(k).and_then(|t| t.get(i)) {
+                    terms.extend(more.iter().copied());
+                }
+                *gki = b.value(ZERO_SLOT, terms, None);
+            }
+        }
+        // The backward sweep: d_k = Re_k⁻¹e_k for the rollout.
+        let mut p: Vec<usize> = (0..nx)
+            .map(|i| b.value(ZERO_SLOT, vec![(-1.0, g[N][i])], None))
+            .collect();
+        let mut d = vec![Vec::new(); N];
+        for k in (0..N).rev() {
+            let e: Vec<usize> = (0..nu)
+                .map(|c| {
+                    let mut terms: Vec<(f64, usize)> = (0..nx).map(|i| (B[(i, c)], p[i])).collect();
+                    terms.push((-1.0, r[k * nu + c]));
+                    b.value(ZERO_SLOT, terms, None)
+                })
+                .collect();
+            d[k] = b.cholesky_solve(&self.factor.pivots[k].l(), &e, None);
+            if k > 0 {
+                let K = &self.factor.gains[k];
+                p = (0..nx)
+                    .map(|i| {
+                        let mut terms: Vec<(f64, usize)> = (0..nx).map(|l| (A[(l, i)], p[l])).collect();
+                        terms.extend((0..nu).map(|c| (-K[(c, i)], e[c])));
+                        terms.push((-1.0, g[k][i]));
+                        b.value(ZERO_SLOT, terms, None)
+                    })
+                    .collect();
+            }
+        }
+        // The forward rollout, each row evaluated on its stage as it passes. Without slacks the plan
+        // and the rows are the solution's; with them, U_p and v before the slacks' correction.
+        let (u_out, v_out) = match out {
+            Some(at) if ns == 0 => at,
+            _ => (b.alloc(np), b.alloc(m)),
+        };
+        let mut states = vec![vec![ZERO_SLOT; nx]];
+        let u: Vec<usize> = (0..np).map(|i| u_out + i).collect();
+        let lagged = rows.iter().any(|r| r.lag == 1);
+        for k in 0..N {
+            let K = &self.factor.gains[k];
+            for c in 0..nu {
+                let mut terms: Vec<(f64, usize)> = (0..nx).map(|i| (-K[(c, i)], states[k][i])).collect();
+                terms.push((-1.0, d[k][c]));
+                b.write(u[k * nu + c], ZERO_SLOT, terms, None);
+            }
+            if k + 1 < N || lagged {
+                let x = &states[k];
+                let next = (0..nx)
+                    .map(|i| {
+                        let mut terms: Vec<(f64, usize)> = (0..nx).map(|l| (A[(i, l)], x[l])).collect();
+                        terms.extend((0..nu).map(|c| (B[(i, c)], u[k * nu + c])));
+                        b.value(ZERO_SLOT, terms, None)
+                    })
+                    .collect();
+                states.push(next);
+            }
+            for q in 0..per_slot {
+                let terms = self.row_terms(&states, &u, k, q);
+                b.write(v_out + k * per_slot + q, ZERO_SLOT, terms, None);
+            }
+        }
+        if ns == 0 {
+            return Ok(((0..np).map(|i| u_out + i).collect(), (0..m).map(|r| v_out + r).collect()));
+        }
+        // σ̃ = S⁻¹(r_σ + Σ c·w − Σ ρ·c·v), then U = U_p − Y·σ̃ and the rows v − (A_U·Y)·σ̃ + c·σ̃.
+        let t: Vec<usize> = (0..ns)
+            .map(|s| {
+                let terms = (0..m)
+                    .filter_map(|row| match self.stages.slack[row % per_slot] {
+                        Some((j, c)) if j == s => Some([(c, w[row]), (-self.rho_c(row, c), v_out + row)]),
+                        _ => None,
+                    })
+                    .flatten()
+                    .collect();
+                b.value(rhs[np + s], terms, None)
+            })
+            .collect();
+        let schur = self.factor.schur.as_ref().ok_or("the slacks' Schur complement")?;
+        let (x_out, z_out) = match out {
+            Some(at) => at,
+            None => (b.alloc(np + ns), b.alloc(m)),
+        };
+        let sigma = b.cholesky_solve(&schur.l(), &t, Some(x_out + np));
+        let Y = &self.factor.coupling;
+        for i in 0..np {
+            let terms = (0..ns).map(|s| (-Y[(i, s)], sigma[s])).collect();
+            b.write(x_out + i, u_out + i, terms, None);
+        }
+        for row in 0..m {
+            let own = self.stages.slack[row % per_slot];
+            let terms = (0..ns)
+                .map(|s| {
+                    let c = match own {
+                        Some((j, c)) if j == s => c,
+                        _ => 0.0,
+                    };
+                    (c - self.row_coupling[(row, s)], sigma[s])
+                })
+                .collect();
+            b.write(z_out + row, v_out + row, terms, None);
+        }
+        Ok(((0..np + ns).map(|i| x_out + i).collect(), (0..m).map(|r| z_out + r).collect()))
+    }
+}
+
+/// Why the stage-wise x-update is not built for `qp`, or its [`Program`] for `settings`.
+pub fn program(qp: &Qp, settings: &Settings) -> Result<Program, String> {
     let stages = Stages::of(qp)?;
     let (nx, nu, N) = (stages.A.nrows(), stages.B.ncols(), stages.N);
     let np = N * nu;
@@ -190,157 +384,117 @@ pub fn program(qp: &Qp, settings: &Settings) -> Result<Program, String> {
     {
         return Err("a row couples an input with a later state".into());
     }
-    if settings.rho.len() != nv + m {
+    let rho = &settings.rho;
+    if rho.len() != nv + m {
         return Err("the penalties do not fit the problem".into());
     }
     let boxed: Vec<(usize, f64)> = (0..nv).map(|i| (i, 1.0)).collect();
-    let rows: Vec<(usize, f64)> = (0..m).map(|r| (r, 1.0)).collect();
+    let sides: Vec<(usize, f64)> = (0..m).map(|r| (r, 1.0)).collect();
     let factor = stages
-        .factor(&boxed, &rows, &settings.rho, settings.sigma)
+        .factor(&boxed, &sides, rho, settings.sigma)
         .ok_or("M = P + σI + CᵀRC has no stage-wise factor")?;
-    let (A, B) = (&factor.A, &factor.B);
+    let row_coupling = if ns > 0 {
+        qp.rows.A.columns(0, np) * &factor.coupling
+    } else {
+        DMatrix::zeros(m, 0)
+    };
+    let sweep = Sweep {
+        stages: &stages,
+        factor,
+        nx,
+        nu,
+        N,
+        per_slot,
+        m,
+        ns,
+        rho_rows: rho.rows(nv, m).into_owned(),
+        row_coupling,
+    };
     let mut b = Builder {
         slots: 1,
         statements: Vec::new(),
     };
-    let b_at = b.alloc(nv);
-    let w_at = b.alloc(m);
+    let x_in = b.alloc(nv);
+    let z_in = b.alloc(nv + m);
+    let y_in = b.alloc(nv + m);
+    let q_in = b.alloc(nv);
     let x_at = b.alloc(nv);
     let z_at = b.alloc(m);
-    let w = |j: usize, q: usize| w_at + j * per_slot + q;
-    // The linear terms: r_j on the inputs, g_k on the states (k = 1 … N; x_0 = 0 has none).
-    let mut r = vec![ZERO_SLOT; np];
-    for j in 0..N {
-        for c in 0..nu {
-            let terms = (0..per_slot)
-                .map(|q| (stages.rows[q].au[c], w(j, q)))
+    match settings.form {
+        super::Form::Direct => {
+            // w = Rz − y on every row of C; the unknowns' right-hand side σx − q + w.
+            let w: Vec<usize> = (0..nv + m)
+                .map(|i| b.value(ZERO_SLOT, vec![(rho[i], z_in + i), (-1.0, y_in + i)], None))
                 .collect();
-            r[j * nu + c] = b.value(b_at + j * nu + c, terms, None);
-        }
-    }
-    let mut g = vec![vec![ZERO_SLOT; nx]; N + 1];
-    for (k, gk) in g.iter_mut().enumerate().skip(1) {
-        for (i, gki) in gk.iter_mut().enumerate() {
-            let terms = (0..N)
-                .flat_map(|j| (0..per_slot).map(move |q| (j, q)))
-                .filter(|&(j, q)| j + stages.rows[q].lag == k)
-                .map(|(j, q)| (stages.rows[q].ax[i], w(j, q)))
-                .collect();
-            *gki = b.value(ZERO_SLOT, terms, None);
-        }
-    }
-    // The backward sweep: d_k = Re_k⁻¹e_k for the rollout.
-    let mut p: Vec<usize> = (0..nx)
-        .map(|i| b.value(ZERO_SLOT, vec![(-1.0, g[N][i])], None))
-        .collect();
-    let mut d = vec![Vec::new(); N];
-    for k in (0..N).rev() {
-        let e: Vec<usize> = (0..nu)
-            .map(|c| {
-                let mut terms: Vec<(f64, usize)> = (0..nx).map(|i| (B[(i, c)], p[i])).collect();
-                terms.push((-1.0, r[k * nu + c]));
-                b.value(ZERO_SLOT, terms, None)
-            })
-            .collect();
-        let L = factor.pivots[k].l();
-        d[k] = b.cholesky_solve(&L, &e, None);
-        if k > 0 {
-            let K = &factor.gains[k];
-            p = (0..nx)
+            let rhs: Vec<usize> = (0..nv)
                 .map(|i| {
-                    let mut terms: Vec<(f64, usize)> = (0..nx).map(|l| (A[(l, i)], p[l])).collect();
-                    terms.extend((0..nu).map(|c| (-K[(c, i)], e[c])));
-                    terms.push((-1.0, g[k][i]));
+                    let terms = vec![(settings.sigma, x_in + i), (-1.0, q_in + i), (1.0, w[i])];
                     b.value(ZERO_SLOT, terms, None)
                 })
                 .collect();
+            sweep.solve(&mut b, &rhs, &w[nv..], &[], Some((x_at, z_at)))?;
         }
-    }
-    // The forward rollout, each row evaluated on its stage as it passes. Without slacks U and the rows
-    // are x̃'s and z̃'s; with them, U_p and v before the slacks' correction.
-    let (u_out, v_out) = if ns == 0 {
-        (x_at, z_at)
-    } else {
-        (b.alloc(np), b.alloc(m))
-    };
-    let mut x = vec![ZERO_SLOT; nx];
-    for k in 0..N {
-        let K = &factor.gains[k];
-        let u: Vec<usize> = (0..nu)
-            .map(|c| {
-                let mut terms: Vec<(f64, usize)> = (0..nx).map(|i| (-K[(c, i)], x[i])).collect();
-                terms.push((-1.0, d[k][c]));
-                b.write(u_out + k * nu + c, ZERO_SLOT, terms, None);
-                u_out + k * nu + c
-            })
-            .collect();
-        for (q, row) in stages.rows.iter().enumerate().filter(|(_, r)| r.lag == 0) {
-            let mut terms: Vec<(f64, usize)> = (0..nx).map(|i| (row.ax[i], x[i])).collect();
-            terms.extend((0..nu).map(|c| (row.au[c], u[c])));
-            b.write(v_out + k * per_slot + q, ZERO_SLOT, terms, None);
-        }
-        let lagged = stages.rows.iter().any(|r| r.lag == 1);
-        if k + 1 < N || lagged {
-            x = (0..nx)
-                .map(|i| {
-                    let mut terms: Vec<(f64, usize)> = (0..nx).map(|l| (A[(i, l)], x[l])).collect();
-                    terms.extend((0..nu).map(|c| (B[(i, c)], u[c])));
+        super::Form::Residual => {
+            // C x's rows from a rollout of x, whose states also give P x = Suᵀ·Q̃·X + 2R·U.
+            let u: Vec<usize> = (x_in..x_in + np).collect();
+            let states = sweep.rollout(&mut b, &u);
+            let cx: Vec<usize> = (0..m)
+                .map(|row| {
+                    let (j, q) = (row / per_slot, row % per_slot);
+                    let mut terms = sweep.row_terms(&states, &u, j, q);
+                    if let Some((s, c)) = stages.slack[q] {
+                        terms.push((c, x_in + np + s));
+                    }
                     b.value(ZERO_SLOT, terms, None)
                 })
                 .collect();
-        }
-        for (q, row) in stages.rows.iter().enumerate().filter(|(_, r)| r.lag == 1) {
-            let terms = (0..nx).map(|i| (row.ax[i], x[i])).collect();
-            b.write(v_out + k * per_slot + q, ZERO_SLOT, terms, None);
-        }
-    }
-    if ns > 0 {
-        // σ̃ = S⁻¹(b_σ + Σ c·w − Σ ρ·c·v), then U = U_p − Y·σ̃ and the rows v − (A_U·Y)·σ̃ + c·σ̃.
-        let t: Vec<usize> = (0..ns)
-            .map(|s| {
-                let terms = (0..m)
-                    .filter_map(|row| match stages.slack[row % per_slot] {
-                        Some((j, c)) if j == s => {
-                            Some([(c, w_at + row), (-settings.rho[nv + row] * c, v_out + row)])
-                        }
-                        _ => None,
-                    })
-                    .flatten()
-                    .collect();
-                b.value(b_at + np + s, terms, None)
-            })
-            .collect();
-        let schur = factor
-            .schur
-            .as_ref()
-            .ok_or("the slacks' Schur complement")?;
-        let sigma = b.cholesky_solve(&schur.l(), &t, Some(x_at + np));
-        let Y = &factor.coupling;
-        for i in 0..np {
-            let terms = (0..ns).map(|s| (-Y[(i, s)], sigma[s])).collect();
-            b.write(x_at + i, u_out + i, terms, None);
-        }
-        let AY = qp.rows.A.columns(0, np) * Y;
-        for row in 0..m {
-            let own = stages.slack[row % per_slot];
-            let terms = (0..ns)
-                .map(|s| {
-                    let c = match own {
-                        Some((j, c)) if j == s => c,
-                        _ => 0.0,
-                    };
-                    (c - AY[(row, s)], sigma[s])
+            // w = R(z − Cx) − y.
+            let w: Vec<usize> = (0..nv + m)
+                .map(|i| {
+                    let c = if i < nv { x_in + i } else { cx[i - nv] };
+                    let terms = vec![(rho[i], z_in + i), (-rho[i], c), (-1.0, y_in + i)];
+                    b.value(ZERO_SLOT, terms, None)
                 })
                 .collect();
-            b.write(z_at + row, v_out + row, terms, None);
+            // The residual's unknowns part w − q − (2R·u_j, q_σ·σ); its states part −Q̃_k·x_k joins g_k.
+            let rhs: Vec<usize> = (0..nv)
+                .map(|i| {
+                    let mut terms = vec![(1.0, w[i]), (-1.0, q_in + i)];
+                    if i < np {
+                        let (j, c) = (i / nu, i % nu);
+                        terms.extend((0..nu).map(|l| (-stages.R2[(c, l)], x_in + j * nu + l)));
+                    } else {
+                        terms.push((-stages.slack_quadratic[i - np], x_in + i));
+                    }
+                    b.value(ZERO_SLOT, terms, None)
+                })
+                .collect();
+            let state_terms: Vec<Vec<Vec<(f64, usize)>>> = (0..=N)
+                .map(|k| {
+                    let Q = if k == N { &stages.Qf2 } else { &stages.Q2 };
+                    (0..nx)
+                        .map(|i| (0..nx).map(|l| (-Q[(i, l)], states[k][l])).collect())
+                        .collect()
+                })
+                .collect();
+            let (d, rows_d) = sweep.solve(&mut b, &rhs, &w[nv..], &state_terms, None)?;
+            // x̃ = x + d, z̃ = Cx + C·d.
+            for i in 0..nv {
+                b.write(x_at + i, x_in + i, vec![(1.0, d[i])], None);
+            }
+            for row in 0..m {
+                b.write(z_at + row, cx[row], vec![(1.0, rows_d[row])], None);
+            }
         }
     }
     Ok(Program {
         slots: b.slots,
         nv,
         m,
-        b_at,
-        w_at,
+        x_in,
+        z_in,
+        y_in,
+        q_in,
         x_at,
         z_at,
         statements: b.statements,
@@ -373,13 +527,14 @@ impl<T: Real> Kernel<T> {
         }
     }
 
-    /// x̃ (nv) and z̃'s general rows (m) for the unknowns' right-hand side `b` (σx − q + w_box) and the
-    /// rows' `w` (Rz − y on the general rows).
-    pub fn solve(&self, b: &[T], w: &[T]) -> (Vec<T>, Vec<T>) {
+    /// x̃ (nv) and z̃'s general rows (m) at the iterate (x, z, y) with the linear term q.
+    pub fn solve(&self, x: &[T], z: &[T], y: &[T], q: &[T]) -> (Vec<T>, Vec<T>) {
         let p = &self.program;
         let mut s = vec![T::ZERO; p.slots];
-        s[p.b_at..p.b_at + p.nv].copy_from_slice(b);
-        s[p.w_at..p.w_at + p.m].copy_from_slice(w);
+        s[p.x_in..p.x_in + p.nv].copy_from_slice(x);
+        s[p.z_in..p.z_in + p.nv + p.m].copy_from_slice(z);
+        s[p.y_in..p.y_in + p.nv + p.m].copy_from_slice(y);
+        s[p.q_in..p.q_in + p.nv].copy_from_slice(q);
         for ((st, coefficients), scale) in p
             .statements
             .iter()
