@@ -149,12 +149,13 @@ pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
             // most as long as it could be cheaper, and the cheaper of the two is kept. Each attempt
             // counts the earlier ones' multiply-adds against the build's budget.
             let (rho, tuning_macs) = sampling::tune_admm(spec, &problem)?;
-            let method = |form, spent| sampling::Admm::new(&problem, admm::Tuned { rho, form }, spent);
-            let certify = |method: &sampling::Admm| {
-                sampling::certify_metered(spec, &problem, method, 0)
-            };
+            let method =
+                |form, spent| sampling::Admm::new(&problem, admm::Tuned { rho, form }, spent);
+            let certify =
+                |method: &sampling::Admm| sampling::certify_metered(spec, &problem, method, 0);
             let cost = |method: &sampling::Admm, e: &evidence::Evidence| {
-                e.iterations as f64 * sampling::Sampled::macs_per_iteration(method, &problem.qp) as f64
+                e.iterations as f64
+                    * sampling::Sampled::macs_per_iteration(method, &problem.qp) as f64
             };
             match spec.mpc.admm_form {
                 Some(form) => Some(certify(&method(form, tuning_macs)).map_err(|(d, _)| d)?),
@@ -182,9 +183,9 @@ pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
                                 }),
                             }
                         }
-                        Err((_, spent)) => Some(
-                            certify(&method(admm::Form::Direct, spent)).map_err(|(d, _)| d)?,
-                        ),
+                        Err((_, spent)) => {
+                            Some(certify(&method(admm::Form::Direct, spent)).map_err(|(d, _)| d)?)
+                        }
                     }
                 }
             }

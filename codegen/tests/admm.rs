@@ -182,14 +182,9 @@ fn worst<T: admm::Real>(
         .try_fold(0, |w, k| k.map(|k| w.max(k)))
 }
 
-/// The cost of one solve at `count` iterations: the iterations and the final residuals.
-fn macs_per_solve(qp: &Qp, count: usize, form: Form) -> usize {
-    let structure = ipm::mpc_qp(
-        qp,
-        &DVector::zeros(qp.N * qp.u_min.len()),
-        &DVector::zeros(qp.rows.len()),
-    );
-    count * admm::mpc_macs_per_iteration_in(qp, form) + admm::residual_macs(&structure)
+/// The cost of one solve at `count` iterations in `settings`: the iterations and the final residuals.
+fn macs_per_solve(qp: &Qp, count: usize, settings: &Settings) -> usize {
+    count * admm::mpc_settings_macs_per_iteration(qp, settings) + admm::mpc_residual_macs(qp)
 }
 
 /// Tunes ρ on a sample of `tuning_cold` cold cases and 30 warm steps, checks the calibration's facts
@@ -249,6 +244,14 @@ fn meets_the_accuracy<T: admm::Real>(
         );
     }
     let count = tuned.worst + tuned.worst.div_ceil(10);
+    // The settings the emitted solver runs with: the x-update in the structure the cost model picks.
+    let chosen = admm::tuned_settings(
+        qp,
+        admm::Tuned {
+            rho: tuned.rho,
+            form,
+        },
+    );
     // Other cases at the fixed count: cold draws and a 100-step closed loop warm-started by the control
     // step's own shifted (x, z, y), the reference changing every 50 steps.
     let span = s.span();
@@ -260,7 +263,7 @@ fn meets_the_accuracy<T: admm::Real>(
     let mut worst_error: f64 = 0.0;
     let (mut f64_need, mut t_need, mut factor) = (0, 0, 0.0_f64);
     for (k, c) in s.cold(11, 30).iter().enumerate() {
-        let settings = Settings::scaled(&c.qp, tuned.rho).in_form(form);
+        let settings = chosen.clone();
         let r = admm::solve_fixed::<T>(&c.qp, &settings, &Start::Cold, count);
         let (e, v) = c.accuracy_of(&r.x);
         assert!(
@@ -302,7 +305,7 @@ fn meets_the_accuracy<T: admm::Real>(
         let Some(exact) = s.exact(&problem) else {
             break;
         };
-        let settings = Settings::scaled(&problem, tuned.rho).in_form(form);
+        let settings = chosen.clone();
         let st = admm::control_step::<T>(
             qp,
             &settings,
@@ -331,13 +334,14 @@ fn meets_the_accuracy<T: admm::Real>(
         x0 = &s.p.F * &x0 + &s.p.G * plan.rows(0, s.p.nu).into_owned();
     }
     assert_eq!(fallbacks, 0, "{name}: a trusted solve fell back");
-    let macs = macs_per_solve(qp, count, form);
+    let macs = macs_per_solve(qp, count, &chosen);
     println!(
         "{name} {scalar}: {count} iterations, worst |U − U*|∞ {worst_error:.2e} of the span over 30 cold cases and 100 warm steps; \
          cold needs f64 {f64_need}, {scalar} {t_need} (per case {scalar}/f64 at most {factor:.2}); \
-         {} multiply-adds an iteration (Riccati-structured estimate {}), {macs} a solve = {:.2}× the calibration's {calibrated:.0}",
+         {} multiply-adds an iteration ({} x-update; condensed {}), {macs} a solve = {:.2}× the calibration's {calibrated:.0}",
+        admm::mpc_settings_macs_per_iteration(qp, &chosen),
+        chosen.structure().name(),
         admm::mpc_macs_per_iteration_in(qp, form),
-        admm::riccati_macs_per_iteration(qp),
         macs as f64 / calibrated
     );
     assert!(

@@ -789,37 +789,6 @@ fn zero_data(qp: &Qp) -> InequalityQp {
     ipm::mpc_qp(qp, &DVector::zeros(n), &DVector::zeros(qp.rows.len()))
 }
 
-/// The estimated multiply-adds of one iteration of the Riccati-structured variant (the same iterates:
-/// the x̃ step is the condensed one's linear solve, done as an LQR sweep with the gains of
-/// P + σI + CᵀRC precomputed per stage, TinyMPC's form): per stage a backward sweep of the linear term
-/// (nx² + 2·nx·nu + nu²) and a forward rollout (nx² + 2·nx·nu), the rows evaluated on the stage's
-/// (x, u) through their nonzeros on it (state bounds one each), and the same element-wise work per
-/// unknown and row as the dense form. Not built. By this count it is cheaper where the rows are many
-/// and dense in U (hover 6,480 against 7,800; paper-limits 3,692 against 5,208) and dearer on the
-/// quadcopter (5,850 against 2,950); `tests/admm.rs` prints both.
-pub fn riccati_macs_per_iteration(qp: &Qp) -> usize {
-    let nx = qp.Sx.ncols();
-    let nu = qp.u_min.len();
-    let N = qp.N;
-    let rows = &qp.rows;
-    let ns = rows.slacks();
-    let m = rows.len();
-    // A row on the stage's (x, u): its nonzeros among nx + nu (one for a state bound or a move).
-    let per_row: usize = rows
-        .kinds
-        .iter()
-        .map(|k| match k {
-            crate::constraints::RowKind::State { .. } => 1,
-            crate::constraints::RowKind::Move { .. } => 2,
-            crate::constraints::RowKind::Group { .. } => nx + nu,
-        })
-        .sum::<usize>()
-        * N;
-    let sweep = N * (2 * nx * nx + 4 * nx * nu + nu * nu);
-    let unknowns = N * (nx + nu) + ns;
-    sweep + 2 * per_row + 3 * unknowns + 5 * (N * nu + ns + m)
-}
-
 /// How a control step made its plan.
 pub use ipm::Fallback;
 

@@ -218,7 +218,13 @@ impl Sweep<'_> {
     }
 
     /// Row `q` of slot `j` on the states and the plan (its slack left out): ax·x_{j+lag} + au·u_j.
-    fn row_terms(&self, states: &[Vec<usize>], u: &[usize], j: usize, q: usize) -> Vec<(f64, usize)> {
+    fn row_terms(
+        &self,
+        states: &[Vec<usize>],
+        u: &[usize],
+        j: usize,
+        q: usize,
+    ) -> Vec<(f64, usize)> {
         let row = &self.stages.rows[q];
         let x = &states[j + row.lag];
         let mut terms: Vec<(f64, usize)> = (0..self.nx).map(|i| (row.ax[i], x[i])).collect();
@@ -240,7 +246,8 @@ impl Sweep<'_> {
         state_terms: &[Vec<Vec<(f64, usize)>>],
         out: Option<(usize, usize)>,
     ) -> Result<(Vec<usize>, Vec<usize>), String> {
-        let (nx, nu, N, per_slot, m, ns) = (self.nx, self.nu, self.N, self.per_slot, self.m, self.ns);
+        let (nx, nu, N, per_slot, m, ns) =
+            (self.nx, self.nu, self.N, self.per_slot, self.m, self.ns);
         let np = N * nu;
         let rows = &self.stages.rows;
         let (A, B) = (&self.factor.A, &self.factor.B);
@@ -248,7 +255,9 @@ impl Sweep<'_> {
         let r: Vec<usize> = (0..np)
             .map(|i| {
                 let (j, c) = (i / nu, i % nu);
-                let terms = (0..per_slot).map(|q| (rows[q].au[c], w[j * per_slot + q])).collect();
+                let terms = (0..per_slot)
+                    .map(|q| (rows[q].au[c], w[j * per_slot + q]))
+                    .collect();
                 b.value(rhs[i], terms, None)
             })
             .collect();
@@ -284,7 +293,8 @@ impl Sweep<'_> {
                 let K = &self.factor.gains[k];
                 p = (0..nx)
                     .map(|i| {
-                        let mut terms: Vec<(f64, usize)> = (0..nx).map(|l| (A[(l, i)], p[l])).collect();
+                        let mut terms: Vec<(f64, usize)> =
+                            (0..nx).map(|l| (A[(l, i)], p[l])).collect();
                         terms.extend((0..nu).map(|c| (-K[(c, i)], e[c])));
                         terms.push((-1.0, g[k][i]));
                         b.value(ZERO_SLOT, terms, None)
@@ -304,7 +314,8 @@ impl Sweep<'_> {
         for k in 0..N {
             let K = &self.factor.gains[k];
             for c in 0..nu {
-                let mut terms: Vec<(f64, usize)> = (0..nx).map(|i| (-K[(c, i)], states[k][i])).collect();
+                let mut terms: Vec<(f64, usize)> =
+                    (0..nx).map(|i| (-K[(c, i)], states[k][i])).collect();
                 terms.push((-1.0, d[k][c]));
                 b.write(u[k * nu + c], ZERO_SLOT, terms, None);
             }
@@ -312,7 +323,8 @@ impl Sweep<'_> {
                 let x = &states[k];
                 let next = (0..nx)
                     .map(|i| {
-                        let mut terms: Vec<(f64, usize)> = (0..nx).map(|l| (A[(i, l)], x[l])).collect();
+                        let mut terms: Vec<(f64, usize)> =
+                            (0..nx).map(|l| (A[(i, l)], x[l])).collect();
                         terms.extend((0..nu).map(|c| (B[(i, c)], u[k * nu + c])));
                         b.value(ZERO_SLOT, terms, None)
                     })
@@ -325,14 +337,19 @@ impl Sweep<'_> {
             }
         }
         if ns == 0 {
-            return Ok(((0..np).map(|i| u_out + i).collect(), (0..m).map(|r| v_out + r).collect()));
+            return Ok((
+                (0..np).map(|i| u_out + i).collect(),
+                (0..m).map(|r| v_out + r).collect(),
+            ));
         }
         // σ̃ = S⁻¹(r_σ + Σ c·w − Σ ρ·c·v), then U = U_p − Y·σ̃ and the rows v − (A_U·Y)·σ̃ + c·σ̃.
         let t: Vec<usize> = (0..ns)
             .map(|s| {
                 let terms = (0..m)
                     .filter_map(|row| match self.stages.slack[row % per_slot] {
-                        Some((j, c)) if j == s => Some([(c, w[row]), (-self.rho_c(row, c), v_out + row)]),
+                        Some((j, c)) if j == s => {
+                            Some([(c, w[row]), (-self.rho_c(row, c), v_out + row)])
+                        }
                         _ => None,
                     })
                     .flatten()
@@ -340,7 +357,11 @@ impl Sweep<'_> {
                 b.value(rhs[np + s], terms, None)
             })
             .collect();
-        let schur = self.factor.schur.as_ref().ok_or("the slacks' Schur complement")?;
+        let schur = self
+            .factor
+            .schur
+            .as_ref()
+            .ok_or("the slacks' Schur complement")?;
         let (x_out, z_out) = match out {
             Some(at) => at,
             None => (b.alloc(np + ns), b.alloc(m)),
@@ -364,7 +385,10 @@ impl Sweep<'_> {
                 .collect();
             b.write(z_out + row, v_out + row, terms, None);
         }
-        Ok(((0..np + ns).map(|i| x_out + i).collect(), (0..m).map(|r| z_out + r).collect()))
+        Ok((
+            (0..np + ns).map(|i| x_out + i).collect(),
+            (0..m).map(|r| z_out + r).collect(),
+        ))
     }
 }
 
