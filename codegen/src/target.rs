@@ -21,6 +21,8 @@
 //! | cortex-m4f | f64, interior-point method | not run (the method is refused there) | | | 1 | 311 |
 //! | cortex-a9 | f32, ADMM | 13,333,810 (`firmware-template/specs/quadcopter-m4f.toml`, on the VFP) | 3,060,790 | 4.36 | 1.5 | 6.6 |
 //! | cortex-m4f | f32, ADMM | 12,003,230 (`firmware-template/specs/quadcopter-m4f.toml`) | 3,060,790 | 3.92 | 1 | 4.0 |
+//! | cortex-a9 | f32, ADMM, x-update stage by stage | 9,312,850 (`firmware-template/specs/quadcopter-m4f.toml`, on the VFP) | 2,942,646 | 3.16 | 1.5 | 4.8 |
+//! | cortex-m4f | f32, ADMM, x-update stage by stage | 8,526,738 (`firmware-template/specs/quadcopter-m4f.toml`) | 2,942,646 | 2.90 | 1 | 3.0 |
 //!
 //! The instruction counts are BENCHMARKS.md's: "Runtime hardening" (both boards' `paper.toml` with
 //! screening) and "Firmware (emulated Zynq-7000)" and "Firmware (emulated Cortex-M4F)" (the f64 rows). Under QEMU they are instructions, not cycles: the A9's 1.5 cycles
@@ -35,7 +37,9 @@
 //! are its own too (`scripts/firmware.sh --cycles 100 [--board netduinoplus2]
 //! firmware-template/specs/quadcopter-m4f.toml`; BENCHMARKS.md, "ADMM on the emulated Cortex-M4F"): its
 //! products are written out, but every iteration also clamps and updates each row's z and y, which its
-//! multiply-add count leaves out; rounded up. ADMM in f64 is taken at its f32 figure where f64 is in
+//! multiply-add count leaves out; rounded up. The condensed rows are from the firmware before ADMM's
+//! x-update went stage by stage (commit 6fd3446); the stage-wise rows from after it, which the firmware
+//! tests now check. ADMM in f64 is taken at its f32 figure where f64 is in
 //! hardware (the same scalar instructions on the VFP) and scaled by the soft-float ratio where it is not
 //! (derived, not measured).
 
@@ -76,6 +80,10 @@ pub struct Machine {
     /// Estimated cycles per multiply-add of ADMM in f32: its iterations also clamp and update every
     /// row's z and y, work its multiply-add count leaves out.
     pub cycles_per_mac_admm: f64,
+    /// The same with ADMM's x-update stage by stage ([`crate::admm::Structure::Riccati`]): straight-line
+    /// statements over one scratch array, fewer instructions a multiply-add than the dense factor's
+    /// triangular solves.
+    pub cycles_per_mac_admm_stages: f64,
 }
 
 /// The building machine: f64 in hardware, no SIMD assumed, no fixed clock. Its cycles per multiply-add
@@ -91,6 +99,7 @@ pub const HOST: Machine = Machine {
     cycles_per_mac_f64: 1.0,
     cycles_per_mac_ipm: 1.0,
     cycles_per_mac_admm: 1.0,
+    cycles_per_mac_admm_stages: 1.0,
 };
 
 /// The Zynq-7000's Cortex-A9: VFPv3 with 32 double registers (f64 in hardware) and NEON (f32 only). The
@@ -106,6 +115,7 @@ pub const CORTEX_A9: Machine = Machine {
     cycles_per_mac_f64: 5.4,
     cycles_per_mac_ipm: 10.3,
     cycles_per_mac_admm: 6.6,
+    cycles_per_mac_admm_stages: 4.8,
 };
 
 /// The STM32F405's Cortex-M4F: a single-precision FPU (FPv4-SP), no SIMD for floats (the M4's SIMD is
@@ -120,6 +130,7 @@ pub const CORTEX_M4F: Machine = Machine {
     cycles_per_mac_f64: 163.0,
     cycles_per_mac_ipm: 311.0,
     cycles_per_mac_admm: 4.0,
+    cycles_per_mac_admm_stages: 3.0,
 };
 
 /// What the compiler knows of `target`.
@@ -143,13 +154,22 @@ impl Machine {
     /// Estimated cycles per multiply-add of `method`'s iterations in a module of `scalar`, in the scalar
     /// the method computes in ([`solver_scalar`]): the interior-point method's and ADMM's own figures,
     /// the plain ones for the first-order methods.
-    pub fn solver_cycles_per_mac(&self, method: Method, scalar: Scalar) -> f64 {
+    pub fn solver_cycles_per_mac(
+        &self,
+        method: Method,
+        scalar: Scalar,
+        structure: crate::admm::Structure,
+    ) -> f64 {
+        let admm = match structure {
+            crate::admm::Structure::Condensed => self.cycles_per_mac_admm,
+            crate::admm::Structure::Riccati => self.cycles_per_mac_admm_stages,
+        };
         match (method, solver_scalar(method, scalar)) {
             (Method::Ipm, _) => self.cycles_per_mac_ipm,
             (Method::Admm, Scalar::F64) if !self.f64_in_hardware => {
-                self.cycles_per_mac_admm * self.cycles_per_mac_f64 / self.cycles_per_mac_f32
+                admm * self.cycles_per_mac_f64 / self.cycles_per_mac_f32
             }
-            (Method::Admm, _) => self.cycles_per_mac_admm,
+            (Method::Admm, _) => admm,
             _ => self.cycles_per_mac(scalar),
         }
     }
@@ -216,7 +236,8 @@ impl StepCost {
         let solver_scalar = solver_scalar(method, p.scalar);
         let solver_macs = p.qp.iterations * r.macs_per_iteration + r.macs_once_per_solve;
         let other_macs = r.macs_per_cycle.saturating_sub(solver_macs);
-        let solver_cycles_per_mac = machine.solver_cycles_per_mac(method, p.scalar);
+        let solver_cycles_per_mac =
+            machine.solver_cycles_per_mac(method, p.scalar, crate::admm::structure(&p.qp));
         let solver_cycles = solver_macs as f64 * solver_cycles_per_mac;
         let solver = match (method, crate::admm::tuning(&p.qp).map(|t| t.form)) {
             (Method::Admm, Some(crate::admm::Form::Residual)) => "ADMM (residual form)",

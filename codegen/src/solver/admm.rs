@@ -1079,6 +1079,11 @@ pub fn certified_settings(qp: &Qp) -> Option<Settings> {
     Some(tuned_settings(qp, tuning(qp)?))
 }
 
+/// The structure of a certified ADMM problem's x-update (condensed for another method).
+pub fn structure(qp: &Qp) -> Structure {
+    certified_settings(qp).map_or(Structure::Condensed, |s| s.structure())
+}
+
 /// [`mpc_settings`] at `tuned`'s ρ in its form, the x-update in the structure [`StructureChoice`]
 /// picks.
 pub fn tuned_settings(qp: &Qp, tuned: Tuned) -> Settings {

@@ -206,7 +206,7 @@ fn quadcopter_flies_on_the_emulated_cortex_m4_and_agrees_with_the_host() {
     let macs = uint(r, "macs_per_cycle");
     let period = (f64::from(q::DT) * 168e6) as u64;
     let per_mac = instructions as f64 / macs as f64;
-    let figure = codegen::target::CORTEX_M4F.cycles_per_mac_admm;
+    let figure = codegen::target::CORTEX_M4F.cycles_per_mac_admm_stages;
     eprintln!(
         "quadcopter-m4f: {instructions} instructions a cycle, {per_mac:.2} a multiply-add ({macs} multiply-adds; \
          the compiler's figure {figure}), {:.0} % of the {period} cycles of the period at one instruction a cycle",
@@ -269,7 +269,7 @@ fn quadcopter_flies_on_the_emulated_zynq_with_the_same_commands() {
     // instruction (`codegen::target`).
     let instructions = uint(r, "ticks_mean") * ZYNQ.instructions_per_tick;
     let per_mac = instructions as f64 / uint(r, "macs_per_cycle") as f64;
-    let figure = codegen::target::CORTEX_A9.cycles_per_mac_admm / 1.5;
+    let figure = codegen::target::CORTEX_A9.cycles_per_mac_admm_stages / 1.5;
     assert!(
         per_mac <= figure && per_mac >= 0.8 * figure,
         "{per_mac:.2} instructions a multiply-add against the compiler's {figure:.2}"
