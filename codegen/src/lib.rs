@@ -16,7 +16,8 @@
 //! - [`ipm`] (`solver/ipm.rs`): the dense primal-dual interior-point method for the constrained QPs, in
 //!   f64: its reference iteration, the MPC's control step with its fallback, and its cost; it is not a
 //!   first-order [`solver::Algorithm`], and `emit/interior.rs` emits it;
-//! - [`admm`] (`solver/admm.rs`): OSQP's ADMM on the same QPs, dense on the condensed QP, in f32 or f64
+//! - [`admm`] (`solver/admm.rs`, `solver/admm/stages.rs`): OSQP's ADMM on the same QPs, its x-update
+//!   dense on the condensed QP or stage by stage (Riccati gains), in f32 or f64
 //!   (the method for targets without f64 hardware), with ρ measured on a sample; `emit/admm.rs` emits it;
 //! - [`target`]: what the compiler knows of the machine (`[codegen] target`): f64 hardware, SIMD, clock,
 //!   cycles per multiply-add, and the refusal of a step that does not fit its sampling period;

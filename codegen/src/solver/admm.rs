@@ -18,7 +18,9 @@
 //! (per case at most 1.01× f64's). In f32 the hover QP (κ(H) = 2.8e4) does not keep its accuracy: the
 //! rounding noise of each iteration accumulates in the slow modes to 4e-4 … 1.3e-3 of the span.
 //!
-//! It is dense on the condensed QP: L is an n × n triangular table (K·b is two triangular solves, n²
+//! The x-update is dense on the condensed QP, or stage by stage ([`Structure`], `admm/stages.rs`: the
+//! same x̃ from Riccati gains computed at build time), whichever [`StructureChoice`] counts cheaper. Dense,
+//! L is an n × n triangular table (K·b is two triangular solves, n²
 //! multiply-adds like a mat-vec, and backward stable in f32 where the rounded inverse is not) and A is
 //! applied through its structural nonzeros. Unlike the interior-point method it needs no factorisation at run time, so it keeps its
 //! f64 iteration counts in f32 (issue 17's calibration; `tests/admm.rs` measures it): the iteration is
@@ -44,7 +46,7 @@ mod stages;
 pub use stages::{program as stages_program, Program, Statement, Structure, ZERO_SLOT};
 
 /// Its name in prose.
-pub const TITLE: &str = "ADMM (OSQP's operator splitting, dense on the condensed QP)";
+pub const TITLE: &str = "ADMM (OSQP's operator splitting on the condensed QP)";
 
 /// OSQP's over-relaxation α.
 pub const ALPHA: f64 = 1.6;
