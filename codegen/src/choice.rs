@@ -170,12 +170,11 @@ fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
         macs_per_iteration,
         macs_per_solve: qp.iterations * macs_per_iteration + once,
         cycles_per_solve: (qp.iterations * macs_per_iteration + once) as f64
-            * crate::target::machine(spec.codegen.target)
-                .solver_cycles_per_mac(
-                    spec.mpc.method,
-                    spec.codegen.scalar,
-                    crate::admm::structure(qp),
-                ),
+            * crate::target::machine(spec.codegen.target).solver_cycles_per_mac(
+                spec.mpc.method,
+                spec.codegen.scalar,
+                crate::admm::structure(qp),
+            ),
         certified,
         reaches_accuracy,
         chosen: false,

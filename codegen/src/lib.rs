@@ -74,6 +74,10 @@ pub struct Opt {
     pub visibility: String,
     /// Where the spec came from.
     pub origin: Origin,
+    /// The largest ADMM kernel (multiply-adds) written out, one statement per output; past it the kernel
+    /// loops over tables. [`emit::WRITE_OUT_BUDGET`] unless a test forces the loops (the same rounding
+    /// either way).
+    pub write_out_budget: usize,
 }
 
 impl Default for Opt {
@@ -82,6 +86,7 @@ impl Default for Opt {
             name: "controller".into(),
             visibility: "pub".into(),
             origin: Origin::Inline,
+            write_out_budget: emit::WRITE_OUT_BUDGET,
         }
     }
 }
@@ -93,6 +98,7 @@ impl Opt {
             name: name.into(),
             visibility: visibility.into(),
             origin,
+            write_out_budget: emit::WRITE_OUT_BUDGET,
         }
     }
 }
@@ -223,7 +229,10 @@ pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
 pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
     let (resolved, problem) = choice::resolve(spec)?;
     let spec = &resolved;
-    let plan = plan(spec, &problem)?;
+    let plan = Plan {
+        write_out_budget: opt.write_out_budget,
+        ..plan(spec, &problem)?
+    };
     // The build's cost is counted before the certificate's analyses, which take seconds on a large H.
     let (resources, build_cost) = certificate::predicted(&problem, &plan);
     if budget::over(&build_cost).is_some() {

@@ -23,6 +23,9 @@ pub struct Plan {
     pub form: Form,
     /// The cost model's estimate of every form, in the order of [`Emission`].
     pub estimates: Vec<Estimate>,
+    /// The largest ADMM kernel written out statement by statement; past it, loops over tables
+    /// ([`crate::Opt::write_out_budget`]).
+    pub write_out_budget: usize,
 }
 
 impl Plan {
@@ -68,6 +71,7 @@ pub fn plan(spec: &Spec, p: &Problem) -> Result<Plan, Diagnostics> {
         algorithm: solver::algorithm(p.qp.method),
         form,
         estimates,
+        write_out_budget: crate::emit::WRITE_OUT_BUDGET,
     })
 }
 

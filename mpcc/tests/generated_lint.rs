@@ -171,7 +171,26 @@ fn variants() -> Vec<(String, String)> {
         "admm_residual_rows".to_string(),
         tests("linear-admm-residual-f32.toml"),
     ));
+    // The x-update stage by stage (OSQP's quadcopter: no move rows), in residual form.
+    let quadcopter = tests("quadcopter-admm-f32.toml");
+    let residual = quadcopter.replace(
+        "method = \"admm\"\n",
+        "method = \"admm\"\nadmm_form = \"residual\"\n",
+    );
+    assert_ne!(
+        residual, quadcopter,
+        "quadcopter-admm-f32.toml: no `method = \"admm\"`"
+    );
+    out.push(("admm_stages_residual".to_string(), residual));
     out
+}
+
+/// Variants emitted with every ADMM kernel as a loop over tables (`Opt::write_out_budget` 0), which no
+/// shipped size reaches: the stage-wise x-update's statements in compressed rows, C·x and Cᵀ·v.
+fn table_variants() -> Vec<(String, String)> {
+    let text =
+        std::fs::read_to_string(workspace().join("tests/specs/quadcopter-admm-f64.toml")).unwrap();
+    vec![("admm_stages_tables".to_string(), text)]
 }
 
 /// Writes the scratch crate: the checked-in files by path, the variants emitted here.
@@ -209,8 +228,17 @@ fn scratch_crate() -> PathBuf {
             file.display().to_string()
         );
     }
-    for (name, spec) in variants() {
-        let opt = Opt::new(&name, "pub", Origin::Named(format!("{name}.toml")));
+    let budgets = variants()
+        .into_iter()
+        .map(|(name, spec)| (name, spec, codegen::emit::WRITE_OUT_BUDGET))
+        .chain(
+            table_variants()
+                .into_iter()
+                .map(|(name, spec)| (name, spec, 0)),
+        );
+    for (name, spec, write_out_budget) in budgets {
+        let mut opt = Opt::new(&name, "pub", Origin::Named(format!("{name}.toml")));
+        opt.write_out_budget = write_out_budget;
         let module = generate_from_source(&spec, &opt)
             .unwrap_or_else(|e| panic!("{name}: {e:?}"))
             .pretty();

@@ -31,7 +31,7 @@ fn bound(num: Num, v: f64) -> TokenStream {
 }
 
 /// The ADMM `Mpc`, its kernels and its tables. `p` must be certified (its evidence carries ρ).
-pub fn emit(p: &Problem, num: Num) -> Sections {
+pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
     let qp = &p.qp;
     let (nu, N) = (p.nu, qp.N);
     let np = N * nu;
@@ -56,9 +56,9 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
         kernels: mut kernel_code,
         tables: mut kernel_tables,
         ..
-    } = kernels(num, &structure.A, L.as_ref());
+    } = kernels(num, &structure.A, L.as_ref(), write_out_budget);
     if let Some(program) = &settings.stages {
-        let staged = super::admm_stages::kernel(num, program, WRITE_OUT_BUDGET);
+        let staged = super::admm_stages::kernel(num, program, write_out_budget);
         kernel_code.extend(staged.kernels);
         kernel_tables.extend(staged.tables);
     }
@@ -655,7 +655,12 @@ pub const WRITE_OUT_BUDGET: usize = 16_384;
 /// [`WRITE_OUT_BUDGET`], which costs a few instructions a multiply-add where the loops over compressed
 /// rows cost some ten (BENCHMARKS.md, "ADMM on the emulated Cortex-M4F"), else loops over tables.
 /// The tables are those the loops need (none when written out).
-fn kernels(num: Num, A: &nalgebra::DMatrix<f64>, L: Option<&nalgebra::DMatrix<f64>>) -> Sections {
+fn kernels(
+    num: Num,
+    A: &nalgebra::DMatrix<f64>,
+    L: Option<&nalgebra::DMatrix<f64>>,
+    write_out_budget: usize,
+) -> Sections {
     let (ng, nv) = A.shape();
     let lit = Literal::usize_unsuffixed;
     let rows: Vec<Vec<(usize, f64)>> = (0..ng)
@@ -669,7 +674,7 @@ fn kernels(num: Num, A: &nalgebra::DMatrix<f64>, L: Option<&nalgebra::DMatrix<f6
     let nnz: usize = rows.iter().map(Vec::len).sum();
     let mut code = Vec::new();
     let mut tables = Vec::new();
-    if nnz <= WRITE_OUT_BUDGET {
+    if nnz <= write_out_budget {
         // Row j of C·x below the identity: 0 + Σ a·x in column order (the reference's fold from zero).
         let products = rows.iter().enumerate().map(|(j, row)| {
             let (o, sum) = (
@@ -775,7 +780,7 @@ fn kernels(num: Num, A: &nalgebra::DMatrix<f64>, L: Option<&nalgebra::DMatrix<f6
             ..Sections::default()
         };
     };
-    if nv * nv <= WRITE_OUT_BUDGET {
+    if nv * nv <= write_out_budget {
         // b_i ← (b_i − Σ_k L_ik·b_k)·(1/L_ii), then b_i ← (b_i − Σ_j L_ji·b_j)·(1/L_ii), as the reference.
         let step = |i: usize, terms: Vec<(f64, TokenStream)>| {
             let (bi, inv) = (at("b", i), num.lit(1.0 / L[(i, i)]));

@@ -77,23 +77,14 @@ pub fn kernel(num: Num, program: &Program, write_out_budget: usize) -> Sections 
             ..Sections::default()
         };
     }
-    let n = program.statements.len();
-    let mut start = vec![0usize];
-    let (mut slot, mut coefficient) = (Vec::new(), Vec::new());
-    for st in &program.statements {
-        for &(c, i) in &st.terms {
-            slot.push(i);
-            coefficient.push(c);
-        }
-        start.push(slot.len());
-    }
-    let (n_lit, terms_lit) = (lit(n), lit(slot.len()));
-    let outs = program.statements.iter().map(|st| lit(st.out));
-    let bases = program.statements.iter().map(|st| lit(st.base));
-    let starts = start.iter().map(|s| lit(*s));
-    let slots_lit = slot.iter().map(|s| lit(*s));
-    let coefficients = num.vector(coefficient.iter().copied());
-    let scales = num.vector(program.statements.iter().map(|st| st.scale.unwrap_or(1.0)));
+    let t = program.tables();
+    let (n_lit, terms_lit) = (lit(t.out.len()), lit(t.slot.len()));
+    let outs = t.out.iter().map(|s| lit(*s));
+    let bases = t.base.iter().map(|s| lit(*s));
+    let starts = t.start.iter().map(|s| lit(*s));
+    let slots_lit = t.slot.iter().map(|s| lit(*s));
+    let coefficients = num.vector(t.coefficient.iter().copied());
+    let scales = num.vector(t.scale.iter().copied());
     Sections {
         kernels: quote! {
             /// x̃ and z̃ = C·x̃ at the iterate (x, z, y) stage by stage: the statements of [`STAGE_OUT`]

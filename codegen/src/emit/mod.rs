@@ -2,6 +2,8 @@
 
 mod admm;
 mod admm_stages;
+
+pub use admm::WRITE_OUT_BUDGET;
 mod constrained;
 mod controller;
 mod interior;
@@ -68,6 +70,41 @@ pub enum Origin {
     Named(String),
 }
 
+/// Whether an f32 literal in `tokens` is the f32 of one of the constants clippy's `approx_constant` knows.
+fn rounds_to_a_std_constant(tokens: &TokenStream) -> bool {
+    use std::f64::consts as c;
+    const CONSTANTS: [f64; 19] = [
+        c::E,
+        c::FRAC_1_PI,
+        c::FRAC_1_SQRT_2,
+        c::FRAC_2_PI,
+        c::FRAC_2_SQRT_PI,
+        c::FRAC_PI_2,
+        c::FRAC_PI_3,
+        c::FRAC_PI_4,
+        c::FRAC_PI_6,
+        c::FRAC_PI_8,
+        c::LN_10,
+        c::LN_2,
+        c::LOG10_E,
+        c::LOG2_E,
+        c::LOG2_10,
+        c::LOG10_2,
+        c::PI,
+        c::SQRT_2,
+        c::TAU,
+    ];
+    tokens.clone().into_iter().any(|t| match t {
+        proc_macro2::TokenTree::Group(g) => rounds_to_a_std_constant(&g.stream()),
+        proc_macro2::TokenTree::Literal(l) => l
+            .to_string()
+            .strip_suffix("f32")
+            .and_then(|v| v.parse::<f32>().ok())
+            .is_some_and(|v| CONSTANTS.iter().any(|k| *k as f32 == v)),
+        _ => false,
+    })
+}
+
 /// The generated module `vis mod name { ... }`.
 pub fn module(
     p: &Problem,
@@ -108,7 +145,10 @@ pub fn module(
         (None, _) => nv * nv.max(p.qp.N * p.qp.nz) * 8,
     };
     let large_tables = (largest_table > 16 * 1024).then(|| quote!(clippy::large_const_arrays,));
-    let allow = quote!(#time_varying #neon_cfg #large_tables);
+    // A spec's value rounded to f32 that is a std constant's f32 (an angle bound of π/6 as
+    // -0.5235988f32) reads to clippy as an approximation of it: the value is the spec's, not a constant's.
+    let approx = rounds_to_a_std_constant(&items).then(|| quote!(clippy::approx_constant,));
+    let allow = quote!(#time_varying #neon_cfg #large_tables #approx);
     let allow = (!allow.is_empty()).then(|| quote!(#![allow(#allow)]));
     let halves = if p.filter.is_some() {
         " [`Controller::step`] runs one control cycle; [`Mpc`] and [`Kalman`] are its two halves."
@@ -330,7 +370,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     });
     let mpc = match plan.algorithm {
         Some(a) => mpc::emit(p, plan, a, num),
-        None if admm => admm::emit(p, num),
+        None if admm => admm::emit(p, num, plan.write_out_budget),
         None => interior::emit(p, num),
     };
     let kalman = p

@@ -43,7 +43,7 @@ use std::ops::{Add, Div, Mul, Neg, Sub};
 use std::sync::Arc;
 
 mod stages;
-pub use stages::{program as stages_program, Program, Statement, Structure, ZERO_SLOT};
+pub use stages::{program as stages_program, Program, Statement, Structure, Tables, ZERO_SLOT};
 
 /// Its name in prose.
 pub const TITLE: &str = "ADMM (OSQP's operator splitting on the condensed QP)";

@@ -525,54 +525,87 @@ pub fn program(qp: &Qp, settings: &Settings) -> Result<Program, String> {
     })
 }
 
-/// A [`Program`] in the scalar T: its coefficients rounded.
+/// A [`Program`] in compressed rows, the form the emitted loop reads ([`crate::emit`]'s `STAGE_*` tables)
+/// and [`Kernel`] runs: statement k is s[out[k]] = (s[base[k]] + Σ coefficient[t]·s[slot[t]] over
+/// t ∈ start[k]..start[k + 1]) · scale[k], scale 1 where the statement has none (exact).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tables {
+    /// The slot each statement writes.
+    pub out: Vec<usize>,
+    /// The slot each statement's sum starts from.
+    pub base: Vec<usize>,
+    /// Each statement's first term (one more entry than statements).
+    pub start: Vec<usize>,
+    /// Each term's slot.
+    pub slot: Vec<usize>,
+    /// Each term's coefficient.
+    pub coefficient: Vec<f64>,
+    /// Each statement's final factor.
+    pub scale: Vec<f64>,
+}
+
+impl Program {
+    /// The statements in compressed rows.
+    pub fn tables(&self) -> Tables {
+        let mut t = Tables {
+            out: Vec::with_capacity(self.statements.len()),
+            base: Vec::with_capacity(self.statements.len()),
+            start: vec![0],
+            slot: Vec::with_capacity(self.terms()),
+            coefficient: Vec::with_capacity(self.terms()),
+            scale: Vec::with_capacity(self.statements.len()),
+        };
+        for st in &self.statements {
+            t.out.push(st.out);
+            t.base.push(st.base);
+            for &(c, i) in &st.terms {
+                t.slot.push(i);
+                t.coefficient.push(c);
+            }
+            t.start.push(t.slot.len());
+            t.scale.push(st.scale.unwrap_or(1.0));
+        }
+        t
+    }
+}
+
+/// A [`Program`] in the scalar T: its [`Tables`], the coefficients and scales rounded.
 #[derive(Clone, Debug)]
 pub struct Kernel<T> {
     program: Program,
-    coefficients: Vec<Vec<T>>,
-    scales: Vec<Option<T>>,
+    tables: Tables,
+    coefficient: Vec<T>,
+    scale: Vec<T>,
 }
 
 impl<T: Real> Kernel<T> {
     /// `program` rounded to T.
     pub fn new(program: &Program) -> Self {
+        let tables = program.tables();
         Kernel {
-            coefficients: program
-                .statements
-                .iter()
-                .map(|s| s.terms.iter().map(|(c, _)| T::of(*c)).collect())
-                .collect(),
-            scales: program
-                .statements
-                .iter()
-                .map(|s| s.scale.map(T::of))
-                .collect(),
+            coefficient: tables.coefficient.iter().map(|c| T::of(*c)).collect(),
+            scale: tables.scale.iter().map(|c| T::of(*c)).collect(),
+            tables,
             program: program.clone(),
         }
     }
 
-    /// x̃ (nv) and z̃'s general rows (m) at the iterate (x, z, y) with the linear term q.
+    /// x̃ (nv) and z̃'s general rows (m) at the iterate (x, z, y) with the linear term q: the emitted
+    /// loop over the tables, statement by statement (the written-out statements round alike: a scale of
+    /// 1 is exact).
     pub fn solve(&self, x: &[T], z: &[T], y: &[T], q: &[T]) -> (Vec<T>, Vec<T>) {
-        let p = &self.program;
+        let (p, t) = (&self.program, &self.tables);
         let mut s = vec![T::ZERO; p.slots];
         s[p.x_in..p.x_in + p.nv].copy_from_slice(x);
         s[p.z_in..p.z_in + p.nv + p.m].copy_from_slice(z);
         s[p.y_in..p.y_in + p.nv + p.m].copy_from_slice(y);
         s[p.q_in..p.q_in + p.nv].copy_from_slice(q);
-        for ((st, coefficients), scale) in p
-            .statements
-            .iter()
-            .zip(&self.coefficients)
-            .zip(&self.scales)
-        {
-            let mut v = s[st.base];
-            for ((_, i), c) in st.terms.iter().zip(coefficients) {
-                v = v + *c * s[*i];
+        for k in 0..t.out.len() {
+            let mut v = s[t.base[k]];
+            for term in t.start[k]..t.start[k + 1] {
+                v = v + self.coefficient[term] * s[t.slot[term]];
             }
-            if let Some(scale) = scale {
-                v = v * *scale;
-            }
-            s[st.out] = v;
+            s[t.out[k]] = v * self.scale[k];
         }
         (
             s[p.x_at..p.x_at + p.nv].to_vec(),
