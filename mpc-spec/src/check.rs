@@ -605,7 +605,12 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
     if method == Method::Auto {
         return;
     }
-    if let Some(form) = raw.admm_form.as_ref().filter(|_| method != Method::Admm) {
+    // `"auto"` asks for nothing, so it fits any method (as `step = "auto"` does).
+    if let Some(form) = raw
+        .admm_form
+        .as_ref()
+        .filter(|f| method != Method::Admm && f.value != "auto")
+    {
         diags.push(
             Diagnostic::new(
                 format!("`admm_form` is a setting of `method = \"admm\"`, not of `method = \"{name}\"`"),

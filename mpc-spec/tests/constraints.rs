@@ -406,6 +406,11 @@ fn admm_form_is_admm_s_and_spelled() {
     assert_eq!(load(&admm("")).unwrap().mpc.admm_form, None);
     let auto = with_method("", "admm_form = \"residual\"\nx_min = [-1, -1]\n");
     assert_eq!(load(&auto).unwrap().mpc.admm_form, Some(AdmmForm::Residual));
+    // "auto" asks for nothing: any method takes it.
+    assert_eq!(
+        load(&ipm("admm_form = \"auto\"\n")).unwrap().mpc.admm_form,
+        None
+    );
     // Another method: located at the value, with the way out.
     let (msg, at, note) = only_error(&ipm("admm_form = \"residual\"\n"));
     assert_eq!(
