@@ -2,7 +2,7 @@
 //! family of bad specs, each case a compile error whose expected output (the rendered TOML snippet with its
 //! line and column, on the macro's string literal) is the `.stderr` beside it.
 //!
-//! The `.stderr` files are generated, then reviewed: `TRYBUILD=overwrite cargo test -p mpc-tests --test
+//! The `.stderr` files are generated, then reviewed: `TRYBUILD=overwrite cargo test -p mpc-macros --test
 //! compiletest`. They match the stable toolchain this workspace is tested with (rustc 1.95), and
 //! `file/missing.stderr` the default target directory (`$WORKSPACE/target`).
 
