@@ -228,25 +228,39 @@ fn scratch_crate() -> PathBuf {
             file.display().to_string()
         );
     }
-    let budgets = variants()
+    let budgets: Vec<(String, String, usize)> = variants()
         .into_iter()
         .map(|(name, spec)| (name, spec, codegen::emit::WRITE_OUT_BUDGET))
         .chain(
             table_variants()
                 .into_iter()
                 .map(|(name, spec)| (name, spec, 0)),
-        );
-    for (name, spec, write_out_budget) in budgets {
-        let mut opt = Opt::new(&name, "pub", Origin::Named(format!("{name}.toml")));
-        opt.write_out_budget = write_out_budget;
-        let module = generate_from_source(&spec, &opt)
-            .unwrap_or_else(|e| panic!("{name}: {e:?}"))
-            .pretty();
-        // Rewritten only when changed, so that an unchanged module is not rebuilt.
-        let file = src.join(format!("{name}_rs.rs"));
-        if std::fs::read_to_string(&file).ok().as_deref() != Some(&module) {
-            std::fs::write(&file, module).unwrap();
+        )
+        .collect();
+    // Emitted on every core: each certificate is seconds of build-time sampling.
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
+    std::thread::scope(|s| {
+        for _ in 0..workers {
+            s.spawn(|| loop {
+                let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some((name, spec, write_out_budget)) = budgets.get(k) else {
+                    break;
+                };
+                let mut opt = Opt::new(name, "pub", Origin::Named(format!("{name}.toml")));
+                opt.write_out_budget = *write_out_budget;
+                let module = generate_from_source(spec, &opt)
+                    .unwrap_or_else(|e| panic!("{name}: {e:?}"))
+                    .pretty();
+                // Rewritten only when changed, so that an unchanged module is not rebuilt.
+                let file = src.join(format!("{name}_rs.rs"));
+                if std::fs::read_to_string(&file).ok().as_deref() != Some(&module) {
+                    std::fs::write(&file, module).unwrap();
+                }
+            });
         }
+    });
+    for (name, _, _) in &budgets {
         lib += &format!("pub mod {name}_rs;\n");
     }
     if std::fs::read_to_string(src.join("lib.rs")).ok().as_deref() != Some(&lib) {
@@ -255,8 +269,9 @@ fn scratch_crate() -> PathBuf {
     dir
 }
 
-/// `cargo [+toolchain] clippy` on the scratch crate with every warning an error.
-fn clippy(dir: &Path, toolchain: Option<&str>, target_args: &[&str], rustflags: &str) {
+/// `cargo [+toolchain] clippy` on the scratch crate with every warning an error, in its own target
+/// directory `target/<build>` (so that two can run at once).
+fn clippy(dir: &Path, build: &str, toolchain: Option<&str>, target_args: &[&str], rustflags: &str) {
     let mut command = Command::new("cargo");
     // The outer `cargo test`'s settings must not leak into the inner build.
     for var in [
@@ -272,7 +287,8 @@ fn clippy(dir: &Path, toolchain: Option<&str>, target_args: &[&str], rustflags: 
         command.arg(format!("+{toolchain}"));
     }
     let o = command
-        .args(["clippy", "--quiet", "--lib"])
+        .args(["clippy", "--quiet", "--lib", "--target-dir"])
+        .arg(dir.join("target").join(build))
         .args(target_args)
         .args(["--", "-D", "warnings", "-D", "dead_code"])
         .env("RUSTFLAGS", rustflags)
@@ -291,11 +307,15 @@ fn clippy(dir: &Path, toolchain: Option<&str>, target_args: &[&str], rustflags: 
 #[test]
 fn emitted_modules_have_no_dead_code_and_pass_clippy_on_the_host_and_the_a9() {
     let dir = scratch_crate();
-    clippy(&dir, None, &[], "");
-    clippy(
-        &dir,
-        Some("nightly"),
-        &["--target", "armv7a-none-eabihf", "-Zbuild-std=core"],
-        "--cfg mpc_neon -C target-cpu=cortex-a9 -C target-feature=+neon,+vfp3",
-    );
+    // Side by side: each is one crate's check, mostly on one core.
+    std::thread::scope(|s| {
+        s.spawn(|| clippy(&dir, "host", None, &[], ""));
+        clippy(
+            &dir,
+            "a9",
+            Some("nightly"),
+            &["--target", "armv7a-none-eabihf", "-Zbuild-std=core"],
+            "--cfg mpc_neon -C target-cpu=cortex-a9 -C target-feature=+neon,+vfp3",
+        );
+    });
 }
