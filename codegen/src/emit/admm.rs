@@ -644,11 +644,7 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
     }
 }
 
-/// Multiply-adds of one kernel (C·x and Cᵀ·v: one per nonzero of A; K·b: NV² of the two triangular
-/// solves) up to which it is written out, one statement per output with the coefficients as literals
-/// and every index a constant; past it the kernel loops over tables. At about 10 bytes a multiply-add
-/// this is at most ~160 KB of code per kernel.
-pub const WRITE_OUT_BUDGET: usize = 16_384;
+pub use crate::plan::WRITE_OUT_BUDGET;
 
 /// The kernels over the general rows `A` (rows × NV) and the factor `L` of P + σI + CᵀRC, each in the
 /// reference's order of summation (`solver::admm::Operator::{C, Ct, solve}`): written out within

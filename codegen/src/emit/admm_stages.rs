@@ -1,7 +1,7 @@
 //! ADMM's stage-wise x-update ([`crate::admm::Program`]) as `stage_solve(x, z, y, q, xt, zt)`: the program's statements over
 //! one scratch array `s`, in its order and with its coefficients, so that the module matches the
 //! reference ([`crate::admm::Operator`] with `Structure::Riccati`) to the bit. Written out, one statement
-//! per line with the coefficients as literals, within [`super::admm::WRITE_OUT_BUDGET`] terms; past it a
+//! per line with the coefficients as literals, within [`crate::plan::WRITE_OUT_BUDGET`] terms; past it a
 //! loop over the statements in compressed tables.
 
 use super::tokens::{at, Num};
@@ -38,7 +38,7 @@ pub fn kernel(num: Num, program: &Program, write_out_budget: usize) -> Sections 
         zt[..NV].copy_from_slice(xt);
         zt[NV..].copy_from_slice(&s[#z_out]);
     };
-    if program.terms() <= write_out_budget {
+    let (doc, body, tables) = if program.terms() <= write_out_budget {
         let statements = program.statements.iter().map(|st| {
             let base = if st.base == ZERO_SLOT {
                 quote!(0.0)
@@ -55,51 +55,33 @@ pub fn kernel(num: Num, program: &Program, write_out_budget: usize) -> Sections 
                 None => quote!(#out = #sum;),
             }
         });
-        return Sections {
-            kernels: quote! {
-                /// x̃ and z̃ = C·x̃ at the iterate (x, z, y) stage by stage, written out: the right-hand
-                /// side (the rows' share of Cᵀw as linear terms on the stages), the backward Riccati
-                /// sweep with the gains computed at build time, the forward rollout evaluating each row
-                /// on its stage (and with slacks, their Schur complement), in the scratch `s`.
-                fn stage_solve(
-                    x: &[Real; NV],
-                    z: &[Real; NC],
-                    y: &[Real; NC],
-                    q: &[Real; NV],
-                    xt: &mut [Real; NV],
-                    zt: &mut [Real; NC],
-                ) {
-                    #head
-                    #(#statements)*
-                    #tail
-                }
-            },
-            ..Sections::default()
-        };
-    }
-    let t = program.tables();
-    let (n_lit, terms_lit) = (lit(t.out.len()), lit(t.slot.len()));
-    let outs = t.out.iter().map(|s| lit(*s));
-    let bases = t.base.iter().map(|s| lit(*s));
-    let starts = t.start.iter().map(|s| lit(*s));
-    let slots_lit = t.slot.iter().map(|s| lit(*s));
-    let coefficients = num.vector(t.coefficient.iter().copied());
-    let scales = num.vector(t.scale.iter().copied());
-    Sections {
-        kernels: quote! {
-            /// x̃ and z̃ = C·x̃ at the iterate (x, z, y) stage by stage: the statements of [`STAGE_OUT`]
-            /// in order over the scratch `s`, each s[out] = (s[base] + Σ c·s[slot])·scale (the
-            /// Riccati sweep with the gains computed at build time). The tables are consistent by
-            /// construction; `get` keeps the indexing free of panicking paths.
-            fn stage_solve(
-                    x: &[Real; NV],
-                    z: &[Real; NC],
-                    y: &[Real; NC],
-                    q: &[Real; NV],
-                    xt: &mut [Real; NV],
-                    zt: &mut [Real; NC],
-                ) {
-                #head
+        (
+            [
+                " x̃ and z̃ = C·x̃ at the iterate (x, z, y) stage by stage, written out: the right-hand side",
+                " (the rows' share of Cᵀw as linear terms on the stages), the backward Riccati sweep with the",
+                " gains computed at build time, the forward rollout evaluating each row on its stage (and with",
+                " slacks, their Schur complement), in the scratch `s`.",
+            ],
+            quote!(#(#statements)*),
+            quote!(),
+        )
+    } else {
+        let t = program.tables();
+        let (n_lit, terms_lit) = (lit(t.out.len()), lit(t.slot.len()));
+        let outs = t.out.iter().map(|s| lit(*s));
+        let bases = t.base.iter().map(|s| lit(*s));
+        let starts = t.start.iter().map(|s| lit(*s));
+        let slots_lit = t.slot.iter().map(|s| lit(*s));
+        let coefficients = num.vector(t.coefficient.iter().copied());
+        let scales = num.vector(t.scale.iter().copied());
+        (
+            [
+                " x̃ and z̃ = C·x̃ at the iterate (x, z, y) stage by stage: the statements of [`STAGE_OUT`] in",
+                " order over the scratch `s`, each s[out] = (s[base] + Σ c·s[slot])·scale (the Riccati sweep",
+                " with the gains computed at build time). The tables are consistent by construction; `get`",
+                " keeps the indexing free of panicking paths.",
+            ],
+            quote! {
                 for k in 0..STAGE_STATEMENTS {
                     let mut v = s.get(STAGE_BASE[k]).copied().unwrap_or(0.0);
                     let span = STAGE_START[k]..STAGE_START[k + 1];
@@ -112,21 +94,38 @@ pub fn kernel(num: Num, program: &Program, write_out_budget: usize) -> Sections 
                         *o = v * STAGE_SCALE[k];
                     }
                 }
+            },
+            quote! {
+                /// The stage-wise x-update's statements: s[STAGE_OUT[k]] = (s[STAGE_BASE[k]] + Σ
+                /// STAGE_COEFFICIENT[t]·s[STAGE_SLOT[t]] over t ∈ STAGE_START[k]..STAGE_START[k + 1])
+                /// · STAGE_SCALE[k], slot 0 always zero.
+                const STAGE_STATEMENTS: usize = #n_lit;
+                const STAGE_OUT: [usize; #n_lit] = [#(#outs),*];
+                const STAGE_BASE: [usize; #n_lit] = [#(#bases),*];
+                const STAGE_START: [usize; #n_lit + 1] = [#(#starts),*];
+                const STAGE_SLOT: [usize; #terms_lit] = [#(#slots_lit),*];
+                const STAGE_COEFFICIENT: [Real; #terms_lit] = #coefficients;
+                const STAGE_SCALE: [Real; #n_lit] = #scales;
+            },
+        )
+    };
+    Sections {
+        kernels: quote! {
+            #(#[doc = #doc])*
+            fn stage_solve(
+                x: &[Real; NV],
+                z: &[Real; NC],
+                y: &[Real; NC],
+                q: &[Real; NV],
+                xt: &mut [Real; NV],
+                zt: &mut [Real; NC],
+            ) {
+                #head
+                #body
                 #tail
             }
         },
-        tables: quote! {
-            /// The stage-wise x-update's statements: s[STAGE_OUT[k]] = (s[STAGE_BASE[k]] + Σ
-            /// STAGE_COEFFICIENT[t]·s[STAGE_SLOT[t]] over t ∈ STAGE_START[k]..STAGE_START[k + 1])
-            /// · STAGE_SCALE[k], slot 0 always zero.
-            const STAGE_STATEMENTS: usize = #n_lit;
-            const STAGE_OUT: [usize; #n_lit] = [#(#outs),*];
-            const STAGE_BASE: [usize; #n_lit] = [#(#bases),*];
-            const STAGE_START: [usize; #n_lit + 1] = [#(#starts),*];
-            const STAGE_SLOT: [usize; #terms_lit] = [#(#slots_lit),*];
-            const STAGE_COEFFICIENT: [Real; #terms_lit] = #coefficients;
-            const STAGE_SCALE: [Real; #n_lit] = #scales;
-        },
+        tables,
         ..Sections::default()
     }
 }

@@ -503,11 +503,11 @@ pub fn program(qp: &Qp, settings: &Settings) -> Result<Program, String> {
                 .collect();
             let (d, rows_d) = sweep.solve(&mut b, &rhs, &w[nv..], &state_terms, None)?;
             // x̃ = x + d, z̃ = Cx + C·d.
-            for i in 0..nv {
-                b.write(x_at + i, x_in + i, vec![(1.0, d[i])], None);
+            for (i, di) in d.iter().enumerate() {
+                b.write(x_at + i, x_in + i, vec![(1.0, *di)], None);
             }
-            for row in 0..m {
-                b.write(z_at + row, cx[row], vec![(1.0, rows_d[row])], None);
+            for (row, (c, r)) in cx.iter().zip(&rows_d).enumerate() {
+                b.write(z_at + row, *c, vec![(1.0, *r)], None);
             }
         }
     }
