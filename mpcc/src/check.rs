@@ -364,71 +364,69 @@ fn target_lines(step: &codegen::target::StepCost) -> Vec<(String, String)> {
 /// One line per form of the interior-point method's normal system: its multiply-adds per iteration, or
 /// why it is not built for the problem, and which one is used.
 fn normal_form_lines(choice: &codegen::riccati::Choice) -> Vec<(String, String)> {
-    use codegen::riccati::Form;
-    let name = |form: Form| {
-        format!(
-            "{}{}",
-            form.name(),
-            if form == choice.form { " (chosen)" } else { "" }
-        )
-    };
-    let riccati = match (
-        &choice.riccati_unavailable,
-        choice.riccati_macs_per_iteration,
-    ) {
-        (Some(why), Some(macs)) => format!("{macs} multiply-adds/iteration, unavailable: {why}"),
-        (Some(why), None) => format!("unavailable: {why}"),
-        (None, Some(macs)) => {
-            format!("{macs} multiply-adds/iteration (stage-wise Riccati recursion)")
-        }
-        (None, None) => "unavailable".to_string(),
-    };
-    vec![
+    condensed_or_riccati_lines(
+        choice.form == codegen::riccati::Form::Riccati,
         (
-            name(Form::Condensed),
-            format!(
-                "{} multiply-adds/iteration (L·D·Lᵀ of H + Gᵀ·diag(λ/s)·G within its envelope)",
-                choice.condensed_macs_per_iteration
-            ),
+            choice.condensed_macs_per_iteration,
+            "L·D·Lᵀ of H + Gᵀ·diag(λ/s)·G within its envelope",
         ),
-        (name(Form::Riccati), riccati),
-    ]
+        (
+            choice.riccati_macs_per_iteration,
+            choice.riccati_unavailable.as_deref(),
+            "stage-wise Riccati recursion",
+        ),
+    )
 }
 
 /// One line per structure of ADMM's x-update: its multiply-adds per iteration, or why it is not built
 /// for the problem, and which one is used.
 fn structure_lines(choice: &codegen::admm::StructureChoice) -> Vec<(String, String)> {
-    use codegen::admm::Structure;
-    let name = |s: Structure| {
-        format!(
-            "{}{}",
-            s.name(),
-            if s == choice.structure {
-                " (chosen)"
-            } else {
-                ""
-            }
-        )
-    };
-    let riccati = match (
-        &choice.riccati_unavailable,
-        choice.riccati_macs_per_iteration,
-    ) {
-        (Some(why), _) => format!("unavailable: {why}"),
-        (None, Some(macs)) => format!(
-            "{macs} multiply-adds/iteration (Riccati sweep with gains computed at build time)"
+    condensed_or_riccati_lines(
+        choice.structure == codegen::admm::Structure::Riccati,
+        (
+            choice.condensed_macs_per_iteration,
+            "two triangular solves with the dense factor",
         ),
+        (
+            choice.riccati_macs_per_iteration,
+            choice.riccati_unavailable.as_deref(),
+            "Riccati sweep with gains computed at build time",
+        ),
+    )
+}
+
+/// The two lines of a choice between a condensed and a Riccati (stage-wise) form: each one's
+/// multiply-adds per iteration and how it spends them, the Riccati form's unavailability where it is not
+/// built, and "(chosen)" beside the one used.
+fn condensed_or_riccati_lines(
+    riccati_chosen: bool,
+    (condensed_macs, condensed_how): (usize, &str),
+    (riccati_macs, riccati_unavailable, riccati_how): (Option<usize>, Option<&str>, &str),
+) -> Vec<(String, String)> {
+    let chosen = |yes: bool| if yes { " (chosen)" } else { "" };
+    let riccati = match (riccati_unavailable, riccati_macs) {
+        (Some(why), Some(macs)) => format!("{macs} multiply-adds/iteration, unavailable: {why}"),
+        (Some(why), None) => format!("unavailable: {why}"),
+        (None, Some(macs)) => format!("{macs} multiply-adds/iteration ({riccati_how})"),
         (None, None) => "unavailable".to_string(),
     };
     vec![
         (
-            name(Structure::Condensed),
             format!(
-                "{} multiply-adds/iteration (two triangular solves with the dense factor)",
-                choice.condensed_macs_per_iteration
+                "{}{}",
+                codegen::riccati::Form::Condensed.name(),
+                chosen(!riccati_chosen)
             ),
+            format!("{condensed_macs} multiply-adds/iteration ({condensed_how})"),
         ),
-        (name(Structure::Riccati), riccati),
+        (
+            format!(
+                "{}{}",
+                codegen::riccati::Form::Riccati.name(),
+                chosen(riccati_chosen)
+            ),
+            riccati,
+        ),
     ]
 }
 

@@ -754,10 +754,15 @@ pub fn residual_macs(qp: &InequalityQp) -> usize {
 /// multiply-adds replace K·rhs and the products with C and Cᵀ.
 pub fn settings_macs_per_iteration(qp: &InequalityQp, settings: &Settings) -> usize {
     match &settings.stages {
-        // The program computes w and the right-hand side; the relaxation, the projection and y are left.
-        Some(program) => program.macs() + qp.n() + 4 * (qp.n() + qp.A.nrows()),
+        Some(program) => staged_macs_per_iteration(qp, program),
         None => macs_per_iteration(qp, settings.form),
     }
+}
+
+/// [`macs_per_iteration`] with the stage-wise x-update `program`: the program computes w and the
+/// right-hand side; the relaxation, the projection and y are left.
+fn staged_macs_per_iteration(qp: &InequalityQp, program: &Program) -> usize {
+    program.macs() + qp.n() + 4 * (qp.n() + qp.A.nrows())
 }
 
 /// [`settings_macs_per_iteration`] of the MPC's QP.
@@ -1125,13 +1130,7 @@ impl StructureChoice {
         let condensed_macs = settings_macs_per_iteration(&structure_qp, &condensed);
         match stages::program(qp, settings) {
             Ok(program) => {
-                let riccati = settings_macs_per_iteration(
-                    &structure_qp,
-                    &Settings {
-                        stages: Some(Arc::new(program.clone())),
-                        ..condensed
-                    },
-                );
+                let riccati = staged_macs_per_iteration(&structure_qp, &program);
                 let chosen = riccati < condensed_macs;
                 StructureChoice {
                     structure: if chosen {

@@ -200,21 +200,25 @@ impl Sweep<'_> {
     /// The states x_1 … x_N of the plan in `u` (slots, N·nu) rolled out from x_0 = 0 (slot per entry;
     /// element 0 is x_0, all zero).
     fn rollout(&self, b: &mut Builder, u: &[usize]) -> Vec<Vec<usize>> {
-        let (nx, nu, N) = (self.nx, self.nu, self.N);
-        let (A, B) = (&self.factor.A, &self.factor.B);
-        let mut states = vec![vec![ZERO_SLOT; nx]];
-        for k in 0..N {
-            let x = &states[k];
-            let next = (0..nx)
-                .map(|i| {
-                    let mut terms: Vec<(f64, usize)> = (0..nx).map(|l| (A[(i, l)], x[l])).collect();
-                    terms.extend((0..nu).map(|c| (B[(i, c)], u[k * nu + c])));
-                    b.value(ZERO_SLOT, terms, None)
-                })
-                .collect();
+        let mut states = vec![vec![ZERO_SLOT; self.nx]];
+        for k in 0..self.N {
+            let next = self.next_state(b, &states[k], u, k);
             states.push(next);
         }
         states
+    }
+
+    /// x_{k+1} = A·x_k + B·u_k (slots) for the plan in `u`.
+    fn next_state(&self, b: &mut Builder, x: &[usize], u: &[usize], k: usize) -> Vec<usize> {
+        let (nx, nu) = (self.nx, self.nu);
+        let (A, B) = (&self.factor.A, &self.factor.B);
+        (0..nx)
+            .map(|i| {
+                let mut terms: Vec<(f64, usize)> = (0..nx).map(|l| (A[(i, l)], x[l])).collect();
+                terms.extend((0..nu).map(|c| (B[(i, c)], u[k * nu + c])));
+                b.value(ZERO_SLOT, terms, None)
+            })
+            .collect()
     }
 
     /// Row `q` of slot `j` on the states and the plan (its slack left out): ax·x_{j+lag} + au·u_j.
@@ -320,15 +324,7 @@ impl Sweep<'_> {
                 b.write(u[k * nu + c], ZERO_SLOT, terms, None);
             }
             if k + 1 < N || lagged {
-                let x = &states[k];
-                let next = (0..nx)
-                    .map(|i| {
-                        let mut terms: Vec<(f64, usize)> =
-                            (0..nx).map(|l| (A[(i, l)], x[l])).collect();
-                        terms.extend((0..nu).map(|c| (B[(i, c)], u[k * nu + c])));
-                        b.value(ZERO_SLOT, terms, None)
-                    })
-                    .collect();
+                let next = self.next_state(b, &states[k], &u, k);
                 states.push(next);
             }
             for q in 0..per_slot {
