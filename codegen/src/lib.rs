@@ -46,6 +46,7 @@ pub mod linalg;
 pub mod lower;
 pub mod numeric;
 pub mod oracle;
+pub mod parallel;
 pub mod plan;
 pub mod render;
 pub mod sampling;

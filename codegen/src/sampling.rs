@@ -20,6 +20,11 @@
 //! the worst count observed plus [`margin`]. At the count used, the interior-point method's worst
 //! final residuals set the run-time [`Limits`]: [`LIMIT_FACTOR`] times them (at least
 //! [`LIMIT_FLOOR`]), above which the emitted solver falls back.
+//!
+//! The cold cases, and the warm sequences, are independent of one another: they run on every core
+//! ([`crate::parallel`]), and their multiply-adds are counted against the build's budget, and their
+//! failures reported, in the sample's order, so the evidence and the diagnostics are the same on any
+//! number of cores.
 #![allow(non_snake_case)]
 
 use crate::evidence::Limits;
@@ -71,9 +76,9 @@ struct Case {
 
 /// What the certificate needs of a method: its iterates on one control step's QP ([`mpc_qp`]), and
 /// its control step as the emitted controller runs it. One adapter per method below.
-pub trait Sampled {
+pub trait Sampled: Sync {
     /// What one control step hands the next as its warm start.
-    type Start: Clone;
+    type Start: Clone + Send + Sync;
     /// Its name in prose, for the diagnostics: "the interior-point method".
     fn title(&self) -> &'static str;
     /// The start after `new`, `reset` or a fallback.
@@ -555,6 +560,7 @@ impl Spent {
 
 /// A case run until its need is measured: the run and the count, `None` where it does not reach
 /// `accuracy` within the method's most ([`Sampled::probe`]). The run is at least `at_least` long.
+/// Each run's multiply-adds are pushed on `spends`, for the caller to count in the sample's order.
 #[allow(clippy::too_many_arguments)]
 fn measure<M: Sampled>(
     method: &M,
@@ -564,22 +570,57 @@ fn measure<M: Sampled>(
     exact: &IpmResult,
     offset: &DVector<f64>,
     at_least: usize,
-    spent: &mut Spent,
-    spec: &Spec,
-) -> Result<Option<(Vec<Iterate>, usize)>, Diagnostics> {
+    spends: &mut Vec<f64>,
+) -> Option<(Vec<Iterate>, usize)> {
     let (first, most) = method.probe();
     let mut length = first.max(at_least);
     let per_iteration = method.macs_per_iteration(qp) as f64;
     loop {
         let run = method.trajectory(qp, problem, start, length);
-        spent.add(length as f64 * per_iteration, spec, method.title())?;
+        spends.push(length as f64 * per_iteration);
         let k = needed(qp, &run, exact, offset);
         match k {
-            Some(k) if 2 * k <= length || length >= most => return Ok(Some((run, k))),
-            None if length >= most => return Ok(None),
+            Some(k) if 2 * k <= length || length >= most => return Some((run, k)),
+            None if length >= most => return None,
             _ => length = (2 * length).min(most.max(at_least)),
         }
     }
+}
+
+/// What one independent part of the sample (a cold case, a warm sequence) did, computed on its own
+/// thread: the multiply-adds it spent, in order, and then its outcome, `Err` with the case that did not
+/// reach `accuracy`.
+struct Part<T> {
+    spends: Vec<f64>,
+    outcome: Result<T, Case>,
+}
+
+/// `work` on every item on every core ([`crate::parallel::until_failure`]), the parts in the sample's
+/// order up to the first that failed.
+fn in_parallel<I: Sync, T: Send>(items: &[I], work: impl Fn(&I) -> Part<T> + Sync) -> Vec<Part<T>> {
+    crate::parallel::until_failure(items, work, |part| part.outcome.is_err())
+}
+
+/// Counts the parts' multiply-adds against the build's budget in the sample's order, as a run in one
+/// thread would have, and returns their outcomes; the first failure is the sample's.
+fn replay<M: Sampled, T>(
+    parts: Vec<Part<T>>,
+    spent: &mut Spent,
+    spec: &Spec,
+    method: &M,
+    what: &str,
+) -> Result<Vec<T>, Diagnostics> {
+    let mut outcomes = Vec::with_capacity(parts.len());
+    for part in parts {
+        for macs in part.spends {
+            spent.add(macs, spec, method.title())?;
+        }
+        match part.outcome {
+            Ok(t) => outcomes.push(t),
+            Err(c) => return Err(not_reached(spec, method, what, &c).into()),
+        }
+    }
+    Ok(outcomes)
 }
 
 /// Certifies `method` on the region of `spec` for the lowered `p`, and resolves its iteration count
@@ -631,19 +672,31 @@ fn certify_spending<M: Sampled>(
     let mut infeasible_cases = 0;
     let mut cold_runs = Vec::new();
     let cold = method.cold(qp);
-    for c in &cases {
+    let parts = in_parallel(&cases, |c| {
         let (f, offset) = data(p, c);
         let problem = mpc_qp(qp, &f, &offset);
         let exact = solve(&problem, EXACT_TOLERANCE, 200);
         // No exact solution: the hard rows admit no plan (certified or not within the reference's
         // iterations); such a case tests the fallback, not the count.
         if exact.status != Status::Converged {
+            return Part {
+                spends: Vec::new(),
+                outcome: Ok(None),
+            };
+        }
+        let mut spends = Vec::new();
+        let measured = measure(method, qp, &problem, &cold, &exact, &offset, 0, &mut spends);
+        Part {
+            spends,
+            outcome: measured
+                .map(|(run, k)| Some((run, k, exact, offset)))
+                .ok_or_else(|| c.clone()),
+        }
+    });
+    for outcome in replay(parts, spent, spec, method, "a cold case")? {
+        let Some((run, k, exact, offset)) = outcome else {
             infeasible_cases += 1;
             continue;
-        }
-        let measured = measure(method, qp, &problem, &cold, &exact, &offset, 0, spent, spec)?;
-        let Some((run, k)) = measured else {
-            return Err(not_reached(spec, method, "a cold case", c).into());
         };
         cold_counts.push(k);
         cold_runs.push((run, exact, offset));
@@ -888,52 +941,85 @@ fn warm_sequences<M: Sampled>(
     spec: &Spec,
     spent: &mut Spent,
 ) -> Result<Warm, Diagnostics> {
-    let qp = &p.qp;
+    let parts = in_parallel(starts, |start_case| {
+        warm_sequence(p, method, start_case, steps, count)
+    });
     let mut warm = Warm::default();
-    let per_iteration = method.macs_per_iteration(qp) as f64;
-    for start_case in starts {
-        let mut c = start_case.clone();
-        let mut start = method.cold(qp);
-        let mut plan = qp.rest_plan();
-        for _ in 0..steps {
-            let (f, offset) = data(p, &c);
-            let problem = mpc_qp(qp, &f, &offset);
-            let exact = solve(&problem, EXACT_TOLERANCE, 200);
-            if exact.status != Status::Converged {
-                // Infeasible from here: the fallback takes over; the sequence ends.
-                break;
-            }
-            let measured = measure(
-                method, qp, &problem, &start, &exact, &offset, count, spent, spec,
-            )?;
-            let Some((run, k)) = measured else {
-                return Err(not_reached(spec, method, "a warm closed-loop step", &c).into());
-            };
-            warm.counts.push(k);
-            warm.series.push(series(&run));
-            let step = method.control_step(qp, &f, &offset, &start, &plan, count);
-            spent.add(count as f64 * per_iteration, spec, method.title())?;
-            let (e, v) = accuracy_of(qp, &step.iterate, &exact, &offset);
-            warm.worst_error = warm.worst_error.max(e);
-            warm.worst_violation = warm.worst_violation.max(v);
-            if step.fell_back {
-                warm.fallbacks += 1;
-            }
-            start = step.next;
-            plan = step.plan;
-            let u = plan.rows(0, p.nu).into_owned();
-            let mut push = u.clone();
-            for i in 0..c.d.len() {
-                push[i] += c.d[i];
-            }
-            c.x0 = &p.F * &c.x0 + &p.G * push;
-            c.last = u;
-        }
+    for sequence in replay(parts, spent, spec, method, "a warm closed-loop step")? {
+        warm.counts.extend(sequence.counts);
+        warm.series.extend(sequence.series);
+        warm.worst_error = warm.worst_error.max(sequence.worst_error);
+        warm.worst_violation = warm.worst_violation.max(sequence.worst_violation);
+        warm.fallbacks += sequence.fallbacks;
     }
     Ok(warm)
 }
 
-/// f and the rows' offset of a case.
+/// One closed loop of [`warm_sequences`] from `start_case`.
+fn warm_sequence<M: Sampled>(
+    p: &Problem,
+    method: &M,
+    start_case: &Case,
+    steps: usize,
+    count: usize,
+) -> Part<Warm> {
+    let qp = &p.qp;
+    let mut warm = Warm::default();
+    let mut spends = Vec::new();
+    let per_iteration = method.macs_per_iteration(qp) as f64;
+    let mut c = start_case.clone();
+    let mut start = method.cold(qp);
+    let mut plan = qp.rest_plan();
+    for _ in 0..steps {
+        let (f, offset) = data(p, &c);
+        let problem = mpc_qp(qp, &f, &offset);
+        let exact = solve(&problem, EXACT_TOLERANCE, 200);
+        if exact.status != Status::Converged {
+            // Infeasible from here: the fallback takes over; the sequence ends.
+            break;
+        }
+        let measured = measure(
+            method,
+            qp,
+            &problem,
+            &start,
+            &exact,
+            &offset,
+            count,
+            &mut spends,
+        );
+        let Some((run, k)) = measured else {
+            return Part {
+                spends,
+                outcome: Err(c),
+            };
+        };
+        warm.counts.push(k);
+        warm.series.push(series(&run));
+        let step = method.control_step(qp, &f, &offset, &start, &plan, count);
+        spends.push(count as f64 * per_iteration);
+        let (e, v) = accuracy_of(qp, &step.iterate, &exact, &offset);
+        warm.worst_error = warm.worst_error.max(e);
+        warm.worst_violation = warm.worst_violation.max(v);
+        if step.fell_back {
+            warm.fallbacks += 1;
+        }
+        start = step.next;
+        plan = step.plan;
+        let u = plan.rows(0, p.nu).into_owned();
+        let mut push = u.clone();
+        for i in 0..c.d.len() {
+            push[i] += c.d[i];
+        }
+        c.x0 = &p.F * &c.x0 + &p.G * push;
+        c.last = u;
+    }
+    Part {
+        spends,
+        outcome: Ok(warm),
+    }
+}
+
 fn data(p: &Problem, c: &Case) -> (DVector<f64>, DVector<f64>) {
     let qp = &p.qp;
     let N = qp.N;

@@ -85,10 +85,25 @@ struct Flight {
 }
 
 /// The firmware's build directory and spec-override file are shared: one build at a time
-/// (scripts/firmware.sh also takes a lock file, against other processes).
+/// (scripts/firmware.sh also takes a lock file, against other processes). The flight runs on a copy
+/// of the ELF, outside the lock: one test's emulation (one core) overlaps the next one's build.
 static FIRMWARE: Mutex<()> = Mutex::new(());
 
 fn build_and_fly(board: Board, spec: Option<&str>, name: &str, cycles: Option<usize>) -> Flight {
+    let elf = build(board, spec, name, cycles);
+    let (status, uart) = emulate(board, &elf);
+    let result =
+        result_line(&uart).unwrap_or_else(|| panic!("no RESULT line from {name}:\n{uart}"));
+    Flight {
+        status,
+        uart,
+        result,
+        elf,
+    }
+}
+
+/// Builds the firmware for `board` with `spec` baked in and returns a copy of its ELF.
+fn build(board: Board, spec: Option<&str>, name: &str, cycles: Option<usize>) -> PathBuf {
     let _guard = FIRMWARE.lock().unwrap_or_else(|e| e.into_inner());
     let root = root();
     let elf =
@@ -111,15 +126,7 @@ fn build_and_fly(board: Board, spec: Option<&str>, name: &str, cycles: Option<us
         out.status,
         String::from_utf8_lossy(&out.stderr)
     );
-    let (status, uart) = emulate(board, &elf);
-    let result =
-        result_line(&uart).unwrap_or_else(|| panic!("no RESULT line from {name}:\n{uart}"));
-    Flight {
-        status,
-        uart,
-        result,
-        elf,
-    }
+    elf
 }
 
 /// Runs an ELF on the board's QEMU machine exactly as the template's cargo runner does.

@@ -1008,35 +1008,48 @@ pub struct Tuning {
 /// winner's runs. `settings(qp, ρ)` gives the settings of a ρ ([`Settings::scaled`]); `cap` bounds a run.
 pub fn tune_rho(
     cases: &[Case],
-    settings: &dyn Fn(&InequalityQp, f64) -> Settings,
+    settings: &(dyn Fn(&InequalityQp, f64) -> Settings + Sync),
     accuracy: f64,
     cap: usize,
 ) -> Option<Tuning> {
     let mut grid: Vec<(f64, Option<usize>)> = Vec::new();
     let mut best: Option<(f64, usize)> = None;
     let mut iterations_run = 0;
-    let mut trial =
-        |rho: f64, grid: &mut Vec<(f64, Option<usize>)>, best: &mut Option<(f64, usize)>| {
-            // A count is known once the error has stayed settled for as long again ([`Case::needed`]),
-            // so a candidate that may beat the best count w runs up to about 2w.
-            let limit = best.map_or(cap, |(_, w)| w.min(cap));
-            let run = best.map_or(cap, |(_, w)| (2 * w + 20).min(cap));
-            let mut worst = 0;
-            for c in cases {
-                let settings = settings(&c.qp, rho);
-                match c.needed_counted::<f64>(&settings, accuracy, run, &mut iterations_run) {
-                    Some(k) if k <= limit => worst = worst.max(k),
-                    _ => {
-                        grid.push((rho, None));
-                        return;
-                    }
+    let mut trial = |rho: f64,
+                     grid: &mut Vec<(f64, Option<usize>)>,
+                     best: &mut Option<(f64, usize)>| {
+        // A count is known once the error has stayed settled for as long again ([`Case::needed`]),
+        // so a candidate that may beat the best count w runs up to about 2w.
+        let limit = best.map_or(cap, |(_, w)| w.min(cap));
+        let run = best.map_or(cap, |(_, w)| (2 * w + 20).min(cap));
+        let mut worst = 0;
+        // The cases on every core; their iterations are counted in order up to the first that
+        // misses, as a loop over them would.
+        let runs = crate::parallel::until_failure(
+            cases,
+            |c| {
+                let mut iterations = 0;
+                let k =
+                    c.needed_counted::<f64>(&settings(&c.qp, rho), accuracy, run, &mut iterations);
+                (k.filter(|&k| k <= limit), iterations)
+            },
+            |(k, _)| k.is_none(),
+        );
+        for (k, iterations) in runs {
+            iterations_run += iterations;
+            match k {
+                Some(k) => worst = worst.max(k),
+                None => {
+                    grid.push((rho, None));
+                    return;
                 }
             }
-            grid.push((rho, Some(worst)));
-            if best.is_none_or(|(_, w)| worst < w) {
-                *best = Some((rho, worst));
-            }
-        };
+        }
+        grid.push((rho, Some(worst)));
+        if best.is_none_or(|(_, w)| worst < w) {
+            *best = Some((rho, worst));
+        }
+    };
     for e in -4..=4 {
         trial(10f64.powi(e), &mut grid, &mut best);
     }
