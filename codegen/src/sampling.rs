@@ -546,21 +546,53 @@ impl Spent {
         if self.macs <= crate::budget::LOWERING_MACS {
             return Ok(());
         }
-        Err(Diagnostic::new(
-            format!(
-                "sampling {title}'s certificate has taken more than the build's limit of {:.0e} multiply-adds",
-                crate::budget::LOWERING_MACS
-            ),
-            region_span(spec),
-        )
-        .note("hint: fewer `samples`, `sequences` or `steps` in `[mpc.region]`, a looser `accuracy`, or a method that needs fewer iterations")
-        .into())
+        Err(over_budget(spec, title))
     }
 }
 
+fn over_budget(spec: &Spec, title: &str) -> Diagnostics {
+    Diagnostic::new(
+        format!(
+            "sampling {title}'s certificate has taken more than the build's limit of {:.0e} multiply-adds",
+            crate::budget::LOWERING_MACS
+        ),
+        region_span(spec),
+    )
+    .note("hint: fewer `samples`, `sequences` or `steps` in `[mpc.region]`, a looser `accuracy`, or a method that needs fewer iterations")
+    .into()
+}
+
+/// The build's budget as parts of the sample running at once see it: everything they spent, in
+/// whatever order. A part stops once it is over the limit (so the build stays within about the limit
+/// whatever the threads do); which diagnostic that is, is then decided in the sample's order
+/// ([`in_order`]).
+struct Meter {
+    macs: std::sync::Mutex<f64>,
+}
+
+impl Meter {
+    fn new(macs: f64) -> Self {
+        Meter {
+            macs: std::sync::Mutex::new(macs),
+        }
+    }
+
+    fn over(&self) -> bool {
+        *self.macs.lock().unwrap_or_else(|e| e.into_inner()) > crate::budget::LOWERING_MACS
+    }
+
+    fn add(&self, macs: f64) {
+        *self.macs.lock().unwrap_or_else(|e| e.into_inner()) += macs;
+    }
+}
+
+/// A part of the sample stopped by its [`Meter`].
+struct Stopped;
+
 /// A case run until its need is measured: the run and the count, `None` where it does not reach
 /// `accuracy` within the method's most ([`Sampled::probe`]). The run is at least `at_least` long.
-/// Each run's multiply-adds are pushed on `spends`, for the caller to count in the sample's order.
+/// Each run's multiply-adds are pushed on `spends`, for the caller to count in the sample's order, and
+/// added to `meter`, which stops the case once the build's budget is spent.
 #[allow(clippy::too_many_arguments)]
 fn measure<M: Sampled>(
     method: &M,
@@ -571,53 +603,76 @@ fn measure<M: Sampled>(
     offset: &DVector<f64>,
     at_least: usize,
     spends: &mut Vec<f64>,
-) -> Option<(Vec<Iterate>, usize)> {
+    meter: &Meter,
+) -> Result<Option<(Vec<Iterate>, usize)>, Stopped> {
     let (first, most) = method.probe();
     let mut length = first.max(at_least);
     let per_iteration = method.macs_per_iteration(qp) as f64;
     loop {
+        if meter.over() {
+            return Err(Stopped);
+        }
         let run = method.trajectory(qp, problem, start, length);
         spends.push(length as f64 * per_iteration);
+        meter.add(length as f64 * per_iteration);
         let k = needed(qp, &run, exact, offset);
         match k {
-            Some(k) if 2 * k <= length || length >= most => return Some((run, k)),
-            None if length >= most => return None,
+            Some(k) if 2 * k <= length || length >= most => return Ok(Some((run, k))),
+            None if length >= most => return Ok(None),
             _ => length = (2 * length).min(most.max(at_least)),
         }
     }
 }
 
 /// What one independent part of the sample (a cold case, a warm sequence) did, computed on its own
-/// thread: the multiply-adds it spent, in order, and then its outcome, `Err` with the case that did not
-/// reach `accuracy`.
+/// thread: the multiply-adds it spent, in order, and then its outcome.
 struct Part<T> {
     spends: Vec<f64>,
-    outcome: Result<T, Case>,
+    outcome: Outcome<T>,
 }
 
-/// `work` on every item on every core ([`crate::parallel::until_failure`]), the parts in the sample's
-/// order up to the first that failed.
-fn in_parallel<I: Sync, T: Send>(items: &[I], work: impl Fn(&I) -> Part<T> + Sync) -> Vec<Part<T>> {
-    crate::parallel::until_failure(items, work, |part| part.outcome.is_err())
+enum Outcome<T> {
+    Done(T),
+    /// This case did not reach `accuracy` within the method's most iterations.
+    NotReached(Case),
+    /// The [`Meter`] stopped the part.
+    Stopped,
 }
 
-/// Counts the parts' multiply-adds against the build's budget in the sample's order, as a run in one
-/// thread would have, and returns their outcomes; the first failure is the sample's.
-fn replay<M: Sampled, T>(
-    parts: Vec<Part<T>>,
+/// `work` on every item, on every core ([`crate::parallel::until_failure`]), with the outcomes and the
+/// diagnostic a loop over the items in the sample's order would give: the multiply-adds are counted
+/// against the build's budget in that order, and the first failure in that order is the sample's. A
+/// part the shared meter stopped (the parts together spent the budget), and every part after it, is run
+/// again on its own, against the budget as the loop would have spent it so far.
+fn in_order<I: Sync, T: Send, M: Sampled>(
+    items: &[I],
+    work: impl Fn(&I, &Meter) -> Part<T> + Sync,
     spent: &mut Spent,
-    spec: &Spec,
-    method: &M,
-    what: &str,
+    (spec, method, what): (&Spec, &M, &str),
 ) -> Result<Vec<T>, Diagnostics> {
-    let mut outcomes = Vec::with_capacity(parts.len());
-    for part in parts {
+    let shared = Meter::new(spent.macs);
+    let mut parts: Vec<Option<Part<T>>> = crate::parallel::until_failure(
+        items,
+        |item| work(item, &shared),
+        |part| !matches!(part.outcome, Outcome::Done(_)),
+    )
+    .into_iter()
+    .map(Some)
+    .collect();
+    let mut outcomes = Vec::with_capacity(items.len());
+    for (index, item) in items.iter().enumerate() {
+        let part = match parts.get_mut(index).and_then(Option::take) {
+            Some(part) if !matches!(part.outcome, Outcome::Stopped) => part,
+            _ => work(item, &Meter::new(spent.macs)),
+        };
         for macs in part.spends {
             spent.add(macs, spec, method.title())?;
         }
         match part.outcome {
-            Ok(t) => outcomes.push(t),
-            Err(c) => return Err(not_reached(spec, method, what, &c).into()),
+            Outcome::Done(t) => outcomes.push(t),
+            Outcome::NotReached(c) => return Err(not_reached(spec, method, what, &c).into()),
+            // Stopped alone, it has spent past the budget, and the sums above have said so.
+            Outcome::Stopped => return Err(over_budget(spec, method.title())),
         }
     }
     Ok(outcomes)
@@ -672,7 +727,7 @@ fn certify_spending<M: Sampled>(
     let mut infeasible_cases = 0;
     let mut cold_runs = Vec::new();
     let cold = method.cold(qp);
-    let parts = in_parallel(&cases, |c| {
+    let cold_case = |c: &Case, meter: &Meter| {
         let (f, offset) = data(p, c);
         let problem = mpc_qp(qp, &f, &offset);
         let exact = solve(&problem, EXACT_TOLERANCE, 200);
@@ -681,19 +736,29 @@ fn certify_spending<M: Sampled>(
         if exact.status != Status::Converged {
             return Part {
                 spends: Vec::new(),
-                outcome: Ok(None),
+                outcome: Outcome::Done(None),
             };
         }
         let mut spends = Vec::new();
-        let measured = measure(method, qp, &problem, &cold, &exact, &offset, 0, &mut spends);
-        Part {
-            spends,
-            outcome: measured
-                .map(|(run, k)| Some((run, k, exact, offset)))
-                .ok_or_else(|| c.clone()),
-        }
-    });
-    for outcome in replay(parts, spent, spec, method, "a cold case")? {
+        let measured = measure(
+            method,
+            qp,
+            &problem,
+            &cold,
+            &exact,
+            &offset,
+            0,
+            &mut spends,
+            meter,
+        );
+        let outcome = match measured {
+            Ok(Some((run, k))) => Outcome::Done(Some((run, k, exact, offset))),
+            Ok(None) => Outcome::NotReached(c.clone()),
+            Err(Stopped) => Outcome::Stopped,
+        };
+        Part { spends, outcome }
+    };
+    for outcome in in_order(&cases, cold_case, spent, (spec, method, "a cold case"))? {
         let Some((run, k, exact, offset)) = outcome else {
             infeasible_cases += 1;
             continue;
@@ -941,11 +1006,12 @@ fn warm_sequences<M: Sampled>(
     spec: &Spec,
     spent: &mut Spent,
 ) -> Result<Warm, Diagnostics> {
-    let parts = in_parallel(starts, |start_case| {
-        warm_sequence(p, method, start_case, steps, count)
-    });
+    let sequence = |start_case: &Case, meter: &Meter| {
+        warm_sequence(p, method, start_case, steps, count, meter)
+    };
+    let what = (spec, method, "a warm closed-loop step");
     let mut warm = Warm::default();
-    for sequence in replay(parts, spent, spec, method, "a warm closed-loop step")? {
+    for sequence in in_order(starts, sequence, spent, what)? {
         warm.counts.extend(sequence.counts);
         warm.series.extend(sequence.series);
         warm.worst_error = warm.worst_error.max(sequence.worst_error);
@@ -962,6 +1028,7 @@ fn warm_sequence<M: Sampled>(
     start_case: &Case,
     steps: usize,
     count: usize,
+    meter: &Meter,
 ) -> Part<Warm> {
     let qp = &p.qp;
     let mut warm = Warm::default();
@@ -987,17 +1054,28 @@ fn warm_sequence<M: Sampled>(
             &offset,
             count,
             &mut spends,
+            meter,
         );
-        let Some((run, k)) = measured else {
-            return Part {
-                spends,
-                outcome: Err(c),
-            };
+        let (run, k) = match measured {
+            Ok(Some(measured)) => measured,
+            Ok(None) => {
+                return Part {
+                    spends,
+                    outcome: Outcome::NotReached(c),
+                }
+            }
+            Err(Stopped) => {
+                return Part {
+                    spends,
+                    outcome: Outcome::Stopped,
+                }
+            }
         };
         warm.counts.push(k);
         warm.series.push(series(&run));
         let step = method.control_step(qp, &f, &offset, &start, &plan, count);
         spends.push(count as f64 * per_iteration);
+        meter.add(count as f64 * per_iteration);
         let (e, v) = accuracy_of(qp, &step.iterate, &exact, &offset);
         warm.worst_error = warm.worst_error.max(e);
         warm.worst_violation = warm.worst_violation.max(v);
@@ -1016,7 +1094,7 @@ fn warm_sequence<M: Sampled>(
     }
     Part {
         spends,
-        outcome: Ok(warm),
+        outcome: Outcome::Done(warm),
     }
 }
 
@@ -1170,4 +1248,85 @@ pub fn resolve_region(spec: &Spec, p: &Problem) -> Result<Region, Diagnostics> {
         reference_min,
         reference_max,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Parts that spend `spends[i]` multiply-adds each (without computing anything), case `fails` not
+    /// reaching `accuracy`: [`in_order`] must give what a loop in the sample's order gives, on any
+    /// number of threads and whatever the shared meter stopped.
+    fn run(spends: &[f64], fails: Option<usize>, threads: usize) -> Result<Vec<usize>, String> {
+        let spec = mpc_spec::load(include_str!("../../specs/paper-limits.toml")).unwrap();
+        let items: Vec<usize> = (0..spends.len()).collect();
+        let work = |&i: &usize, meter: &Meter| {
+            // Late enough that a later part on another thread has spent first: the shared meter then
+            // stops this one, which must be run again on its own.
+            if i == 3 {
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+            if meter.over() {
+                return Part {
+                    spends: Vec::new(),
+                    outcome: Outcome::Stopped,
+                };
+            }
+            meter.add(spends[i]);
+            let case = Case {
+                x0: DVector::from_element(1, i as f64),
+                reference: DVector::zeros(1),
+                d: DVector::zeros(1),
+                last: DVector::zeros(1),
+            };
+            Part {
+                spends: vec![spends[i]],
+                outcome: if fails == Some(i) {
+                    Outcome::NotReached(case)
+                } else {
+                    Outcome::Done(i)
+                },
+            }
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut spent = Spent { macs: 0.0 };
+        pool.install(|| {
+            in_order(
+                &items,
+                work,
+                &mut spent,
+                (&spec, &InteriorPoint, "a cold case"),
+            )
+            .map_err(|d| d.iter().next().unwrap().message.clone())
+        })
+    }
+
+    #[test]
+    fn parts_run_in_parallel_give_the_sequential_outcome_and_diagnostic() {
+        let limit = crate::budget::LOWERING_MACS;
+        for threads in [1, 2, 4] {
+            // Within the budget: every outcome, in order.
+            assert_eq!(
+                run(&[limit / 20.0; 10], None, threads),
+                Ok((0..10).collect())
+            );
+            // Over it at the sixth part: the budget's diagnostic.
+            let over = run(&[limit / 5.5; 10], None, threads).unwrap_err();
+            assert!(over.contains("more than the build's limit"), "{over}");
+            // A case that misses `accuracy` before the budget is spent is the diagnostic, even when
+            // later parts, run at the same time, spend far more than the budget.
+            let mut spends = vec![limit / 20.0; 10];
+            spends[7] = 100.0 * limit;
+            let missed = run(&spends, Some(3), threads).unwrap_err();
+            assert!(missed.contains("does not reach `accuracy"), "{missed}");
+            assert!(missed.contains("a cold case"), "{missed}");
+            // ... and the budget is, when it is spent first in the sample's order.
+            spends[1] = 100.0 * limit;
+            let over = run(&spends, Some(3), threads).unwrap_err();
+            assert!(over.contains("more than the build's limit"), "{over}");
+        }
+    }
 }
