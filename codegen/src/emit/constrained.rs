@@ -1,7 +1,10 @@
 //! What the emitters of the constrained methods (`interior.rs`, `admm.rs`) share: the `SolverStatus` and
-//! `Fallback` types, and the tables and terms of the rows' dependence on the data (x0, d, u₋₁).
+//! `Fallback` types, the entry points around their `checked` solve, the doc of their certificate, and
+//! the tables and terms of the rows' dependence on the data (x0, d, u₋₁).
 
+use super::mpc::last_input_fns;
 use super::tokens::Num;
+use crate::evidence::Evidence;
 use crate::lower::Problem;
 use nalgebra::DMatrix;
 use proc_macro2::{Ident, Span, TokenStream};
@@ -53,6 +56,115 @@ pub fn status_types(method: &str, gap: bool, iterations_doc: &[&str]) -> TokenSt
             /// projected onto the box. The next solve starts cold.
             WarmStart,
         }
+    }
+}
+
+/// The parts of `Mpc` around a constrained method's `checked(x0, [d,] xref)`: the public solve
+/// functions, the disturbance's parameter and check, f's terms besides Fx·x0 − Fr·Xref, and the last
+/// input's field and accessors where the first move is weighted.
+pub struct Entry {
+    /// `solve` (and `solve_with_disturbance` where d is estimated), which return the rest input where
+    /// `checked` refuses an argument.
+    pub solve_fns: TokenStream,
+    /// `d: &[Real; ND],` in `checked`'s parameters, where d is estimated.
+    pub d_param: TokenStream,
+    /// `&& all_finite(d)` in `checked`'s argument check.
+    pub d_finite: TokenStream,
+    /// f's terms `+ FU[i]·u₋₁` and `+ FD[i]·d`, those that exist.
+    pub f_terms: TokenStream,
+    /// The field `last`, its initial value in `new`, its accessors, and its update after a solve.
+    pub last_field: TokenStream,
+    /// See [`Entry::last_field`].
+    pub last_init: TokenStream,
+    /// See [`Entry::last_field`].
+    pub last_fns: TokenStream,
+    /// See [`Entry::last_field`].
+    pub set_last: TokenStream,
+}
+
+/// [`Entry`] of `p`.
+pub fn entry(p: &Problem) -> Entry {
+    let nd = p.nd();
+    let keeps_last = p.keeps_last_input();
+    let row = crate::form::reference_row(p);
+    let reference_doc = if p.qp.Cz.is_some() {
+        "`xref[k]` the reference of the outputs z = C_z·x at predicted step k+1"
+    } else {
+        "`xref[k]` the reference of predicted state k+1"
+    };
+    let solve_doc = format!(
+        " One control step: `x0` is the current state, {reference_doc}. Returns the first input\n \
+         of the plan, always finite and inside [U_MIN, U_MAX]; [`Mpc::solver_status`] says how the\n \
+         plan was made. A non-finite argument returns the rest input and resets the warm start."
+    );
+    let solve_doc: Vec<&str> = solve_doc.split('\n').collect();
+    let solve_fns = if nd > 0 {
+        quote! {
+            /// One control step with no disturbance estimate (d = 0); see [`Mpc::solve_with_disturbance`].
+            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                self.solve_with_disturbance(x0, &[0.0; ND], xref)
+            }
+
+            #(#[doc = #solve_doc])*
+            /// The prediction includes the estimated input disturbance `d` (offset-free MPC).
+            pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                match self.checked(x0, d, xref) {
+                    Some(u) => u,
+                    None => U_REST,
+                }
+            }
+        }
+    } else {
+        quote! {
+            #(#[doc = #solve_doc])*
+            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                match self.checked(x0, xref) {
+                    Some(u) => u,
+                    None => U_REST,
+                }
+            }
+        }
+    };
+    let f_last = p.has_moves().then(|| quote!(+ dot(&FU[i], &last)));
+    let f_d = (nd > 0).then(|| quote!(+ dot(&FD[i], &d)));
+    let (last_field, last_init, last_fns, set_last) = if keeps_last {
+        (
+            quote!(last: [Real; NU],),
+            quote!(last: U_REST,),
+            last_input_fns([
+                " The last input u₋₁, from which the first move is measured: the last command returned,",
+                " or what [`Mpc::set_last_input`] set.",
+            ]),
+            quote!(self.last = first;),
+        )
+    } else {
+        (quote!(), quote!(), quote!(), quote!())
+    };
+    let (d_param, d_finite) = if nd > 0 {
+        (quote!(d: &[Real; ND],), quote!(&&all_finite(d)))
+    } else {
+        (quote!(), quote!())
+    };
+    Entry {
+        solve_fns,
+        d_param,
+        d_finite,
+        f_terms: quote!(#f_last #f_d),
+        last_field,
+        last_init,
+        last_fns,
+        set_last,
+    }
+}
+
+/// `Mpc`'s doc line on its certificate; `setting` (e.g. ADMM's ρ) follows "to reach `accuracy`".
+pub fn evidence_doc(evidence: Option<&Evidence>, setting: &str) -> String {
+    match evidence {
+        Some(e) => format!(
+            " Certified by sampling, not proved: {} cold cases ({} corners) and {} warm closed-loop steps of `[mpc.region]` needed at most {} (cold) and {} (warm) iterations to reach `accuracy`{setting}; `report::SAMPLED_*` has the rest.",
+            e.cold_cases, e.corners, e.warm_steps, e.cold_worst, e.warm_worst
+        ),
+        None => " Not certified.".to_string(),
     }
 }
 

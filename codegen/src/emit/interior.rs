@@ -10,7 +10,7 @@
 //! exactly that). Its control flow does not depend on the data.
 #![allow(non_snake_case)]
 
-use super::constrained::{offsets, status_types, Offsets};
+use super::constrained::{entry, evidence_doc, offsets, status_types, Entry, Offsets};
 use super::rows::{self, Rows};
 use super::tokens::Num;
 use super::Sections;
@@ -144,88 +144,23 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     );
     let row = crate::form::reference_row(p);
     let n_reference = lit(N * qp.nz);
-    // f's terms besides Fx·x0 − Fr·Xref.
-    let f_last = p.has_moves().then(|| quote!(+ dot(&FU[i], &last)));
-    let f_d = (nd > 0).then(|| quote!(+ dot(&FD[i], &d)));
-    let (d_param, d_wide) = if nd > 0 {
-        (quote!(d: &[Real; ND],), quote!(let d = widen(d);))
+    let Entry {
+        solve_fns,
+        d_param,
+        d_finite,
+        f_terms,
+        last_field,
+        last_init,
+        last_fns,
+        set_last,
+    } = entry(p);
+    let (d_flush, d_wide) = if nd > 0 {
+        (quote!(let d = &flushed(d);), quote!(let d = widen(d);))
     } else {
         (quote!(), quote!())
     };
     let last_wide = keeps_last.then(|| quote!(let last = widen(&self.last);));
-    let set_last = keeps_last.then(|| quote!(self.last = first;));
-    let reference_doc = if qp.Cz.is_some() {
-        "`xref[k]` the reference of the outputs z = C_z·x at predicted step k+1"
-    } else {
-        "`xref[k]` the reference of predicted state k+1"
-    };
-    let solve_doc = format!(
-        " One control step: `x0` is the current state, {reference_doc}. Returns the first input\n \
-         of the plan, always finite and inside [U_MIN, U_MAX]; [`Mpc::solver_status`] says how the\n \
-         plan was made. A non-finite argument returns the rest input and resets the warm start."
-    );
-    let solve_doc: Vec<&str> = solve_doc.split('\n').collect();
-    let solve_fns = if nd > 0 {
-        quote! {
-            /// One control step with no disturbance estimate (d = 0); see [`Mpc::solve_with_disturbance`].
-            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
-                self.solve_with_disturbance(x0, &[0.0; ND], xref)
-            }
-
-            #(#[doc = #solve_doc])*
-            /// The prediction includes the estimated input disturbance `d` (offset-free MPC).
-            pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; #row]; N]) -> [Real; NU] {
-                match self.checked(x0, d, xref) {
-                    Some(u) => u,
-                    None => U_REST,
-                }
-            }
-        }
-    } else {
-        quote! {
-            #(#[doc = #solve_doc])*
-            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
-                match self.checked(x0, xref) {
-                    Some(u) => u,
-                    None => U_REST,
-                }
-            }
-        }
-    };
-    let d_finite = (nd > 0).then(|| quote!(&&all_finite(d)));
-    let d_flush = (nd > 0).then(|| quote!(let d = &flushed(d);));
-    let (last_field, last_init, last_fns) = if keeps_last {
-        (
-            quote!(last: [Real; NU],),
-            quote!(last: U_REST,),
-            quote! {
-                /// The last input u₋₁, from which the first move is measured: the last command returned,
-                /// or what [`Mpc::set_last_input`] set.
-                pub fn last_input(&self) -> &[Real; NU] {
-                    &self.last
-                }
-
-                /// Sets the last input u₋₁, for a vehicle flown by something else until now. A non-finite
-                /// entry is refused: nothing changes and the result is `false`.
-                pub fn set_last_input(&mut self, u: &[Real; NU]) -> bool {
-                    if !all_finite(u) {
-                        return false;
-                    }
-                    self.last = flushed(u);
-                    true
-                }
-            },
-        )
-    } else {
-        (quote!(), quote!(), quote!())
-    };
-    let evidence_doc = match &qp.evidence {
-        Some(e) => format!(
-            " Certified by sampling, not proved: {} cold cases ({} corners) and {} warm closed-loop steps of `[mpc.region]` needed at most {} (cold) and {} (warm) iterations to reach `accuracy`; `report::SAMPLED_*` has the rest.",
-            e.cold_cases, e.corners, e.warm_steps, e.cold_worst, e.warm_worst
-        ),
-        None => " Not certified.".to_string(),
-    };
+    let evidence_doc = evidence_doc(qp.evidence.as_ref(), "");
     // Real to f64: exact for f32, nothing to do for f64.
     let (wide_of_v, wide_of_x) = match num.0 {
         Scalar::F32 => (quote!(f64::from(*v)), quote!(f64::from(*x))),
@@ -524,7 +459,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     // f = Fx·x0 − Fr·Xref (+ Fu·u₋₁ + Fd·d) for the plan, the penalties' weights for the slacks.
                     let mut f = [0.0; NV];
                     for (i, fi) in f.iter_mut().enumerate().take(NP) {
-                        *fi = dot(&FX[i], &x0) - dot(&FR[i], &reference) #f_last #f_d;
+                        *fi = dot(&FX[i], &x0) - dot(&FR[i], &reference) #f_terms;
                     }
                     for (fi, w) in f.iter_mut().skip(NP).zip(SLACK_WEIGHT.iter()) {
                         *fi = *w;

@@ -7,8 +7,29 @@ use super::Sections;
 use crate::lower::Problem;
 use crate::plan::Plan;
 use crate::solver::Algorithm;
-use proc_macro2::Literal;
+use proc_macro2::{Literal, TokenStream};
 use quote::quote;
+
+/// `Mpc::last_input` (documented by `doc`) and `Mpc::set_last_input`, for an `Mpc` whose field `last`
+/// holds the input the first move is measured from (every method's, where moves are weighted or bounded).
+pub(super) fn last_input_fns(doc: [&str; 2]) -> TokenStream {
+    quote! {
+        #(#[doc = #doc])*
+        pub fn last_input(&self) -> &[Real; NU] {
+            &self.last
+        }
+
+        /// Sets the last input u₋₁, for a vehicle flown by something else until now. A non-finite
+        /// entry is refused: nothing changes and the result is `false`.
+        pub fn set_last_input(&mut self, u: &[Real; NU]) -> bool {
+            if !all_finite(u) {
+                return false;
+            }
+            self.last = flushed(u);
+            true
+        }
+    }
+}
 
 /// The `Mpc` type, its kernels and its tables.
 pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Sections {
@@ -137,23 +158,10 @@ pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Se
         (
             quote!(last: [Real; NU],),
             quote!(last: U_REST),
-            quote! {
-                /// The last input u₋₁, from which the first move Δu₀ = u₀ − u₋₁ is weighted: the last command
-                /// returned, or what [`Mpc::set_last_input`] set.
-                pub fn last_input(&self) -> &[Real; NU] {
-                    &self.last
-                }
-
-                /// Sets the last input u₋₁, for a vehicle flown by something else until now. A non-finite
-                /// entry is refused: nothing changes and the result is `false`.
-                pub fn set_last_input(&mut self, u: &[Real; NU]) -> bool {
-                    if !all_finite(u) {
-                        return false;
-                    }
-                    self.last = flushed(u);
-                    true
-                }
-            },
+            last_input_fns([
+                " The last input u₋₁, from which the first move Δu₀ = u₀ − u₋₁ is weighted: the last command",
+                " returned, or what [`Mpc::set_last_input`] set.",
+            ]),
             " A cold controller: the first solve starts from the rest input (zero, projected onto the box), which is also its last input.",
             " Forgets the warm start; the last input becomes the rest input.",
         )
