@@ -1,8 +1,10 @@
 //! The f64 interface over generated controllers, the reference problem from the oracle, and the random
-//! closed-loop scenarios both are driven through.
+//! closed-loop scenarios both are driven through: for the constrained methods, states and references
+//! drawn from the certificate's region and the QP the oracle solves there.
 #![allow(non_snake_case)]
 
-use codegen::{lower, Problem};
+use codegen::ipm::{mpc_qp, InequalityQp};
+use codegen::{lower, oracle, Problem};
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -128,4 +130,54 @@ pub fn spectral_radius(M: &DMatrix<f64>) -> f64 {
         .iter()
         .map(|c| c.norm())
         .fold(0.0, f64::max)
+}
+
+/// A spec's text, parsed and lowered (the oracle's view of it).
+pub fn problem(text: &str) -> Problem {
+    lower(&mpc_spec::load(text).expect("valid spec")).expect("lowerable spec")
+}
+
+/// The data of one constrained solve: the state and a constant reference.
+pub struct Drawn {
+    /// The state.
+    pub x0: DVector<f64>,
+    /// The reference, the same at every step.
+    pub reference: DVector<f64>,
+}
+
+/// A state and reference drawn from the certificate's region, widened by `widen` around its centre.
+pub fn draw(p: &Problem, rng: &mut impl Rng, widen: f64) -> Drawn {
+    let region = &p.qp.evidence.as_ref().expect("a certified spec").region;
+    let pick = |rng: &mut dyn rand::RngCore, lo: &[f64], hi: &[f64]| {
+        DVector::from_iterator(
+            lo.len(),
+            lo.iter().zip(hi).map(|(a, b)| {
+                let (c, h) = ((a + b) / 2.0, (b - a) / 2.0 * widen);
+                rng.gen_range(c - h..=c + h)
+            }),
+        )
+    };
+    Drawn {
+        x0: pick(rng, &region.x_min, &region.x_max),
+        reference: pick(rng, &region.reference_min, &region.reference_max),
+    }
+}
+
+/// The reference window: `r` at every step.
+pub fn window(p: &Problem, r: &DVector<f64>) -> Vec<DVector<f64>> {
+    vec![r.clone(); p.qp.N]
+}
+
+/// The span u_max − u_min of plan entry `i`.
+pub fn span(p: &Problem, i: usize) -> f64 {
+    p.qp.u_max[i % p.nu] - p.qp.u_min[i % p.nu]
+}
+
+/// The oracle's QP of its next solve at `c` (what Clarabel is given), and the rows' offset.
+pub fn qp_of(p: &Problem, mpc: &oracle::Mpc, c: &Drawn) -> (InequalityQp, DVector<f64>) {
+    let f = mpc.linear_term(&c.x0, &window(p, &c.reference));
+    let offset =
+        p.qp.rows
+            .offset(&c.x0, &DVector::zeros(0), mpc.last_input());
+    (mpc_qp(&p.qp, &f, &offset), offset)
 }

@@ -19,11 +19,10 @@
 #![allow(clippy::approx_constant)]
 #![allow(non_snake_case)]
 
-use codegen::ipm::{mpc_qp, violations, Fallback, InequalityQp};
+use codegen::ipm::{violations, Fallback};
 use codegen::oracle;
 use mpc_tests::harness::*;
 use nalgebra::DVector;
-use rand::Rng;
 
 #[allow(dead_code)]
 #[path = "../benches/exact.rs"]
@@ -47,51 +46,6 @@ const RESIDUAL32: &str = include_str!("../specs/linear-admm-residual-f32.toml");
 
 fn accuracy(text: &str) -> f64 {
     mpc_spec::load(text).unwrap().mpc.accuracy
-}
-
-fn problem(text: &str) -> codegen::Problem {
-    codegen::lower(&mpc_spec::load(text).unwrap()).unwrap()
-}
-
-/// The data of one solve: the state and a constant reference.
-struct Case {
-    x0: DVector<f64>,
-    reference: DVector<f64>,
-}
-
-/// A state and reference drawn from the certificate's region, widened by `widen` around its centre.
-fn draw(p: &codegen::Problem, rng: &mut impl Rng, widen: f64) -> Case {
-    let region = &p.qp.evidence.as_ref().unwrap().region;
-    let pick = |rng: &mut dyn rand::RngCore, lo: &[f64], hi: &[f64]| {
-        DVector::from_iterator(
-            lo.len(),
-            lo.iter().zip(hi).map(|(a, b)| {
-                let (c, h) = ((a + b) / 2.0, (b - a) / 2.0 * widen);
-                rng.gen_range(c - h..=c + h)
-            }),
-        )
-    };
-    Case {
-        x0: pick(rng, &region.x_min, &region.x_max),
-        reference: pick(rng, &region.reference_min, &region.reference_max),
-    }
-}
-
-fn window(p: &codegen::Problem, r: &DVector<f64>) -> Vec<DVector<f64>> {
-    vec![r.clone(); p.qp.N]
-}
-
-fn span(p: &codegen::Problem, i: usize) -> f64 {
-    p.qp.u_max[i % p.nu] - p.qp.u_min[i % p.nu]
-}
-
-/// The oracle's QP of its next solve at `c`: what Clarabel is given.
-fn qp_of(p: &codegen::Problem, mpc: &oracle::Mpc, c: &Case) -> (InequalityQp, DVector<f64>) {
-    let f = mpc.linear_term(&c.x0, &window(p, &c.reference));
-    let offset =
-        p.qp.rows
-            .offset(&c.x0, &DVector::zeros(0), mpc.last_input());
-    (mpc_qp(&p.qp, &f, &offset), offset)
 }
 
 /// What a run of a generated controller against the oracle and Clarabel showed.

@@ -8,11 +8,10 @@
 //!   inside the input box and a status that says so.
 #![allow(non_snake_case)]
 
-use codegen::ipm::{mpc_qp, violations, Fallback, InequalityQp};
+use codegen::ipm::{violations, Fallback, InequalityQp};
 use codegen::oracle;
 use mpc_tests::harness::*;
 use nalgebra::DVector;
-use rand::Rng;
 
 #[allow(dead_code)]
 #[path = "../benches/exact.rs"]
@@ -30,59 +29,11 @@ mod short {
 }
 use short::truncated;
 
-fn problem(text: &str) -> codegen::Problem {
-    codegen::lower(&mpc_spec::load(text).unwrap()).unwrap()
-}
-
 const QUADCOPTER: &str = include_str!("../../specs/quadcopter.toml");
 const HOVER: &str = include_str!("../../specs/hover.toml");
 const PAPER_LIMITS: &str = include_str!("../../specs/paper-limits.toml");
 const LINEAR_RICCATI: &str = include_str!("../specs/linear-riccati.toml");
 const LINEAR_RICCATI_SOFT: &str = include_str!("../specs/linear-riccati-soft.toml");
-
-/// The data of one solve: the state, a constant reference, the last input.
-struct Case {
-    x0: DVector<f64>,
-    reference: DVector<f64>,
-}
-
-/// A state and reference drawn from the certificate's region, widened by `widen` around its centre.
-fn draw(p: &codegen::Problem, rng: &mut impl Rng, widen: f64) -> Case {
-    let region = &p.qp.evidence.as_ref().unwrap().region;
-    let pick = |rng: &mut dyn rand::RngCore, lo: &[f64], hi: &[f64]| {
-        DVector::from_iterator(
-            lo.len(),
-            lo.iter().zip(hi).map(|(a, b)| {
-                let (c, h) = ((a + b) / 2.0, (b - a) / 2.0 * widen);
-                rng.gen_range(c - h..=c + h)
-            }),
-        )
-    };
-    Case {
-        x0: pick(rng, &region.x_min, &region.x_max),
-        reference: pick(rng, &region.reference_min, &region.reference_max),
-    }
-}
-
-/// The reference window: `r` at every step.
-fn window(p: &codegen::Problem, r: &DVector<f64>) -> Vec<DVector<f64>> {
-    vec![r.clone(); p.qp.N]
-}
-
-/// The span u_max − u_min of each plan entry.
-fn span(p: &codegen::Problem, i: usize) -> f64 {
-    let nu = p.nu;
-    p.qp.u_max[i % nu] - p.qp.u_min[i % nu]
-}
-
-/// The oracle's QP of its next solve at (x0, reference): what Clarabel is given.
-fn qp_of(p: &codegen::Problem, mpc: &oracle::Mpc, c: &Case) -> (InequalityQp, DVector<f64>) {
-    let f = mpc.linear_term(&c.x0, &window(p, &c.reference));
-    let offset =
-        p.qp.rows
-            .offset(&c.x0, &DVector::zeros(0), mpc.last_input());
-    (mpc_qp(&p.qp, &f, &offset), offset)
-}
 
 /// Compares a generated MPC with the oracle over warm-started sequences from drawn states and
 /// references (inside the region and 1.5× beyond); returns the worst plan difference over the span.
@@ -244,7 +195,7 @@ macro_rules! generated_meets_the_accuracy {
         let accuracy = qp.accuracy;
         // The QP of a solve at (x0, reference): the oracle's, which Clarabel is given.
         let oracle = oracle::Mpc::new(&p);
-        let solve = |generated: &mut m::Mpc, c: &Case, what: &str| -> (f64, Vec<f64>) {
+        let solve = |generated: &mut m::Mpc, c: &Drawn, what: &str| -> (f64, Vec<f64>) {
             let (problem, offset) = qp_of(&p, &oracle, c);
             let exact = exact::clarabel(&problem);
             let mut x0 = [0.0; m::NX];

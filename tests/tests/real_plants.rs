@@ -20,10 +20,6 @@ mpc_macros::mpc!(mod outputs_matrix_free = "specs/emission/two-mass-outputs-matr
 mpc_macros::mpc!(mod filtered_unrolled = "specs/emission/two-mass-filtered-unrolled.toml");
 mpc_macros::mpc!(mod filtered_matrix_free = "specs/emission/two-mass-filtered-matrix-free.toml");
 
-fn problem(text: &str) -> codegen::Problem {
-    codegen::lower(&mpc_spec::load(text).unwrap()).unwrap()
-}
-
 fn outputs_problem() -> codegen::Problem {
     problem(include_str!("../specs/two-mass-outputs.toml"))
 }
