@@ -2,7 +2,7 @@
 //! `Fallback` types, the entry points around their `checked` solve, the doc of their certificate, and
 //! the tables and terms of the rows' dependence on the data (x0, d, u₋₁).
 
-use super::mpc::last_input_fns;
+use super::mpc::{last_input_fns, reference_doc, solve_fns};
 use super::tokens::Num;
 use crate::evidence::Evidence;
 use crate::lower::Problem;
@@ -86,45 +86,19 @@ pub struct Entry {
 pub fn entry(p: &Problem) -> Entry {
     let nd = p.nd();
     let keeps_last = p.keeps_last_input();
-    let row = crate::form::reference_row(p);
-    let reference_doc = if p.qp.Cz.is_some() {
-        "`xref[k]` the reference of the outputs z = C_z·x at predicted step k+1"
-    } else {
-        "`xref[k]` the reference of predicted state k+1"
-    };
+    let reference_doc = reference_doc(p);
     let solve_doc = format!(
         " One control step: `x0` is the current state, {reference_doc}. Returns the first input\n \
          of the plan, always finite and inside [U_MIN, U_MAX]; [`Mpc::solver_status`] says how the\n \
          plan was made. A non-finite argument returns the rest input and resets the warm start."
     );
     let solve_doc: Vec<&str> = solve_doc.split('\n').collect();
-    let solve_fns = if nd > 0 {
-        quote! {
-            /// One control step with no disturbance estimate (d = 0); see [`Mpc::solve_with_disturbance`].
-            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
-                self.solve_with_disturbance(x0, &[0.0; ND], xref)
-            }
-
-            #(#[doc = #solve_doc])*
-            /// The prediction includes the estimated input disturbance `d` (offset-free MPC).
-            pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; #row]; N]) -> [Real; NU] {
-                match self.checked(x0, d, xref) {
-                    Some(u) => u,
-                    None => U_REST,
-                }
-            }
-        }
-    } else {
-        quote! {
-            #(#[doc = #solve_doc])*
-            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
-                match self.checked(x0, xref) {
-                    Some(u) => u,
-                    None => U_REST,
-                }
-            }
-        }
-    };
+    let disturbance_doc: Vec<&str> = solve_doc
+        .iter()
+        .copied()
+        .chain([" The prediction includes the estimated input disturbance `d` (offset-free MPC)."])
+        .collect();
+    let solve_fns = solve_fns(p, &solve_doc, &disturbance_doc);
     let f_last = p.has_moves().then(|| quote!(+ dot(&FU[i], &last)));
     let f_d = (nd > 0).then(|| quote!(+ dot(&FD[i], &d)));
     let (last_field, last_init, last_fns, set_last) = if keeps_last {

@@ -10,6 +10,48 @@ use crate::solver::Algorithm;
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
+/// The doc of `xref` in the solve functions: a reference of the outputs or of the state.
+pub(super) fn reference_doc(p: &Problem) -> &'static str {
+    if p.qp.Cz.is_some() {
+        "`xref[k]` the reference of the outputs z = C_z·x at predicted step k+1"
+    } else {
+        "`xref[k]` the reference of predicted state k+1"
+    }
+}
+
+/// `Mpc::solve`, documented by `solve_doc`, over the private `checked(x0, [d,] xref)`: the rest input
+/// where `checked` refuses an argument. With a disturbance estimate, `solve` is
+/// `Mpc::solve_with_disturbance` (documented by `disturbance_doc`) at d = 0.
+pub(super) fn solve_fns(p: &Problem, solve_doc: &[&str], disturbance_doc: &[&str]) -> TokenStream {
+    let row = crate::form::reference_row(p);
+    if p.nd() > 0 {
+        quote! {
+            /// One control step with no disturbance estimate (d = 0); see [`Mpc::solve_with_disturbance`].
+            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                self.solve_with_disturbance(x0, &[0.0; ND], xref)
+            }
+
+            #(#[doc = #disturbance_doc])*
+            pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                match self.checked(x0, d, xref) {
+                    Some(u) => u,
+                    None => U_REST,
+                }
+            }
+        }
+    } else {
+        quote! {
+            #(#[doc = #solve_doc])*
+            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
+                match self.checked(x0, xref) {
+                    Some(u) => u,
+                    None => U_REST,
+                }
+            }
+        }
+    }
+}
+
 /// `Mpc::last_input` (documented by `doc`) and `Mpc::set_last_input`, for an `Mpc` whose field `last`
 /// holds the input the first move is measured from (every method's, where moves are weighted or bounded).
 pub(super) fn last_input_fns(doc: [&str; 2]) -> TokenStream {
@@ -79,11 +121,7 @@ pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Se
         #first
     };
     let row = crate::form::reference_row(p);
-    let reference_doc = if p.qp.Cz.is_some() {
-        "`xref[k]` the reference of the outputs z = C_z·x at predicted step k+1"
-    } else {
-        "`xref[k]` the reference of predicted state k+1"
-    };
+    let reference_doc = reference_doc(p);
     // Data enters flushed of magnitudes the arithmetic would turn subnormal (`flushed`).
     let flush_reference = quote! {
         let mut reference = *xref;
@@ -106,21 +144,9 @@ pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Se
          `x0` or `xref` returns the rest input and resets the warm start."
     );
     let solve_doc: Vec<&str> = solve_doc.split('\n').collect();
-    let solve_fns = if nd > 0 {
+    let entry = solve_fns(p, &solve_doc, &offset_doc);
+    let checked = if nd > 0 {
         quote! {
-            /// One control step with no disturbance estimate (d = 0); see [`Mpc::solve_with_disturbance`].
-            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
-                self.solve_with_disturbance(x0, &[0.0; ND], xref)
-            }
-
-            #(#[doc = #offset_doc])*
-            pub fn solve_with_disturbance(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; #row]; N]) -> [Real; NU] {
-                match self.checked(x0, d, xref) {
-                    Some(u) => u,
-                    None => U_REST,
-                }
-            }
-
             /// [`Mpc::solve_with_disturbance`], with `None` (and a reset warm start) for a non-finite argument.
             fn checked(&mut self, x0: &[Real; NX], d: &[Real; ND], xref: &[[Real; #row]; N]) -> Option<[Real; NU]> {
                 if !(all_finite(x0) && all_finite(d) && xref.iter().all(|r| all_finite(r))) {
@@ -134,14 +160,6 @@ pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Se
         }
     } else {
         quote! {
-            #(#[doc = #solve_doc])*
-            pub fn solve(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> [Real; NU] {
-                match self.checked(x0, xref) {
-                    Some(u) => u,
-                    None => U_REST,
-                }
-            }
-
             /// [`Mpc::solve`], with `None` (and a reset warm start) for a non-finite argument.
             fn checked(&mut self, x0: &[Real; NX], xref: &[[Real; #row]; N]) -> Option<[Real; NU]> {
                 if !(all_finite(x0) && xref.iter().all(|r| all_finite(r))) {
@@ -154,6 +172,7 @@ pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Se
             }
         }
     };
+    let solve_fns = quote!(#entry #checked);
     let (last_field, last_init, last_fns, new_doc, reset_doc) = if moves {
         (
             quote!(last: [Real; NU],),
