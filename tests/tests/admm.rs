@@ -14,9 +14,6 @@
 //!   with `admm_form = "residual"`): the same checks;
 //! - the fallback: infeasible hard rows and data that overflow f32 give a finite command inside the input
 //!   box and a status that says so; non-finite data the rest input.
-// OSQP's angle bound π/6 is data, written to f32's digits in the emitted tables; clippy reads the
-// literal as an approximate FRAC_PI_6 (known open: the ADMM emitter should allow it on its tables).
-#![allow(clippy::approx_constant)]
 #![allow(non_snake_case)]
 
 use codegen::ipm::{violations, Fallback};

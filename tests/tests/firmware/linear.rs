@@ -9,13 +9,8 @@ use flight_sim::{
     Setpoint,
 };
 
-// OSQP's angle bound π/6 is data, written to f32's digits in the emitted tables; clippy reads the literal
-// as an approximate FRAC_PI_6 (as in tests/admm.rs).
-#[allow(clippy::approx_constant)]
-mod generated {
-    mpc_macros::mpc!(pub mod quadcopter_m4f = "../firmware-template/specs/quadcopter-m4f.toml");
-}
-use generated::quadcopter_m4f as q;
+mpc_macros::mpc!(mod quadcopter_m4f = "../firmware-template/specs/quadcopter-m4f.toml");
+use quadcopter_m4f as q;
 
 const QUADCOPTER_M4F: &str = "firmware-template/specs/quadcopter-m4f.toml";
 /// Cycles flown in the test: 10 s of the yaw step at 0.1 s, as `scripts/firmware.sh --cycles 100` (each
