@@ -550,6 +550,7 @@ impl Spent {
     }
 }
 
+/// The diagnostic of a sample that has spent the build's budget, on `[mpc.region]`.
 fn over_budget(spec: &Spec, title: &str) -> Diagnostics {
     Diagnostic::new(
         format!(
@@ -631,7 +632,9 @@ struct Part<T> {
     outcome: Outcome<T>,
 }
 
+/// How a [`Part`] ended.
 enum Outcome<T> {
+    /// It ran to its end.
     Done(T),
     /// This case did not reach `accuracy` within the method's most iterations.
     NotReached(Case),
@@ -1098,6 +1101,7 @@ fn warm_sequence<M: Sampled>(
     }
 }
 
+/// f and the rows' offset of a case.
 fn data(p: &Problem, c: &Case) -> (DVector<f64>, DVector<f64>) {
     let qp = &p.qp;
     let N = qp.N;

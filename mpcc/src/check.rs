@@ -365,7 +365,7 @@ fn target_lines(step: &codegen::target::StepCost) -> Vec<(String, String)> {
 /// why it is not built for the problem, and which one is used.
 fn normal_form_lines(choice: &codegen::riccati::Choice) -> Vec<(String, String)> {
     condensed_or_riccati_lines(
-        choice.form == codegen::riccati::Form::Riccati,
+        choice.form,
         (
             choice.condensed_macs_per_iteration,
             "L·D·Lᵀ of H + Gᵀ·diag(λ/s)·G within its envelope",
@@ -382,7 +382,7 @@ fn normal_form_lines(choice: &codegen::riccati::Choice) -> Vec<(String, String)>
 /// for the problem, and which one is used.
 fn structure_lines(choice: &codegen::admm::StructureChoice) -> Vec<(String, String)> {
     condensed_or_riccati_lines(
-        choice.structure == codegen::admm::Structure::Riccati,
+        choice.structure,
         (
             choice.condensed_macs_per_iteration,
             "two triangular solves with the dense factor",
@@ -399,11 +399,15 @@ fn structure_lines(choice: &codegen::admm::StructureChoice) -> Vec<(String, Stri
 /// multiply-adds per iteration and how it spends them, the Riccati form's unavailability where it is not
 /// built, and "(chosen)" beside the one used.
 fn condensed_or_riccati_lines(
-    riccati_chosen: bool,
+    chosen: codegen::riccati::Form,
     (condensed_macs, condensed_how): (usize, &str),
     (riccati_macs, riccati_unavailable, riccati_how): (Option<usize>, Option<&str>, &str),
 ) -> Vec<(String, String)> {
-    let chosen = |yes: bool| if yes { " (chosen)" } else { "" };
+    use codegen::riccati::Form;
+    let name = |form: Form| {
+        let mark = if form == chosen { " (chosen)" } else { "" };
+        format!("{}{mark}", form.name())
+    };
     let riccati = match (riccati_unavailable, riccati_macs) {
         (Some(why), Some(macs)) => format!("{macs} multiply-adds/iteration, unavailable: {why}"),
         (Some(why), None) => format!("unavailable: {why}"),
@@ -412,21 +416,10 @@ fn condensed_or_riccati_lines(
     };
     vec![
         (
-            format!(
-                "{}{}",
-                codegen::riccati::Form::Condensed.name(),
-                chosen(!riccati_chosen)
-            ),
+            name(Form::Condensed),
             format!("{condensed_macs} multiply-adds/iteration ({condensed_how})"),
         ),
-        (
-            format!(
-                "{}{}",
-                codegen::riccati::Form::Riccati.name(),
-                chosen(riccati_chosen)
-            ),
-            riccati,
-        ),
+        (name(Form::Riccati), riccati),
     ]
 }
 

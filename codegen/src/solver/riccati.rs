@@ -29,12 +29,15 @@ use crate::constraints::StageRow;
 use crate::lower::Qp;
 use nalgebra::{DMatrix, DVector};
 
-/// How the interior-point method solves its normal system: the same iterates either way, to rounding.
+/// How a constrained method solves its linear system, condensed or stage by stage: the interior-point
+/// method's normal system, ADMM's x-update ([`crate::admm::Structure`]). The same iterates either way,
+/// to rounding.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum Form {
-    /// L·D·Lᵀ of the condensed normal matrix within its envelope.
+    /// On the condensed QP: L·D·Lᵀ of the normal matrix within its envelope, or ADMM's dense factor.
     Condensed,
-    /// The stage-wise Riccati recursion ([`Stages`]).
+    /// Stage by stage: the Riccati recursion ([`Stages`]), or ADMM's sweep with gains computed at
+    /// build time.
     Riccati,
 }
 

@@ -28,24 +28,10 @@ use crate::lower::Qp;
 use crate::solver::riccati::Stages;
 use nalgebra::DMatrix;
 
-/// How ADMM solves its x-update: the same iterates either way, to rounding.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-pub enum Structure {
-    /// Two triangular solves with the dense factor of the condensed M, and C·x̃ through A's nonzeros.
-    Condensed,
-    /// The stage-wise sweep of this module's [`Program`].
-    Riccati,
-}
-
-impl Structure {
-    /// Its name in `mpcc check`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Structure::Condensed => "condensed",
-            Structure::Riccati => "riccati",
-        }
-    }
-}
+/// How ADMM solves its x-update: two triangular solves with the dense factor of the condensed M and C·x̃
+/// through A's nonzeros ([`Structure::Condensed`]), or the stage-wise sweep of this module's [`Program`]
+/// ([`Structure::Riccati`]). The same choice as the interior-point method's normal system, under one name.
+pub use crate::solver::riccati::Form as Structure;
 
 /// One statement: `slots[out] = (slots[base] + Σ c·slots[i]) · scale`, the terms added in order.
 #[derive(Clone, Debug, PartialEq)]
