@@ -199,6 +199,11 @@ impl Prediction<'_> {
     }
 }
 
+/// Whether row `r` of a group has a nonzero `au` entry (so it holds at k = 0 … N−1, not 1 … N).
+fn row_has_input(group: &mpc_spec::RowGroup, r: usize, nu: usize) -> bool {
+    (0..nu).any(|i| group.au.get(r, i) != 0.0)
+}
+
 /// Lowers `c` for the prediction matrices Sx (N·nx × nx) and Su (N·nx × N·nu).
 pub fn lower(c: &Constraints, Sx: &DMatrix<f64>, Su: &DMatrix<f64>, nu: usize) -> Rows {
     let nx = Sx.ncols();
@@ -311,8 +316,10 @@ pub fn lower(c: &Constraints, Sx: &DMatrix<f64>, Su: &DMatrix<f64>, nu: usize) -
             push_sided(row, None, &|_| RowKind::Move { index: i });
         }
         for (g, (group, slacks)) in c.rows.iter().zip(&group_slack).enumerate() {
-            let with_input = group.au.data.iter().any(|v| *v != 0.0);
             for (r, slack) in slacks.iter().enumerate() {
+                // Per row, as the README states: a row with an `au` is on (x_j, u_j), one without on
+                // x_{j+1}, whatever the other rows of its group are.
+                let with_input = row_has_input(group, r, nu);
                 let a = DVector::from_fn(nx, |i, _| group.ax.get(r, i));
                 let k = if with_input { j } else { j + 1 };
                 let (mut u, x, d) = prediction.of(&a, k);
@@ -353,7 +360,7 @@ pub fn lower(c: &Constraints, Sx: &DMatrix<f64>, Su: &DMatrix<f64>, nu: usize) -
             RowKind::Move { .. } => None,
             RowKind::Group { group, row, .. } => {
                 let g = &c.rows[*group];
-                let with_input = g.au.data.iter().any(|v| *v != 0.0);
+                let with_input = row_has_input(g, *row, nu);
                 Some(StageRow {
                     lag: usize::from(!with_input),
                     ax: DVector::from_fn(nx, |i, _| g.ax.get(*row, i)),
