@@ -324,6 +324,7 @@ impl Certificate {
             field("sampled.cold_cases", "SAMPLED_COLD_CASES", "Cold cases sampled (corners and draws) that have a solution.", SAMPLED, "cold cases with a solution", Plain, Count(e.cold_cases)),
             field("sampled.corners", "SAMPLED_CORNERS", "Corners of the state region among them.", SAMPLED, "of which corners of the region", Plain, Count(e.corners)),
             field("sampled.infeasible_cases", "SAMPLED_INFEASIBLE_CASES", "Draws without an exact solution (infeasible hard rows, or unresolved), left out: the fallback covers them.", SAMPLED, "draws without a solution (hard rows)", Plain, Count(e.infeasible_cases)),
+            field("sampled.unresolved_cases", "SAMPLED_UNRESOLVED_CASES", "Cases (cold draws, or warm steps, each ending its sequence) that neither exact solver resolved, left out.", SAMPLED, "cases neither exact solver resolved", Plain, Count(e.unresolved_cases)),
             field("sampled.warm_steps", "SAMPLED_WARM_STEPS", "Warm-started closed-loop steps sampled.", SAMPLED, &format!("warm closed-loop steps ({} sequences)", e.sequences), Plain, Count(e.warm_steps)),
             field("sampled.cold_median", "SAMPLED_COLD_MEDIAN", "Iterations a cold case needed to reach ACCURACY: median.", SAMPLED, "iterations needed cold: median", Plain, Count(e.cold_median)),
             field("sampled.cold_worst", "SAMPLED_COLD_WORST", "Iterations a cold case needed: worst.", SAMPLED, "iterations needed cold: worst", Plain, Count(e.cold_worst)),
@@ -516,6 +517,25 @@ pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> 
         } else {
             warnings.push(d);
         }
+    }
+    // Draws that neither exact solver resolved are left out of the evidence: more than a few, and the
+    // counts miss a part of the region without saying so.
+    if let Some(e) = c
+        .sampled
+        .as_ref()
+        .filter(|e| e.unresolved_cases > crate::sampling::UNRESOLVED_WARNING)
+    {
+        warnings.push(
+            Diagnostic::new(
+                format!(
+                    "{} cases of `[mpc.region]` were solved by neither the interior-point method nor Clarabel and are left out of the certificate ({} cold cases and {} warm steps count)",
+                    e.unresolved_cases, e.cold_cases, e.warm_steps
+                ),
+                spec.spans.get("mpc.region").or(spec.spans.get("mpc")),
+            )
+            .label("evidence thinner than the sample")
+            .note("hint: scale the model's units so the QP is better conditioned, or narrow `[mpc.region]`"),
+        );
     }
     if errors.is_empty() {
         Ok(warnings)

@@ -26,9 +26,12 @@ pub struct Evidence {
     pub cold_cases: usize,
     /// Corners among them.
     pub corners: usize,
-    /// Draws without an exact solution (the hard rows admit no plan there, or the reference did not
-    /// converge in its 200 iterations), left out of the counts.
+    /// Draws whose hard rows admit no plan (certified by the interior-point method or Clarabel,
+    /// [`crate::exact`]), left out of the counts: the fallback covers them.
     pub infeasible_cases: usize,
+    /// Draws that neither exact solver resolved (a numerical failure of both), left out of the counts
+    /// too; more than [`crate::sampling::UNRESOLVED_WARNING`] is a warning.
+    pub unresolved_cases: usize,
     /// Warm closed-loop steps run (sequences × steps).
     pub warm_steps: usize,
     /// Closed-loop sequences.

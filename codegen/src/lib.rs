@@ -60,6 +60,7 @@ pub use lower::Problem;
 pub use mpc_spec::{Diagnostic, Diagnostics, Spec};
 pub use plan::{plan, Plan};
 pub use solver::admm;
+pub use solver::exact;
 pub use solver::ipm;
 pub use solver::riccati;
 

@@ -31,7 +31,7 @@ use crate::evidence::Limits;
 pub use crate::evidence::{Evidence, Region};
 use crate::lower::{Problem, Qp};
 use crate::solver::ipm::{
-    chosen_stages, control_step, mpc_macs_per_iteration, mpc_qp, shifted_start, solve, violations,
+    chosen_stages, control_step, mpc_macs_per_iteration, mpc_qp, shifted_start, violations,
     Fallback, InequalityQp, IpmResult, Start, Status,
 };
 use crate::solver::Algorithm;
@@ -50,13 +50,16 @@ pub const DEFAULT_STEPS: usize = 50;
 pub const MAX_CORNERS: usize = 64;
 /// Iterations each case is run for when its count is measured.
 pub const MAX_PROBE: usize = 60;
-/// The exact reference's tolerance on the IPM's relative residuals, gap and complementarity.
-pub const EXACT_TOLERANCE: f64 = 1e-10;
+use crate::exact::exact;
+pub use crate::exact::EXACT_TOLERANCE;
 /// The run-time limits are this many times the worst final residuals of the sample.
 pub const LIMIT_FACTOR: f64 = 100.0;
 /// The limits are at least this: below it a residual is converged whatever the sample's rounding was
 /// (a limit at 100× a rounding-level residual would reject solves for their rounding alone).
 pub const LIMIT_FLOOR: f64 = 1e-6;
+/// More cases than this that neither exact solver resolves are a warning: the certificate's evidence
+/// is then thinner than the sample asked for, in a part of the region the counts do not see.
+pub const UNRESOLVED_WARNING: usize = 2;
 /// The seed of the sample: the same spec gives the same evidence on every machine.
 pub const SEED: u64 = 17;
 
@@ -468,7 +471,7 @@ pub fn tune_admm(spec: &Spec, p: &Problem) -> Result<(f64, f64), Diagnostics> {
         }
         let (f, offset) = data(p, c);
         let problem = mpc_qp(qp, &f, &offset);
-        let exact = solve(&problem, EXACT_TOLERANCE, 200);
+        let exact = exact(&problem);
         if exact.status == Status::Converged {
             cases.push(crate::admm::Case {
                 qp: problem,
@@ -484,7 +487,7 @@ pub fn tune_admm(spec: &Spec, p: &Problem) -> Result<(f64, f64), Diagnostics> {
         for _ in 0..TUNING_WARM.min(sample.steps) {
             let (f, offset) = data(p, &c);
             let problem = mpc_qp(qp, &f, &offset);
-            let exact = solve(&problem, EXACT_TOLERANCE, 200);
+            let exact = exact(&problem);
             if exact.status != Status::Converged {
                 break;
             }
@@ -728,18 +731,19 @@ fn certify_spending<M: Sampled>(
     } = draw_sample(spec, p, &region);
     let mut cold_counts = Vec::new();
     let mut infeasible_cases = 0;
+    let mut unresolved_cases = 0;
     let mut cold_runs = Vec::new();
     let cold = method.cold(qp);
     let cold_case = |c: &Case, meter: &Meter| {
         let (f, offset) = data(p, c);
         let problem = mpc_qp(qp, &f, &offset);
-        let exact = solve(&problem, EXACT_TOLERANCE, 200);
-        // No exact solution: the hard rows admit no plan (certified or not within the reference's
-        // iterations); such a case tests the fallback, not the count.
+        let exact = exact(&problem);
+        // No exact solution: the hard rows admit no plan (certified by one of the two solvers), or
+        // neither solver resolved it; such a case tests the fallback, not the count.
         if exact.status != Status::Converged {
             return Part {
                 spends: Vec::new(),
-                outcome: Outcome::Done(None),
+                outcome: Outcome::Done(Err(exact.status)),
             };
         }
         let mut spends = Vec::new();
@@ -755,16 +759,23 @@ fn certify_spending<M: Sampled>(
             meter,
         );
         let outcome = match measured {
-            Ok(Some((run, k))) => Outcome::Done(Some((run, k, exact, offset))),
+            Ok(Some((run, k))) => Outcome::Done(Ok((run, k, exact, offset))),
             Ok(None) => Outcome::NotReached(c.clone()),
             Err(Stopped) => Outcome::Stopped,
         };
         Part { spends, outcome }
     };
     for outcome in in_order(&cases, cold_case, spent, (spec, method, "a cold case"))? {
-        let Some((run, k, exact, offset)) = outcome else {
-            infeasible_cases += 1;
-            continue;
+        let (run, k, exact, offset) = match outcome {
+            Ok(solved) => solved,
+            Err(Status::Infeasible) => {
+                infeasible_cases += 1;
+                continue;
+            }
+            Err(_) => {
+                unresolved_cases += 1;
+                continue;
+            }
         };
         cold_counts.push(k);
         cold_runs.push((run, exact, offset));
@@ -849,6 +860,7 @@ fn certify_spending<M: Sampled>(
         cold_cases,
         corners,
         infeasible_cases,
+        unresolved_cases: unresolved_cases + warm.unresolved,
         warm_steps: warm.counts.len(),
         sequences,
         cold_worst,
@@ -953,6 +965,8 @@ struct Warm {
     /// Per step, the relative (primal, dual) residuals after each iteration.
     series: Vec<Vec<(f64, f64)>>,
     fallbacks: usize,
+    /// Steps whose exact reference neither solver resolved (each ends its sequence).
+    unresolved: usize,
 }
 
 /// The corners of the state region the sample uses: all 2^nx, at most [`MAX_CORNERS`].
@@ -1020,6 +1034,7 @@ fn warm_sequences<M: Sampled>(
         warm.worst_error = warm.worst_error.max(sequence.worst_error);
         warm.worst_violation = warm.worst_violation.max(sequence.worst_violation);
         warm.fallbacks += sequence.fallbacks;
+        warm.unresolved += sequence.unresolved;
     }
     Ok(warm)
 }
@@ -1043,9 +1058,10 @@ fn warm_sequence<M: Sampled>(
     for _ in 0..steps {
         let (f, offset) = data(p, &c);
         let problem = mpc_qp(qp, &f, &offset);
-        let exact = solve(&problem, EXACT_TOLERANCE, 200);
+        let exact = exact(&problem);
         if exact.status != Status::Converged {
-            // Infeasible from here: the fallback takes over; the sequence ends.
+            // Infeasible from here (the fallback takes over), or unresolved: the sequence ends.
+            warm.unresolved += usize::from(exact.status != Status::Infeasible);
             break;
         }
         let measured = measure(

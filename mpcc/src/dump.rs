@@ -10,7 +10,7 @@
 //!
 //! with r the reference window (N entries of nz, stacked) and u₋₁ the last input: `codegen::ipm::mpc_qp`
 //! exactly. Infinite bounds are written `null`. Each step also carries its exact solution z* (the
-//! interior-point method run to 1e-10, `codegen::ipm::solve`).
+//! interior-point method run to 1e-10, Clarabel where it does not converge: `codegen::exact::exact`).
 #![allow(non_snake_case)]
 
 use codegen::ipm::{self, mpc_qp};
@@ -20,7 +20,7 @@ use nalgebra::{DMatrix, DVector};
 use serde_json::{json, Value};
 
 /// The tolerance of the exact solutions (relative residuals, gap and complementarity).
-pub(crate) const EXACT_TOLERANCE: f64 = 1e-10;
+pub(crate) use codegen::exact::EXACT_TOLERANCE;
 
 /// What the states of the dump are.
 pub(crate) enum States {
@@ -111,7 +111,7 @@ pub(crate) fn dump(
         let last = mpc.last_input().clone();
         let f = mpc.linear_term(&x, &window);
         let offset = qp.rows.offset(&x, &no_disturbance, &last);
-        let exact = ipm::solve(&mpc_qp(qp, &f, &offset), EXACT_TOLERANCE, 200);
+        let exact = codegen::exact::exact(&mpc_qp(qp, &f, &offset));
         if exact.status != ipm::Status::Converged {
             return Err(format!(
                 "step {k}: the exact solve ended {:?}",

@@ -12,6 +12,7 @@
 #![allow(non_snake_case)]
 
 pub mod admm;
+pub mod exact;
 mod fgm;
 mod gradient;
 pub mod ipm;
