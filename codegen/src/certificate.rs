@@ -323,7 +323,7 @@ impl Certificate {
             field("accuracy", "ACCURACY", "`[mpc] accuracy`: |U − U*|∞ ≤ ACCURACY·(u_max − u_min), hard-row violation ≤ ACCURACY·max(1, |bound|).", SAMPLED, "accuracy asked (of the input span)", Plain, Real(self.accuracy)),
             field("sampled.cold_cases", "SAMPLED_COLD_CASES", "Cold cases sampled (corners and draws) that have a solution.", SAMPLED, "cold cases with a solution", Plain, Count(e.cold_cases)),
             field("sampled.corners", "SAMPLED_CORNERS", "Corners of the state region among them.", SAMPLED, "of which corners of the region", Plain, Count(e.corners)),
-            field("sampled.infeasible_cases", "SAMPLED_INFEASIBLE_CASES", "Draws without an exact solution (infeasible hard rows, or unresolved), left out: the fallback covers them.", SAMPLED, "draws without a solution (hard rows)", Plain, Count(e.infeasible_cases)),
+            field("sampled.infeasible_cases", "SAMPLED_INFEASIBLE_CASES", "Draws whose hard rows admit no plan (certified by either exact solver), left out: the fallback covers them.", SAMPLED, "draws without a solution (hard rows)", Plain, Count(e.infeasible_cases)),
             field("sampled.unresolved_cases", "SAMPLED_UNRESOLVED_CASES", "Cases (cold draws, or warm steps, each ending its sequence) that neither exact solver resolved, left out.", SAMPLED, "cases neither exact solver resolved", Plain, Count(e.unresolved_cases)),
             field("sampled.warm_steps", "SAMPLED_WARM_STEPS", "Warm-started closed-loop steps sampled.", SAMPLED, &format!("warm closed-loop steps ({} sequences)", e.sequences), Plain, Count(e.warm_steps)),
             field("sampled.cold_median", "SAMPLED_COLD_MEDIAN", "Iterations a cold case needed to reach ACCURACY: median.", SAMPLED, "iterations needed cold: median", Plain, Count(e.cold_median)),
@@ -335,6 +335,7 @@ impl Certificate {
             field("sampled.worst_violation", "SAMPLED_WORST_VIOLATION", "The worst hard-row violation (relative) over the sample at ITERATIONS.", SAMPLED, "worst hard-row violation at the count", Plain, Real(e.worst_violation)),
             field("sampled.limits.primal", "SAMPLED_PRIMAL_LIMIT", "Final relative primal residual above which the solve falls back.", SAMPLED, "fallback above relative primal residual", Plain, Real(e.limits.primal)),
             field("sampled.limits.dual", "SAMPLED_DUAL_LIMIT", "Final relative dual residual above which the solve falls back.", SAMPLED, "fallback above relative dual residual", Plain, Real(e.limits.dual)),
+            field("sampled.limits.gap", "SAMPLED_GAP_LIMIT", "Final duality gap, relative to max(1, |J|), above which the solve falls back.", SAMPLED, "fallback above relative duality gap", Plain, Real(e.limits.gap)),
         ];
         fields.splice(at..at, evidence);
         if let (Some(rho), Some(form)) = (e.rho, e.admm_form) {

@@ -77,6 +77,9 @@ pub struct Limits {
     pub primal: f64,
     /// On [`crate::ipm::IpmResult::dual_residual`].
     pub dual: f64,
+    /// On the relative duality gap ([`crate::ipm::IpmResult::relative_gap`]): small residuals alone
+    /// accept a point far from the optimum where the QP is infeasible by rounding.
+    pub gap: f64,
 }
 
 impl Limits {
@@ -84,6 +87,7 @@ impl Limits {
     pub const NONE: Limits = Limits {
         primal: f64::INFINITY,
         dual: f64::INFINITY,
+        gap: f64::INFINITY,
     };
 }
 

@@ -133,6 +133,8 @@ pub struct Iterate {
     pub primal: f64,
     /// The relative dual residual (zero for a method without one).
     pub dual: f64,
+    /// The relative duality gap (zero for a method without one).
+    pub gap: f64,
     /// Whether the method failed here (its plan is then not judged).
     pub failed: bool,
 }
@@ -213,6 +215,7 @@ fn interior_iterate(r: &IpmResult) -> Iterate {
         z: r.z.clone(),
         primal: r.primal_residual,
         dual: r.dual_residual,
+        gap: r.relative_gap,
         failed: r.status == Status::NumericalFailure,
     }
 }
@@ -316,6 +319,7 @@ fn plain_iterate(z: DVector<f64>) -> Iterate {
         z,
         primal: 0.0,
         dual: 0.0,
+        gap: 0.0,
         failed: false,
     }
 }
@@ -366,6 +370,7 @@ fn admm_iterate(r: &crate::admm::AdmmResult) -> Iterate {
         z: r.x.clone(),
         primal: r.primal_residual,
         dual: r.dual_residual,
+        gap: r.gap,
         failed: r.status == crate::admm::Status::NumericalFailure,
     }
 }
@@ -831,19 +836,21 @@ fn certify_spending<M: Sampled>(
     let worst_needed = cold_worst.max(warm.counts.iter().copied().max().unwrap_or(0));
     let at_limit = count.max(worst_needed);
     let limits = if method.limits_residuals() {
-        let (mut primal, mut dual) = (0.0_f64, 0.0_f64);
+        let (mut primal, mut dual, mut gap) = (0.0_f64, 0.0_f64, 0.0_f64);
         for s in cold_runs
             .iter()
             .map(|(run, _, _)| series(run))
             .chain(warm.series.iter().cloned())
         {
-            let (p, d) = s[at_limit.min(s.len() - 1)];
+            let (p, d, g) = s[at_limit.min(s.len() - 1)];
             primal = primal.max(p);
             dual = dual.max(d);
+            gap = gap.max(g);
         }
         Limits {
             primal: (LIMIT_FACTOR * primal).max(LIMIT_FLOOR),
             dual: (LIMIT_FACTOR * dual).max(LIMIT_FLOOR),
+            gap: (LIMIT_FACTOR * gap).max(LIMIT_FLOOR),
         }
     } else {
         Limits::NONE
@@ -963,7 +970,7 @@ struct Warm {
     worst_error: f64,
     worst_violation: f64,
     /// Per step, the relative (primal, dual) residuals after each iteration.
-    series: Vec<Vec<(f64, f64)>>,
+    series: Vec<Vec<(f64, f64, f64)>>,
     fallbacks: usize,
     /// Steps whose exact reference neither solver resolved (each ends its sequence).
     unresolved: usize,
@@ -1007,8 +1014,8 @@ fn check_budget<M: Sampled>(spec: &Spec, p: &Problem, method: &M) -> Result<(), 
 }
 
 /// The relative (primal, dual) residuals of a run, iteration by iteration.
-fn series(run: &[Iterate]) -> Vec<(f64, f64)> {
-    run.iter().map(|r| (r.primal, r.dual)).collect()
+fn series(run: &[Iterate]) -> Vec<(f64, f64, f64)> {
+    run.iter().map(|r| (r.primal, r.dual, r.gap)).collect()
 }
 
 /// Closed loops on the nominal model x⁺ = F x + G (u + d), each solve warm-started from the previous

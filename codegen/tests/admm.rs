@@ -458,6 +458,7 @@ fn infeasible_and_non_finite_data_fall_back() {
     let limits = Limits {
         primal: 1e-3,
         dual: 1e-3,
+        gap: 1e-3,
     };
     let inside = |p: &DVector<f64>| {
         let nu = qp.u_min.len();

@@ -666,3 +666,36 @@ fn macs_follow_the_calibration_rule() {
             + 12 * 2
     );
 }
+
+/// The acceptance test reads the gap, not only the residuals: a truncated solve whose residuals pass
+/// loose limits but whose relative duality gap is above the gap limit falls back; without a gap limit
+/// the same solve is accepted.
+#[test]
+fn a_solve_with_small_residuals_and_a_large_gap_falls_back() {
+    let p = problem(include_str!("../../specs/paper-limits.toml"));
+    let qp = &p.qp;
+    let mut x0 = DVector::zeros(p.nx);
+    x0[3] = 1.9;
+    let reference = DVector::from_fn(qp.N * qp.nz, |i, _| if i % qp.nz == 0 { 8.0 } else { 0.0 });
+    let last = qp.rest_input();
+    let f = &qp.Fx * &x0 - &qp.Fr * &reference + &qp.Fu * &last;
+    let offset = qp.rows.offset(&x0, &DVector::zeros(0), &last);
+    let plan = qp.rest_plan();
+    let step = |gap: f64| {
+        let limits = codegen::evidence::Limits {
+            primal: f64::INFINITY,
+            dual: f64::INFINITY,
+            gap,
+        };
+        ipm::control_step(qp, &f, &offset, &Start::Cold, &plan, 3, &limits)
+    };
+    let accepted = step(f64::INFINITY);
+    assert_eq!(accepted.fallback, ipm::Fallback::Solved);
+    let gap = accepted.result.relative_gap;
+    assert!(
+        gap > 1e-3,
+        "three iterations already closed the gap to {gap:e}"
+    );
+    assert_eq!(step(gap / 2.0).fallback, ipm::Fallback::WarmStart);
+    assert_eq!(step(gap * 2.0).fallback, ipm::Fallback::Solved);
+}

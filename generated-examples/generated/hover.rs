@@ -52,6 +52,8 @@ pub mod hover {
     pub const PRIMAL_LIMIT: f64 = 0.000001f64;
     /// Final relative dual residual above which the plan is not trusted.
     pub const DUAL_LIMIT: f64 = 0.000001f64;
+    /// Final duality gap, relative to max(1, |J|), above which the plan is not trusted.
+    pub const GAP_LIMIT: f64 = 0.000001f64;
     /// State feedback: the MPC on the measured state, one control cycle per [`Controller::step`]
     /// (the spec has no `[kalman]`).
     #[derive(Clone, Debug, PartialEq)]
@@ -149,7 +151,7 @@ pub mod hover {
         pub primal_residual: f64,
         /// ‖H z + f + Gᵀλ‖∞ relative to the data's scale, at the end.
         pub dual_residual: f64,
-        /// The mean complementarity sᵀλ / NSIDES, in the cost's units.
+        /// The duality gap at the end relative to the objective J of the QP, gap / max(1, |J|).
         pub gap: f64,
         /// The largest violation of a hard constraint row by the returned plan, relative to
         /// max(1, |bound|).
@@ -170,8 +172,8 @@ pub mod hover {
         NoneYet,
         /// The solve's plan, projected onto the input box (which changes it by rounding at most).
         Solved,
-        /// The solve failed (infeasible, non-finite, or residuals above [`PRIMAL_LIMIT`] /
-        /// [`DUAL_LIMIT`]): the previous plan shifted by one step with the rest input appended,
+        /// The solve failed (infeasible, non-finite, or residuals or gap above [`PRIMAL_LIMIT`] /
+        /// [`DUAL_LIMIT`] / [`GAP_LIMIT`]): the previous plan shifted by one step with the rest input appended,
         /// projected onto the box. The next solve starts cold.
         WarmStart,
     }
@@ -179,7 +181,7 @@ pub mod hover {
     /// interior-point method (Mehrotra's predictor-corrector) in f64, its normal matrix factored
     /// within its envelope. Every solve runs the same instructions, but for the regularised
     /// refactorisations after a pivot that is not positive.
-    /// Certified by sampling, not proved: 113 cold cases (64 corners) and 200 warm closed-loop steps of `[mpc.region]` needed at most 14 (cold) and 13 (warm) iterations to reach `accuracy`; `report::SAMPLED_*` has the rest.
+    /// Certified by sampling, not proved: 114 cold cases (64 corners) and 200 warm closed-loop steps of `[mpc.region]` needed at most 14 (cold) and 13 (warm) iterations to reach `accuracy`; `report::SAMPLED_*` has the rest.
     #[derive(Clone, Debug, PartialEq)]
     pub struct Mpc {
         /// The plan, projected onto the box.
@@ -272,7 +274,8 @@ pub mod hover {
                 put(&mut z, at_index(&ORDER, p), *v);
             }
             let trusted = (outcome.ended == Ended::Iterations)
-                & (outcome.primal <= PRIMAL_LIMIT) & (outcome.dual <= DUAL_LIMIT);
+                & (outcome.primal <= PRIMAL_LIMIT) & (outcome.dual <= DUAL_LIMIT)
+                & (outcome.gap <= GAP_LIMIT);
             let mut solved = [0.0; NP];
             for (i, (p, v)) in solved.iter_mut().zip(z.iter()).enumerate() {
                 *p = clamp(*v, i);
@@ -466,6 +469,8 @@ pub mod hover {
         relative_dual: f64,
         gap: f64,
         objective_scale: f64,
+        /// sᵀλ / max(1, |½zᵀHz + fᵀz|): what the acceptance test holds to GAP_LIMIT.
+        relative_gap: f64,
     }
     /// max |v_i| (NaN entries are passed over, as by `f64::max`). On the bits: |x|'s bits order as the
     /// values, and a NaN's are above +∞'s, so it is masked to 0; integer selects, which are
@@ -3913,6 +3918,8 @@ pub mod hover {
                 / (1.0 + larger(larger(amax(f), amax(&hz)), amax(&gl))),
             gap: dot(s, lambda) / NSIDES as f64,
             objective_scale: 1.0 + (0.5 * dot(z, &hz)).abs() + dot(f, z).abs(),
+            relative_gap: dot(s, lambda)
+                / larger(1.0, (0.5 * dot(z, &hz) + dot(f, z)).abs()),
             dual,
             primal,
             gl,
@@ -4132,7 +4139,7 @@ pub mod hover {
             Ended::Iterations
         };
         let (primal, dual, gap) = if started {
-            (r.relative_primal, r.relative_dual, r.gap)
+            (r.relative_primal, r.relative_dual, r.relative_gap)
         } else {
             (f64::INFINITY, f64::INFINITY, f64::INFINITY)
         };
@@ -14375,11 +14382,13 @@ pub mod hover {
         /// `[mpc] accuracy`: |U − U*|∞ ≤ ACCURACY·(u_max − u_min), hard-row violation ≤ ACCURACY·max(1, |bound|).
         pub const ACCURACY: f64 = 0.001f64;
         /// Cold cases sampled (corners and draws) that have a solution.
-        pub const SAMPLED_COLD_CASES: usize = 113;
+        pub const SAMPLED_COLD_CASES: usize = 114;
         /// Corners of the state region among them.
         pub const SAMPLED_CORNERS: usize = 64;
         /// Draws without an exact solution (infeasible hard rows, or unresolved), left out: the fallback covers them.
-        pub const SAMPLED_INFEASIBLE_CASES: usize = 1;
+        pub const SAMPLED_INFEASIBLE_CASES: usize = 0;
+        /// Cases (cold draws, or warm steps, each ending its sequence) that neither exact solver resolved, left out.
+        pub const SAMPLED_UNRESOLVED_CASES: usize = 0;
         /// Warm-started closed-loop steps sampled.
         pub const SAMPLED_WARM_STEPS: usize = 200;
         /// Iterations a cold case needed to reach ACCURACY: median.
@@ -14398,6 +14407,8 @@ pub mod hover {
         pub const SAMPLED_PRIMAL_LIMIT: f64 = 0.000001f64;
         /// Final relative dual residual above which the solve falls back.
         pub const SAMPLED_DUAL_LIMIT: f64 = 0.000001f64;
+        /// Final duality gap, relative to max(1, |J|), above which the solve falls back.
+        pub const SAMPLED_GAP_LIMIT: f64 = 0.000001f64;
         /// ρ(F − G·K_LQR).
         pub const LQR_SPECTRAL_RADIUS: f64 = 0.8827387020097792f64;
         /// λmin of P solving (F − GK)ᵀP(F − GK) − P = −I.

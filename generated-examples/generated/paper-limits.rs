@@ -56,6 +56,8 @@ pub mod paper_limits {
     pub const PRIMAL_LIMIT: f64 = 0.000001f64;
     /// Final relative dual residual above which the plan is not trusted.
     pub const DUAL_LIMIT: f64 = 0.000001f64;
+    /// Final duality gap, relative to max(1, |J|), above which the plan is not trusted.
+    pub const GAP_LIMIT: f64 = 0.000002087752403836645f64;
     /// The χ² gate on the normalized innovation squared eᵀS⁻¹e ([kalman] gate): a consistent filter's reading exceeds it with probability 1.0e-6 (NY = 3 degrees of freedom).
     pub const GATE: Real = 30.664849706215296f64;
     /// Consecutive gated readings, each different from the one before, after which the filter
@@ -178,7 +180,7 @@ pub mod paper_limits {
         pub primal_residual: f64,
         /// ‖H z + f + Gᵀλ‖∞ relative to the data's scale, at the end.
         pub dual_residual: f64,
-        /// The mean complementarity sᵀλ / NSIDES, in the cost's units.
+        /// The duality gap at the end relative to the objective J of the QP, gap / max(1, |J|).
         pub gap: f64,
         /// The largest violation of a hard constraint row by the returned plan, relative to
         /// max(1, |bound|).
@@ -199,8 +201,8 @@ pub mod paper_limits {
         NoneYet,
         /// The solve's plan, projected onto the input box (which changes it by rounding at most).
         Solved,
-        /// The solve failed (infeasible, non-finite, or residuals above [`PRIMAL_LIMIT`] /
-        /// [`DUAL_LIMIT`]): the previous plan shifted by one step with the rest input appended,
+        /// The solve failed (infeasible, non-finite, or residuals or gap above [`PRIMAL_LIMIT`] /
+        /// [`DUAL_LIMIT`] / [`GAP_LIMIT`]): the previous plan shifted by one step with the rest input appended,
         /// projected onto the box. The next solve starts cold.
         WarmStart,
     }
@@ -301,7 +303,8 @@ pub mod paper_limits {
                 put(&mut z, at_index(&ORDER, p), *v);
             }
             let trusted = (outcome.ended == Ended::Iterations)
-                & (outcome.primal <= PRIMAL_LIMIT) & (outcome.dual <= DUAL_LIMIT);
+                & (outcome.primal <= PRIMAL_LIMIT) & (outcome.dual <= DUAL_LIMIT)
+                & (outcome.gap <= GAP_LIMIT);
             let mut solved = [0.0; NP];
             for (i, (p, v)) in solved.iter_mut().zip(z.iter()).enumerate() {
                 *p = clamp(*v, i);
@@ -785,6 +788,8 @@ pub mod paper_limits {
         relative_dual: f64,
         gap: f64,
         objective_scale: f64,
+        /// sᵀλ / max(1, |½zᵀHz + fᵀz|): what the acceptance test holds to GAP_LIMIT.
+        relative_gap: f64,
     }
     /// max |v_i| (NaN entries are passed over, as by `f64::max`). On the bits: |x|'s bits order as the
     /// values, and a NaN's are above +∞'s, so it is masked to 0; integer selects, which are
@@ -2134,6 +2139,8 @@ pub mod paper_limits {
                 / (1.0 + larger(larger(amax(f), amax(&hz)), amax(&gl))),
             gap: dot(s, lambda) / NSIDES as f64,
             objective_scale: 1.0 + (0.5 * dot(z, &hz)).abs() + dot(f, z).abs(),
+            relative_gap: dot(s, lambda)
+                / larger(1.0, (0.5 * dot(z, &hz) + dot(f, z)).abs()),
             dual,
             primal,
             gl,
@@ -2353,7 +2360,7 @@ pub mod paper_limits {
             Ended::Iterations
         };
         let (primal, dual, gap) = if started {
-            (r.relative_primal, r.relative_dual, r.gap)
+            (r.relative_primal, r.relative_dual, r.relative_gap)
         } else {
             (f64::INFINITY, f64::INFINITY, f64::INFINITY)
         };
@@ -13957,6 +13964,8 @@ pub mod paper_limits {
         pub const SAMPLED_CORNERS: usize = 64;
         /// Draws without an exact solution (infeasible hard rows, or unresolved), left out: the fallback covers them.
         pub const SAMPLED_INFEASIBLE_CASES: usize = 0;
+        /// Cases (cold draws, or warm steps, each ending its sequence) that neither exact solver resolved, left out.
+        pub const SAMPLED_UNRESOLVED_CASES: usize = 0;
         /// Warm-started closed-loop steps sampled.
         pub const SAMPLED_WARM_STEPS: usize = 200;
         /// Iterations a cold case needed to reach ACCURACY: median.
@@ -13975,6 +13984,8 @@ pub mod paper_limits {
         pub const SAMPLED_PRIMAL_LIMIT: f64 = 0.000001f64;
         /// Final relative dual residual above which the solve falls back.
         pub const SAMPLED_DUAL_LIMIT: f64 = 0.000001f64;
+        /// Final duality gap, relative to max(1, |J|), above which the solve falls back.
+        pub const SAMPLED_GAP_LIMIT: f64 = 0.000002087752403836645f64;
         /// ρ(F − G·K_LQR).
         pub const LQR_SPECTRAL_RADIUS: f64 = 0.9390546005837024f64;
         /// λmin of P solving (F − GK)ᵀP(F − GK) − P = −I.

@@ -1,5 +1,4 @@
-//! The fixed-iteration ADMM MPC: `Mpc`, its `SolverStatus` (the interior-point method's type without
-//! the gap), and OSQP's Algorithm 1 in the module's `Real` over constant tables, step for step the
+//! The fixed-iteration ADMM MPC: `Mpc`, its `SolverStatus` (the interior-point method's type), and OSQP's Algorithm 1 in the module's `Real` over constant tables, step for step the
 //! reference of [`crate::solver::admm`] (`Operator::iterate`, `residuals`, `infeasible`,
 //! `control_step`), in its order of summation, so that an f64 module matches the oracle to rounding.
 //!
@@ -85,7 +84,11 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
     let per_slot = lit(rows.per_slot);
     let limits = qp.ipm_limits();
     let wide = Num(mpc_spec::Scalar::F64);
-    let (primal_limit, dual_limit) = (wide.lit(limits.primal), wide.lit(limits.dual));
+    let (primal_limit, dual_limit, gap_limit) = (
+        wide.lit(limits.primal),
+        wide.lit(limits.dual),
+        wide.lit(limits.gap),
+    );
     let accuracy = wide.lit(qp.accuracy);
     let rho_lit = wide.lit(rho);
     let infeasibility = wide.lit(INFEASIBILITY_TOLERANCE);
@@ -105,7 +108,7 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
             " The rows' dependence on the last input (the first move): their offset gains ROW_U·u₋₁.",
         ],
     );
-    let status_types = status_types("ADMM", false, &[" Iterations run: always [`ITERATIONS`]."]);
+    let status_types = status_types("ADMM", &[" Iterations run: always [`ITERATIONS`]."]);
     let row = crate::form::reference_row(p);
     let nr = lit(N * qp.nz);
     let nd = p.nd();
@@ -129,6 +132,12 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
     };
     let real_name = num.numeric().name();
     let wide_of_abs = widen(quote!(x.abs()));
+    let (wide_px, wide_x, wide_q) = (
+        widen(quote!(px[i])),
+        widen(quote!(x[i])),
+        widen(quote!(q[i])),
+    );
+    let (wide_y, wide_z) = (widen(quote!(*yi)), widen(quote!(*zi)));
     let (wide_lower, wide_upper, wide_d) = (
         widen(quote!(lower[i])),
         widen(quote!(upper[i])),
@@ -227,6 +236,8 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
             pub const PRIMAL_LIMIT: f64 = #primal_limit;
             /// Final relative dual residual above which the plan is not trusted.
             pub const DUAL_LIMIT: f64 = #dual_limit;
+            /// Final duality gap, relative to max(1, |J|), above which the plan is not trusted.
+            pub const GAP_LIMIT: f64 = #gap_limit;
         },
         api: quote! {
             #status_types
@@ -261,6 +272,7 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                             iterations: 0,
                             primal_residual: 0.0,
                             dual_residual: 0.0,
+                            gap: 0.0,
                             violation: 0.0,
                             softened: 0.0,
                             infeasible: false,
@@ -323,10 +335,10 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                     for _ in 0..ITERATIONS {
                         iterate(&q, &lower, &upper, &mut x, &mut z, &mut y, &mut dy);
                     }
-                    let (primal, dual) = residuals(&q, &x, &z, &y);
-                    let numerical_failure = !(primal.is_finite() && dual.is_finite());
+                    let (primal, dual, gap) = residuals(&q, &x, &z, &y);
+                    let numerical_failure = !(primal.is_finite() && dual.is_finite() && gap.is_finite());
                     let infeasible = ITERATIONS > 0 && !numerical_failure && infeasible(&lower, &upper, &dy);
-                    let trusted = !numerical_failure && !infeasible && primal <= PRIMAL_LIMIT && dual <= DUAL_LIMIT;
+                    let trusted = !numerical_failure && !infeasible && primal <= PRIMAL_LIMIT && dual <= DUAL_LIMIT && gap <= GAP_LIMIT;
                     if trusted {
                         for (i, (p, v)) in self.plan.iter_mut().zip(x.iter()).enumerate() {
                             *p = project(*v, U_MIN[i % NU], U_MAX[i % NU]);
@@ -347,6 +359,7 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                         iterations: ITERATIONS as u32,
                         primal_residual: primal,
                         dual_residual: dual,
+                        gap,
                         violation,
                         softened,
                         infeasible,
@@ -459,7 +472,10 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
 
             /// The relative residuals ‖Cx − z‖∞ / (1 + max(‖Cx‖∞, ‖z‖∞)) and
             /// ‖Px + q + Cᵀy‖∞ / (1 + max(‖Px‖∞, ‖q‖∞, ‖Cᵀy‖∞)); infinite where an entry is not finite.
-            fn residuals(q: &[Real; NV], x: &[Real; NV], z: &[Real; NC], y: &[Real; NC]) -> (f64, f64) {
+            /// The relative primal and dual residuals and the relative duality gap
+            /// |xᵀPx + qᵀx + yᵀz| / max(1, |½xᵀPx + qᵀx|) (y is in the bounds' normal cone at z, so yᵀz is
+            /// their support function at y), as the reference computes them.
+            fn residuals(q: &[Real; NV], x: &[Real; NV], z: &[Real; NC], y: &[Real; NC]) -> (f64, f64, f64) {
                 let mut cx = [0.0; NC];
                 c_mul(x, &mut cx);
                 let mut primal = [0.0; NC];
@@ -477,11 +493,21 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                     dual[i] = px[i] + q[i] + cty[i];
                 }
                 if !(all_finite(&primal) && all_finite(&dual)) {
-                    return (f64::INFINITY, f64::INFINITY);
+                    return (f64::INFINITY, f64::INFINITY, f64::INFINITY);
                 }
+                let (mut curvature, mut linear, mut support) = (0.0_f64, 0.0_f64, 0.0_f64);
+                for i in 0..NV {
+                    curvature += #wide_px * #wide_x;
+                    linear += #wide_q * #wide_x;
+                }
+                for (yi, zi) in y.iter().zip(z.iter()) {
+                    support += #wide_y * #wide_z;
+                }
+                let objective = 0.5 * curvature + linear;
                 (
                     amax(&primal) / (1.0 + amax(&cx).max(amax(z))),
                     amax(&dual) / (1.0 + amax(&px).max(amax(q)).max(amax(&cty))),
+                    (curvature + linear + support).abs() / objective.abs().max(1.0),
                 )
             }
 

@@ -10,16 +10,10 @@ use nalgebra::DMatrix;
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::quote;
 
-/// `SolverStatus` and `Fallback`: the interior-point method's, and ADMM's without the `gap` it does not
-/// have. `method` names the method in the docs.
-pub fn status_types(method: &str, gap: bool, iterations_doc: &[&str]) -> TokenStream {
+/// `SolverStatus` and `Fallback`, the same for the interior-point method and ADMM. `method` names the
+/// method in the docs.
+pub fn status_types(method: &str, iterations_doc: &[&str]) -> TokenStream {
     let doc = format!(" What the {method}'s last solve did ([`Mpc::solver_status`]).");
-    let gap = gap.then(|| {
-        quote! {
-            /// The mean complementarity sᵀλ / NSIDES, in the cost's units.
-            pub gap: f64,
-        }
-    });
     quote! {
         #[doc = #doc]
         #[derive(Clone, Copy, Debug, PartialEq)]
@@ -30,7 +24,8 @@ pub fn status_types(method: &str, gap: bool, iterations_doc: &[&str]) -> TokenSt
             pub primal_residual: f64,
             /// ‖H z + f + Gᵀλ‖∞ relative to the data's scale, at the end.
             pub dual_residual: f64,
-            #gap
+            /// The duality gap at the end relative to the objective J of the QP, gap / max(1, |J|).
+            pub gap: f64,
             /// The largest violation of a hard constraint row by the returned plan, relative to
             /// max(1, |bound|).
             pub violation: f64,
@@ -51,8 +46,8 @@ pub fn status_types(method: &str, gap: bool, iterations_doc: &[&str]) -> TokenSt
             NoneYet,
             /// The solve's plan, projected onto the input box (which changes it by rounding at most).
             Solved,
-            /// The solve failed (infeasible, non-finite, or residuals above [`PRIMAL_LIMIT`] /
-            /// [`DUAL_LIMIT`]): the previous plan shifted by one step with the rest input appended,
+            /// The solve failed (infeasible, non-finite, or residuals or gap above [`PRIMAL_LIMIT`] /
+            /// [`DUAL_LIMIT`] / [`GAP_LIMIT`]): the previous plan shifted by one step with the rest input appended,
             /// projected onto the box. The next solve starts cold.
             WarmStart,
         }

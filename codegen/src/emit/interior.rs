@@ -120,7 +120,6 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     );
     let status_types = status_types(
         "interior-point method",
-        true,
         &[
             " Iterations that moved the point (fewer than [`ITERATIONS`] when it was optimal to rounding,",
             " or the method stopped on infeasibility or a numerical failure). Every solve does the work of",
@@ -130,7 +129,11 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     );
     let slack_weight = wide.vector(rows.slack_weight.iter().copied());
     let limits = qp.ipm_limits();
-    let (primal_limit, dual_limit) = (wide.lit(limits.primal), wide.lit(limits.dual));
+    let (primal_limit, dual_limit, gap_limit) = (
+        wide.lit(limits.primal),
+        wide.lit(limits.dual),
+        wide.lit(limits.gap),
+    );
     let accuracy = wide.lit(qp.accuracy);
     let rest = wide.vector(qp.rest_input().iter().copied());
     let lo = wide.vector(qp.u_min.iter().copied());
@@ -391,6 +394,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             pub const PRIMAL_LIMIT: f64 = #primal_limit;
             /// Final relative dual residual above which the plan is not trusted.
             pub const DUAL_LIMIT: f64 = #dual_limit;
+            /// Final duality gap, relative to max(1, |J|), above which the plan is not trusted.
+            pub const GAP_LIMIT: f64 = #gap_limit;
         },
         api: quote! {
             #status_types
@@ -487,7 +492,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     }
                     let trusted = (outcome.ended == Ended::Iterations)
                         & (outcome.primal <= PRIMAL_LIMIT)
-                        & (outcome.dual <= DUAL_LIMIT);
+                        & (outcome.dual <= DUAL_LIMIT)
+                        & (outcome.gap <= GAP_LIMIT);
                     // Both plans are made and one is selected: the same instructions either way.
                     let mut solved = [0.0; NP];
                     for (i, (p, v)) in solved.iter_mut().zip(z.iter()).enumerate() {
@@ -693,6 +699,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 relative_dual: f64,
                 gap: f64,
                 objective_scale: f64,
+                /// sᵀλ / max(1, |½zᵀHz + fᵀz|): what the acceptance test holds to GAP_LIMIT.
+                relative_gap: f64,
             }
 
             /// max |v_i| (NaN entries are passed over, as by `f64::max`). On the bits: |x|'s bits order as the
@@ -756,6 +764,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     relative_dual: amax(&dual) / (1.0 + larger(larger(amax(f), amax(&hz)), amax(&gl))),
                     gap: dot(s, lambda) / NSIDES as f64,
                     objective_scale: 1.0 + (0.5 * dot(z, &hz)).abs() + dot(f, z).abs(),
+                    relative_gap: dot(s, lambda) / larger(1.0, (0.5 * dot(z, &hz) + dot(f, z)).abs()),
                     dual,
                     primal,
                     gl,
@@ -986,7 +995,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     Ended::Iterations
                 };
                 let (primal, dual, gap) = if started {
-                    (r.relative_primal, r.relative_dual, r.gap)
+                    (r.relative_primal, r.relative_dual, r.relative_gap)
                 } else {
                     (f64::INFINITY, f64::INFINITY, f64::INFINITY)
                 };

@@ -455,7 +455,7 @@ impl<T: Real> Operator<T> {
 
     /// The relative residuals at p: ‖Cx − z‖∞ / (1 + max(‖Cx‖∞, ‖z‖∞)) and
     /// ‖Px + q + Cᵀy‖∞ / (1 + max(‖Px‖∞, ‖q‖∞, ‖Cᵀy‖∞)), in f64 from T's values.
-    pub fn residuals(&self, p: &Iterate<T>) -> (f64, f64) {
+    pub fn residuals(&self, p: &Iterate<T>) -> (f64, f64, f64) {
         let n = self.n;
         let amax = |v: &[T]| v.iter().fold(0.0_f64, |m, x| m.max(x.wide().abs()));
         let cx = self.C(&p.x);
@@ -465,11 +465,25 @@ impl<T: Real> Operator<T> {
         let dual: Vec<T> = (0..n).map(|i| px[i] + self.q[i] + cty[i]).collect();
         let nan = |v: &[T]| v.iter().any(|x| !x.finite());
         if nan(&primal) || nan(&dual) {
-            return (f64::INFINITY, f64::INFINITY);
+            return (f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        }
+        // The duality gap xᵀPx + qᵀx + yᵀz (y is in the normal cone of the bounds at z, so yᵀz is the
+        // support function of [l, u] at y, infinite sides included), in f64 over the iterate's values.
+        let (mut curvature, mut linear, mut support) = (0.0_f64, 0.0_f64, 0.0_f64);
+        for i in 0..n {
+            curvature += px[i].wide() * p.x[i].wide();
+            linear += self.q[i].wide() * p.x[i].wide();
+        }
+        for (y, z) in p.y.iter().zip(&p.z) {
+            support += y.wide() * z.wide();
         }
         (
             amax(&primal) / (1.0 + amax(&cx).max(amax(&p.z))),
             amax(&dual) / (1.0 + amax(&px).max(amax(&self.q)).max(amax(&cty))),
+            ipm::relative_gap(
+                (curvature + linear + support).abs(),
+                0.5 * curvature + linear,
+            ),
         )
     }
 
@@ -586,14 +600,16 @@ pub struct AdmmResult {
     pub primal_residual: f64,
     /// ‖Px + q + Cᵀy‖∞ / (1 + max(‖Px‖∞, ‖q‖∞, ‖Cᵀy‖∞)).
     pub dual_residual: f64,
+    /// The duality gap |xᵀPx + qᵀx + yᵀz| relative to max(1, |½xᵀPx + qᵀx|).
+    pub gap: f64,
     /// How it ended.
     pub status: Status,
 }
 
 fn result<T: Real>(op: &Operator<T>, p: &Iterate<T>, k: usize, status: Status) -> AdmmResult {
     let wide = |v: &[T]| DVector::from_iterator(v.len(), v.iter().map(|a| a.wide()));
-    let (primal, dual) = op.residuals(p);
-    let status = if !(primal.is_finite() && dual.is_finite()) {
+    let (primal, dual, gap) = op.residuals(p);
+    let status = if !(primal.is_finite() && dual.is_finite() && gap.is_finite()) {
         Status::NumericalFailure
     } else {
         status
@@ -605,6 +621,7 @@ fn result<T: Real>(op: &Operator<T>, p: &Iterate<T>, k: usize, status: Status) -
         iterations: k,
         primal_residual: primal,
         dual_residual: dual,
+        gap,
         status,
     }
 }
@@ -618,6 +635,7 @@ fn failure(qp: &InequalityQp, iterations: usize) -> AdmmResult {
         iterations,
         primal_residual: f64::INFINITY,
         dual_residual: f64::INFINITY,
+        gap: f64::INFINITY,
         status: Status::NumericalFailure,
     }
 }
@@ -650,7 +668,7 @@ pub fn solve(
     };
     let mut last = None;
     let r = run(&op, start, max_iterations, &mut |p, k| {
-        let (a, b) = op.residuals(p);
+        let (a, b, _) = op.residuals(p);
         let done = a <= tolerance && b <= tolerance;
         if done {
             last = Some(result(&op, p, k, Status::Converged));
@@ -873,7 +891,8 @@ pub fn control_step<T: Real>(
     let n = f.len();
     let trusted = matches!(result.status, Status::IterationLimit | Status::Converged)
         && result.primal_residual <= limits.primal
-        && result.dual_residual <= limits.dual;
+        && result.dual_residual <= limits.dual
+        && result.gap <= limits.gap;
     let nu = qp.u_min.len();
     let project = |v: &DVector<f64>| {
         DVector::from_fn(n, |i, _| {

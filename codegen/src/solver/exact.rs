@@ -145,6 +145,7 @@ pub fn clarabel(qp: &InequalityQp) -> Clarabel {
         match s.status {
             SolverStatus::Solved => {
                 let z = DVector::from_column_slice(&s.x);
+                let objective = 0.5 * z.dot(&(&qp.H * &z)) + qp.f.dot(&z);
                 if !z.iter().all(|v| v.is_finite()) {
                     return Clarabel::Undecided;
                 }
@@ -165,6 +166,7 @@ pub fn clarabel(qp: &InequalityQp) -> Clarabel {
                     primal_residual: s.r_prim,
                     dual_residual: s.r_dual,
                     gap: solver.info.gap_abs / m.max(1) as f64,
+                    relative_gap: super::ipm::relative_gap(solver.info.gap_abs, objective),
                     complementarity,
                     status: Status::Converged,
                 });

@@ -125,6 +125,9 @@ pub struct IpmResult {
     pub dual_residual: f64,
     /// The mean complementarity sᵀλ / (number of sides), in the objective's units.
     pub gap: f64,
+    /// The duality gap sᵀλ relative to the objective, sᵀλ / max(1, |½zᵀHz + fᵀz|): what the control
+    /// step's acceptance test holds to [`crate::evidence::Limits::gap`].
+    pub relative_gap: f64,
     /// max_i min(s_i, λ_i): zero exactly at complementarity. Unlike the gap it shrinks only like √gap at
     /// a degenerate side (s_i and λ_i both tending to zero), where z is off by as much, so [`solve`]
     /// asks it to be below the tolerance too.
@@ -211,6 +214,8 @@ struct Residuals {
     complementarity: f64,
     /// 1 + |½zᵀHz| + |fᵀz|: the objective's scale, which the gap is measured against.
     objective_scale: f64,
+    /// sᵀλ / max(1, |½zᵀHz + fᵀz|).
+    relative_gap: f64,
 }
 
 impl Residuals {
@@ -247,6 +252,7 @@ fn residuals(qp: &InequalityQp, sides: &Sides, p: &Point) -> Residuals {
             p.s.dot(&p.lambda) / p.s.len() as f64
         },
         objective_scale: 1.0 + (0.5 * p.z.dot(&Hz)).abs() + qp.f.dot(&p.z).abs(),
+        relative_gap: relative_gap(p.s.dot(&p.lambda), 0.5 * p.z.dot(&Hz) + qp.f.dot(&p.z)),
         complementarity: p
             .s
             .iter()
@@ -256,6 +262,11 @@ fn residuals(qp: &InequalityQp, sides: &Sides, p: &Point) -> Residuals {
         dual,
         primal,
     }
+}
+
+/// A duality gap relative to the objective J: gap / max(1, |J|) (the emitted methods compute the same).
+pub fn relative_gap(gap: f64, objective: f64) -> f64 {
+    gap / objective.abs().max(1.0)
 }
 
 /// The Cholesky factor of the normal matrix, regularised by a growing multiple of I when it is
@@ -454,6 +465,7 @@ fn result(p: Point, r: &Residuals, iterations: usize, status: Status) -> IpmResu
         primal_residual: r.relative_primal,
         dual_residual: r.relative_dual,
         gap: r.gap,
+        relative_gap: r.relative_gap,
         complementarity: r.complementarity,
         status,
     }
@@ -468,6 +480,7 @@ fn failure(qp: &InequalityQp, start: &Start, iterations: usize) -> IpmResult {
         primal_residual: f64::INFINITY,
         dual_residual: f64::INFINITY,
         gap: f64::INFINITY,
+        relative_gap: f64::INFINITY,
         complementarity: f64::INFINITY,
         status: Status::NumericalFailure,
     }
@@ -711,7 +724,8 @@ pub fn control_step(
     let n = f.len();
     let trusted = matches!(result.status, Status::IterationLimit | Status::Converged)
         && result.primal_residual <= limits.primal
-        && result.dual_residual <= limits.dual;
+        && result.dual_residual <= limits.dual
+        && result.relative_gap <= limits.gap;
     let nu = qp.u_min.len();
     let project = |v: &DVector<f64>| {
         DVector::from_fn(n, |i, _| {
