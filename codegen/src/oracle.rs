@@ -27,6 +27,8 @@ pub struct Mpc {
     admm_start: admm::Start,
     /// ADMM's last step.
     admm_step: Option<admm::Step>,
+    /// Whether the next constrained solve relaxes the hard rows ([`crate::ipm::relax_next`]).
+    relax: bool,
 }
 
 impl Mpc {
@@ -43,6 +45,7 @@ impl Mpc {
             last_step: None,
             admm_start: admm::Start::Cold,
             admm_step: None,
+            relax: false,
         }
     }
 
@@ -90,6 +93,7 @@ impl Mpc {
         self.last_step = None;
         self.admm_start = admm::Start::Cold;
         self.admm_step = None;
+        self.relax = false;
     }
 
     /// The gradient map f = Fx·x0 − Fr·Xref + Fu·u₋₁ (eq. 10 with the moves), `xref[k]` the reference of
@@ -132,7 +136,12 @@ impl Mpc {
                 &self.plan,
                 self.qp.iterations,
                 &limits,
+                self.relax,
             );
+            let (violation, _) = crate::ipm::violations(&self.qp, &step.plan, &offset);
+            let infeasible = step.result.status == crate::solver::Status::Infeasible;
+            self.relax =
+                crate::ipm::relax_next(&self.qp, self.relax, infeasible, step.fallback, violation);
             self.start = shifted_start(&self.qp, &step);
             self.plan = step.plan.clone();
             self.last_step = Some(step);
@@ -151,7 +160,12 @@ impl Mpc {
                 &self.plan,
                 self.qp.iterations,
                 &limits,
+                self.relax,
             );
+            let (violation, _) = crate::ipm::violations(&self.qp, &step.plan, &offset);
+            let infeasible = step.result.status == crate::solver::Status::Infeasible;
+            self.relax =
+                crate::ipm::relax_next(&self.qp, self.relax, infeasible, step.fallback, violation);
             self.admm_start = admm::shifted_start(&self.qp, &step);
             self.plan = step.plan.clone();
             self.admm_step = Some(step);

@@ -192,7 +192,17 @@ impl Sampled for InteriorPoint {
         previous_plan: &DVector<f64>,
         count: usize,
     ) -> Stepped<Start> {
-        let step = control_step(qp, f, offset, start, previous_plan, count, &Limits::NONE);
+        // The sequences end where the hard rows admit no plan, so a sampled step never relaxes them.
+        let step = control_step(
+            qp,
+            f,
+            offset,
+            start,
+            previous_plan,
+            count,
+            &Limits::NONE,
+            false,
+        );
         Stepped {
             iterate: interior_iterate(&step.result),
             next: shifted_start(qp, &step),
@@ -428,6 +438,7 @@ impl Sampled for Admm {
             previous_plan,
             count,
             &Limits::NONE,
+            false,
         );
         Stepped {
             iterate: admm_iterate(&step.result),

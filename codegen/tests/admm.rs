@@ -315,6 +315,7 @@ fn meets_the_accuracy<T: admm::Real>(
             &plan,
             count,
             &Limits::NONE,
+            false,
         );
         fallbacks += usize::from(st.fallback != Fallback::Solved);
         let c = Case {
@@ -474,6 +475,7 @@ fn infeasible_and_non_finite_data_fall_back() {
         &plan,
         400,
         &limits,
+        false,
     );
     let step32 = admm::control_step::<f32>(
         qp,
@@ -484,6 +486,7 @@ fn infeasible_and_non_finite_data_fall_back() {
         &plan,
         400,
         &limits,
+        false,
     );
     for (scalar, st) in [("f64", &step64), ("f32", &step32)] {
         println!(
@@ -506,6 +509,7 @@ fn infeasible_and_non_finite_data_fall_back() {
         &plan,
         50,
         &limits,
+        false,
     );
     assert_eq!(st.result.status, Status::NumericalFailure);
     assert_eq!(st.fallback, Fallback::WarmStart);

@@ -687,7 +687,7 @@ fn a_solve_with_small_residuals_and_a_large_gap_falls_back() {
             dual: f64::INFINITY,
             gap,
         };
-        ipm::control_step(qp, &f, &offset, &Start::Cold, &plan, 3, &limits)
+        ipm::control_step(qp, &f, &offset, &Start::Cold, &plan, 3, &limits, false)
     };
     let accepted = step(f64::INFINITY);
     assert_eq!(accepted.fallback, ipm::Fallback::Solved);

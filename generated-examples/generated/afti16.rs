@@ -209,6 +209,12 @@ pub mod afti16 {
         /// [`DUAL_LIMIT`] / [`GAP_LIMIT`]): the previous plan shifted by one step with the rest input appended,
         /// projected onto the box. The next solve starts cold.
         WarmStart,
+        /// An earlier solve found that the hard rows admit no plan (`infeasible`): this plan solves
+        /// the QP with each hard row widened to the value the held plan gives it, so it violates no
+        /// hard row more than holding would, and the cost steers it back (`violation` says how far
+        /// it still is). The controller solves so until a plan meets the hard rows to [`ACCURACY`];
+        /// such solves start cold, and their iterations are not what `[mpc.region]` certified.
+        Relaxed,
     }
     /// Fixed-iteration, warm-started MPC with state, output and rate constraints: a primal-dual
     /// interior-point method (Mehrotra's predictor-corrector) in f64, its normal matrix factored
@@ -225,6 +231,8 @@ pub mod afti16 {
         lambda: [f64; NSIDES],
         /// Whether the point is a warm start (false after `new`, `reset` or a fallback).
         warm: bool,
+        /// Whether the next solve widens the hard rows to the held plan ([`Fallback::Relaxed`]).
+        relax: bool,
         last: [Real; NU],
         status: SolverStatus,
     }
@@ -237,6 +245,7 @@ pub mod afti16 {
                 s: [1.0; NSIDES],
                 lambda: [1.0; NSIDES],
                 warm: false,
+                relax: false,
                 last: U_REST,
                 status: SolverStatus {
                     iterations: 0,
@@ -290,6 +299,19 @@ pub mod afti16 {
             for (j, hj) in h[NB..].iter_mut().enumerate() {
                 *hj = SIDE_H[j] - dot(&SIDE_X[j], &x0);
             }
+            let mut held = self.plan;
+            shift(&mut held, NU);
+            held[NP - NU..].copy_from_slice(&REST);
+            for (i, p) in held.iter_mut().enumerate() {
+                *p = clamp(*p, i);
+            }
+            let relax = self.relax;
+            let held_sides = side_values(&held);
+            let mut hs = h;
+            for j in 0..NG {
+                let widened = larger(h[NB + j], held_sides[NB + j]);
+                hs[NB + j] = choose(relax & !SIDE_SOFT[j], widened, h[NB + j]);
+            }
             let (mut z, mut s, mut lambda) = (self.z, self.s, self.lambda);
             shift(&mut z[..NP], NU);
             z[NP - NU..NP].copy_from_slice(&REST);
@@ -300,7 +322,7 @@ pub mod afti16 {
             let (f, mut zp) = (permuted(&f), permuted(&z));
             let outcome = interior_point(
                 &f,
-                &h,
+                &hs,
                 &mut zp,
                 &mut s,
                 &mut lambda,
@@ -316,20 +338,17 @@ pub mod afti16 {
             for (i, (p, v)) in solved.iter_mut().zip(z.iter()).enumerate() {
                 *p = clamp(*v, i);
             }
-            let mut held = self.plan;
-            shift(&mut held, NU);
-            held[NP - NU..].copy_from_slice(&REST);
-            for (i, p) in held.iter_mut().enumerate() {
-                *p = clamp(*p, i);
-            }
             let pick = trusted as usize;
             self.plan = *[&held, &solved][pick];
             let kept = (self.z, self.s, self.lambda);
             self.z = *[&kept.0, &z][pick];
             self.s = *[&kept.1, &s][pick];
             self.lambda = *[&kept.2, &lambda][pick];
-            self.warm = trusted;
+            self.warm = trusted & !relax;
             let (violation, softened) = violations(&self.plan, &h);
+            let infeasible = outcome.ended == Ended::Infeasible;
+            let recovered = trusted & relax & (violation <= ACCURACY);
+            self.relax = infeasible | (relax & !recovered);
             self.status = SolverStatus {
                 iterations: outcome.iterations,
                 primal_residual: outcome.primal,
@@ -337,9 +356,13 @@ pub mod afti16 {
                 gap: outcome.gap,
                 violation,
                 softened,
-                infeasible: outcome.ended == Ended::Infeasible,
+                infeasible,
                 numerical_failure: outcome.ended == Ended::Failure,
-                fallback: if trusted { Fallback::Solved } else { Fallback::WarmStart },
+                fallback: match (trusted, relax) {
+                    (true, false) => Fallback::Solved,
+                    (true, true) => Fallback::Relaxed,
+                    (false, _) => Fallback::WarmStart,
+                },
             };
             let mut first = [0.0; NU];
             for (o, v) in first.iter_mut().zip(self.plan.iter()) {
@@ -622,15 +645,20 @@ pub mod afti16 {
             v.copy_within(width.., 0);
         }
     }
-    /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and the
-    /// largest soft-row violation in its row's units.
-    fn violations(plan: &[f64; NP], h: &[f64; NSIDES]) -> (f64, f64) {
+    /// G·(plan, 0): every side's value at the plan, the slacks (past the plan's end) zero.
+    fn side_values(plan: &[f64; NP]) -> [f64; NSIDES] {
         let mut zp = [0.0; NV];
         for (p, v) in zp.iter_mut().enumerate() {
             *v = at(plan, at_index(&ORDER, p));
         }
         let mut gz = [0.0; NSIDES];
         g_mul(&zp, &mut gz);
+        gz
+    }
+    /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and the
+    /// largest soft-row violation in its row's units.
+    fn violations(plan: &[f64; NP], h: &[f64; NSIDES]) -> (f64, f64) {
+        let gz = side_values(plan);
         let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
         for j in 0..NG {
             let excess = gz[NB + j] - h[NB + j];
@@ -5367,7 +5395,7 @@ pub mod afti16 {
         pub const SAMPLED_COLD_CASES: usize = 66;
         /// Corners of the state region among them.
         pub const SAMPLED_CORNERS: usize = 16;
-        /// Draws without an exact solution (infeasible hard rows, or unresolved), left out: the fallback covers them.
+        /// Draws whose hard rows admit no plan (certified by either exact solver), left out: the fallback covers them.
         pub const SAMPLED_INFEASIBLE_CASES: usize = 0;
         /// Cases (cold draws, or warm steps, each ending its sequence) that neither exact solver resolved, left out.
         pub const SAMPLED_UNRESOLVED_CASES: usize = 0;

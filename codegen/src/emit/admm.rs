@@ -254,6 +254,8 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                 y: [Real; NC],
                 /// Whether (x, z, y) is a warm start (false after `new`, `reset` or a fallback).
                 warm: bool,
+                /// Whether the next solve widens the hard rows to the held plan ([`Fallback::Relaxed`]).
+                relax: bool,
                 #last_field
                 status: SolverStatus,
             }
@@ -267,6 +269,7 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                         z: [0.0; NC],
                         y: [0.0; NC],
                         warm: false,
+                        relax: false,
                         #last_init
                         status: SolverStatus {
                             iterations: 0,
@@ -314,8 +317,33 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                         lower[NV + j] = ROW_LOWER[j] - offset;
                         upper[NV + j] = ROW_UPPER[j] - offset;
                     }
+                    // The held plan: the fallback, and what a relaxed solve widens the hard rows to.
+                    let mut held = self.plan;
+                    shift(&mut held, NU);
+                    held[NP - NU..].copy_from_slice(&U_REST);
+                    for (i, p) in held.iter_mut().enumerate() {
+                        *p = project(*p, U_MIN[i % NU], U_MAX[i % NU]);
+                    }
+                    let relax = self.relax;
+                    // The bounds without the widening: what the status's violation is measured on.
+                    let (hard_lower, hard_upper) = (lower, upper);
+                    if relax {
+                        // After the hard rows admitted no plan: each hard row widened to the held plan's
+                        // value, so that the QP has a plan that violates no row more than holding would.
+                        let mut x = [0.0; NV];
+                        x[..NP].copy_from_slice(&held);
+                        let mut cx = [0.0; NC];
+                        c_mul(&x, &mut cx);
+                        for j in 0..NG {
+                            if !ROW_SOFT[j] {
+                                let a = cx[NV + j];
+                                lower[NV + j] = if a < lower[NV + j] { a } else { lower[NV + j] };
+                                upper[NV + j] = if a > upper[NV + j] { a } else { upper[NV + j] };
+                            }
+                        }
+                    }
                     let (mut x, mut z, mut y) = (self.x, self.z, self.y);
-                    if self.warm {
+                    if self.warm & !relax {
                         // The previous iterate shifted by one slot, the rest input appended to x and z.
                         shift(&mut x[..NP], NU);
                         x[NP - NU..NP].copy_from_slice(&U_REST);
@@ -347,14 +375,13 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                         self.z = z;
                         self.y = y;
                     } else {
-                        shift(&mut self.plan, NU);
-                        self.plan[NP - NU..].copy_from_slice(&U_REST);
-                        for (i, p) in self.plan.iter_mut().enumerate() {
-                            *p = project(*p, U_MIN[i % NU], U_MAX[i % NU]);
-                        }
+                        self.plan = held;
                     }
-                    self.warm = trusted;
-                    let (violation, softened) = violations(&self.plan, &lower, &upper);
+                    self.warm = trusted & !relax;
+                    let (violation, softened) = violations(&self.plan, &hard_lower, &hard_upper);
+                    // Relaxed until a relaxed plan meets the hard rows again to ACCURACY.
+                    let recovered = trusted & relax & (violation <= ACCURACY);
+                    self.relax = infeasible | (relax & !recovered);
                     self.status = SolverStatus {
                         iterations: ITERATIONS as u32,
                         primal_residual: primal,
@@ -364,7 +391,11 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                         softened,
                         infeasible,
                         numerical_failure,
-                        fallback: if trusted { Fallback::Solved } else { Fallback::WarmStart },
+                        fallback: match (trusted, relax) {
+                            (true, false) => Fallback::Solved,
+                            (true, true) => Fallback::Relaxed,
+                            (false, _) => Fallback::WarmStart,
+                        },
                     };
                     let mut first = [0.0; NU];
                     first.copy_from_slice(&self.plan[..NU]);

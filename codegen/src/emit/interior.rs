@@ -415,6 +415,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 lambda: [f64; NSIDES],
                 /// Whether the point is a warm start (false after `new`, `reset` or a fallback).
                 warm: bool,
+                /// Whether the next solve widens the hard rows to the held plan ([`Fallback::Relaxed`]).
+                relax: bool,
                 #last_field
                 status: SolverStatus,
             }
@@ -428,6 +430,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                         s: [1.0; NSIDES],
                         lambda: [1.0; NSIDES],
                         warm: false,
+                        relax: false,
                         #last_init
                         status: SolverStatus {
                             iterations: 0,
@@ -475,6 +478,23 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     for (j, hj) in h[NB..].iter_mut().enumerate() {
                         *hj = SIDE_H[j] #(- #side_terms)*;
                     }
+                    // The held plan: the fallback, and what a relaxed solve widens the hard rows to.
+                    let mut held = self.plan;
+                    shift(&mut held, NU);
+                    held[NP - NU..].copy_from_slice(&REST);
+                    for (i, p) in held.iter_mut().enumerate() {
+                        *p = clamp(*p, i);
+                    }
+                    // After the hard rows admitted no plan: each hard side widened to the held plan's
+                    // value, so that the QP has a plan that violates no row more than holding would.
+                    // Computed every solve and selected, so that every solve runs the same instructions.
+                    let relax = self.relax;
+                    let held_sides = side_values(&held);
+                    let mut hs = h;
+                    for j in 0..NG {
+                        let widened = larger(h[NB + j], held_sides[NB + j]);
+                        hs[NB + j] = choose(relax & !SIDE_SOFT[j], widened, h[NB + j]);
+                    }
                     // The warm start, shifted by one step; shifted also when cold (then unused), so that
                     // every solve runs the same instructions.
                     let (mut z, mut s, mut lambda) = (self.z, self.s, self.lambda);
@@ -486,7 +506,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     shift(&mut lambda[NB..], SIDES_PER_SLOT);
                     // Into the method's order and back.
                     let (f, mut zp) = (permuted(&f), permuted(&z));
-                    let outcome = interior_point(&f, &h, &mut zp, &mut s, &mut lambda, self.warm);
+                    let outcome = interior_point(&f, &hs, &mut zp, &mut s, &mut lambda, self.warm);
                     for (p, v) in zp.iter().enumerate() {
                         put(&mut z, at_index(&ORDER, p), *v);
                     }
@@ -499,12 +519,6 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     for (i, (p, v)) in solved.iter_mut().zip(z.iter()).enumerate() {
                         *p = clamp(*v, i);
                     }
-                    let mut held = self.plan;
-                    shift(&mut held, NU);
-                    held[NP - NU..].copy_from_slice(&REST);
-                    for (i, p) in held.iter_mut().enumerate() {
-                        *p = clamp(*p, i);
-                    }
                     let pick = trusted as usize;
                     self.plan = *[&held, &solved][pick];
                     // Copies of what is kept, so that no copy overlaps its source (a `memmove`, whose
@@ -513,8 +527,12 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     self.z = *[&kept.0, &z][pick];
                     self.s = *[&kept.1, &s][pick];
                     self.lambda = *[&kept.2, &lambda][pick];
-                    self.warm = trusted;
+                    self.warm = trusted & !relax;
                     let (violation, softened) = violations(&self.plan, &h);
+                    let infeasible = outcome.ended == Ended::Infeasible;
+                    // Relaxed until a relaxed plan meets the hard rows again to ACCURACY.
+                    let recovered = trusted & relax & (violation <= ACCURACY);
+                    self.relax = infeasible | (relax & !recovered);
                     self.status = SolverStatus {
                         iterations: outcome.iterations,
                         primal_residual: outcome.primal,
@@ -522,9 +540,13 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                         gap: outcome.gap,
                         violation,
                         softened,
-                        infeasible: outcome.ended == Ended::Infeasible,
+                        infeasible,
                         numerical_failure: outcome.ended == Ended::Failure,
-                        fallback: if trusted { Fallback::Solved } else { Fallback::WarmStart },
+                        fallback: match (trusted, relax) {
+                            (true, false) => Fallback::Solved,
+                            (true, true) => Fallback::Relaxed,
+                            (false, _) => Fallback::WarmStart,
+                        },
                     };
                     let mut first = [0.0; NU];
                     for (o, v) in first.iter_mut().zip(self.plan.iter()) {
@@ -607,16 +629,22 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 }
             }
 
-            /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and the
-            /// largest soft-row violation in its row's units.
-            fn violations(plan: &[f64; NP], h: &[f64; NSIDES]) -> (f64, f64) {
-                // The plan in the method's order, the slacks (past the plan's end) zero.
+            /// G·(plan, 0): every side's value at the plan, the slacks (past the plan's end) zero.
+            fn side_values(plan: &[f64; NP]) -> [f64; NSIDES] {
+                // The plan in the method's order.
                 let mut zp = [0.0; NV];
                 for (p, v) in zp.iter_mut().enumerate() {
                     *v = at(plan, at_index(&ORDER, p));
                 }
                 let mut gz = [0.0; NSIDES];
                 g_mul(&zp, &mut gz);
+                gz
+            }
+
+            /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and the
+            /// largest soft-row violation in its row's units.
+            fn violations(plan: &[f64; NP], h: &[f64; NSIDES]) -> (f64, f64) {
+                let gz = side_values(plan);
                 let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
                 for j in 0..NG {
                     let excess = gz[NB + j] - h[NB + j];

@@ -885,8 +885,13 @@ pub fn control_step<T: Real>(
     previous_plan: &DVector<f64>,
     iterations: usize,
     limits: &Limits,
+    relax: bool,
 ) -> Step {
-    let problem = ipm::mpc_qp(qp, f, offset);
+    let held = ipm::held_plan(qp, previous_plan);
+    let mut problem = ipm::mpc_qp(qp, f, offset);
+    if relax {
+        problem = ipm::relaxed(qp, problem, &held);
+    }
     let result = solve_fixed::<T>(&problem, settings, start, iterations);
     let n = f.len();
     let trusted = matches!(result.status, Status::IterationLimit | Status::Converged)
@@ -894,23 +899,21 @@ pub fn control_step<T: Real>(
         && result.dual_residual <= limits.dual
         && result.gap <= limits.gap;
     let nu = qp.u_min.len();
-    let project = |v: &DVector<f64>| {
-        DVector::from_fn(n, |i, _| {
-            crate::linalg::project(v[i], qp.u_min[i % nu], qp.u_max[i % nu])
-        })
-    };
     if trusted {
         return Step {
-            plan: project(&result.x.rows(0, n).into_owned()),
+            plan: DVector::from_fn(n, |i, _| {
+                crate::linalg::project(result.x[i], qp.u_min[i % nu], qp.u_max[i % nu])
+            }),
             result,
-            fallback: Fallback::Solved,
+            fallback: if relax {
+                Fallback::Relaxed
+            } else {
+                Fallback::Solved
+            },
         };
     }
-    let mut warm = previous_plan.clone();
-    shift_blocks(warm.as_mut_slice(), nu);
-    warm.rows_mut(n - nu, nu).copy_from(&qp.rest_input());
     Step {
-        plan: project(&warm),
+        plan: held,
         result,
         fallback: Fallback::WarmStart,
     }

@@ -658,6 +658,11 @@ pub enum Fallback {
     /// previous plan shifted by one step with the rest input appended, projected onto the box; the next
     /// solve starts cold.
     WarmStart,
+    /// The hard rows admitted no plan at an earlier step, and this plan solves the QP with each hard
+    /// row's bounds widened to the value the held plan (the previous plan shifted) gives it: it violates
+    /// no hard row more than holding would, and the cost steers it back toward the rows
+    /// ([`relaxed`]). The next solve starts cold.
+    Relaxed,
 }
 
 /// One interior-point control step: the plan and what happened.
@@ -707,9 +712,54 @@ fn shift_blocks(v: &mut [f64], width: usize) {
     v.copy_within(width.., 0);
 }
 
+/// The held plan: `previous_plan` shifted by one step, the rest input appended, projected onto the box.
+pub fn held_plan(qp: &Qp, previous_plan: &DVector<f64>) -> DVector<f64> {
+    let n = previous_plan.len();
+    let nu = qp.u_min.len();
+    let mut held = previous_plan.clone();
+    shift_blocks(held.as_mut_slice(), nu);
+    held.rows_mut(n - nu, nu).copy_from(&qp.rest_input());
+    DVector::from_fn(n, |i, _| {
+        crate::linalg::project(held[i], qp.u_min[i % nu], qp.u_max[i % nu])
+    })
+}
+
+/// `problem` (the step's QP, [`mpc_qp`]) with each hard row's bounds widened to the value the plan
+/// `held` (slacks zero) gives the row: lower ← min(lower, a·held), upper ← max(upper, a·held). The held
+/// plan is then feasible, so the QP has a solution, and it equals the hard QP wherever the held plan
+/// meets the rows. What the controller solves after the hard rows admitted no plan: a plan that
+/// violates no hard row more than holding would, steered back by the cost.
+pub fn relaxed(qp: &Qp, mut problem: InequalityQp, held: &DVector<f64>) -> InequalityQp {
+    let n = held.len();
+    for r in 0..problem.A.nrows() {
+        if qp.rows.soft[r] {
+            continue;
+        }
+        let a = problem.A.row(r).columns(0, n).transpose().dot(held);
+        problem.lower[r] = problem.lower[r].min(a);
+        problem.upper[r] = problem.upper[r].max(a);
+    }
+    problem
+}
+
+/// Whether the next control step solves the [`relaxed`] QP: after a solve that found the hard rows
+/// infeasible, until a relaxed plan meets them again to `accuracy` (its hard violation, relative to
+/// max(1, |bound|), at most `accuracy`).
+pub fn relax_next(
+    qp: &Qp,
+    relax: bool,
+    infeasible: bool,
+    fallback: Fallback,
+    violation: f64,
+) -> bool {
+    let recovered = fallback == Fallback::Relaxed && violation <= qp.accuracy;
+    infeasible | (relax & !recovered)
+}
+
 /// One control step: `iterations` from `start`, then the plan or the fallback to `previous_plan`
 /// shifted (rest input appended) when the solve failed, detected infeasibility, or ended with residuals
-/// above `limits`.
+/// or gap above `limits`. With `relax` the step solves the [`relaxed`] QP.
+#[allow(clippy::too_many_arguments)]
 pub fn control_step(
     qp: &Qp,
     f: &DVector<f64>,
@@ -718,8 +768,13 @@ pub fn control_step(
     previous_plan: &DVector<f64>,
     iterations: usize,
     limits: &Limits,
+    relax: bool,
 ) -> Step {
-    let problem = mpc_qp(qp, f, offset);
+    let held = held_plan(qp, previous_plan);
+    let mut problem = mpc_qp(qp, f, offset);
+    if relax {
+        problem = relaxed(qp, problem, &held);
+    }
     let result = solve_fixed_in(&problem, start, iterations, chosen_stages(qp).as_ref());
     let n = f.len();
     let trusted = matches!(result.status, Status::IterationLimit | Status::Converged)
@@ -727,23 +782,21 @@ pub fn control_step(
         && result.dual_residual <= limits.dual
         && result.relative_gap <= limits.gap;
     let nu = qp.u_min.len();
-    let project = |v: &DVector<f64>| {
-        DVector::from_fn(n, |i, _| {
-            crate::linalg::project(v[i], qp.u_min[i % nu], qp.u_max[i % nu])
-        })
-    };
     if trusted {
         return Step {
-            plan: project(&result.z.rows(0, n).into_owned()),
+            plan: DVector::from_fn(n, |i, _| {
+                crate::linalg::project(result.z[i], qp.u_min[i % nu], qp.u_max[i % nu])
+            }),
             result,
-            fallback: Fallback::Solved,
+            fallback: if relax {
+                Fallback::Relaxed
+            } else {
+                Fallback::Solved
+            },
         };
     }
-    let mut warm = previous_plan.clone();
-    shift_blocks(warm.as_mut_slice(), nu);
-    warm.rows_mut(n - nu, nu).copy_from(&qp.rest_input());
     Step {
-        plan: project(&warm),
+        plan: held,
         result,
         fallback: Fallback::WarmStart,
     }
