@@ -95,6 +95,63 @@ impl Qp {
             .map_or(crate::evidence::Limits::NONE, |e| e.limits)
     }
 
+    /// How far the reference may lie from the tracked output, per tracked component: (lo, hi) with
+    /// lo = reference_min − max over the state region of the output, hi = reference_max − its min
+    /// (interval arithmetic over `[mpc.region]`'s box). A constrained method's window is brought within
+    /// [z0 + lo, z0 + hi] (z0 the output at x0) before the solve: inside the region it is never moved,
+    /// and a reference out of reach is then approached as fast as the constraints allow instead of
+    /// asking the fixed-iteration solver for a QP far outside what the sample certified. `None` for the
+    /// first-order methods and before the certificate.
+    pub fn reference_reach(&self) -> Option<(DVector<f64>, DVector<f64>)> {
+        let e = self.evidence.as_ref().filter(|_| !self.method.box_only())?;
+        let r = &e.region;
+        let nz = self.nz;
+        let nx = r.x_min.len();
+        let (lo, hi) = match &self.Cz {
+            Some(Cz) => (
+                DVector::from_fn(nz, |i, _| {
+                    (0..nx)
+                        .map(|j| (Cz[(i, j)] * r.x_min[j]).min(Cz[(i, j)] * r.x_max[j]))
+                        .sum::<f64>()
+                }),
+                DVector::from_fn(nz, |i, _| {
+                    (0..nx)
+                        .map(|j| (Cz[(i, j)] * r.x_min[j]).max(Cz[(i, j)] * r.x_max[j]))
+                        .sum::<f64>()
+                }),
+            ),
+            None => (
+                DVector::from_column_slice(&r.x_min),
+                DVector::from_column_slice(&r.x_max),
+            ),
+        };
+        Some((
+            DVector::from_fn(nz, |i, _| r.reference_min[i] - hi[i]),
+            DVector::from_fn(nz, |i, _| r.reference_max[i] - lo[i]),
+        ))
+    }
+
+    /// `window` (N references of nz, each of a predicted step) brought within [`Qp::reference_reach`] of
+    /// the output at `x0`; whether any entry was moved.
+    pub fn reach_reference(&self, x0: &DVector<f64>, window: &mut [DVector<f64>]) -> bool {
+        let Some((lo, hi)) = self.reference_reach() else {
+            return false;
+        };
+        let z0 = match &self.Cz {
+            Some(Cz) => Cz * x0,
+            None => x0.clone(),
+        };
+        let mut moved = false;
+        for r in window.iter_mut() {
+            for i in 0..r.len().min(self.nz) {
+                let (a, b) = (z0[i] + lo[i], z0[i] + hi[i]);
+                moved |= r[i] < a || r[i] > b;
+                r[i] = r[i].max(a).min(b);
+            }
+        }
+        moved
+    }
+
     /// The rest plan: [`Qp::rest_input`] at every step (a cold start, and what warm starts append).
     pub fn rest_plan(&self) -> DVector<f64> {
         let rest = self.rest_input();

@@ -29,6 +29,8 @@ pub struct Mpc {
     admm_step: Option<admm::Step>,
     /// Whether the next constrained solve relaxes the hard rows ([`crate::ipm::relax_next`]).
     relax: bool,
+    /// Whether the last solve's reference was beyond [`Qp::reference_reach`] and brought to it.
+    reference_beyond_region: bool,
 }
 
 impl Mpc {
@@ -46,7 +48,14 @@ impl Mpc {
             admm_start: admm::Start::Cold,
             admm_step: None,
             relax: false,
+            reference_beyond_region: false,
         }
+    }
+
+    /// Whether the last constrained solve's reference lay farther from the tracked output than
+    /// `[mpc.region]` covers and was brought to that distance ([`Qp::reach_reference`]).
+    pub fn reference_beyond_region(&self) -> bool {
+        self.reference_beyond_region
     }
 
     /// ADMM's last step (its residuals, status and fallback); `None` before the first solve, after a
@@ -94,6 +103,7 @@ impl Mpc {
         self.admm_start = admm::Start::Cold;
         self.admm_step = None;
         self.relax = false;
+        self.reference_beyond_region = false;
     }
 
     /// The gradient map f = Fx·x0 − Fr·Xref + Fu·u₋₁ (eq. 10 with the moves), `xref[k]` the reference of
@@ -124,7 +134,9 @@ impl Mpc {
             self.reset();
             return self.qp.rest_input();
         }
-        let f = self.linear_term(x0, xref) + &self.qp.Fd * d;
+        let mut window = xref.to_vec();
+        self.reference_beyond_region = self.qp.reach_reference(x0, &mut window);
+        let f = self.linear_term(x0, &window) + &self.qp.Fd * d;
         if self.qp.method == Method::Ipm {
             let offset = self.qp.rows.offset(x0, d, &self.last);
             let limits = self.qp.ipm_limits();

@@ -195,6 +195,10 @@ pub mod afti16 {
         pub infeasible: bool,
         /// A factorisation was refused, or a step was not finite.
         pub numerical_failure: bool,
+        /// The reference window lay farther from the tracked output than `[mpc.region]` covers
+        /// (`REACH_LO`/`REACH_HI`) and was brought to that distance: the plan moves toward it as fast
+        /// as the constraints allow, on a QP like those the region certified.
+        pub reference_beyond_region: bool,
         /// Whether the plan is the solve's or the fallback's.
         pub fallback: Fallback,
     }
@@ -256,6 +260,7 @@ pub mod afti16 {
                     softened: 0.0,
                     infeasible: false,
                     numerical_failure: false,
+                    reference_beyond_region: false,
                     fallback: Fallback::NoneYet,
                 },
             }
@@ -285,6 +290,23 @@ pub mod afti16 {
             for (r, row) in reference.chunks_exact_mut(xref[0].len()).zip(xref.iter()) {
                 for (w, v) in r.iter_mut().zip(flushed(row).iter()) {
                     *w = *v;
+                }
+            }
+            let mut tracked: [f64; 2] = [0.0; 2];
+            for (t, row) in tracked.iter_mut().zip(CZ.iter()) {
+                *t = row.iter().zip(x0.iter()).fold(0.0, |s, (c, x)| s + *c * x);
+            }
+            let mut beyond = false;
+            for r in reference.chunks_exact_mut(2) {
+                for (((v, t), lo), hi) in r
+                    .iter_mut()
+                    .zip(tracked.iter())
+                    .zip(REACH_LO.iter())
+                    .zip(REACH_HI.iter())
+                {
+                    let (a, b) = (*t + *lo, *t + *hi);
+                    beyond |= (*v < a) | (*v > b);
+                    *v = if *v < a { a } else if *v > b { b } else { *v };
                 }
             }
             let mut f = [0.0; NV];
@@ -358,6 +380,7 @@ pub mod afti16 {
                 softened,
                 infeasible,
                 numerical_failure: outcome.ended == Ended::Failure,
+                reference_beyond_region: beyond,
                 fallback: match (trusted, relax) {
                     (true, false) => Fallback::Solved,
                     (true, true) => Fallback::Relaxed,
@@ -4724,6 +4747,11 @@ pub mod afti16 {
         [1.9930108109294151f64, 1.2550464748254064f64],
         [0.15795298132785618f64, 0.3223224979525575f64],
     ];
+    /// How far the reference may lie from the tracked output (`[mpc.region]`: reference_min − the
+    /// output's largest value over the state region, reference_max − its smallest): a window beyond
+    /// it is brought to that distance, [`SolverStatus::reference_beyond_region`].
+    const REACH_LO: [Real; 2] = [-1f64, -12f64];
+    const REACH_HI: [Real; 2] = [1f64, 12f64];
     /// Tuning of the method, as in the reference (`codegen::ipm`): the fraction of the step to the
     /// boundary, the warm start's floor on s and λ, the rounding level at which a point is held,
     /// and the infeasibility certificate's tolerance.

@@ -162,6 +162,10 @@ pub mod hover {
         pub infeasible: bool,
         /// A factorisation was refused, or a step was not finite.
         pub numerical_failure: bool,
+        /// The reference window lay farther from the tracked output than `[mpc.region]` covers
+        /// (`REACH_LO`/`REACH_HI`) and was brought to that distance: the plan moves toward it as fast
+        /// as the constraints allow, on a QP like those the region certified.
+        pub reference_beyond_region: bool,
         /// Whether the plan is the solve's or the fallback's.
         pub fallback: Fallback,
     }
@@ -221,6 +225,7 @@ pub mod hover {
                     softened: 0.0,
                     infeasible: false,
                     numerical_failure: false,
+                    reference_beyond_region: false,
                     fallback: Fallback::NoneYet,
                 },
             }
@@ -249,6 +254,21 @@ pub mod hover {
             for (r, row) in reference.chunks_exact_mut(xref[0].len()).zip(xref.iter()) {
                 for (w, v) in r.iter_mut().zip(flushed(row).iter()) {
                     *w = *v;
+                }
+            }
+            let mut tracked: [f64; 12] = [0.0; 12];
+            tracked.copy_from_slice(&x0);
+            let mut beyond = false;
+            for r in reference.chunks_exact_mut(12) {
+                for (((v, t), lo), hi) in r
+                    .iter_mut()
+                    .zip(tracked.iter())
+                    .zip(REACH_LO.iter())
+                    .zip(REACH_HI.iter())
+                {
+                    let (a, b) = (*t + *lo, *t + *hi);
+                    beyond |= (*v < a) | (*v > b);
+                    *v = if *v < a { a } else if *v > b { b } else { *v };
                 }
             }
             let mut f = [0.0; NV];
@@ -322,6 +342,7 @@ pub mod hover {
                 softened,
                 infeasible,
                 numerical_failure: outcome.ended == Ended::Failure,
+                reference_beyond_region: beyond,
                 fallback: match (trusted, relax) {
                     (true, false) => Fallback::Solved,
                     (true, true) => Fallback::Relaxed,
@@ -10657,6 +10678,37 @@ pub mod hover {
             -62.273652659830255f64,
             6.127876f64,
         ],
+    ];
+    /// How far the reference may lie from the tracked output (`[mpc.region]`: reference_min − the
+    /// output's largest value over the state region, reference_max − its smallest): a window beyond
+    /// it is brought to that distance, [`SolverStatus::reference_beyond_region`].
+    const REACH_LO: [Real; 12] = [
+        -6f64,
+        -6f64,
+        -6f64,
+        -0.4f64,
+        -0.4f64,
+        -0.4f64,
+        -2.5f64,
+        -2.5f64,
+        -4.5f64,
+        -3.5f64,
+        -3.5f64,
+        -3.5f64,
+    ];
+    const REACH_HI: [Real; 12] = [
+        6f64,
+        6f64,
+        6f64,
+        0.4f64,
+        0.4f64,
+        0.4f64,
+        2.5f64,
+        2.5f64,
+        4.5f64,
+        3.5f64,
+        3.5f64,
+        3.5f64,
     ];
     /// Tuning of the method, as in the reference (`codegen::ipm`): the fraction of the step to the
     /// boundary, the warm start's floor on s and λ, the rounding level at which a point is held,

@@ -7,7 +7,7 @@ use super::tokens::Num;
 use crate::evidence::Evidence;
 use crate::lower::Problem;
 use nalgebra::DMatrix;
-use proc_macro2::{Ident, Span, TokenStream};
+use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::quote;
 
 /// `SolverStatus` and `Fallback`, the same for the interior-point method and ADMM. `method` names the
@@ -35,6 +35,10 @@ pub fn status_types(method: &str, iterations_doc: &[&str]) -> TokenStream {
             pub infeasible: bool,
             /// A factorisation was refused, or a step was not finite.
             pub numerical_failure: bool,
+            /// The reference window lay farther from the tracked output than `[mpc.region]` covers
+            /// (`REACH_LO`/`REACH_HI`) and was brought to that distance: the plan moves toward it as fast
+            /// as the constraints allow, on a QP like those the region certified.
+            pub reference_beyond_region: bool,
             /// Whether the plan is the solve's or the fallback's.
             pub fallback: Fallback,
         }
@@ -130,6 +134,60 @@ pub fn entry(p: &Problem) -> Entry {
         last_fns,
         set_last,
     }
+}
+
+/// The reference's reach ([`crate::lower::Qp::reference_reach`]): its tables `REACH_LO`/`REACH_HI` in
+/// `num`, and the code that brings the window `reference` (f64 with `wide`, else `Real`) within them of
+/// the tracked output at `x0` (same type), setting `beyond`. Without a reach (no certificate), `beyond`
+/// is false and nothing is emitted.
+pub fn reach(p: &Problem, num: Num, wide: bool) -> (TokenStream, TokenStream) {
+    let Some((lo, hi)) = p.qp.reference_reach() else {
+        return (quote!(), quote!(let beyond = false;));
+    };
+    let nz = Literal::usize_unsuffixed(p.qp.nz);
+    let (lo, hi) = (
+        num.vector(lo.iter().copied()),
+        num.vector(hi.iter().copied()),
+    );
+    let ty = if wide { quote!(f64) } else { quote!(Real) };
+    let tables = quote! {
+        /// How far the reference may lie from the tracked output (`[mpc.region]`: reference_min − the
+        /// output's largest value over the state region, reference_max − its smallest): a window beyond
+        /// it is brought to that distance, [`SolverStatus::reference_beyond_region`].
+        const REACH_LO: [Real; #nz] = #lo;
+        const REACH_HI: [Real; #nz] = #hi;
+    };
+    let of = |e: TokenStream| match (wide, num.0) {
+        (true, mpc_spec::Scalar::F32) => quote!(f64::from(#e)),
+        _ => e,
+    };
+    let (lo_of, hi_of) = (of(quote!(*lo)), of(quote!(*hi)));
+    let fill = match &p.qp.Cz {
+        Some(_) => {
+            let c_of = of(quote!(*c));
+            quote! {
+                for (t, row) in tracked.iter_mut().zip(CZ.iter()) {
+                    *t = row.iter().zip(x0.iter()).fold(0.0, |s, (c, x)| s + #c_of * x);
+                }
+            }
+        }
+        None => quote!(tracked.copy_from_slice(&x0);),
+    };
+    let code = quote! {
+        // A reference farther from the tracked output than `[mpc.region]` covers is brought to that
+        // distance: the plan then moves toward it as fast as the constraints allow.
+        let mut tracked: [#ty; #nz] = [0.0; #nz];
+        #fill
+        let mut beyond = false;
+        for r in reference.chunks_exact_mut(#nz) {
+            for (((v, t), lo), hi) in r.iter_mut().zip(tracked.iter()).zip(REACH_LO.iter()).zip(REACH_HI.iter()) {
+                let (a, b) = (*t + #lo_of, *t + #hi_of);
+                beyond |= (*v < a) | (*v > b);
+                *v = if *v < a { a } else if *v > b { b } else { *v };
+            }
+        }
+    };
+    (tables, code)
 }
 
 /// `Mpc`'s doc line on its certificate; `setting` (e.g. ADMM's ρ) follows "to reach `accuracy`".

@@ -10,7 +10,7 @@
 //! exactly that). Its control flow does not depend on the data.
 #![allow(non_snake_case)]
 
-use super::constrained::{entry, evidence_doc, offsets, status_types, Entry, Offsets};
+use super::constrained::{entry, evidence_doc, offsets, reach, status_types, Entry, Offsets};
 use super::rows::{self, Rows};
 use super::tokens::Num;
 use super::Sections;
@@ -26,6 +26,7 @@ use quote::quote;
 
 /// The interior-point `Mpc`, its kernels and its tables.
 pub fn emit(p: &Problem, num: Num) -> Sections {
+    let (reach_tables, reach_code) = reach(p, num, true);
     let qp = &p.qp;
     let wide = Num(Scalar::F64);
     let (nu, N) = (p.nu, qp.N);
@@ -441,6 +442,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                             softened: 0.0,
                             infeasible: false,
                             numerical_failure: false,
+                            reference_beyond_region: false,
                             fallback: Fallback::NoneYet,
                         },
                     }
@@ -464,6 +466,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                             *w = #wide_of_v;
                         }
                     }
+                    #reach_code
                     // f = Fx·x0 − Fr·Xref (+ Fu·u₋₁ + Fd·d) for the plan, the penalties' weights for the slacks.
                     let mut f = [0.0; NV];
                     for (i, fi) in f.iter_mut().enumerate().take(NP) {
@@ -542,6 +545,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                         softened,
                         infeasible,
                         numerical_failure: outcome.ended == Ended::Failure,
+                        reference_beyond_region: beyond,
                         fallback: match (trusted, relax) {
                             (true, false) => Fallback::Solved,
                             (true, true) => Fallback::Relaxed,
@@ -1037,6 +1041,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
             }
         },
         tables: quote! {
+            #reach_tables
             /// Tuning of the method, as in the reference (`codegen::ipm`): the fraction of the step to the
             /// boundary, the warm start's floor on s and λ, the rounding level at which a point is held,
             /// and the infeasibility certificate's tolerance.
