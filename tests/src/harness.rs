@@ -181,3 +181,43 @@ pub fn qp_of(p: &Problem, mpc: &oracle::Mpc, c: &Drawn) -> (InequalityQp, DVecto
             .offset(&c.x0, &DVector::zeros(0), mpc.last_input());
     (mpc_qp(&p.qp, &f, &offset), offset)
 }
+
+/// The states of a noise-free flight on the spec's own model x⁺ = F x + G u from `x0` toward the
+/// constant reference `reference` (every step of the window), `steps` cycles of `solve(x0, window)`.
+pub fn nominal_flight(
+    p: &Problem,
+    x0: &[f64],
+    reference: &[f64],
+    steps: usize,
+    mut solve: impl FnMut(&[f64], &[Vec<f64>]) -> Vec<f64>,
+) -> Vec<DVector<f64>> {
+    let window = vec![reference.to_vec(); p.qp.N];
+    let mut x = DVector::from_column_slice(x0);
+    let mut states = vec![x.clone()];
+    for _ in 0..steps {
+        let u = solve(x.as_slice(), &window);
+        x = &p.F * &x + &p.G * DVector::from_vec(u);
+        states.push(x.clone());
+    }
+    states
+}
+
+/// The first cycle from which every state of `states` meets the spec's state bounds x_min/x_max (each
+/// to `accuracy`·max(1, |bound|)); `None` when the last one does not.
+pub fn inside_bounds_from(spec: &mpc_spec::Spec, states: &[DVector<f64>]) -> Option<usize> {
+    let c = &spec.mpc.constraints;
+    let tolerance = spec.mpc.accuracy;
+    let inside = |x: &DVector<f64>| {
+        (0..x.len()).all(|i| {
+            let lo = c.x_min.get(i).copied().unwrap_or(f64::NEG_INFINITY);
+            let hi = c.x_max.get(i).copied().unwrap_or(f64::INFINITY);
+            x[i] >= lo - tolerance * lo.abs().max(1.0) && x[i] <= hi + tolerance * hi.abs().max(1.0)
+        })
+    };
+    let last_outside = states.iter().rposition(|x| !inside(x));
+    match last_outside {
+        None => Some(0),
+        Some(k) if k + 1 < states.len() => Some(k + 1),
+        Some(_) => None,
+    }
+}

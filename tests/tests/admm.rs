@@ -337,3 +337,31 @@ fn the_fallback_is_bounded_and_reported() {
         falls_back!(quadcopter32, problem(QUADCOPTER32))
     );
 }
+
+/// Never inert, with ADMM: started outside its hard bounds (φ = 1.5 against |φ| ≤ π/6, z = −50 against
+/// z ≥ −1), the quadcopter is back inside within 5 s and stays inside (noise-free, on its own model).
+#[test]
+fn the_controller_recovers_from_outside_its_bounds() {
+    let p = problem(QUADCOPTER64);
+    let dt = p.dt;
+    for (axis, value) in [(0, 1.5), (5, -50.0)] {
+        let mut x0 = vec![0.0; p.nx];
+        x0[axis] = value;
+        let mut generated = quadcopter64::Mpc::new();
+        let states = nominal_flight(&p, &x0, &vec![0.0; p.nx], (20.0 / dt) as usize, |x, w| {
+            let x: [f64; quadcopter64::NX] = std::array::from_fn(|i| x[i]);
+            let w: [[f64; quadcopter64::NX]; quadcopter64::N] =
+                std::array::from_fn(|k| std::array::from_fn(|i| w[k][i]));
+            generated.solve(&x, &w).to_vec()
+        });
+        let spec = mpc_spec::load(QUADCOPTER64).expect("spec");
+        let seconds = inside_bounds_from(&spec, &states).map(|k| k as f64 * dt);
+        println!(
+            "ADMM quadcopter from x[{axis}] = {value}: inside its bounds from {seconds:?} s on"
+        );
+        assert!(
+            seconds.is_some_and(|t| t <= 5.0),
+            "x[{axis}] = {value}: inside from {seconds:?} s"
+        );
+    }
+}

@@ -431,3 +431,61 @@ fn the_fallback_is_bounded_and_reported() {
     }
     assert!(fell_back > 0, "three iterations never fell back");
 }
+
+/// Never inert (issue "constrained controllers you can trust in flight"): started outside its hard
+/// bounds (φ = 1.5 against |φ| ≤ π/6, z = −50 against z ≥ −1), the quadcopter is back inside within 5 s
+/// and stays inside; toward a reference 1e6 m away, the paper-limits vehicle flies at its 2 m/s speed
+/// limit (within 5 %) from 5 s on, for 60 s. Noise-free, on each spec's own model.
+#[test]
+fn the_controller_recovers_from_outside_its_bounds_and_approaches_a_far_reference() {
+    let spec = |text: &str| mpc_spec::load(text).expect("spec");
+    let p = problem(QUADCOPTER);
+    let dt = p.dt;
+    for (axis, value) in [(0, 1.5), (5, -50.0)] {
+        let mut x0 = vec![0.0; p.nx];
+        x0[axis] = value;
+        let mut generated = quadcopter::Mpc::new();
+        let states = nominal_flight(&p, &x0, &vec![0.0; p.nx], (20.0 / dt) as usize, |x, w| {
+            let x: [f64; quadcopter::NX] = std::array::from_fn(|i| x[i]);
+            let w: [[f64; quadcopter::NX]; quadcopter::N] =
+                std::array::from_fn(|k| std::array::from_fn(|i| w[k][i]));
+            generated.solve(&x, &w).to_vec()
+        });
+        let from = inside_bounds_from(&spec(QUADCOPTER), &states);
+        let seconds = from.map(|k| k as f64 * dt);
+        println!("quadcopter from x[{axis}] = {value}: inside its bounds from {seconds:?} s on");
+        assert!(
+            seconds.is_some_and(|t| t <= 5.0),
+            "x[{axis}] = {value}: inside from {seconds:?} s"
+        );
+    }
+    let text = include_str!("../../specs/paper-limits.toml");
+    let p = problem(text);
+    let mut reference = vec![0.0; p.nx];
+    reference[0] = 1e6;
+    let mut generated = paper_limits::Mpc::new();
+    let mut beyond = true;
+    let steps = (65.0 / p.dt) as usize;
+    let states = nominal_flight(&p, &vec![0.0; p.nx], &reference, steps, |x, w| {
+        let x: [f64; paper_limits::NX] = std::array::from_fn(|i| x[i]);
+        let w: [[f64; paper_limits::NX]; paper_limits::N] =
+            std::array::from_fn(|k| std::array::from_fn(|i| w[k][i]));
+        let u = generated.solve(&x, &w).to_vec();
+        beyond &= generated.solver_status().reference_beyond_region;
+        u
+    });
+    let from = (5.0 / p.dt) as usize;
+    let (slowest, fastest) = states[from..]
+        .iter()
+        .map(|x| x[3])
+        .fold((f64::INFINITY, 0.0_f64), |(a, b), v| (a.min(v), b.max(v)));
+    println!("paper-limits toward x = 1e6 m: speed {slowest:.4} … {fastest:.4} m/s from 5 s on");
+    assert!(
+        beyond,
+        "the status did not say the reference is beyond the region"
+    );
+    assert!(
+        (slowest - 2.0).abs() <= 0.1 && (fastest - 2.0).abs() <= 0.1,
+        "speed {slowest} … {fastest} m/s"
+    );
+}
