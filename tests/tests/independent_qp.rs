@@ -262,7 +262,10 @@ impl Independent {
             R_du: m.r_du.as_ref().map(dense),
             u_min: m.u_min.clone(),
             u_max: m.u_max.clone(),
-            disturbance: spec.kalman.as_ref().is_some_and(|k| k.disturbance.is_some()),
+            disturbance: spec
+                .kalman
+                .as_ref()
+                .is_some_and(|k| k.disturbance.is_some()),
             rows,
             slack_weight,
         }
@@ -564,8 +567,16 @@ fn normalised(g: &DVector<f64>, h: f64) -> (DVector<f64>, f64) {
 /// Matches the half-spaces of `a` with those of `b` as multisets; returns the worst distance of a
 /// matched pair and the half-spaces of either side left unmatched (described).
 fn match_rows(a: &HalfspaceQp, b: &HalfspaceQp) -> (f64, Vec<String>) {
-    let na: Vec<_> = a.G.iter().zip(&a.h).map(|(g, h)| normalised(g, *h)).collect();
-    let nb: Vec<_> = b.G.iter().zip(&b.h).map(|(g, h)| normalised(g, *h)).collect();
+    let na: Vec<_> =
+        a.G.iter()
+            .zip(&a.h)
+            .map(|(g, h)| normalised(g, *h))
+            .collect();
+    let nb: Vec<_> =
+        b.G.iter()
+            .zip(&b.h)
+            .map(|(g, h)| normalised(g, *h))
+            .collect();
     let distance = |x: &(DVector<f64>, f64), y: &(DVector<f64>, f64)| {
         let coefficients = (&x.0 - &y.0).amax();
         let bound = (x.1 - y.1).abs() / x.1.abs().max(y.1.abs()).max(1.0);
@@ -633,20 +644,99 @@ struct Figures {
     oracle_fallbacks: usize,
 }
 
-/// One spec: returns its figures, or the discrepancies found.
-fn check(path: &Path) -> Result<Figures, Vec<String>> {
+/// How much of the check to run on a spec.
+#[derive(Clone, Copy, PartialEq)]
+enum Mode {
+    /// The QP only ((a), (b), Clarabel on both, the compiler's exact solution): the spec lowered
+    /// without its certificate (`lower::uncertified`, the same QP: the certificate sets the count),
+    /// the closed loops driven by Clarabel's plan. Cheap.
+    Qp,
+    /// The QP and the oracle at the certified count (`codegen::lower`, which samples the region).
+    Full,
+}
+
+/// What a spec's check found: the figures, the QP's discrepancies, the oracle's.
+struct Found {
+    figures: Figures,
+    qp: Vec<String>,
+    oracle: Vec<String>,
+}
+
+/// The region the certificate samples, resolved as the README states its defaults: the state bounds
+/// where `[mpc.region]` leaves them out, the tracked outputs over the state region for the references.
+fn region_of(spec: &Spec, ind: &Independent) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
+    let r = &spec.mpc.region;
+    let c = &spec.mpc.constraints;
+    let x_min = if r.x_min.is_empty() {
+        c.x_min.clone()
+    } else {
+        r.x_min.clone()
+    };
+    let x_max = if r.x_max.is_empty() {
+        c.x_max.clone()
+    } else {
+        r.x_max.clone()
+    };
+    assert!(
+        x_min.iter().chain(&x_max).all(|v| v.is_finite()) && x_min.len() == ind.nx,
+        "a region with finite states"
+    );
+    let nz = ind.Cz.nrows();
+    let (mut lo, mut hi) = (vec![0.0; nz], vec![0.0; nz]);
+    for i in 0..nz {
+        for j in 0..ind.nx {
+            let (a, b) = (ind.Cz[(i, j)] * x_min[j], ind.Cz[(i, j)] * x_max[j]);
+            lo[i] += a.min(b);
+            hi[i] += a.max(b);
+        }
+    }
+    let reference_min = if r.reference_min.is_empty() {
+        lo
+    } else {
+        r.reference_min.clone()
+    };
+    let reference_max = if r.reference_max.is_empty() {
+        hi
+    } else {
+        r.reference_max.clone()
+    };
+    (x_min, x_max, reference_min, reference_max)
+}
+
+/// One spec.
+fn check(path: &Path, mode: Mode) -> Found {
     let name = path.file_name().unwrap().to_string_lossy().to_string();
     let text = std::fs::read_to_string(path).unwrap();
     let spec = mpc_spec::load(&text).unwrap_or_else(|e| panic!("{name}: {e:?}"));
-    let p = codegen::lower(&spec).unwrap_or_else(|e| panic!("{name}: {e:?}"));
+    let p = match mode {
+        Mode::Qp => codegen::lower::uncertified(&spec),
+        Mode::Full => codegen::lower(&spec),
+    }
+    .unwrap_or_else(|e| panic!("{name}: {e:?}"));
     let ind = Independent::new(&spec);
     let accuracy = spec.mpc.accuracy;
-    let region = &p.qp.evidence.as_ref().expect("a certified method").region;
+    let (rx_min, rx_max, rr_min, rr_max) = region_of(&spec, &ind);
+    if let Some(e) = &p.qp.evidence {
+        assert_eq!(
+            (
+                &e.region.x_min,
+                &e.region.x_max,
+                &e.region.reference_min,
+                &e.region.reference_max
+            ),
+            (&rx_min, &rx_max, &rr_min, &rr_max),
+            "{name}: the certificate's region is the README's"
+        );
+    }
     let mut rng = ChaCha8Rng::seed_from_u64(0x31);
     let mut errors = Vec::new();
+    let mut oracle_errors = Vec::new();
     let mut fig = Figures::default();
     let pick = |rng: &mut ChaCha8Rng, lo: &[f64], hi: &[f64]| {
-        DVector::from_iterator(lo.len(), lo.iter().zip(hi).map(|(a, b)| rng.gen_range(*a..=*b)))
+        DVector::from_iterator(
+            lo.len(),
+            lo.iter().zip(hi).map(|(a, b)| rng.gen_range(*a..=*b)),
+        )
     };
     let u_lo = &ind.u_min;
     let u_hi = &ind.u_max;
@@ -722,8 +812,16 @@ fn check(path: &Path) -> Result<Figures, Vec<String>> {
             (a, _) => {
                 errors.push(format!(
                     "{name} {what}: Clarabel finds the independent QP {} and the compiler's {}",
-                    if matches!(a, Solution::Solved(_)) { "feasible" } else { "infeasible" },
-                    if matches!(a, Solution::Solved(_)) { "infeasible" } else { "feasible" },
+                    if matches!(a, Solution::Solved(_)) {
+                        "feasible"
+                    } else {
+                        "infeasible"
+                    },
+                    if matches!(a, Solution::Solved(_)) {
+                        "infeasible"
+                    } else {
+                        "feasible"
+                    },
                 ));
                 return None;
             }
@@ -739,14 +837,18 @@ fn check(path: &Path) -> Result<Figures, Vec<String>> {
             }
         } else {
             fig.exact_failures += 1;
+            errors.push(format!(
+                "{name} {what}: the compiler's exact solution ended {:?} where Clarabel solves the QP",
+                exact.status
+            ));
         }
         Some(star)
     };
-    // Cold cases: a cold oracle at each draw (a third with a bounded state at 95 % of its bound).
+    // Cold cases (a third with a bounded state at 95 % of its bound), a cold oracle at each.
     for k in 0..12 {
         let mut data = Data {
-            x0: pick(&mut rng, &region.x_min, &region.x_max),
-            reference: pick(&mut rng, &region.reference_min, &region.reference_max),
+            x0: pick(&mut rng, &rx_min, &rx_max),
+            reference: pick(&mut rng, &rr_min, &rr_max),
             last: pick(&mut rng, u_lo, u_hi),
             d: d_range(&mut rng),
         };
@@ -758,36 +860,65 @@ fn check(path: &Path) -> Result<Figures, Vec<String>> {
         let Some(star) = step(&data, &what, &mut fig, &mut errors) else {
             continue;
         };
-        let mut mpc = oracle::Mpc::new(&p);
-        oracle_check(&mut mpc, &p, &ind, &data, &star, accuracy, &name, &what, &mut fig, &mut errors);
+        if mode == Mode::Full {
+            let mut mpc = oracle::Mpc::new(&p);
+            oracle_check(
+                &mut mpc,
+                &p,
+                &ind,
+                &data,
+                &star,
+                &name,
+                &what,
+                &mut fig,
+                &mut oracle_errors,
+            );
+        }
     }
-    // Warm closed loops on the nominal model, the oracle warm-started.
+    // Closed loops on the nominal model x⁺ = A x + B (u + d): the oracle warm-started (Full), or
+    // Clarabel's first input (Qp).
     for sequence in 0..2 {
         let mut mpc = oracle::Mpc::new(&p);
         let mut data = Data {
-            x0: pick(&mut rng, &region.x_min, &region.x_max),
-            reference: pick(&mut rng, &region.reference_min, &region.reference_max),
-            last: DVector::zeros(ind.nu),
+            x0: pick(&mut rng, &rx_min, &rx_max),
+            reference: pick(&mut rng, &rr_min, &rr_max),
+            last: DVector::from_iterator(
+                ind.nu,
+                u_lo.iter().zip(u_hi).map(|(a, b)| 0f64.clamp(*a, *b)),
+            ),
             d: d_range(&mut rng),
         };
         for t in 0..10 {
-            data.last = mpc.last_input().clone();
             let what = format!("sequence {sequence} step {t}");
             let star = step(&data, &what, &mut fig, &mut errors);
-            let u = match star {
-                Some(star) => oracle_check(
-                    &mut mpc, &p, &ind, &data, &star, accuracy, &name, &what, &mut fig,
-                    &mut errors,
+            let u = match (mode, star) {
+                (Mode::Full, Some(star)) => oracle_check(
+                    &mut mpc,
+                    &p,
+                    &ind,
+                    &data,
+                    &star,
+                    &name,
+                    &what,
+                    &mut fig,
+                    &mut oracle_errors,
                 ),
-                None => mpc.solve_with_disturbance(&data.x0, &data.d.rows(0, p.nd()).into_owned(), &vec![data.reference.clone(); ind.N]),
+                (Mode::Full, None) => {
+                    assert!(mpc.set_last_input(&data.last));
+                    let d = data.d.rows(0, p.nd()).into_owned();
+                    mpc.solve_with_disturbance(&data.x0, &d, &vec![data.reference.clone(); ind.N])
+                }
+                (Mode::Qp, Some(star)) => star.rows(0, ind.nu).into_owned(),
+                (Mode::Qp, None) => break,
             };
-            data.x0 = &ind.A * &data.x0 + &ind.B * (u + &data.d);
+            data.x0 = &ind.A * &data.x0 + &ind.B * (&u + &data.d);
+            data.last = u;
         }
     }
-    if errors.is_empty() {
-        Ok(fig)
-    } else {
-        Err(errors)
+    Found {
+        figures: fig,
+        qp: errors,
+        oracle: oracle_errors,
     }
 }
 
@@ -799,13 +930,13 @@ fn oracle_check(
     ind: &Independent,
     data: &Data,
     star: &DVector<f64>,
-    accuracy: f64,
     name: &str,
     what: &str,
     fig: &mut Figures,
     errors: &mut Vec<String>,
 ) -> DVector<f64> {
     assert!(mpc.set_last_input(&data.last));
+    let accuracy = p.qp.accuracy;
     let d = data.d.rows(0, p.nd()).into_owned();
     let u = mpc.solve_with_disturbance(&data.x0, &d, &vec![data.reference.clone(); ind.N]);
     let fallback = mpc
@@ -818,9 +949,35 @@ fn oracle_check(
         let e = plan_error(mpc.plan(), star, ind);
         fig.oracle = fig.oracle.max(e);
         if e > accuracy {
+            let limits = p.qp.ipm_limits();
+            let how = match (mpc.last_step(), mpc.admm_step()) {
+                (Some(s), _) => format!(
+                    "ipm, {} iterations, residuals {:.1e} / {:.1e} (limits {:.1e} / {:.1e}), gap {:.1e}",
+                    s.result.iterations,
+                    s.result.primal_residual,
+                    s.result.dual_residual,
+                    limits.primal,
+                    limits.dual,
+                    s.result.gap
+                ),
+                (_, Some(s)) => format!(
+                    "admm, {} iterations, residuals {:.1e} / {:.1e} (limits {:.1e} / {:.1e})",
+                    s.result.iterations,
+                    s.result.primal_residual,
+                    s.result.dual_residual,
+                    limits.primal,
+                    limits.dual
+                ),
+                _ => String::new(),
+            };
             errors.push(format!(
                 "{name} {what}: the oracle's plan, reported Solved, is {e:.3e} of the span from \
-                 Clarabel's on the independent QP (accuracy {accuracy:e})"
+                 Clarabel's on the independent QP (accuracy {accuracy:e}; {how}; x0 = {:?}, \
+                 reference = {:?}, u₋₁ = {:?}, d = {:?})",
+                data.x0.as_slice(),
+                data.reference.as_slice(),
+                data.last.as_slice(),
+                data.d.as_slice()
             ));
         }
     } else {
@@ -834,7 +991,11 @@ fn oracle_check(
 fn constrained_specs() -> Vec<PathBuf> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut out = Vec::new();
-    for dir in [root.join("../specs"), root.join("specs"), root.join("specs/mixed")] {
+    for dir in [
+        root.join("../specs"),
+        root.join("specs"),
+        root.join("specs/mixed"),
+    ] {
         let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
             .unwrap()
             .map(|e| e.unwrap().path())
@@ -854,51 +1015,127 @@ fn constrained_specs() -> Vec<PathBuf> {
     out
 }
 
-fn run(filter: impl Fn(&Path) -> bool) {
-    let specs: Vec<PathBuf> = constrained_specs().into_iter().filter(|p| filter(p)).collect();
+/// Runs the check on `specs`; returns the QP's and the oracle's discrepancies.
+fn run(specs: &[PathBuf], mode: Mode) -> (Vec<String>, Vec<String>) {
     assert!(!specs.is_empty());
-    let mut failures = Vec::new();
-    for path in &specs {
+    let (mut qp, mut oracle) = (Vec::new(), Vec::new());
+    for path in specs {
         let start = std::time::Instant::now();
-        let name = path.strip_prefix(Path::new(env!("CARGO_MANIFEST_DIR")).join("..")).unwrap_or(path);
-        match check(path) {
-            Ok(f) => println!(
-                "{}: {} cases ({} infeasible): H {:.1e}, f {:.1e}, rows {:.1e}; Clarabel both {:.1e}, \
-                 exact {:.1e} ({} not converged), oracle Solved {:.1e} ({} solved, {} fallbacks) of the span; {:.1} s",
-                name.display(),
-                f.cases,
-                f.infeasible,
-                f.hessian,
-                f.linear,
-                f.rows,
-                f.clarabel,
-                f.exact,
-                f.exact_failures,
-                f.oracle,
-                f.oracle_solved,
-                f.oracle_fallbacks,
-                start.elapsed().as_secs_f64()
-            ),
-            Err(e) => {
-                println!("{}: {} discrepancies", name.display(), e.len());
-                for line in &e {
-                    println!("  {line}");
-                }
-                failures.extend(e);
-            }
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let name = path.strip_prefix(&root).unwrap_or(path);
+        let found = check(path, mode);
+        let f = &found.figures;
+        let oracle_figures = if mode == Mode::Full {
+            format!(
+                ", oracle's Solved plans {:.1e} ({} Solved, {} fallbacks)",
+                f.oracle, f.oracle_solved, f.oracle_fallbacks
+            )
+        } else {
+            String::new()
+        };
+        println!(
+            "{}: {} cases ({} infeasible): H {:.1e}, f {:.1e}, rows {:.1e}; plans (of the span): \
+             Clarabel on both {:.1e}, exact {:.1e}{oracle_figures}; {:.1} s",
+            name.display(),
+            f.cases,
+            f.infeasible,
+            f.hessian,
+            f.linear,
+            f.rows,
+            f.clarabel,
+            f.exact,
+            start.elapsed().as_secs_f64()
+        );
+        for line in found.qp.iter().chain(&found.oracle) {
+            println!("  {line}");
         }
+        qp.extend(found.qp);
+        oracle.extend(found.oracle);
     }
-    assert!(failures.is_empty(), "{} discrepancies: {:#?}", failures.len(), &failures[..failures.len().min(10)]);
+    (qp, oracle)
 }
 
-/// The mixed groups of `tests/specs/mixed/` (ax-only rows and au rows in one group).
+fn assert_none(what: &str, found: &[String]) {
+    assert!(
+        found.is_empty(),
+        "{} {what}: {:#?}",
+        found.len(),
+        &found[..found.len().min(10)]
+    );
+}
+
+fn mixed() -> Vec<PathBuf> {
+    constrained_specs()
+        .into_iter()
+        .filter(|p| p.parent().is_some_and(|d| d.ends_with("mixed")))
+        .collect()
+}
+
+fn shipped() -> Vec<PathBuf> {
+    constrained_specs()
+        .into_iter()
+        .filter(|p| !p.parent().is_some_and(|d| d.ends_with("mixed")))
+        .collect()
+}
+
+/// The mixed groups of `tests/specs/mixed/` (`ax`-only rows and `au` rows in one group): the
+/// compiler's QP is the README's.
 #[test]
 fn mixed_groups_form_the_readme_qp() {
-    run(|p| p.parent().is_some_and(|d| d.ends_with("mixed")));
+    let (qp, _) = run(&mixed(), Mode::Qp);
+    assert_none("discrepancies of the QP", &qp);
 }
 
-/// Every shipped and `tests/specs` constrained spec.
+/// Every shipped and `tests/specs` constrained spec: the compiler's QP is the README's.
 #[test]
 fn shipped_constrained_specs_form_the_readme_qp() {
-    run(|p| !p.parent().is_some_and(|d| d.ends_with("mixed")));
+    let (qp, _) = run(&shipped(), Mode::Qp);
+    assert_none("discrepancies of the QP", &qp);
+}
+
+/// The mixed specs certified: every plan the oracle reports `Solved` is within `accuracy` of
+/// Clarabel's on the independent QP.
+#[test]
+fn solved_plans_of_the_mixed_specs_are_within_accuracy() {
+    let (qp, oracle) = run(&mixed(), Mode::Full);
+    assert_none("discrepancies of the QP", &qp);
+    assert_none("Solved plans beyond accuracy", &oracle);
+}
+
+/// The same on the shipped and `tests/specs` constrained specs, whose certificates take over a minute
+/// to sample in the dev profile: `cargo test -p mpc-tests --test independent_qp -- --ignored`.
+#[test]
+#[ignore]
+fn solved_plans_of_the_shipped_specs_are_within_accuracy() {
+    let (qp, oracle) = run(&shipped(), Mode::Full);
+    assert_none("discrepancies of the QP", &qp);
+    assert_none("Solved plans beyond accuracy", &oracle);
+}
+
+/// The whole check on other specs: `INDEPENDENT_QP_SPECS` lists files or directories of `.toml` specs
+/// (separated by `:`); nothing to do without it.
+#[test]
+fn specs_from_the_environment() {
+    let Ok(list) = std::env::var("INDEPENDENT_QP_SPECS") else {
+        println!("INDEPENDENT_QP_SPECS not set: no further specs");
+        return;
+    };
+    let mut specs = Vec::new();
+    for entry in list.split(':').filter(|s| !s.is_empty()) {
+        let path = PathBuf::from(entry);
+        if path.is_dir() {
+            let mut files: Vec<PathBuf> = std::fs::read_dir(&path)
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+                .collect();
+            files.sort();
+            specs.extend(files);
+        } else {
+            specs.push(path);
+        }
+    }
+    let (qp, oracle) = run(&specs, Mode::Full);
+    assert_none("discrepancies of the QP", &qp);
+    assert_none("Solved plans beyond accuracy", &oracle);
 }
