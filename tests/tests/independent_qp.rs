@@ -202,7 +202,7 @@ impl Independent {
         // The row expressions, stage by stage in the README's stage ranges.
         let mut rows = Vec::new();
         for k in 1..=N {
-            for i in 0..nx {
+            for (i, slack) in state_slack.iter().enumerate() {
                 let (lo, hi) = (
                     bound(&c.x_min, i, f64::NEG_INFINITY),
                     bound(&c.x_max, i, f64::INFINITY),
@@ -212,7 +212,7 @@ impl Independent {
                         what: format!("x_{k}[{i}]"),
                         lower: lo,
                         upper: hi,
-                        slack: state_slack[i],
+                        slack: *slack,
                     });
                 }
             }
@@ -233,8 +233,8 @@ impl Independent {
                 }
             }
         }
-        for (g, group) in c.rows.iter().enumerate() {
-            for r in 0..group.ax.rows {
+        for (g, (group, slacks)) in c.rows.iter().zip(&group_slack).enumerate() {
+            for (r, slack) in slacks.iter().enumerate() {
                 let with_input = (0..nu).any(|i| group.au.data[r * group.au.cols + i] != 0.0);
                 let stages = if with_input { 0..N } else { 1..N + 1 };
                 for k in stages {
@@ -242,7 +242,7 @@ impl Independent {
                         what: format!("constraint[{g}] row {r} at k = {k}"),
                         lower: group.lower[r],
                         upper: group.upper[r],
-                        slack: group_slack[g][r],
+                        slack: *slack,
                     });
                 }
             }
