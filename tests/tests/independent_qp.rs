@@ -1135,6 +1135,20 @@ fn specs_from_the_environment() {
             specs.push(path);
         }
     }
+    // The check is of the constrained QP: a spec with the input box alone has none of its rows.
+    specs.retain(|path| {
+        let text =
+            std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let box_only = mpc_spec::load(&text)
+            .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()))
+            .mpc
+            .constraints
+            .is_empty();
+        if box_only {
+            println!("{}: the input box alone, skipped", path.display());
+        }
+        !box_only
+    });
     let (qp, oracle) = run(&specs, Mode::Full);
     assert_none("discrepancies of the QP", &qp);
     assert_none("Solved plans beyond accuracy", &oracle);
