@@ -12,7 +12,8 @@
 //! nonzero `au` at k = 0 … N−1 on (x_k, u_k), an `ax`-only row at k = 1 … N, decided per row; soft ones
 //! with one slack per component / row shared by every stage and both sides, cost w·σ + ½·10⁻³·w·σ².
 //!
-//! At states, references, last inputs (and disturbances) drawn from the certified region, it checks:
+//! At states, references, last inputs (and disturbances) drawn from the certificate's region (12 cold
+//! draws, a third with a bounded state at 95 % of its bound, and two 10-step closed loops), it checks:
 //! (a) H and f agree with the compiler's (`codegen::lower` → `ipm::mpc_qp`, what `mpcc dump-qp` prints);
 //! (b) the two sets of constraint half-spaces (input box, slacks ≥ 0, every side of every row, each
 //!     normalised to unit ∞-norm) are equal as multisets, with the data substituted;
@@ -20,6 +21,12 @@
 //!     (`ipm::solve` to 1e-10, as `mpcc dump-qp`) is within `accuracy`·span of Clarabel's on the
 //!     independent QP, and so is every plan the oracle (the generic solver the generated controllers are
 //!     held to) reports `Solved`, cold and over a warm-started closed loop.
+//!
+//! The QP checks run on the spec lowered without its certificate (`lower::uncertified`: the same QP,
+//! the certificate only sets the count), which is cheap; the oracle's needs the certified count
+//! (`codegen::lower`, which samples the region): on `tests/specs/mixed/` by default, on the shipped
+//! specs with `--ignored` (over a minute in the dev profile), and on any other specs listed in
+//! `INDEPENDENT_QP_SPECS` (files or directories, separated by `:`).
 //!
 //! `cargo test -p mpc-tests --test independent_qp -- --nocapture` prints the worst figures per spec.
 #![allow(non_snake_case)]
