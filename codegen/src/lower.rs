@@ -84,6 +84,9 @@ pub struct Qp {
     /// The sampled certificate ([`crate::sampling`]): always for `ipm` and `admm` (with ADMM's tuned ρ,
     /// [`crate::evidence::Evidence::rho`]), for a first-order method with `[mpc.region]`.
     pub evidence: Option<crate::evidence::Evidence>,
+    /// The hard and soft state bounds `x_min`/`x_max` (nx each, ±∞ where absent): with the region,
+    /// what [`Qp::reference_reach`] spans.
+    pub x_bounds: (Vec<f64>, Vec<f64>),
 }
 
 impl Qp {
@@ -96,17 +99,27 @@ impl Qp {
     }
 
     /// How far the reference may lie from the tracked output, per tracked component: (lo, hi) with
-    /// lo = reference_min − max over the state region of the output, hi = reference_max − its min
-    /// (interval arithmetic over `[mpc.region]`'s box). A constrained method's window is brought within
-    /// [z0 + lo, z0 + hi] (z0 the output at x0) before the solve: inside the region it is never moved,
-    /// and a reference out of reach is then approached as fast as the constraints allow instead of
-    /// asking the fixed-iteration solver for a QP far outside what the sample certified. `None` for the
+    /// lo = reference_min − the output's largest value, hi = reference_max − its smallest, over the box
+    /// that spans `[mpc.region]`'s states and the finite state bounds (interval arithmetic). A
+    /// constrained method's window is brought within [z0 + lo, z0 + hi] (z0 the output at x0) before
+    /// the solve: for a reference in the region and a state in the region or the bounds it is never
+    /// moved, and a reference out of reach is then approached as fast as the constraints allow instead
+    /// of asking the fixed-iteration solver for a QP far from what the sample certified. `None` for the
     /// first-order methods and before the certificate.
     pub fn reference_reach(&self) -> Option<(DVector<f64>, DVector<f64>)> {
         let e = self.evidence.as_ref().filter(|_| !self.method.box_only())?;
-        let r = &e.region;
+        let mut r = e.region.clone();
         let nz = self.nz;
         let nx = r.x_min.len();
+        for j in 0..nx {
+            let (lo, hi) = (self.x_bounds.0[j], self.x_bounds.1[j]);
+            if lo.is_finite() {
+                r.x_min[j] = r.x_min[j].min(lo);
+            }
+            if hi.is_finite() {
+                r.x_max[j] = r.x_max[j].max(hi);
+            }
+        }
         let (lo, hi) = match &self.Cz {
             Some(Cz) => (
                 DVector::from_fn(nz, |i, _| {
@@ -432,7 +445,17 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
     let Fd = &H * DMatrix::from_fn(N * nu, nd, |i, j| if i % nu == j { 1.0 } else { 0.0 })
         + Fu.columns(0, nd);
     let rows = crate::constraints::lower(&m.constraints, &Sx, &Su, nu);
+    let bound = |v: &[f64], i: usize, absent: f64| v.get(i).copied().unwrap_or(absent);
+    let x_bounds = (
+        (0..nx)
+            .map(|i| bound(&m.constraints.x_min, i, f64::NEG_INFINITY))
+            .collect(),
+        (0..nx)
+            .map(|i| bound(&m.constraints.x_max, i, f64::INFINITY))
+            .collect(),
+    );
     let qp = Qp {
+        x_bounds,
         N,
         iterations,
         tolerance: m.tolerance,

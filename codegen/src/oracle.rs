@@ -27,7 +27,7 @@ pub struct Mpc {
     admm_start: admm::Start,
     /// ADMM's last step.
     admm_step: Option<admm::Step>,
-    /// Whether the next constrained solve relaxes the hard rows ([`crate::ipm::relax_next`]).
+    /// Whether the controller is recovering from infeasible hard rows ([`crate::ipm::recovering_after`]).
     relax: bool,
     /// Whether the last solve's reference was beyond [`Qp::reference_reach`] and brought to it.
     reference_beyond_region: bool,
@@ -150,10 +150,8 @@ impl Mpc {
                 &limits,
                 self.relax,
             );
-            let (violation, _) = crate::ipm::violations(&self.qp, &step.plan, &offset);
-            let infeasible = step.result.status == crate::solver::Status::Infeasible;
-            self.relax =
-                crate::ipm::relax_next(&self.qp, self.relax, infeasible, step.fallback, violation);
+            self.relax = step.result.status == crate::solver::Status::Infeasible
+                || step.fallback == crate::ipm::Fallback::Relaxed;
             self.start = shifted_start(&self.qp, &step);
             self.plan = step.plan.clone();
             self.last_step = Some(step);
@@ -174,10 +172,8 @@ impl Mpc {
                 &limits,
                 self.relax,
             );
-            let (violation, _) = crate::ipm::violations(&self.qp, &step.plan, &offset);
-            let infeasible = step.result.status == crate::solver::Status::Infeasible;
-            self.relax =
-                crate::ipm::relax_next(&self.qp, self.relax, infeasible, step.fallback, violation);
+            self.relax = step.result.status == crate::solver::Status::Infeasible
+                || step.fallback == crate::ipm::Fallback::Relaxed;
             self.admm_start = admm::shifted_start(&self.qp, &step);
             self.plan = step.plan.clone();
             self.admm_step = Some(step);

@@ -180,11 +180,12 @@ pub mod quadcopter {
         /// [`DUAL_LIMIT`] / [`GAP_LIMIT`]): the previous plan shifted by one step with the rest input appended,
         /// projected onto the box. The next solve starts cold.
         WarmStart,
-        /// An earlier solve found that the hard rows admit no plan (`infeasible`): this plan solves
-        /// the QP with each hard row widened to the value the held plan gives it, so it violates no
-        /// hard row more than holding would, and the cost steers it back (`violation` says how far
-        /// it still is). The controller solves so until a plan meets the hard rows to [`ACCURACY`];
-        /// such solves start cold, and their iterations are not what `[mpc.region]` certified.
+        /// An earlier solve found that the hard rows admit no plan (`infeasible`), and the held plan
+        /// (the previous one shifted) violates them: this plan solves the QP with each hard row
+        /// widened to the value the held plan gives it, so it violates no hard row more than holding
+        /// would, and the cost steers it back (`violation` says how far it still is). Once the held
+        /// plan meets the rows to [`ACCURACY`] the hard QP is solved again (it then has a plan).
+        /// Relaxed solves start cold; their iterations are not what `[mpc.region]` certified.
         Relaxed,
     }
     /// Fixed-iteration, warm-started MPC with state, output and rate constraints: a primal-dual
@@ -202,7 +203,8 @@ pub mod quadcopter {
         lambda: [f64; NSIDES],
         /// Whether the point is a warm start (false after `new`, `reset` or a fallback).
         warm: bool,
-        /// Whether the next solve widens the hard rows to the held plan ([`Fallback::Relaxed`]).
+        /// Whether the controller is recovering from hard rows that admitted no plan: the next solve
+        /// widens them to the held plan where it violates them ([`Fallback::Relaxed`]).
         relax: bool,
         status: SolverStatus,
     }
@@ -289,7 +291,7 @@ pub mod quadcopter {
             for (i, p) in held.iter_mut().enumerate() {
                 *p = clamp(*p, i);
             }
-            let relax = self.relax;
+            let relax = self.relax & (violations(&held, &h).0 > ACCURACY);
             let held_sides = side_values(&held);
             let mut hs = h;
             for j in 0..NG {
@@ -331,8 +333,7 @@ pub mod quadcopter {
             self.warm = trusted & !relax;
             let (violation, softened) = violations(&self.plan, &h);
             let infeasible = outcome.ended == Ended::Infeasible;
-            let recovered = trusted & relax & (violation <= ACCURACY);
-            self.relax = infeasible | (relax & !recovered);
+            self.relax = infeasible | (trusted & relax);
             self.status = SolverStatus {
                 iterations: outcome.iterations,
                 primal_residual: outcome.primal,
@@ -16429,8 +16430,8 @@ pub mod quadcopter {
     /// output's largest value over the state region, reference_max − its smallest): a window beyond
     /// it is brought to that distance, [`SolverStatus::reference_beyond_region`].
     const REACH_LO: [Real; 12] = [
-        -0.9f64,
-        -0.9f64,
+        -0.9735987755982989f64,
+        -0.9735987755982989f64,
         -2f64,
         -4f64,
         -4f64,
@@ -16443,12 +16444,12 @@ pub mod quadcopter {
         -2.5f64,
     ];
     const REACH_HI: [Real; 12] = [
-        0.9f64,
-        0.9f64,
+        0.9735987755982989f64,
+        0.9735987755982989f64,
         2f64,
         4f64,
         4f64,
-        2.5f64,
+        3f64,
         2.5f64,
         2.5f64,
         4.5f64,

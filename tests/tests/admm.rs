@@ -129,7 +129,10 @@ macro_rules! run {
                 for (i, (a, b)) in plan.iter().zip(reference.plan().iter()).enumerate() {
                     seen.oracle = seen.oracle.max((a - b).abs() / span(&p, i));
                 }
-                if $clarabel && exact_status == codegen::ipm::Status::Converged {
+                // A relaxed plan (the step after the rows were found infeasible, the held plan still
+                // violating them) solves the relaxed QP, not this one, and says so.
+                let relaxed = status.fallback == m::Fallback::Relaxed;
+                if $clarabel && exact_status == codegen::ipm::Status::Converged && !relaxed {
                     let exact = exact::clarabel(&problem);
                     let U = DVector::from_vec(plan.clone());
                     for i in 0..plan.len() {
@@ -281,7 +284,11 @@ fn the_fallback_is_bounded_and_reported() {
                     &window(&p, &DVector::zeros(p.nx)),
                 );
                 let status = generated.solver_status();
-                let expected = if k == 0 { Fallback::WarmStart } else { Fallback::Relaxed };
+                let expected = if k == 0 {
+                    Fallback::WarmStart
+                } else {
+                    Fallback::Relaxed
+                };
                 assert_eq!(reference.admm_step().unwrap().fallback, expected);
                 if k == 0 {
                     assert_eq!(status.fallback, m::Fallback::WarmStart, "{status:?}");
@@ -298,12 +305,9 @@ fn the_fallback_is_bounded_and_reported() {
                     assert!((*a as f64 - b).abs() <= 1e-6 * (p.qp.u_max[0] - p.qp.u_min[0]));
                 }
             }
-            // A feasible state afterwards: the relaxed plan meets the rows, and the next solve is the
-            // hard QP's, trusted.
+            // A feasible state afterwards, from which the held plan meets the rows: the hard QP's
+            // plan, trusted.
             x0 = [0.0; m::NX];
-            generated.solve(&x0, &xref);
-            let status = *generated.solver_status();
-            assert!(status.fallback == m::Fallback::Relaxed && status.violation <= m::ACCURACY, "{status:?}");
             generated.solve(&x0, &xref);
             assert_eq!(generated.solver_status().fallback, m::Fallback::Solved);
             // Finite data whose products overflow: a numerical failure, in the box.

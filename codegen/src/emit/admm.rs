@@ -255,7 +255,8 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                 y: [Real; NC],
                 /// Whether (x, z, y) is a warm start (false after `new`, `reset` or a fallback).
                 warm: bool,
-                /// Whether the next solve widens the hard rows to the held plan ([`Fallback::Relaxed`]).
+                /// Whether the controller is recovering from hard rows that admitted no plan: the next solve
+                /// widens them to the held plan where it violates them ([`Fallback::Relaxed`]).
                 relax: bool,
                 #last_field
                 status: SolverStatus,
@@ -327,9 +328,10 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                     for (i, p) in held.iter_mut().enumerate() {
                         *p = project(*p, U_MIN[i % NU], U_MAX[i % NU]);
                     }
-                    let relax = self.relax;
                     // The bounds without the widening: what the status's violation is measured on.
                     let (hard_lower, hard_upper) = (lower, upper);
+                    // Recovering, the held plan violating a hard row: relaxed.
+                    let relax = self.relax && violations(&held, &lower, &upper).0 > ACCURACY;
                     if relax {
                         // After the hard rows admitted no plan: each hard row widened to the held plan's
                         // value, so that the QP has a plan that violates no row more than holding would.
@@ -382,9 +384,8 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                     }
                     self.warm = trusted & !relax;
                     let (violation, softened) = violations(&self.plan, &hard_lower, &hard_upper);
-                    // Relaxed until a relaxed plan meets the hard rows again to ACCURACY.
-                    let recovered = trusted & relax & (violation <= ACCURACY);
-                    self.relax = infeasible | (relax & !recovered);
+                    // Recovering after a solve found the hard rows infeasible, or made a relaxed plan.
+                    self.relax = infeasible | (trusted & relax);
                     self.status = SolverStatus {
                         iterations: ITERATIONS as u32,
                         primal_residual: primal,

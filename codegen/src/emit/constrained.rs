@@ -54,11 +54,12 @@ pub fn status_types(method: &str, iterations_doc: &[&str]) -> TokenStream {
             /// [`DUAL_LIMIT`] / [`GAP_LIMIT`]): the previous plan shifted by one step with the rest input appended,
             /// projected onto the box. The next solve starts cold.
             WarmStart,
-            /// An earlier solve found that the hard rows admit no plan (`infeasible`): this plan solves
-            /// the QP with each hard row widened to the value the held plan gives it, so it violates no
-            /// hard row more than holding would, and the cost steers it back (`violation` says how far
-            /// it still is). The controller solves so until a plan meets the hard rows to [`ACCURACY`];
-            /// such solves start cold, and their iterations are not what `[mpc.region]` certified.
+            /// An earlier solve found that the hard rows admit no plan (`infeasible`), and the held plan
+            /// (the previous one shifted) violates them: this plan solves the QP with each hard row
+            /// widened to the value the held plan gives it, so it violates no hard row more than holding
+            /// would, and the cost steers it back (`violation` says how far it still is). Once the held
+            /// plan meets the rows to [`ACCURACY`] the hard QP is solved again (it then has a plan).
+            /// Relaxed solves start cold; their iterations are not what `[mpc.region]` certified.
             Relaxed,
         }
     }

@@ -416,7 +416,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                 lambda: [f64; NSIDES],
                 /// Whether the point is a warm start (false after `new`, `reset` or a fallback).
                 warm: bool,
-                /// Whether the next solve widens the hard rows to the held plan ([`Fallback::Relaxed`]).
+                /// Whether the controller is recovering from hard rows that admitted no plan: the next solve
+                /// widens them to the held plan where it violates them ([`Fallback::Relaxed`]).
                 relax: bool,
                 #last_field
                 status: SolverStatus,
@@ -491,7 +492,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     // After the hard rows admitted no plan: each hard side widened to the held plan's
                     // value, so that the QP has a plan that violates no row more than holding would.
                     // Computed every solve and selected, so that every solve runs the same instructions.
-                    let relax = self.relax;
+                    // Recovering, the held plan violating a hard row: relaxed.
+                    let relax = self.relax & (violations(&held, &h).0 > ACCURACY);
                     let held_sides = side_values(&held);
                     let mut hs = h;
                     for j in 0..NG {
@@ -533,9 +535,8 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                     self.warm = trusted & !relax;
                     let (violation, softened) = violations(&self.plan, &h);
                     let infeasible = outcome.ended == Ended::Infeasible;
-                    // Relaxed until a relaxed plan meets the hard rows again to ACCURACY.
-                    let recovered = trusted & relax & (violation <= ACCURACY);
-                    self.relax = infeasible | (relax & !recovered);
+                    // Recovering after a solve found the hard rows infeasible, or made a relaxed plan.
+                    self.relax = infeasible | (trusted & relax);
                     self.status = SolverStatus {
                         iterations: outcome.iterations,
                         primal_residual: outcome.primal,

@@ -885,9 +885,10 @@ pub fn control_step<T: Real>(
     previous_plan: &DVector<f64>,
     iterations: usize,
     limits: &Limits,
-    relax: bool,
+    recovering: bool,
 ) -> Step {
     let held = ipm::held_plan(qp, previous_plan);
+    let relax = recovering && ipm::violations(qp, &held, offset).0 > qp.accuracy;
     let mut problem = ipm::mpc_qp(qp, f, offset);
     if relax {
         problem = ipm::relaxed(qp, problem, &held);

@@ -742,23 +742,18 @@ pub fn relaxed(qp: &Qp, mut problem: InequalityQp, held: &DVector<f64>) -> Inequ
     problem
 }
 
-/// Whether the next control step solves the [`relaxed`] QP: after a solve that found the hard rows
-/// infeasible, until a relaxed plan meets them again to `accuracy` (its hard violation, relative to
-/// max(1, |bound|), at most `accuracy`).
-pub fn relax_next(
-    qp: &Qp,
-    relax: bool,
-    infeasible: bool,
-    fallback: Fallback,
-    violation: f64,
-) -> bool {
-    let recovered = fallback == Fallback::Relaxed && violation <= qp.accuracy;
-    infeasible | (relax & !recovered)
+/// Whether the controller is recovering after this step: its solve found the hard rows infeasible, or
+/// it made a [`relaxed`] plan. A recovering controller's next step solves the relaxed QP when the held
+/// plan violates a hard row by more than `accuracy` (relative to max(1, |bound|)), and the hard QP
+/// otherwise (the held plan is then a feasible point of it).
+pub fn recovering_after(step: &Step) -> bool {
+    step.result.status == Status::Infeasible || step.fallback == Fallback::Relaxed
 }
 
 /// One control step: `iterations` from `start`, then the plan or the fallback to `previous_plan`
 /// shifted (rest input appended) when the solve failed, detected infeasibility, or ended with residuals
-/// or gap above `limits`. With `relax` the step solves the [`relaxed`] QP.
+/// or gap above `limits`. `recovering` ([`recovering_after`] of the previous step): the step solves the
+/// [`relaxed`] QP where the held plan violates a hard row.
 #[allow(clippy::too_many_arguments)]
 pub fn control_step(
     qp: &Qp,
@@ -768,9 +763,10 @@ pub fn control_step(
     previous_plan: &DVector<f64>,
     iterations: usize,
     limits: &Limits,
-    relax: bool,
+    recovering: bool,
 ) -> Step {
     let held = held_plan(qp, previous_plan);
+    let relax = recovering && violations(qp, &held, offset).0 > qp.accuracy;
     let mut problem = mpc_qp(qp, f, offset);
     if relax {
         problem = relaxed(qp, problem, &held);
