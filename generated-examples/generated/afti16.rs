@@ -505,7 +505,7 @@ pub mod afti16 {
             Measurement::Accepted
         }
         /// Moves the estimate onto the measurement, x ← x + C⁺·(z − C x) (the measured directions set,
-        /// the rest and the disturbance kept), and restarts the covariance.
+        /// the rest and the disturbance kept), and restarts the restart table.
         fn reacquire(&mut self, z: &[Real; NY]) -> Measurement {
             let x = reacquired(&self.x, &innovation(z, &self.x));
             if !all_finite(&x) {

@@ -307,7 +307,12 @@ fn steady_state(p: &Problem, f: &Filter, num: Num, kernels: TokenStream) -> Sect
         #advance
         Measurement::Accepted
     };
-    let screen = screening::emit(p, f, num, s_inverse, fuse, reset);
+    let what = if restart.is_some() {
+        "the restart table"
+    } else {
+        "nothing else (without a restart table)"
+    };
+    let screen = screening::emit(p, f, num, s_inverse, fuse, reset, what);
     let covariance_doc = if restart.is_some() {
         " The covariance the gain K∞ was computed from: the steady-state prior P∞ (the gains of the \
          [`RESTART_CYCLES`] readings after a re-acquisition are the time-varying filter's from P0)."
@@ -540,7 +545,15 @@ fn time_varying(p: &Problem, f: &Filter, num: Num, kernels: TokenStream) -> Sect
         self.P = P;
         Measurement::Accepted
     };
-    let screen = screening::emit(p, f, num, s_inverse, fuse, quote!(self.P = P0;));
+    let screen = screening::emit(
+        p,
+        f,
+        num,
+        s_inverse,
+        fuse,
+        quote!(self.P = P0;),
+        "the covariance",
+    );
     let kalman = kalman_type(
         p,
         &screen,
