@@ -941,6 +941,25 @@ fn filter_resources(p: &Problem, f: &Filter, num: Numeric) -> (usize, usize, (us
     if f.screening.gate.is_some() && f.kind == FilterKind::SteadyState {
         filter_constants += ny * ny;
     }
+    // The restart table: each row the entries of K_k (and, with a gate, of S_k⁻¹) that can be nonzero.
+    if let Some(first) = f.restart.first() {
+        let entries = |M: fn(&crate::linalg::Gain) -> &DMatrix<f64>| {
+            let (r, c) = M(first).shape();
+            (0..r * c)
+                .filter(|&n| {
+                    f.restart
+                        .iter()
+                        .any(|g| num.round(M(g)[(n % r, n / r)]) != 0.0)
+                })
+                .count()
+        };
+        let gate_entries = if f.screening.gate.is_some() {
+            entries(|g| &g.S_inv)
+        } else {
+            0
+        };
+        filter_constants += f.restart.len() * (entries(|g| &g.K) + gate_entries);
+    }
     let size = num.bytes();
     let real = (size, size);
     let array = |n: usize, (s, a): (usize, usize)| (n * s, a);
@@ -960,6 +979,8 @@ fn filter_resources(p: &Problem, f: &Filter, num: Numeric) -> (usize, usize, (us
         } else {
             (0, 1)
         },
+        // The restart's count of fused readings.
+        if f.restart.is_empty() { (0, 1) } else { u32_ },
         filter_status_layout(f, size),
     ]);
     (filter, filter_constants, kalman)

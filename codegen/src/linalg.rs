@@ -36,6 +36,69 @@ pub fn steady_state_filter(
     None
 }
 
+/// One step of the gain sequence after a restart: the gain K_k and the inverse S_k⁻¹ of the innovation
+/// covariance S_k = C P_k Cᵀ + R that the time-varying filter uses for its k-th reading.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Gain {
+    /// K_k = P_k Cᵀ S_k⁻¹.
+    pub K: DMatrix<f64>,
+    /// S_k⁻¹.
+    pub S_inv: DMatrix<f64>,
+}
+
+/// The gains of the time-varying filter restarted with the posterior covariance P0 (as re-acquisition
+/// restarts it) and fed every reading from then on: entry k − 1 is the gain of the k-th reading, whose
+/// prior is P_k = F P⁺_{k−1} Fᵀ + Q with P⁺_0 = P0 (the oracle's time-varying arithmetic: Joseph form,
+/// symmetrized). The sequence depends on no measurement, so it is a table.
+///
+/// It ends after the last reading for which K∞ would not do: where the posterior with K∞ instead of
+/// K_k, P⁺_k + (K∞ − K_k) S_k (K∞ − K_k)ᵀ (the posterior is stationary in the gain), exceeds P⁺_k by
+/// more than `tolerance` in some state's variance, or S∞ differs from S_k by more than `tolerance` in
+/// some diagonal entry (the gate). The recursion runs until the prior is within 1e-9 of P∞ (it
+/// converges as the steady-state gain's does), `max` entries at most.
+pub fn restart_gains(
+    model: (&DMatrix<f64>, &DMatrix<f64>),
+    noise: (&DMatrix<f64>, &DMatrix<f64>),
+    P0: &DMatrix<f64>,
+    steady: (&DMatrix<f64>, &DMatrix<f64>),
+    tolerance: f64,
+    max: usize,
+) -> Vec<Gain> {
+    let ((F, C), (Qn, Rn), (K_inf, P_inf)) = (model, noise, steady);
+    let S_inf = C * P_inf * C.transpose() + Rn;
+    let mut gains = Vec::new();
+    let mut needed = 0;
+    let mut posterior = P0.clone();
+    while gains.len() < max {
+        let prior = symmetrize(&(F * &posterior * F.transpose() + Qn));
+        if (&prior - P_inf).amax() <= 1e-9 * P_inf.amax() {
+            break;
+        }
+        let S = C * &prior * C.transpose() + Rn;
+        let (Some(S_inv), Some((K, next))) = (
+            S.clone().cholesky().map(|c| c.inverse()),
+            kalman_gain_and_posterior(&prior, C, Rn),
+        ) else {
+            break;
+        };
+        if !K.iter().chain(S_inv.iter()).all(|v| v.is_finite()) {
+            break;
+        }
+        let dK = K_inf - &K;
+        let excess = &dK * &S * dK.transpose();
+        let costly = (0..excess.nrows()).any(|i| excess[(i, i)] > tolerance * next[(i, i)]);
+        let gate =
+            (0..S.nrows()).any(|i| (S_inf[(i, i)] - S[(i, i)]).abs() > tolerance * S[(i, i)]);
+        gains.push(Gain { K, S_inv });
+        if costly || gate {
+            needed = gains.len();
+        }
+        posterior = next;
+    }
+    gains.truncate(needed);
+    gains
+}
+
 /// The Moore-Penrose pseudo-inverse, singular values below ε·max(rows, cols) of M's largest entry taken
 /// as zero (a tolerance relative to M's own scale); zeros if the SVD fails.
 pub fn pseudo_inverse(M: &DMatrix<f64>) -> DMatrix<f64> {

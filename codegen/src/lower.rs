@@ -7,7 +7,8 @@
 use crate::constraints::Rows;
 use crate::discretize::{self, NotFinite};
 use crate::linalg::{
-    dense, extreme_eigenvalues, project, pseudo_inverse, steady_state_filter, symmetrize,
+    dense, extreme_eigenvalues, project, pseudo_inverse, restart_gains, steady_state_filter,
+    symmetrize, Gain,
 };
 use crate::numeric::Numeric;
 use crate::solver::Parameters;
@@ -232,7 +233,20 @@ pub struct Filter {
     pub C_pinv: DMatrix<f64>,
     /// (C P∞ Cᵀ + R)⁻¹ (ny × ny): the steady-state filter's innovation covariance, inverted, for its gate.
     pub S_inf_inv: DMatrix<f64>,
+    /// The steady-state filter's gains after a re-acquisition: the k-th reading it fuses from then on
+    /// uses entry k − 1 (gate and correction), the gain of the time-varying filter restarted at P0
+    /// ([`restart_gains`]), and K∞ once the table is used up. Empty for the time-varying filter, which
+    /// restarts its own covariance.
+    pub restart: Vec<Gain>,
 }
+
+/// The restart table ends after the last reading for which K∞ instead of the time-varying gain would
+/// add more than this fraction to a state's posterior variance, or S∞ would differ from the innovation
+/// covariance by more ([`restart_gains`]).
+pub const RESTART_TOLERANCE: f64 = 0.01;
+
+/// The restart table's longest length, readings.
+pub const RESTART_MAX: usize = 1000;
 
 /// The default false-rejection probability of the innovation gate: the gate is the χ² quantile with ny
 /// degrees of freedom that a consistent filter exceeds this rarely (30.7 for ny = 3; once in about 3.5
@@ -983,6 +997,17 @@ fn filter(
         .unwrap_or_else(|| DMatrix::zeros(ny, ny));
     // C has full row rank or a dependent measurement: the pseudo-inverse serves both.
     let C_pinv = pseudo_inverse(C).resize_vertically(nx + nd, 0.0);
+    let restart = match kalman.filter {
+        FilterKind::SteadyState => restart_gains(
+            (&Fa, &Ca),
+            (&Qn, &Rn),
+            &P0,
+            (&K_inf, &P_inf),
+            RESTART_TOLERANCE,
+            RESTART_MAX,
+        ),
+        FilterKind::TimeVarying => Vec::new(),
+    };
     Some(Filter {
         nd,
         Fa,
@@ -998,6 +1023,7 @@ fn filter(
         screening: Screening::resolve(&kalman.screening, ny),
         C_pinv,
         S_inf_inv,
+        restart,
     })
 }
 

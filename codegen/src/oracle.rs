@@ -3,7 +3,7 @@
 //! and the baseline the benchmarks compare with.
 #![allow(non_snake_case)]
 
-use crate::linalg::{kalman_gain_and_posterior, project, symmetrize};
+use crate::linalg::{kalman_gain_and_posterior, project, symmetrize, Gain};
 use crate::lower::{Problem, Qp, Screening};
 use crate::solver::admm;
 use crate::solver::ipm::{control_step, shifted_start, Start, Step};
@@ -284,6 +284,11 @@ pub struct Kalman {
     P0: DMatrix<f64>,
     K_inf: Option<DMatrix<f64>>,
     S_inf_inv: DMatrix<f64>,
+    /// The steady-state filter's gains after a re-acquisition (`Filter::restart`).
+    restart: Vec<Gain>,
+    /// Readings fused since the last re-acquisition, up to the restart table's length: the entry the
+    /// next reading uses.
+    fused: usize,
     C_pinv: DMatrix<f64>,
     screening: Screening,
     /// The disturbance bound [−u_max, −u_min], per input; empty without a disturbance model.
@@ -333,6 +338,8 @@ impl Kalman {
             P0: f.P0.clone(),
             K_inf: (f.kind == FilterKind::SteadyState).then(|| f.K_inf.clone()),
             S_inf_inv: f.S_inf_inv.clone(),
+            restart: f.restart.clone(),
+            fused: f.restart.len(),
             C_pinv: f.C_pinv.clone(),
             screening: f.screening,
             d_bounds,
@@ -401,9 +408,11 @@ impl Kalman {
             return self.reacquire(z);
         }
         let innovation = z - &self.C * &self.x;
-        let S_inv = match &self.K_inf {
-            Some(_) => self.S_inf_inv.clone(),
-            None => match (&self.C * &self.P * self.C.transpose() + &self.Rn).cholesky() {
+        let restart = self.restart.get(self.fused);
+        let S_inv = match (&self.K_inf, restart) {
+            (Some(_), Some(g)) => g.S_inv.clone(),
+            (Some(_), None) => self.S_inf_inv.clone(),
+            (None, _) => match (&self.C * &self.P * self.C.transpose() + &self.Rn).cholesky() {
                 Some(c) => c.inverse(),
                 None => return Measurement::Numerical,
             },
@@ -421,9 +430,10 @@ impl Kalman {
                 return Measurement::Gated;
             }
         }
-        let (K, P) = match &self.K_inf {
-            Some(K) => (K.clone(), self.P.clone()),
-            None => match kalman_gain_and_posterior(&self.P, &self.C, &self.Rn) {
+        let (K, P) = match (&self.K_inf, restart) {
+            (Some(_), Some(g)) => (g.K.clone(), self.P.clone()),
+            (Some(K), None) => (K.clone(), self.P.clone()),
+            (None, _) => match kalman_gain_and_posterior(&self.P, &self.C, &self.Rn) {
                 Some(kp) => kp,
                 None => return Measurement::Numerical,
             },
@@ -442,10 +452,12 @@ impl Kalman {
         self.disturbance_clamped = clamped;
         self.x = x;
         self.P = P;
+        self.fused = (self.fused + 1).min(self.restart.len());
         Measurement::Accepted
     }
 
-    /// x ← x + C⁺ (z − C x), P ← P0 (time-varying).
+    /// x ← x + C⁺ (z − C x); P ← P0 (time-varying), or the restart table from its start
+    /// (steady-state).
     fn reacquire(&mut self, z: &DVector<f64>) -> Measurement {
         let x = &self.x + &self.C_pinv * (z - &self.C * &self.x);
         if !x.iter().all(|v| v.is_finite()) {
@@ -455,6 +467,7 @@ impl Kalman {
         if self.K_inf.is_none() {
             self.P = self.P0.clone();
         }
+        self.fused = 0;
         self.gated = 0;
         self.valid = true;
         self.reacquisitions = self.reacquisitions.saturating_add(1);
@@ -477,16 +490,19 @@ impl Kalman {
         &self.x
     }
 
-    /// The covariance (prior after `predict`, posterior after `update`; P∞ for the steady-state filter).
+    /// The covariance (prior after `predict`, posterior after `update`; P∞ for the steady-state filter,
+    /// its restart table included).
     pub fn covariance(&self) -> &DMatrix<f64> {
         &self.P
     }
 
-    /// The gain the next update would use.
+    /// The gain the next update would use (an entry of the restart table after a re-acquisition of the
+    /// steady-state filter).
     pub fn gain(&self) -> Option<DMatrix<f64>> {
-        match &self.K_inf {
-            Some(K) => Some(K.clone()),
-            None => kalman_gain_and_posterior(&self.P, &self.C, &self.Rn).map(|(K, _)| K),
+        match (&self.K_inf, self.restart.get(self.fused)) {
+            (Some(_), Some(g)) => Some(g.K.clone()),
+            (Some(K), None) => Some(K.clone()),
+            (None, _) => kalman_gain_and_posterior(&self.P, &self.C, &self.Rn).map(|(K, _)| K),
         }
     }
 }

@@ -64,6 +64,8 @@ pub mod afti16 {
     /// Bit-identical readings in a row from which the sensor is taken as stuck and its reading
     /// rejected ([kalman] stuck_cycles); a stuck reading never causes a re-acquisition.
     pub const STUCK_CYCLES: u32 = 10;
+    /// Readings after a re-acquisition fused with the time-varying filter's gains from P0 (the restart table) before K∞ takes over: from there on K∞ adds less than 1 % to any state's posterior variance.
+    pub const RESTART_CYCLES: u32 = 11;
     /// One control cycle in the paper's order (Section 2.1): filter update with the measurement,
     /// MPC from the estimate, filter prediction with the command.
     #[derive(Clone, Debug, PartialEq)]
@@ -433,10 +435,11 @@ pub mod afti16 {
             Self::new()
         }
     }
-    /// The steady-state Kalman filter: the gain K∞ of the discrete Riccati equation, fixed at compile time.
+    /// The steady-state Kalman filter: the gain K∞ of the discrete Riccati equation, fixed at compile time; after a re-acquisition, the time-varying filter's gains from P0, a table computed at compile time.
     #[derive(Clone, Debug, PartialEq)]
     pub struct Kalman {
         x: [Real; NX],
+        fused: u32,
         last: [Real; NY],
         repeats: u32,
         gated: u32,
@@ -450,6 +453,7 @@ pub mod afti16 {
             let valid = finite(&x0);
             Kalman {
                 x: if valid { x0 } else { [0.0; NX] },
+                fused: RESTART_CYCLES,
                 last: [0.0; NY],
                 repeats: 0,
                 gated: 0,
@@ -520,7 +524,11 @@ pub mod afti16 {
             if !self.status.estimate_valid {
                 return self.reacquire(&z);
             }
-            let S_inv = S_INV;
+            let restart = RESTART.get(self.fused as usize);
+            let S_inv = match restart {
+                Some(g) => restart_s_inv(g),
+                None => S_INV,
+            };
             let innovation = innovation(&z, &self.x);
             let nis = normalized(&innovation, &S_inv);
             self.status.innovation = nis;
@@ -533,21 +541,28 @@ pub mod afti16 {
                 }
                 return Measurement::Gated;
             }
-            let x = correct(&self.x, &innovation);
+            let x = match restart {
+                Some(g) => correct_restart(&self.x, &innovation, g),
+                None => correct(&self.x, &innovation),
+            };
             if !(all_finite(&x)) {
                 return Measurement::Numerical;
             }
             self.x = flushed(&x);
+            if self.fused < RESTART_CYCLES {
+                self.fused += 1;
+            }
             Measurement::Accepted
         }
         /// Moves the estimate onto the measurement, x ← x + C⁺·(z − C x) (the measured directions set,
-        /// the rest and the disturbance kept), and restarts the covariance.
+        /// the rest and the disturbance kept), and restarts the restart table.
         fn reacquire(&mut self, z: &[Real; NY]) -> Measurement {
             let x = reacquired(&self.x, &innovation(z, &self.x));
             if !all_finite(&x) {
                 return Measurement::Numerical;
             }
             self.x = flushed(&x);
+            self.fused = 0;
             self.gated = 0;
             self.status.estimate_valid = true;
             self.status.reacquisitions = self.status.reacquisitions.saturating_add(1);
@@ -557,7 +572,7 @@ pub mod afti16 {
         pub fn state(&self) -> &[Real; NX] {
             &self.x
         }
-        /// The covariance the gain was computed from: the steady-state prior P∞.
+        /// The covariance the gain K∞ was computed from: the steady-state prior P∞ (the gains of the [`RESTART_CYCLES`] readings after a re-acquisition are the time-varying filter's from P0).
         pub fn covariance(&self) -> &[[Real; NX]; NX] {
             &P_INF
         }
@@ -3978,6 +3993,21 @@ pub mod afti16 {
                 + 0.3223224979525575f64 * innovation[1],
         ]
     }
+    /// x + K_k·e over the restart table's row `g`.
+    #[inline(always)]
+    fn correct_restart(x: &[Real; NX], e: &[Real; NY], g: &[Real; 12]) -> [Real; NX] {
+        [
+            x[0] + g[0] * e[0] + g[1] * e[1],
+            x[1] + g[2] * e[0] + g[3] * e[1],
+            x[2] + g[4] * e[0] + g[5] * e[1],
+            x[3] + g[6] * e[0] + g[7] * e[1],
+        ]
+    }
+    /// S_k⁻¹ from the restart table's row `g`, for the gate.
+    #[inline(always)]
+    fn restart_s_inv(g: &[Real; 12]) -> [[Real; NY]; NY] {
+        [[g[8], g[9]], [g[10], g[11]]]
+    }
     /// z − C·x.
     #[inline(always)]
     fn innovation(z: &[Real; NY], x: &[Real; NX]) -> [Real; NY] {
@@ -5406,6 +5436,164 @@ pub mod afti16 {
         [6619.8479279499015f64, -1579.5298132785615f64],
         [-1579.5298132785615f64, 6776.775020474423f64],
     ];
+    /// The restart table: row k − 1 holds the gain K_k of the k-th reading after a
+    /// re-acquisition (its entries that can be nonzero, row by row), then S_k⁻¹ for the gate.
+    const RESTART: [[Real; 12]; 11] = [
+        [
+            -2.9592971056743793f64,
+            -1.6028217946846628f64,
+            0.9998971263064655f64,
+            0.000005550306729128207f64,
+            2.1543646721632372f64,
+            0.0426937648729699f64,
+            0.000005550306729128207f64,
+            0.9999002326158901f64,
+            1.0287369353456401f64,
+            -0.05550306729138132f64,
+            -0.05550306729138132f64,
+            0.9976738411000873f64,
+        ],
+        [
+            -0.7990401679679329f64,
+            0.6342327050550373f64,
+            0.7271651723504746f64,
+            0.23988045842819616f64,
+            10.234894447723605f64,
+            9.41646538033821f64,
+            0.23988045842819616f64,
+            0.7445024311651469f64,
+            2728.3482764952464f64,
+            -2398.8045842819633f64,
+            -2398.804584281963f64,
+            2554.975688348525f64,
+        ],
+        [
+            -1.3290768057463902f64,
+            0.03248089737821025f64,
+            0.5745039408725081f64,
+            0.24486260675242277f64,
+            5.711391084661985f64,
+            4.929921336782597f64,
+            0.24486260675242288f64,
+            0.5932463108777889f64,
+            4254.96059127492f64,
+            -2448.626067524228f64,
+            -2448.6260675242283f64,
+            4067.53689122211f64,
+        ],
+        [
+            -1.720094117259666f64,
+            -0.44399225389359986f64,
+            0.4830462292496641f64,
+            0.2221130885375197f64,
+            3.8930603961455144f64,
+            3.1166394602779786f64,
+            0.2221130885375197f64,
+            0.4969212740517705f64,
+            5169.5377075033575f64,
+            -2221.1308853751966f64,
+            -2221.130885375197f64,
+            5030.787259482294f64,
+        ],
+        [
+            -2.0253683645444296f64,
+            -0.8428743980230101f64,
+            0.42766154890648167f64,
+            0.2012030684211418f64,
+            3.034379477475988f64,
+            2.2599318899815852f64,
+            0.20120306842114177f64,
+            0.43510568101681546f64,
+            5723.384510935183f64,
+            -2012.030684211418f64,
+            -2012.0306842114178f64,
+            5648.943189831845f64,
+        ],
+        [
+            -2.2791759191787992f64,
+            -1.198016575739486f64,
+            0.39356907525044676f64,
+            0.1856859136380587f64,
+            2.5857121184606777f64,
+            1.813010440065351f64,
+            0.18568591363805872f64,
+            0.39477184561166856f64,
+            6064.309247495532f64,
+            -1856.8591363805867f64,
+            -1856.8591363805867f64,
+            6052.281543883313f64,
+        ],
+        [
+            -2.494488802512785f64,
+            -1.5218526414880489f64,
+            0.372443474320421f64,
+            0.17502539238336803f64,
+            2.337611606419487f64,
+            1.567043796203394f64,
+            0.175025392383368f64,
+            0.3683083736907648f64,
+            6275.565256795789f64,
+            -1750.2539238336803f64,
+            -1750.253923833681f64,
+            6316.916263092351f64,
+        ],
+        [
+            -2.6748989346649665f64,
+            -1.8162062958905638f64,
+            0.35936618800614967f64,
+            0.16806834399880727f64,
+            2.196276859099771f64,
+            1.4285006818476154f64,
+            0.1680683439988073f64,
+            0.3510382740512329f64,
+            6406.338119938504f64,
+            -1680.683439988073f64,
+            -1680.683439988073f64,
+            6489.61725948767f64,
+        ],
+        [
+            -2.8211524132220593f64,
+            -2.0788446993241116f64,
+            0.3513069297890551f64,
+            0.16373305734302646f64,
+            2.1145548897040767f64,
+            1.3502425361670614f64,
+            0.16373305734302646f64,
+            0.33991957910773174f64,
+            6486.930702109449f64,
+            -1637.3305734302644f64,
+            -1637.3305734302642f64,
+            6600.804208922684f64,
+        ],
+        [
+            -2.9343097763391652f64,
+            -2.3071852891674878f64,
+            0.3463582859399321f64,
+            0.16115186281500382f64,
+            2.066883159297177f64,
+            1.3064984823354795f64,
+            0.16115186281500388f64,
+            0.3328955470518904f64,
+            6536.41714060068f64,
+            -1611.5186281500385f64,
+            -1611.5186281500385f64,
+            6671.044529481095f64,
+        ],
+        [
+            -3.01688060381942f64,
+            -2.5001269859697413f64,
+            0.34331766718658946f64,
+            0.1596831489169406f64,
+            2.038815122706981f64,
+            1.2824973443681666f64,
+            0.15968314891694058f64,
+            0.3285543465857854f64,
+            6566.8233281341045f64,
+            -1596.8314891694054f64,
+            -1596.8314891694054f64,
+            6714.456534142145f64,
+        ],
+    ];
     /// What the compiler proved and counted about this controller (see `codegen::certificate` for the
     /// bounds' forms). Every number is f64, computed once at compile time.
     pub mod report {
@@ -5471,13 +5659,13 @@ pub mod afti16 {
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
         pub const MACS_PER_CYCLE: usize = 167715;
         /// Bytes of coefficients inlined into the code.
-        pub const BYTES_CONSTANTS: usize = 3752;
+        pub const BYTES_CONSTANTS: usize = 4808;
         /// Bytes of `Mpc`.
         pub const BYTES_STATE_MPC: usize = 176;
         /// Bytes of `Kalman`.
-        pub const BYTES_STATE_KALMAN: usize = 80;
+        pub const BYTES_STATE_KALMAN: usize = 88;
         /// Bytes of `Controller`, all the state carried between cycles.
-        pub const BYTES_STATE: usize = 320;
+        pub const BYTES_STATE: usize = 328;
         /// Multiply-adds of the filter's update and predict, unrolled in the code.
         pub const MACS_FILTER: usize = 40;
         /// The a priori bound J(U_k) − J* ≤ C·ρᵏ·(J(U_0) − J*): (C, ρ); `None` for a step above 1/L.

@@ -19,7 +19,9 @@ fn normal(rng: &mut impl Rng) -> f64 {
     rng.sample(StandardNormal)
 }
 
-fn compare_filter<G: Generated>(seed: u64, steps: usize) -> f64 {
+/// The generated filter against the oracle on `steps` noisy readings; from `x0` = 0, or from no estimate
+/// (a NaN `x0`: the first reading is acquired, and a steady-state filter runs its restart table).
+fn compare_filter<G: Generated>(seed: u64, steps: usize, acquire: bool) -> f64 {
     let p = G::problem();
     let (nx, nu, ny) = (p.nx, p.nu, p.ny);
     let mut rng = rng(seed);
@@ -32,7 +34,7 @@ fn compare_filter<G: Generated>(seed: u64, steps: usize) -> f64 {
         "the filter's error dynamics are unstable: ρ = {rho}"
     );
     let mut x = random_vector(&mut rng, nx, 1.0);
-    let x0 = DVector::zeros(nx);
+    let x0 = DVector::from_element(nx, if acquire { f64::NAN } else { 0.0 });
     let mut oracle = oracle::Kalman::new(&p, x0.clone()).expect("the spec has a filter");
     let mut generated = G::kalman_new(x0.as_slice());
     let sigma_z: Vec<f64> = (0..ny).map(|i| filter.Rn[(i, i)].sqrt()).collect();
@@ -81,11 +83,12 @@ fn compare_filter<G: Generated>(seed: u64, steps: usize) -> f64 {
 }
 
 macro_rules! filter_tests {
-    ($($test:ident: $g:ty,)*) => {
+    ($($test:ident: $g:ty $(, $acquire:ident)?;)*) => {
         $(
             #[test]
             fn $test() {
-                let worst = compare_filter::<$g>(0xf117 + stringify!($test).len() as u64, 1000);
+                let acquire = false $(|| stringify!($acquire) == "acquire")?;
+                let worst = compare_filter::<$g>(0xf117 + stringify!($test).len() as u64, 1000, acquire);
                 assert!(worst <= K_FILTER, "error {worst} × the scale exceeds k = {K_FILTER}");
             }
         )*
@@ -93,13 +96,18 @@ macro_rules! filter_tests {
 }
 
 filter_tests! {
-    kalman_paper: paper,                       // f32, time-varying
-    kalman_paper_f64: paper_f64,               // f64, steady-state
-    kalman_horizon40: horizon40,               // f32, steady-state
-    kalman_asymmetric_gradient: asymmetric_gradient, // f64, time-varying, diagonal P0
-    kalman_full_q: full_q,                     // f32, time-varying, full P0
-    kalman_linear_f64: linear_f64,             // f64, time-varying, full covariances
-    kalman_linear_f32: linear_f32,             // f32, steady-state
+    kalman_paper: paper;                       // f32, time-varying
+    kalman_paper_f64: paper_f64;               // f64, steady-state
+    kalman_horizon40: horizon40;               // f32, steady-state
+    kalman_asymmetric_gradient: asymmetric_gradient; // f64, time-varying, diagonal P0
+    kalman_full_q: full_q;                     // f32, time-varying, full P0
+    kalman_linear_f64: linear_f64;             // f64, time-varying, full covariances
+    kalman_linear_f32: linear_f32;             // f32, steady-state
+    // From no estimate: the acquisition, then (steady-state) the restart table's gains.
+    kalman_paper_acquired: paper, acquire;
+    kalman_paper_f64_acquired: paper_f64, acquire;
+    kalman_horizon40_acquired: horizon40, acquire;
+    kalman_linear_f32_acquired: linear_f32, acquire;
     // The augmented filters (state and disturbance) are compared in `offset_free.rs`.
 }
 
@@ -139,6 +147,68 @@ fn steady_state_gain_is_the_limit_of_the_time_varying_filter() {
             p_diff <= 1e-9 * steady.P_inf.amax(),
             "covariance differs from P∞ by {p_diff:e}"
         );
+    }
+}
+
+/// After a re-acquisition the steady-state filter is the time-varying filter restarted at P0: the same
+/// gains and estimates (to rounding) while its restart table lasts, and from then on K∞, within
+/// `RESTART_TOLERANCE` of the time-varying filter's gain.
+#[test]
+fn the_steady_state_restart_is_the_time_varying_filter_from_p0() {
+    for problem in [paper_f64::problem(), offset_free_f64::problem()] {
+        let steady = problem.filter.as_ref().expect("the spec has a filter");
+        let cycles = steady.restart.len();
+        assert!(cycles > 0, "no restart table");
+        let mut varying = problem.clone();
+        varying.filter.as_mut().expect("a filter").kind = mpc_spec::FilterKind::TimeVarying;
+        let nan = DVector::from_element(problem.nx, f64::NAN);
+        let mut a = oracle::Kalman::new(&problem, nan.clone()).expect("a filter");
+        let mut b = oracle::Kalman::new(&varying, nan).expect("a filter");
+        let mut rng = rng(3);
+        let mut x = DVector::<f64>::zeros(problem.nx);
+        x[0] = 5.0;
+        let (mut gain_gap, mut state_gap, mut x_abs) = (0.0_f64, 0.0_f64, 0.0_f64);
+        for k in 0..cycles + 1 {
+            let (ga, gb) = (a.gain().expect("a gain"), b.gain().expect("a gain"));
+            if k > 0 {
+                // The k-th reading after the acquisition (k = 0 is the acquisition itself).
+                gain_gap = gain_gap.max((&ga - &gb).amax());
+            }
+            let z = (&problem.C * &x).map(|v| v + 0.3 * normal(&mut rng));
+            assert_eq!(a.update(&z), b.update(&z), "reading {k}");
+            let u = DVector::from_iterator(
+                problem.nu,
+                (0..problem.nu).map(|_| rng.gen_range(-1.0..1.0)),
+            );
+            a.predict(&u);
+            b.predict(&u);
+            x = &problem.F * &x + &problem.G * &u;
+            x_abs = x_abs.max(b.state().amax());
+            state_gap = state_gap.max((a.state() - b.state()).amax());
+        }
+        let scale = steady.K_inf.amax();
+        assert!(
+            gain_gap <= 1e-12 * scale,
+            "the restart's gains differ by {gain_gap:e}"
+        );
+        assert!(
+            state_gap <= 1e-12 * x_abs,
+            "the estimates differ by {state_gap:e}"
+        );
+        // The table used up: K∞, which from here on costs less than the tolerance in variance.
+        assert_eq!(a.gain(), Some(steady.K_inf.clone()));
+        let (K, P) = (b.gain().expect("a gain"), b.covariance().clone());
+        let S = &steady.Ca * &P * steady.Ca.transpose() + &steady.Rn;
+        let dK = &steady.K_inf - &K;
+        let excess = &dK * &S * dK.transpose();
+        let posterior = &P - &K * &S * K.transpose();
+        for i in 0..excess.nrows() {
+            assert!(
+                excess[(i, i)] <= codegen::lower::RESTART_TOLERANCE * posterior[(i, i)],
+                "K∞ after {cycles} readings adds {:e} of variance to state {i}",
+                excess[(i, i)] / posterior[(i, i)]
+            );
+        }
     }
 }
 

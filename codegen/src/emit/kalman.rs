@@ -231,33 +231,105 @@ fn steady_state(p: &Problem, f: &Filter, num: Num, kernels: TokenStream) -> Sect
         quote!([[Real; NX]; NX])
     };
     let (d_check, d_commit) = (parts.check, parts.commit);
+    let gate = f.screening.gate.is_some();
+    let restart = Restart::of(p, f, num);
+    let (s_inverse, correction, advance, reset, fields, init) = match &restart {
+        None => (
+            if gate {
+                quote!(let S_inv = S_INV;)
+            } else {
+                quote!()
+            },
+            quote! {
+                let x = correct(&self.x, &innovation);
+                #d_correct
+            },
+            quote!(),
+            quote!(),
+            quote!(),
+            quote!(),
+        ),
+        Some(_) => {
+            let s_inv = gate.then(|| {
+                quote! {
+                    let S_inv = match restart {
+                        Some(g) => restart_s_inv(g),
+                        None => S_INV,
+                    };
+                }
+            });
+            let correction = if nd > 0 {
+                quote! {
+                    let (x, d) = match restart {
+                        Some(g) => (
+                            correct_restart(&self.x, &innovation, g),
+                            correct_disturbance_restart(&self.d, &innovation, g),
+                        ),
+                        None => (
+                            correct(&self.x, &innovation),
+                            correct_disturbance(&self.d, &innovation),
+                        ),
+                    };
+                }
+            } else {
+                quote! {
+                    let x = match restart {
+                        Some(g) => correct_restart(&self.x, &innovation, g),
+                        None => correct(&self.x, &innovation),
+                    };
+                }
+            };
+            (
+                quote! {
+                    // The restart table's entry for this reading while a re-acquisition's transient lasts.
+                    let restart = RESTART.get(self.fused as usize);
+                    #s_inv
+                },
+                correction,
+                quote! {
+                    if self.fused < RESTART_CYCLES {
+                        self.fused += 1;
+                    }
+                },
+                quote!(self.fused = 0;),
+                quote!(fused: u32,),
+                quote!(fused: RESTART_CYCLES,),
+            )
+        }
+    };
     let fuse = quote! {
-        let x = correct(&self.x, &innovation);
-        #d_correct
+        #correction
         if !(all_finite(&x) #d_check) {
             return Measurement::Numerical;
         }
         self.x = flushed(&x);
         #d_commit
+        #advance
         Measurement::Accepted
     };
-    let s_inverse = if f.screening.gate.is_some() {
-        quote!(let S_inv = S_INV;)
+    let what = if restart.is_some() {
+        "the restart table"
     } else {
-        quote!()
+        "nothing else (without a restart table)"
     };
-    let screen = screening::emit(p, f, num, s_inverse, fuse, quote!());
+    let screen = screening::emit(p, f, num, s_inverse, fuse, reset, what);
+    let covariance_doc = if restart.is_some() {
+        " The covariance the gain K∞ was computed from: the steady-state prior P∞ (the gains of the \
+         [`RESTART_CYCLES`] readings after a re-acquisition are the time-varying filter's from P0)."
+    } else {
+        " The covariance the gain was computed from: the steady-state prior P∞."
+    };
     let kalman = kalman_type(
         p,
         &screen,
         KindParts {
-            doc: " The steady-state Kalman filter: the gain K∞ of the discrete Riccati equation, fixed at compile time.",
-            fields: quote!(),
-            init: quote!(),
+            doc: " The steady-state Kalman filter: the gain K∞ of the discrete Riccati equation, fixed at compile time; after a re-acquisition, the time-varying filter's gains from P0, a table computed at compile time.",
+            fields,
+            init,
             predict_covariance: quote!(),
             commit_covariance: quote!(),
             methods: quote! {
-                /// The covariance the gain was computed from: the steady-state prior P∞.
+                #[doc = #covariance_doc]
                 pub fn covariance(&self) -> &#covariance_type {
                     &P_INF
                 }
@@ -265,11 +337,16 @@ fn steady_state(p: &Problem, f: &Filter, num: Num, kernels: TokenStream) -> Sect
         },
     );
     let Sections {
-        constants,
+        mut constants,
         api: screen_api,
         kernels: screen_kernels,
-        tables,
+        mut tables,
     } = screen.sections;
+    let restart_kernels = restart.map(|r| {
+        constants.extend(r.constant);
+        tables.extend(r.table);
+        r.kernels
+    });
     let kernels = quote! {
         #kernels
 
@@ -280,6 +357,7 @@ fn steady_state(p: &Problem, f: &Filter, num: Num, kernels: TokenStream) -> Sect
         }
 
         #d_kernel
+        #restart_kernels
         #screen_kernels
     };
     Sections {
@@ -287,6 +365,129 @@ fn steady_state(p: &Problem, f: &Filter, num: Num, kernels: TokenStream) -> Sect
         api: quote!(#kalman #screen_api),
         kernels,
         tables,
+    }
+}
+
+/// The steady-state filter's restart after a re-acquisition (`Filter::restart`): its length, its table
+/// (one row per reading: the entries of K_k that can be nonzero, then those of S_k⁻¹ with a gate) and
+/// the kernels that read a row.
+struct Restart {
+    constant: TokenStream,
+    table: TokenStream,
+    kernels: TokenStream,
+}
+
+impl Restart {
+    /// `None` when the table is empty (a time-varying filter).
+    fn of(p: &Problem, f: &Filter, num: Num) -> Option<Restart> {
+        let gains = &f.restart;
+        if gains.is_empty() {
+            return None;
+        }
+        let (nx, nd, ny) = (p.nx, f.nd, p.ny);
+        let na = nx + nd;
+        let gate = f.screening.gate.is_some();
+        // The entries written in some row: an entry zero in every row is left out of the table.
+        let used = |M: fn(&crate::linalg::Gain) -> &DMatrix<f64>, i: usize, j: usize| {
+            gains.iter().any(|g| num.round(M(g)[(i, j)]) != 0.0)
+        };
+        let k_at: Vec<(usize, usize)> = (0..na)
+            .flat_map(|i| (0..ny).map(move |j| (i, j)))
+            .filter(|&(i, j)| used(|g| &g.K, i, j))
+            .collect();
+        let s_at: Vec<(usize, usize)> = if gate {
+            (0..ny)
+                .flat_map(|i| (0..ny).map(move |j| (i, j)))
+                .filter(|&(i, j)| used(|g| &g.S_inv, i, j))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let width = Literal::usize_unsuffixed(k_at.len() + s_at.len());
+        let cycles = Literal::usize_unsuffixed(gains.len());
+        let rows = gains.iter().map(|g| {
+            let entries = k_at
+                .iter()
+                .map(|&(i, j)| g.K[(i, j)])
+                .chain(s_at.iter().map(|&(i, j)| g.S_inv[(i, j)]));
+            num.vector(entries)
+        });
+        let ix = |i: usize| Literal::usize_unsuffixed(i);
+        // Row i of x + K_k·e (or of d + K_k·e), over the row's entries in order.
+        let correct_row = |base: TokenStream, i: usize| {
+            let terms = k_at
+                .iter()
+                .enumerate()
+                .filter(|(_, (r, _))| *r == i)
+                .map(|(n, (_, j))| {
+                    let (n, j) = (ix(n), ix(*j));
+                    quote!(+ g[#n] * e[#j])
+                });
+            quote!(#base #(#terms)*)
+        };
+        let x_rows = (0..nx).map(|i| {
+            let ii = ix(i);
+            correct_row(quote!(x[#ii]), i)
+        });
+        let mut kernels = quote! {
+            /// x + K_k·e over the restart table's row `g`.
+            #[inline(always)]
+            fn correct_restart(x: &[Real; NX], e: &[Real; NY], g: &[Real; #width]) -> [Real; NX] {
+                [#(#x_rows),*]
+            }
+        };
+        if nd > 0 {
+            let d_rows = (0..nd).map(|i| {
+                let ii = ix(i);
+                correct_row(quote!(d[#ii]), nx + i)
+            });
+            kernels.extend(quote! {
+                /// d + K_k,d·e over the restart table's row `g`: its disturbance rows.
+                #[inline(always)]
+                fn correct_disturbance_restart(d: &[Real; ND], e: &[Real; NY], g: &[Real; #width]) -> [Real; ND] {
+                    [#(#d_rows),*]
+                }
+            });
+        }
+        if gate {
+            let offset = k_at.len();
+            let s_rows = (0..ny).map(|i| {
+                let row = (0..ny).map(|j| match s_at.iter().position(|&at| at == (i, j)) {
+                    Some(n) => {
+                        let n = ix(offset + n);
+                        quote!(g[#n])
+                    }
+                    None => num.lit(0.0),
+                });
+                quote!([#(#row),*])
+            });
+            kernels.extend(quote! {
+                /// S_k⁻¹ from the restart table's row `g`, for the gate.
+                #[inline(always)]
+                fn restart_s_inv(g: &[Real; #width]) -> [[Real; NY]; NY] {
+                    [#(#s_rows),*]
+                }
+            });
+        }
+        let m = Literal::u32_unsuffixed(gains.len() as u32);
+        let doc = format!(
+            " Readings after a re-acquisition fused with the time-varying filter's gains from P0 (the \
+             restart table) before K∞ takes over: from there on K∞ adds less than {} % to any state's \
+             posterior variance.",
+            crate::lower::RESTART_TOLERANCE * 100.0
+        );
+        Some(Restart {
+            constant: quote! {
+                #[doc = #doc]
+                pub const RESTART_CYCLES: u32 = #m;
+            },
+            table: quote! {
+                /// The restart table: row k − 1 holds the gain K_k of the k-th reading after a
+                /// re-acquisition (its entries that can be nonzero, row by row), then S_k⁻¹ for the gate.
+                const RESTART: [[Real; #width]; #cycles] = [#(#rows),*];
+            },
+            kernels,
+        })
     }
 }
 
@@ -344,7 +545,15 @@ fn time_varying(p: &Problem, f: &Filter, num: Num, kernels: TokenStream) -> Sect
         self.P = P;
         Measurement::Accepted
     };
-    let screen = screening::emit(p, f, num, s_inverse, fuse, quote!(self.P = P0;));
+    let screen = screening::emit(
+        p,
+        f,
+        num,
+        s_inverse,
+        fuse,
+        quote!(self.P = P0;),
+        "the covariance",
+    );
     let kalman = kalman_type(
         p,
         &screen,

@@ -3,8 +3,9 @@
 //! start without an estimate, the bound on the disturbance estimate, and the [`FilterStatus`] that
 //! reports all of it.
 //!
-//! The filter kinds differ only in where S⁻¹ comes from (a constant for the steady-state filter, the
-//! covariance for the time-varying one) and in whether re-acquisition resets P; the rest is here.
+//! The filter kinds differ only in where S⁻¹ comes from (a constant for the steady-state filter, or a
+//! row of its restart table after a re-acquisition; the covariance for the time-varying one) and in what
+//! re-acquisition restarts (P at P0, or the restart table); the rest is here.
 #![allow(non_snake_case)]
 
 use super::tokens::{at1, Num};
@@ -29,7 +30,7 @@ pub struct Screen {
 /// What the screening of `p` emits. `s_inverse` binds `S_inv` (or returns `Measurement::Numerical`) when
 /// the gate or the update needs it,
 /// `fuse` computes and commits the update from `innovation` and returns the measurement's verdict, and
-/// `reset_covariance` is run on re-acquisition.
+/// `reset_covariance` is run on re-acquisition, which restarts `what` (for its doc).
 pub fn emit(
     p: &Problem,
     f: &Filter,
@@ -37,7 +38,9 @@ pub fn emit(
     s_inverse: TokenStream,
     fuse: TokenStream,
     reset_covariance: TokenStream,
+    what: &str,
 ) -> Screen {
+    let reacquire_doc = format!(" the rest and the disturbance kept), and restarts {what}.");
     let s = &f.screening;
     let (nx, nd, ny) = (p.nx, f.nd, p.ny);
     let gate = s.gate.map(|g| num.lit(g));
@@ -145,7 +148,7 @@ pub fn emit(
         }
 
         /// Moves the estimate onto the measurement, x ← x + C⁺·(z − C x) (the measured directions set,
-        /// the rest and the disturbance kept), and restarts the covariance.
+        #[doc = #reacquire_doc]
         fn reacquire(&mut self, z: &[Real; NY]) -> Measurement {
             let x = reacquired(&self.x, &innovation(z, &self.x));
             if !all_finite(&x) {
