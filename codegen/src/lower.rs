@@ -301,6 +301,7 @@ fn model_lanes(
 /// count is not certified yet ([`crate::lower()`] does it): `iterations = "auto"` is 0 here.
 pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
     crate::budget::before_lowering(spec)?;
+    crate::budget::before_constraints(spec)?;
     let mut diags = Diagnostics::default();
     let dt = spec.model.dt;
     if let ModelKind::DoubleIntegrator { .. } = spec.model.kind {

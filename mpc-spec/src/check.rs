@@ -916,6 +916,36 @@ fn check_row_group(
     if ax.value.cols != nx {
         return None;
     }
+    // A coefficient past MAX_ROW_COEFFICIENT: the interior-point method forms products of two entries
+    // of a row times the row's weight, which overflow f64 from about 1.3e154 (and are meaningless far
+    // before: such a row is solved at the rounding of its other entries).
+    for (key, m) in [("ax", &ax.value), ("au", &au)] {
+        let Some((i, v)) = (0..rows)
+            .flat_map(|i| {
+                m.data[i * m.cols..(i + 1) * m.cols]
+                    .iter()
+                    .map(move |v| (i, *v))
+            })
+            .find(|(_, v)| v.abs() > crate::MAX_ROW_COEFFICIENT)
+        else {
+            continue;
+        };
+        ok = false;
+        let path = format!("{p}.{key}");
+        let whole = raw
+            .spans
+            .get(&path)
+            .cloned()
+            .unwrap_or_else(|| g.span.clone());
+        diags.push(
+            Diagnostic::new(
+                format!("row {i} of `{path}` has a coefficient {v:e}, beyond the largest a row may have, {:e}", crate::MAX_ROW_COEFFICIENT),
+                entry_span(raw, &path, i, &whole),
+            )
+            .label("too large to square in f64 with the row's weight")
+            .note("hint: the solver forms products of two coefficients of a row and its weight, which overflow f64; divide the row's `ax`, `au`, `lower` and `upper` by the same factor (a row's scale does not change what it allows)"),
+        );
+    }
     for i in 0..rows {
         if lower[i] == f64::NEG_INFINITY && upper[i] == f64::INFINITY {
             ok = false;
