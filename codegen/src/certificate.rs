@@ -478,13 +478,33 @@ pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> 
                     },
                 ),
             };
+            // A bound of 1 or more on the relative cost (as printed) guarantees nothing: an error on the
+            // key that makes it so, `iterations` where a count within the limit meets the tolerance, else
+            // the input weight whose condition number no count overcomes. A sampled count (a region)
+            // stands on its evidence, and the bound stays a warning there.
+            let vacuous = format!("{gap:.3e}").parse::<f64>().unwrap_or(gap) >= 1.0;
+            if vacuous && c.sampled.is_none() && needed > mpc_spec::MAX_ITERATIONS {
+                errors.push(
+                    Diagnostic::new(
+                        format!("the a priori bound guarantees nothing: (J(U_{m}) − J*)/(J(U_0) − J*) ≤ {gap:.3e}, and {what} would need {needed} iterations, above the limit of {}", mpc_spec::MAX_ITERATIONS),
+                        spec.spans.get("mpc.r").or_else(iterations),
+                    )
+                    .label(format!("the condition number κ(H) = {:.3e} comes from this input weight", c.condition_number))
+                    .note("hint: raise `r` (or `r_du`) against `q`, or shorten the horizon, so that κ(H) falls; or give the controller a `[mpc.region]` to certify it by sampling"),
+                );
+                return Err(errors.sorted());
+            }
             let d = Diagnostic::new(
                 format!("`iterations = {m}` is below the {needed} that guarantee {what}: the bound only guarantees (J(U_{m}) − J*)/(J(U_0) − J*) ≤ {gap:.3e}"),
                 iterations(),
             )
             .label(format!("the a priori bound needs {needed}"))
-            .note(hint);
-            if spec.mpc.strict {
+            .note(if vacuous && c.sampled.is_none() {
+                format!("hint: a bound of 1 guarantees nothing: raise the count to {needed}, or write `iterations = \"auto\"` with a `tolerance`")
+            } else {
+                hint
+            });
+            if spec.mpc.strict || (vacuous && c.sampled.is_none()) {
                 errors.push(d);
             } else {
                 warnings.push(d);
