@@ -126,13 +126,20 @@ pub fn thin(spec: &mpc_spec::Spec, e: &Evidence) -> Option<mpc_spec::Diagnostic>
         return None;
     }
     let warm = if no_warm {
-        "no warm step (every closed-loop sequence starts where the hard rows admit no plan)".to_string()
+        "no warm step (every closed-loop sequence starts where the hard rows admit no plan)"
+            .to_string()
     } else {
         format!("{} warm steps", e.warm_steps)
     };
-    let at = ["mpc.region", "mpc.constraint", "mpc.x_min", "mpc.x_max", "mpc"]
-        .iter()
-        .find_map(|k| spec.spans.get(k));
+    let at = [
+        "mpc.region",
+        "mpc.constraint",
+        "mpc.x_min",
+        "mpc.x_max",
+        "mpc",
+    ]
+    .iter()
+    .find_map(|k| spec.spans.get(k));
     Some(
         mpc_spec::Diagnostic::new(
             format!(

@@ -259,7 +259,12 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
     let certificate = certify(&problem, &plan);
     let mut warnings = certificate::review(spec, &certificate)?;
     warnings.0.extend(target::review(spec).0);
-    if let Some(thin) = problem.qp.evidence.as_ref().and_then(|e| evidence::thin(spec, e)) {
+    if let Some(thin) = problem
+        .qp
+        .evidence
+        .as_ref()
+        .and_then(|e| evidence::thin(spec, e))
+    {
         warnings.push(thin);
     }
     let vis: TokenStream = opt.visibility.parse().map_err(|_| {
