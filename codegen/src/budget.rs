@@ -235,10 +235,13 @@ impl RowCount {
     /// The count of `spec`'s constraints.
     pub fn of(spec: &Spec) -> Self {
         let c = &spec.mpc.constraints;
+        // An absent side is an empty list (every entry free).
         let bounded = |lo: &[f64], hi: &[f64]| {
-            lo.iter()
-                .zip(hi)
-                .filter(|(l, h)| l.is_finite() || h.is_finite())
+            (0..lo.len().max(hi.len()))
+                .filter(|&i| {
+                    lo.get(i).is_some_and(|v| v.is_finite())
+                        || hi.get(i).is_some_and(|v| v.is_finite())
+                })
                 .count()
         };
         let states = bounded(&c.x_min, &c.x_max);
@@ -423,5 +426,81 @@ pub fn size(bytes: f64) -> String {
         format!("{:.0} MB", bytes / 1e6)
     } else {
         format!("{:.0} kB", bytes / 1e3)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The small linear plant (nx = 2, nu = 1) at `horizon`, with `extra` lines in `[mpc]`.
+    fn spec(horizon: usize, extra: &str) -> Spec {
+        mpc_spec::load(&format!(
+            "[model]\ntype = \"linear\"\ndt = 0.1\na = [[1, 0.1], [0, 1]]\nb = [[0.005], [0.1]]\n\n[mpc]\nhorizon = {horizon}\niterations = 20\nmethod = \"ipm\"\nq = 1\nr = 0.1\nu_min = [-1]\nu_max = [1]\n{extra}"
+        ))
+        .unwrap()
+    }
+
+    fn group(rows: usize, soft: bool) -> String {
+        let ax = vec!["[1, 0]"; rows].join(", ");
+        let upper = vec!["1"; rows].join(", ");
+        let soft = if soft { "soft = 1e3\n" } else { "" };
+        format!("\n[[mpc.constraint]]\nax = [{ax}]\nupper = [{upper}]\n{soft}")
+    }
+
+    #[test]
+    fn rows_are_counted_from_the_spec() {
+        let s = spec(10, "x_max = [1, inf]\nx_soft = 1e3\ndu_max = [0.5]\n");
+        assert_eq!(
+            RowCount::of(&s),
+            RowCount {
+                per_slot: 3,
+                slacks: 1,
+                largest_group: None
+            }
+        );
+        let s = spec(10, &format!("{}{}", group(2, false), group(3, true)));
+        assert_eq!(
+            RowCount::of(&s),
+            RowCount {
+                per_slot: 8,
+                slacks: 3,
+                largest_group: Some((1, 6))
+            }
+        );
+    }
+
+    #[test]
+    fn a_row_matrix_past_the_budget_is_refused_on_its_group() {
+        // 5,000 soft rows at N = 15: 150,000 row sides on 5,015 unknowns, 25 GB.
+        let s = spec(15, &format!("{}{}", group(1, false), group(5000, true)));
+        let d = before_constraints(&s).unwrap_err();
+        let d = d.iter().next().unwrap();
+        assert!(
+            d.message.starts_with(
+                "this controller is too large to build: its constraint rows would form"
+            ),
+            "{}",
+            d.message
+        );
+        assert_eq!(d.span, s.spans.get("mpc.constraint[1].ax"));
+        assert!(d.label.as_ref().unwrap().contains("N = 15"));
+        // The same group hard is within the row budget (its sample is priced later).
+        let s = spec(15, &group(5000, false));
+        before_constraints(&s).unwrap();
+        // And a spec without constraints costs nothing here.
+        before_constraints(&spec(250, "")).unwrap();
+    }
+
+    #[test]
+    fn the_region_hint_names_the_keys_and_their_values() {
+        let s = spec(10, "x_max = [1, 1]\nx_min = [-1, -1]\n\n[mpc.region]\nsamples = 10000\nsequences = 100\nsteps = 1000\n");
+        assert_eq!(sample_cases(&s, 2), (10_004, 100_000));
+        let hint = region_hint(&s, 2);
+        for key in ["`samples` = 10000", "`sequences` = 100", "`steps` = 1000"] {
+            assert!(hint.contains(key), "{hint}");
+        }
+        let hint = region_hint(&spec(10, "x_max = [1, 1]\n"), 2);
+        assert!(hint.contains("`samples` = 50 (default)"), "{hint}");
     }
 }
