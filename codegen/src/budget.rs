@@ -109,6 +109,66 @@ pub fn solver_analysis_macs(nx: usize, nz: usize, iterations: usize) -> f64 {
     iterations as f64 * nz * nz * dim + 25.0 * dim.powi(3)
 }
 
+/// Iterations one exact reference solve is priced at: the interior-point method run to
+/// `sampling::EXACT_TOLERANCE` takes 9-21 on average on the shipped specs (at most 200).
+pub const EXACT_ITERATIONS: f64 = 20.0;
+
+/// The multiply-adds of one iteration of the exact reference, the dense interior-point method on a
+/// case's QP of `n` unknowns and `m` rows: forming the normal matrix over the m + 2n sides (n² each,
+/// halved by symmetry), its Cholesky factor (n³/6), and the products with the rows (a few m·n).
+pub fn exact_macs_per_iteration(n: usize, m: usize) -> f64 {
+    let (n, m) = (n as f64, m as f64);
+    n.powi(3) / 6.0 + (m + 2.0 * n) * n * n / 2.0 + 8.0 * (m + n) * n
+}
+
+/// The multiply-adds of one exact reference solve on `qp`'s case QPs, priced at [`EXACT_ITERATIONS`].
+pub fn exact_macs(qp: &crate::lower::Qp) -> f64 {
+    EXACT_ITERATIONS * exact_macs_per_iteration(qp.H.nrows() + qp.rows.slacks(), qp.rows.len())
+}
+
+/// What an ADMM iteration of the certificate's simulation costs beyond the emitted count: the
+/// simulation multiplies by the dense C = [I; A] and Cᵀ ((n + m)·n each) and checks the iterate's
+/// accuracy against every row (m·n), where the emitted code visits the nonzeros only (on hover the
+/// profile puts these at three quarters of the sample's time).
+pub fn admm_simulation_overhead(qp: &crate::lower::Qp) -> usize {
+    let n = qp.H.nrows() + qp.rows.slacks();
+    let m = qp.rows.len();
+    2 * (n + m) * n + m * n
+}
+
+/// The cold cases and the warm steps of the certificate's sample of `spec` (an `nx`-state plant): the
+/// corners and `samples`, and `sequences`·`steps`.
+pub fn sample_cases(spec: &Spec, nx: usize) -> (usize, usize) {
+    use crate::sampling::{DEFAULT_SAMPLES, DEFAULT_SEQUENCES, DEFAULT_STEPS, MAX_CORNERS};
+    let r = &spec.mpc.region;
+    let corners = 1usize
+        .checked_shl(nx as u32)
+        .unwrap_or(usize::MAX)
+        .min(MAX_CORNERS);
+    (
+        corners + r.samples.unwrap_or(DEFAULT_SAMPLES),
+        r.sequences.unwrap_or(DEFAULT_SEQUENCES) * r.steps.unwrap_or(DEFAULT_STEPS),
+    )
+}
+
+/// The hint of a sample over the budget: which keys of `[mpc.region]` to lower, with their values
+/// (written or default), and how they compose.
+pub fn region_hint(spec: &Spec, nx: usize) -> String {
+    use crate::sampling::{DEFAULT_SAMPLES, DEFAULT_SEQUENCES, DEFAULT_STEPS};
+    let r = &spec.mpc.region;
+    let (cold, warm) = sample_cases(spec, nx);
+    let value = |v: Option<usize>, default: usize| match v {
+        Some(v) => format!("{v}"),
+        None => format!("{default} (default)"),
+    };
+    format!(
+        "hint: the sample is {cold} cold cases (the corners and `samples` = {}) and {warm} warm steps (`sequences` = {} × `steps` = {}), each priced at the method's run and an exact solve; lower `samples`, or `sequences` × `steps`, in `[mpc.region]`, or shorten the `horizon`",
+        value(r.samples, DEFAULT_SAMPLES),
+        value(r.sequences, DEFAULT_SEQUENCES),
+        value(r.steps, DEFAULT_STEPS),
+    )
+}
+
 /// The key a size error points at: the model's dimension.
 fn size_key(spec: &Spec) -> Option<Span> {
     spec.spans
@@ -155,6 +215,125 @@ pub fn before_lowering(spec: &Spec) -> Result<(), Diagnostics> {
         .into());
     }
     Ok(())
+}
+
+/// The rows the constrained QP stacks for `spec`, counted from the spec alone: per slot (one slot per
+/// stage, N of them), each state component with a finite bound and each input with a finite move
+/// bound is one row, each row of a group one, and a soft one two (its halves); a soft state component
+/// or soft group row adds one slack to the unknowns.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RowCount {
+    /// Rows of one slot.
+    pub per_slot: usize,
+    /// Slacks (unknowns besides the plan's N·nu).
+    pub slacks: usize,
+    /// The group with the most rows of a slot: its index and its rows (`None` without groups).
+    pub largest_group: Option<(usize, usize)>,
+}
+
+impl RowCount {
+    /// The count of `spec`'s constraints.
+    pub fn of(spec: &Spec) -> Self {
+        let c = &spec.mpc.constraints;
+        // An absent side is an empty list (every entry free).
+        let bounded = |lo: &[f64], hi: &[f64]| {
+            (0..lo.len().max(hi.len()))
+                .filter(|&i| {
+                    lo.get(i).is_some_and(|v| v.is_finite())
+                        || hi.get(i).is_some_and(|v| v.is_finite())
+                })
+                .count()
+        };
+        let states = bounded(&c.x_min, &c.x_max);
+        let (mut per_slot, mut slacks) = match c.x_soft {
+            Some(_) => (2 * states, states),
+            None => (states, 0),
+        };
+        per_slot += bounded(&c.du_min, &c.du_max);
+        let mut largest_group = None;
+        for (i, g) in c.rows.iter().enumerate() {
+            let rows = g.lower.len();
+            let sides = if g.soft.is_some() { 2 * rows } else { rows };
+            per_slot += sides;
+            if g.soft.is_some() {
+                slacks += rows;
+            }
+            if largest_group.is_none_or(|(_, r)| sides > r) {
+                largest_group = Some((i, sides));
+            }
+        }
+        RowCount {
+            per_slot,
+            slacks,
+            largest_group,
+        }
+    }
+}
+
+/// Copies of the dense row matrix (m × (N·nu + slacks)) lowering and the analyses hold at once: the
+/// lowered rows, the QP of one case, the structure's QP and the Riccati form's reproduction.
+const ROW_COPIES: f64 = 4.0;
+
+/// Refuses, before the rows are formed, a constrained spec whose row matrix and the structural analyses
+/// over it (the normal matrix's pattern, the envelope, the Riccati form's reproduction of the rows)
+/// would exceed [`LOWERING_BYTES`] or [`LOWERING_MACS`]: m = N·(rows of a slot) rows on
+/// n = N·nu + slacks unknowns, ROW_COPIES·8·m·n bytes and m·(N·nu + 2)² + m·n·nx multiply-adds (each row's
+/// outer product over its nonzeros, at most the plan's and one slack's). Located on the largest
+/// `[[mpc.constraint]]` group, else on the state bounds.
+pub fn before_constraints(spec: &Spec) -> Result<(), Diagnostics> {
+    let c = RowCount::of(spec);
+    if c.per_slot == 0 {
+        return Ok(());
+    }
+    let d = dims(spec);
+    let m = d.N * c.per_slot as f64;
+    let n = d.N * d.nu + c.slacks as f64;
+    let bytes = ROW_COPIES * 8.0 * m * n + 8.0 * 6.0 * n * n;
+    let macs = m * (d.N * d.nu + 2.0).powi(2) + m * n * d.nx + n.powi(3) / 6.0;
+    let over = if bytes > LOWERING_BYTES {
+        format!(
+            "its constraint rows would form {} of matrices, above the limit of {}",
+            size(bytes),
+            size(LOWERING_BYTES)
+        )
+    } else if macs > LOWERING_MACS {
+        format!(
+            "the analyses of its constraint rows would take {macs:.2e} multiply-adds, above the limit of {LOWERING_MACS:.0e}"
+        )
+    } else {
+        return Ok(());
+    };
+    let (at, label) = match c.largest_group {
+        Some((g, rows)) => (
+            spec.spans
+                .get(&format!("mpc.constraint[{g}].ax"))
+                .or_else(|| spec.spans.get(&format!("mpc.constraint[{g}]"))),
+            format!(
+                "{rows} row sides a stage, the largest of {} at every one of the N = {} stages",
+                c.per_slot, d.N
+            ),
+        ),
+        None => (
+            spec.spans
+                .get("mpc.x_max")
+                .or_else(|| spec.spans.get("mpc.x_min"))
+                .or_else(|| spec.spans.get("mpc.du_max")),
+            format!(
+                "{} rows a stage at every one of the N = {} stages",
+                c.per_slot, d.N
+            ),
+        ),
+    };
+    Err(Diagnostic::new(
+        format!(
+            "this controller is too large to build: {over} (m = {m:.0} rows on n = {n:.0} unknowns, {} of them slacks)",
+            c.slacks
+        ),
+        at.or_else(|| spec.spans.get("mpc")),
+    )
+    .label(label)
+    .note("hint: fewer rows (a soft row adds two rows and a slack), or a shorter `horizon`")
+    .into())
 }
 
 /// The predicted cost of building a module of dimensions `d` that writes `tables` numbers and unrolls
@@ -247,5 +426,81 @@ pub fn size(bytes: f64) -> String {
         format!("{:.0} MB", bytes / 1e6)
     } else {
         format!("{:.0} kB", bytes / 1e3)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The small linear plant (nx = 2, nu = 1) at `horizon`, with `extra` lines in `[mpc]`.
+    fn spec(horizon: usize, extra: &str) -> Spec {
+        mpc_spec::load(&format!(
+            "[model]\ntype = \"linear\"\ndt = 0.1\na = [[1, 0.1], [0, 1]]\nb = [[0.005], [0.1]]\n\n[mpc]\nhorizon = {horizon}\niterations = 20\nmethod = \"ipm\"\nq = 1\nr = 0.1\nu_min = [-1]\nu_max = [1]\n{extra}"
+        ))
+        .unwrap()
+    }
+
+    fn group(rows: usize, soft: bool) -> String {
+        let ax = vec!["[1, 0]"; rows].join(", ");
+        let upper = vec!["1"; rows].join(", ");
+        let soft = if soft { "soft = 1e3\n" } else { "" };
+        format!("\n[[mpc.constraint]]\nax = [{ax}]\nupper = [{upper}]\n{soft}")
+    }
+
+    #[test]
+    fn rows_are_counted_from_the_spec() {
+        let s = spec(10, "x_max = [1, inf]\nx_soft = 1e3\ndu_max = [0.5]\n");
+        assert_eq!(
+            RowCount::of(&s),
+            RowCount {
+                per_slot: 3,
+                slacks: 1,
+                largest_group: None
+            }
+        );
+        let s = spec(10, &format!("{}{}", group(2, false), group(3, true)));
+        assert_eq!(
+            RowCount::of(&s),
+            RowCount {
+                per_slot: 8,
+                slacks: 3,
+                largest_group: Some((1, 6))
+            }
+        );
+    }
+
+    #[test]
+    fn a_row_matrix_past_the_budget_is_refused_on_its_group() {
+        // 5,000 soft rows at N = 15: 150,000 row sides on 5,015 unknowns, 25 GB.
+        let s = spec(15, &format!("{}{}", group(1, false), group(5000, true)));
+        let d = before_constraints(&s).unwrap_err();
+        let d = d.iter().next().unwrap();
+        assert!(
+            d.message.starts_with(
+                "this controller is too large to build: its constraint rows would form"
+            ),
+            "{}",
+            d.message
+        );
+        assert_eq!(d.span, s.spans.get("mpc.constraint[1].ax"));
+        assert!(d.label.as_ref().unwrap().contains("N = 15"));
+        // The same group hard is within the row budget (its sample is priced later).
+        let s = spec(15, &group(5000, false));
+        before_constraints(&s).unwrap();
+        // And a spec without constraints costs nothing here.
+        before_constraints(&spec(250, "")).unwrap();
+    }
+
+    #[test]
+    fn the_region_hint_names_the_keys_and_their_values() {
+        let s = spec(10, "x_max = [1, 1]\nx_min = [-1, -1]\n\n[mpc.region]\nsamples = 10000\nsequences = 100\nsteps = 1000\n");
+        assert_eq!(sample_cases(&s, 2), (10_004, 100_000));
+        let hint = region_hint(&s, 2);
+        for key in ["`samples` = 10000", "`sequences` = 100", "`steps` = 1000"] {
+            assert!(hint.contains(key), "{hint}");
+        }
+        let hint = region_hint(&spec(10, "x_max = [1, 1]\n"), 2);
+        assert!(hint.contains("`samples` = 50 (default)"), "{hint}");
     }
 }

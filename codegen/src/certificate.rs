@@ -480,13 +480,53 @@ pub fn review(spec: &Spec, c: &Certificate) -> Result<Diagnostics, Diagnostics> 
                     },
                 ),
             };
+            // A bound of 1 or more on the relative cost (as printed) guarantees nothing: an error on the
+            // key that makes it so, `iterations` where a count within the limit meets the tolerance, else
+            // the input weight whose condition number no count overcomes. A sampled count (a region)
+            // stands on its evidence, and the bound stays a warning there.
+            let vacuous = format!("{gap:.3e}").parse::<f64>().unwrap_or(gap) >= 1.0;
+            if vacuous && c.sampled.is_none() && needed > mpc_spec::MAX_ITERATIONS {
+                // κ(H) is the state weight's size against the input weight's: the one further from 1
+                // (in decades) is named, `q` for a huge state weight, `r` for a tiny input weight.
+                let decades = |m: &mpc_spec::Matrix, pick: fn(f64, f64) -> f64, start: f64| {
+                    let d = (0..m.rows.min(m.cols))
+                        .map(|i| m.get(i, i).abs())
+                        .fold(start, pick);
+                    if d > 0.0 && d.is_finite() {
+                        d.log10().abs()
+                    } else {
+                        0.0
+                    }
+                };
+                let weight = if decades(&spec.mpc.q, f64::max, 0.0)
+                    > decades(&spec.mpc.r, f64::min, f64::INFINITY)
+                {
+                    "q"
+                } else {
+                    "r"
+                };
+                let key = format!("mpc.{weight}");
+                errors.push(
+                    Diagnostic::new(
+                        format!("the a priori bound guarantees nothing: (J(U_{m}) − J*)/(J(U_0) − J*) ≤ {gap:.3e}, and {what} would need {needed} iterations, above the limit of {}", mpc_spec::MAX_ITERATIONS),
+                        spec.spans.get(&key).or_else(iterations),
+                    )
+                    .label(format!("the condition number κ(H) = {:.3e} comes from this weight's size against the other's", c.condition_number))
+                    .note(format!("hint: bring `{weight}` closer to the other weight (raise `r` or `r_du`, or lower `q`), or shorten the horizon, so that κ(H) falls; or give the controller a `[mpc.region]` to certify it by sampling")),
+                );
+                return Err(errors.sorted());
+            }
             let d = Diagnostic::new(
                 format!("`iterations = {m}` is below the {needed} that guarantee {what}: the bound only guarantees (J(U_{m}) − J*)/(J(U_0) − J*) ≤ {gap:.3e}"),
                 iterations(),
             )
             .label(format!("the a priori bound needs {needed}"))
-            .note(hint);
-            if spec.mpc.strict {
+            .note(if vacuous && c.sampled.is_none() {
+                format!("hint: a bound of 1 guarantees nothing: raise the count to {needed}, or write `iterations = \"auto\"` with a `tolerance`")
+            } else {
+                hint
+            });
+            if spec.mpc.strict || (vacuous && c.sampled.is_none()) {
                 errors.push(d);
             } else {
                 warnings.push(d);

@@ -117,3 +117,45 @@ pub struct Candidate {
     /// Whether it was chosen.
     pub chosen: bool,
 }
+
+/// Fewer cold cases with a solution than this make a thin sample ([`thin`]).
+pub const THIN_COLD: usize = 10;
+
+/// A warning when the sample's feasible evidence is thin: fewer than [`THIN_COLD`] cold cases with a
+/// solution, fewer with one than without, or no warm step at all while sequences were asked for. The
+/// count is then certified on what few states of `[mpc.region]` the hard rows admit (a hard equality
+/// row certified on one cold case of 84 and no warm step); the warning is on `[mpc.region]` (or, without
+/// one, on the constraints its default comes from).
+pub fn thin(spec: &mpc_spec::Spec, e: &Evidence) -> Option<mpc_spec::Diagnostic> {
+    let drawn = e.cold_cases + e.infeasible_cases;
+    let no_warm = e.sequences > 0 && e.warm_steps == 0;
+    if e.cold_cases >= THIN_COLD && e.cold_cases >= e.infeasible_cases && !no_warm {
+        return None;
+    }
+    let warm = if no_warm {
+        "no warm step (every closed-loop sequence starts where the hard rows admit no plan)"
+            .to_string()
+    } else {
+        format!("{} warm steps", e.warm_steps)
+    };
+    let at = [
+        "mpc.region",
+        "mpc.constraint",
+        "mpc.x_min",
+        "mpc.x_max",
+        "mpc",
+    ]
+    .iter()
+    .find_map(|k| spec.spans.get(k));
+    Some(
+        mpc_spec::Diagnostic::new(
+            format!(
+                "the certificate rests on thin evidence: {} of {drawn} cold cases of `[mpc.region]` have a solution, and {warm}",
+                e.cold_cases
+            ),
+            at,
+        )
+        .label("the hard constraints admit no plan from most of this region")
+        .note("hint: draw `[mpc.region]` where the hard rows admit a plan (its `x_min`/`x_max`), or make the rows soft (`soft`, `x_soft`); a count certified on a few cases says little about the rest"),
+    )
+}

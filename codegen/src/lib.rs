@@ -162,6 +162,10 @@ pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
                 |form, spent| sampling::Admm::new(&problem, admm::Tuned { rho, form }, spent);
             let certify =
                 |method: &sampling::Admm| sampling::certify_metered(spec, &problem, method, 0);
+            // What a pass spent on its exact references, which its meter does not count: one
+            // exact solve a case, at the budget's price.
+            let (cold, warm) = budget::sample_cases(spec, problem.nx);
+            let exact = (cold + warm) as f64 * budget::exact_macs(&problem.qp);
             let cost = |method: &sampling::Admm, e: &evidence::Evidence| {
                 e.iterations as f64
                     * sampling::Sampled::macs_per_iteration(method, &problem.qp) as f64
@@ -175,7 +179,7 @@ pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
                     let residual = method(admm::Form::Residual, tuning_macs);
                     match certify(&residual) {
                         Ok(e) => {
-                            let direct = method(admm::Form::Direct, e.sample_macs);
+                            let direct = method(admm::Form::Direct, e.sample_macs + exact);
                             let per_iteration =
                                 sampling::Sampled::macs_per_iteration(&direct, &problem.qp).max(1);
                             let most = (cost(&residual, &e) / per_iteration as f64) as usize;
@@ -192,9 +196,10 @@ pub(crate) fn certified(spec: &Spec) -> Result<Problem, Diagnostics> {
                                 }),
                             }
                         }
-                        Err((_, spent)) => {
-                            Some(certify(&method(admm::Form::Direct, spent)).map_err(|(d, _)| d)?)
-                        }
+                        Err((_, spent)) => Some(
+                            certify(&method(admm::Form::Direct, spent + exact))
+                                .map_err(|(d, _)| d)?,
+                        ),
                     }
                 }
             }
@@ -255,6 +260,14 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
     let certificate = certify(&problem, &plan);
     let mut warnings = certificate::review(spec, &certificate)?;
     warnings.0.extend(target::review(spec).0);
+    if let Some(thin) = problem
+        .qp
+        .evidence
+        .as_ref()
+        .and_then(|e| evidence::thin(spec, e))
+    {
+        warnings.push(thin);
+    }
     let vis: TokenStream = opt.visibility.parse().map_err(|_| {
         Diagnostics::from(Diagnostic::new(
             format!("invalid visibility `{}`", opt.visibility),
@@ -262,7 +275,24 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
         ))
     })?;
     let name = Ident::new(&opt.name, Span::call_site());
+    emit::tokens::take_non_finite();
     let tokens = emit::module(&problem, &plan, &certificate, &vis, &name, &opt.origin);
+    let non_finite = emit::tokens::take_non_finite();
+    if non_finite > 0 {
+        return Err(Diagnostic::new(
+            format!(
+                "the emitted module would hold {non_finite} number(s) beyond the range of {}: a weight, bound or constraint coefficient is too large",
+                problem.scalar.name()
+            ),
+            spec.spans
+                .get("mpc.constraint")
+                .or(spec.spans.get("mpc"))
+                .or(spec.spans.get("model")),
+        )
+        .label("a product of the spec's numbers overflows")
+        .note("hint: rescale the model's units or the constraint rows so that their products stay within range, or write `scalar = \"f64\"` in `[codegen]`")
+        .into());
+    }
     Ok(Generated {
         tokens,
         problem,

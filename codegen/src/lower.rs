@@ -11,6 +11,7 @@ use crate::linalg::{
     symmetrize, Gain,
 };
 use crate::numeric::Numeric;
+use crate::solver::ipm::InequalityQp;
 use crate::solver::Parameters;
 use mpc_spec::{
     Diagnostic, Diagnostics, FilterKind, Iterations, KalmanNoise, Matrix, Method, ModelKind,
@@ -385,6 +386,7 @@ fn model_lanes(
 /// count is not certified yet ([`crate::lower()`] does it): `iterations = "auto"` is 0 here.
 pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
     crate::budget::before_lowering(spec)?;
+    crate::budget::before_constraints(spec)?;
     let mut diags = Diagnostics::default();
     let dt = spec.model.dt;
     if let ModelKind::DoubleIntegrator { .. } = spec.model.kind {
@@ -413,6 +415,18 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
         R,
         R_du,
     } = weights;
+    if let ModelKind::Linear {
+        a,
+        b,
+        time: TimeDomain::Continuous,
+        ..
+    } = &spec.model.kind
+    {
+        check_sampling(spec, a, b, &F, &G)?;
+    }
+    if !spec.mpc.constraints.is_empty() {
+        check_rows_admit_a_stage(spec)?;
+    }
     if let ModelKind::Linear { .. } = spec.model.kind {
         check_inputs_act(&G, spec.spans.get("model.b"), &mut diags);
         // A model whose powers overflow over the horizon is reported as that, not by the rank tests it
@@ -446,6 +460,7 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
     }
     let (mu, L) = extreme_eigenvalues(&H);
     check_hessian(spec, &H, mu, L)?;
+    check_soft_weights(spec, L)?;
     let (step, momentum, iterations) = solver_parameters(spec, mu, L, &mut diags);
     // `filter` reports why it is `None`, so `diags` is not empty then.
     let filter = match &spec.kalman {
@@ -1455,6 +1470,197 @@ fn complex(z: nalgebra::Complex<f64>) -> String {
             if z.im < 0.0 { "−" } else { "+" },
             z.im.abs()
         )
+    }
+}
+
+/// A continuous model sampled at `dt` must keep what the inputs do: a `dt` so small (or so large) that
+/// the sampled F and G lose the inputs' effect to f64's range or rounding (Δt² underflows beside Δt, say)
+/// makes the sampled plant look unstabilizable, or an input look inert, when the continuous one is
+/// neither. That is `dt`'s doing, told apart from `b`'s by sampling the same model at its own time scale,
+/// 1/‖A‖∞ (1 for A = 0), where no mode aliases (|ω|·dt ≤ 1 < π).
+fn check_sampling(
+    spec: &Spec,
+    a: &Matrix,
+    b: &Matrix,
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+) -> Result<(), Diagnostics> {
+    let inert = |G: &DMatrix<f64>| (0..G.ncols()).any(|j| G.column(j).iter().all(|v| *v == 0.0));
+    let lost = |F: &DMatrix<f64>, G: &DMatrix<f64>| inert(G) || unreachable_mode(F, G).is_some();
+    if !lost(F, G) {
+        return Ok(());
+    }
+    let A = dense(a);
+    let norm = A
+        .row_iter()
+        .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    let own = if norm > 0.0 && norm.is_finite() {
+        1.0 / norm
+    } else {
+        1.0
+    };
+    let Ok((F_own, G_own)) = discretize::zero_order_hold(&A, &dense(b), own) else {
+        return Ok(());
+    };
+    if lost(&F_own, &G_own) {
+        // The continuous model itself: `b`'s finding, reported by the checks that follow.
+        return Ok(());
+    }
+    let dt = spec.model.dt;
+    let way = if dt < own { "small" } else { "large" };
+    Err(Diagnostic::new(
+        format!(
+            "`model.dt` = {} is too {way} to sample the continuous model in f64: the sampled plant loses what the inputs do",
+            short(dt)
+        ),
+        spec.spans.get("model.dt"),
+    )
+    .label(format!(
+        "the model's own time scale, 1/‖A‖∞, is {}",
+        short(own)
+    ))
+    .note("hint: at this `dt` the zero-order hold's G = ∫e^{A·s}ds·B underflows or rounds away beside F (the sampled plant looks unstabilizable, though the continuous one is not); write `dt` in seconds, the controller's sampling period")
+    .into())
+}
+
+/// The hard rows must admit a stage at all: the rows of the hard `[[mpc.constraint]]` groups with `ax`
+/// alone, and the hard state bounds, on one state x_k (k = 1 … N); the rows with an `au` within the
+/// input box on (x_k, u_k), any state; and, for N ≥ 2, both on the same x_k (k = 1 … N−1). A set that
+/// is empty for every state makes every QP infeasible whatever the region, and it is the rows' doing:
+/// the group where it first empties, in the order written, is refused (the earlier ones and the bounds
+/// are what it contradicts). Each set is tested by the interior-point method on min ½‖(x, u)‖².
+fn check_rows_admit_a_stage(spec: &Spec) -> Result<(), Diagnostics> {
+    let c = &spec.mpc.constraints;
+    let (nx, nu) = (spec.model.kind.nx(), spec.model.kind.nu());
+    let n = nx + nu;
+    let hard_x = c.x_soft.is_none();
+    let z_min = DVector::from_fn(n, |i, _| match i {
+        i if i < nx && hard_x => c.x_min.get(i).copied().unwrap_or(f64::NEG_INFINITY),
+        i if i < nx => f64::NEG_INFINITY,
+        i => spec.mpc.u_min[i - nx],
+    });
+    let z_max = DVector::from_fn(n, |i, _| match i {
+        i if i < nx && hard_x => c.x_max.get(i).copied().unwrap_or(f64::INFINITY),
+        i if i < nx => f64::INFINITY,
+        i => spec.mpc.u_max[i - nx],
+    });
+    // Rows of (x, u) in the order written, each tagged with its group and whether it has an `au`.
+    let mut rows: Vec<(usize, bool, Vec<f64>, f64, f64)> = Vec::new();
+    // `free_state`: the rows with an `au` hold at k = 0 too, where x_0 is data (any state).
+    let admits = |rows: &[(usize, bool, Vec<f64>, f64, f64)], free_state: bool| -> bool {
+        let (mut lo, mut hi) = (z_min.clone(), z_max.clone());
+        if free_state {
+            for i in 0..nx {
+                lo[i] = f64::NEG_INFINITY;
+                hi[i] = f64::INFINITY;
+            }
+        }
+        let qp = InequalityQp {
+            H: DMatrix::identity(n, n),
+            f: DVector::zeros(n),
+            z_min: lo,
+            z_max: hi,
+            A: DMatrix::from_fn(rows.len(), n, |r, j| rows[r].2[j]),
+            lower: DVector::from_iterator(rows.len(), rows.iter().map(|r| r.3)),
+            upper: DVector::from_iterator(rows.len(), rows.iter().map(|r| r.4)),
+        };
+        crate::ipm::solve(&qp, 1e-9, 200).status != crate::solver::Status::Infeasible
+    };
+    for (g, group) in c.rows.iter().enumerate() {
+        if group.soft.is_some() {
+            continue;
+        }
+        for i in 0..group.lower.len() {
+            let row: Vec<f64> = (0..nx)
+                .map(|j| group.ax.get(i, j))
+                .chain((0..nu).map(|j| group.au.get(i, j)))
+                .collect();
+            let with_input = (0..nu).any(|j| group.au.get(i, j) != 0.0);
+            rows.push((g, with_input, row, group.lower[i], group.upper[i]));
+        }
+        let state: Vec<_> = rows.iter().filter(|r| !r.1).cloned().collect();
+        let input: Vec<_> = rows.iter().filter(|r| r.1).cloned().collect();
+        let (empty, at) = if !admits(&state, false) {
+            (
+                true,
+                "on the state x_k (k = 1 … N) with the hard state bounds",
+            )
+        } else if !input.is_empty() && !admits(&input, true) {
+            (true, "on (x_k, u_k) within the input box, for any state")
+        } else if spec.mpc.horizon >= 2 && !input.is_empty() && !admits(&rows, false) {
+            (
+                true,
+                "jointly on x_k and (x_k, u_k) at the stages k = 1 … N−1 where both hold",
+            )
+        } else {
+            (false, "")
+        };
+        if empty {
+            let earlier = if g == 0 {
+                "its own rows".to_string()
+            } else {
+                "its rows with the earlier groups'".to_string()
+            };
+            return Err(Diagnostic::new(
+                format!("the hard rows of `mpc.constraint[{g}]` admit no state: no stage can meet {earlier} and the bounds"),
+                spec.spans
+                    .get(&format!("mpc.constraint[{g}]"))
+                    .or(spec.spans.get("mpc.constraint")),
+            )
+            .label(format!("empty {at}"))
+            .note("hint: every QP would be infeasible, from any state; check the signs and bounds of `lower` and `upper` against the other rows and `x_min`/`x_max`, or make the group soft (`soft = 1e3`)")
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// A soft weight must constrain something and stay solvable in f64: below ε·λmax(H) a violation costs
+/// less than the rounding of the cost's curvature (the bounds do nothing: `x_soft = 1e-310`); above
+/// λmax(H)/(ε·SOFT_QUADRATIC) the slack's curvature spans more than 1/ε beside H's, and the exact
+/// reference cannot solve the QP (`x_soft = 1e300` looked like hard rows without a plan).
+fn check_soft_weights(spec: &Spec, L: f64) -> Result<(), Diagnostics> {
+    let c = &spec.mpc.constraints;
+    let floor = f64::EPSILON * L;
+    let ceiling = L / (f64::EPSILON * crate::constraints::SOFT_QUADRATIC);
+    let weights = c
+        .x_soft
+        .map(|w| ("mpc.x_soft".to_string(), w))
+        .into_iter()
+        .chain(
+            c.rows
+                .iter()
+                .enumerate()
+                .filter_map(|(g, r)| r.soft.map(|w| (format!("mpc.constraint[{g}].soft"), w))),
+        );
+    let mut diags = Diagnostics::default();
+    for (key, w) in weights {
+        let (what, label, hint) = if w < floor {
+            (
+                "too small to constrain anything",
+                format!("below ε·λmax(H) = {floor:.3e}: a violation costs less than the cost's rounding"),
+                "hint: a soft bound's weight should exceed the cost's multipliers on it (`scripts/check_constrained_specs.py` prints them; `specs/paper-limits.toml` uses 1e5); remove the bounds if they are not meant to hold",
+            )
+        } else if w > ceiling {
+            (
+                "too large to solve in f64",
+                format!("its slack's curvature {:.3e} is past λmax(H)/ε = {:.3e}", crate::constraints::SOFT_QUADRATIC * w, L / f64::EPSILON),
+                "hint: a weight this large means the bound is hard: remove the soft weight, or write one a few orders of magnitude above the cost's multipliers (`specs/paper-limits.toml` uses 1e5)",
+            )
+        } else {
+            continue;
+        };
+        diags.push(
+            Diagnostic::new(format!("`{key}` = {w:e} is {what}"), spec.spans.get(&key))
+                .label(label)
+                .note(hint),
+        );
+    }
+    if diags.is_empty() {
+        Ok(())
+    } else {
+        Err(diags.sorted())
     }
 }
 

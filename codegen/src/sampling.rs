@@ -112,6 +112,11 @@ pub trait Sampled: Sync {
     ) -> Stepped<Self::Start>;
     /// Multiply-adds of one iteration.
     fn macs_per_iteration(&self, qp: &Qp) -> usize;
+    /// What one iteration costs the build, counted against its budget: the emitted count by default;
+    /// more where the certificate's simulation of the method does more than the emitted code.
+    fn sampled_macs_per_iteration(&self, qp: &Qp) -> usize {
+        self.macs_per_iteration(qp)
+    }
     /// Whether the method's final residuals are limited at run time ([`Limits`]).
     fn limits_residuals(&self) -> bool;
     /// The tuned parameters the evidence reports (ADMM's ρ and form); `None` for a method without them.
@@ -452,6 +457,10 @@ impl Sampled for Admm {
         crate::admm::mpc_settings_macs_per_iteration(qp, &self.settings)
     }
 
+    fn sampled_macs_per_iteration(&self, qp: &Qp) -> usize {
+        self.macs_per_iteration(qp) + crate::budget::admm_simulation_overhead(qp)
+    }
+
     fn limits_residuals(&self) -> bool {
         true
     }
@@ -480,6 +489,22 @@ pub fn tune_admm(spec: &Spec, p: &Problem) -> Result<(f64, f64), Diagnostics> {
     let sample = draw_sample(spec, p, &region);
     let nu = qp.u_min.len();
     let span = DVector::from_fn(qp.N * nu, |i, _| qp.u_max[i % nu] - qp.u_min[i % nu]);
+    // Priced before it runs: an exact solve per tuning case, and the coarse grid's nine trials at
+    // least the first probe on each, an iteration at the direct form's count and the simulation's
+    // dense products and accuracy check.
+    let per_iteration = (crate::admm::mpc_macs_per_iteration_in(qp, crate::admm::Form::Direct)
+        + crate::budget::admm_simulation_overhead(qp)) as f64;
+    let tuning_cases = TUNING_COLD.min(sample.cold.len())
+        + sample
+            .starts
+            .first()
+            .map_or(0, |_| TUNING_WARM.min(sample.steps));
+    let exact = tuning_cases as f64 * crate::budget::exact_macs(qp);
+    let checked = per_iteration;
+    let least = exact + 9.0 * (tuning_cases * ADMM_PROBE.0) as f64 * checked;
+    if least > crate::budget::LOWERING_MACS {
+        return Err(admm_over_budget(spec, p, least, tuning_cases, true));
+    }
     let mut cases = Vec::new();
     for c in &sample.cold {
         if cases.len() == TUNING_COLD {
@@ -532,17 +557,24 @@ pub fn tune_admm(spec: &Spec, p: &Problem) -> Result<(f64, f64), Diagnostics> {
             c.last = u;
         }
     }
-    let per_iteration =
-        crate::admm::mpc_macs_per_iteration_in(qp, crate::admm::Form::Direct) as f64;
     let settings = |problem: &InequalityQp, rho: f64| crate::admm::Settings::scaled(problem, rho);
-    let tuned = crate::admm::tune_rho(&cases, &settings, qp.accuracy, ADMM_PROBE.1);
+    // The search stops once it has spent what the budget leaves after the exact solves.
+    let most = ((crate::budget::LOWERING_MACS - exact) / checked).max(0.0) as usize;
+    let tuned = crate::admm::tune_rho_within(&cases, &settings, qp.accuracy, ADMM_PROBE.1, most);
     match tuned {
-        Some(t) => {
-            let macs = t.iterations_run as f64 * per_iteration;
+        Ok(t) => {
+            let macs = exact + t.iterations_run as f64 * checked;
             Spent { macs: 0.0 }.add(macs, spec, "ADMM")?;
             Ok((t.rho, macs))
         }
-        None => Err(Diagnostic::new(
+        Err(crate::admm::Untuned::OverBudget(run)) => Err(admm_over_budget(
+            spec,
+            p,
+            exact + run as f64 * checked,
+            tuning_cases,
+            false,
+        )),
+        Err(crate::admm::Untuned::NoRho) => Err(Diagnostic::new(
             format!(
                 "ADMM reaches `accuracy = {:e}` within {} iterations at no ρ from 1e-4 to 1e4 on the tuning cases of `[mpc.region]`",
                 spec.mpc.accuracy, ADMM_PROBE.1
@@ -552,6 +584,40 @@ pub fn tune_admm(spec: &Spec, p: &Problem) -> Result<(f64, f64), Diagnostics> {
         .note("hint: loosen `accuracy`, scale the model's units so the Hessian is better conditioned, narrow `[mpc.region]`, or choose `method = \"ipm\"`")
         .into()),
     }
+}
+
+/// The diagnostic of ADMM's tuning of ρ over the build's budget (`macs` predicted or spent), on the
+/// method: ADMM's build cost grows with the horizon (an exact solve of every tuning case, then
+/// thousands of iterations on each at up to thirteen ρ).
+fn admm_over_budget(
+    spec: &Spec,
+    p: &Problem,
+    macs: f64,
+    cases: usize,
+    predicted: bool,
+) -> Diagnostics {
+    let how = if predicted {
+        format!("at least {macs:.2e} before any trial of ρ")
+    } else {
+        format!("its trials of ρ had spent {macs:.2e} when the next could run past it")
+    };
+    Diagnostic::new(
+        format!(
+            "tuning ADMM's ρ would take more than the build's limit of {:.0e} multiply-adds: {how}",
+            crate::budget::LOWERING_MACS
+        ),
+        spec.spans
+            .get("mpc.method")
+            .or_else(|| region_span(spec)),
+    )
+    .label(format!(
+        "{cases} tuning cases at horizon N = {}, n = {} unknowns and {} rows each",
+        p.qp.N,
+        p.qp.H.nrows() + p.qp.rows.slacks(),
+        p.qp.rows.len()
+    ))
+    .note("hint: `method = \"ipm\"` (or `\"auto\"`) certifies this problem at a fraction of ADMM's build cost; or shorten the `horizon`, or loosen `accuracy`")
+    .into()
 }
 
 /// The multiply-adds the sample has spent, against the build's budget.
@@ -627,7 +693,7 @@ fn measure<M: Sampled>(
 ) -> Result<Option<(Vec<Iterate>, usize)>, Stopped> {
     let (first, most) = method.probe();
     let mut length = first.max(at_least);
-    let per_iteration = method.macs_per_iteration(qp) as f64;
+    let per_iteration = method.sampled_macs_per_iteration(qp) as f64;
     loop {
         if meter.over() {
             return Err(Stopped);
@@ -1006,8 +1072,13 @@ fn check_budget<M: Sampled>(spec: &Spec, p: &Problem, method: &M) -> Result<(), 
     let cold = corners + written.samples.unwrap_or(DEFAULT_SAMPLES);
     let warm =
         4 * written.sequences.unwrap_or(DEFAULT_SEQUENCES) * written.steps.unwrap_or(DEFAULT_STEPS);
-    let per_iteration = method.macs_per_iteration(&p.qp);
-    let macs = ((cold + warm) * 2 * method.probe().0) as f64 * per_iteration as f64;
+    let per_iteration = method.sampled_macs_per_iteration(&p.qp);
+    // The method's first probe, and the exact reference: about as many iterations again, or the
+    // dense reference's price where that is more (ADMM's iterations are cheap, its reference is not);
+    // after what the method spent before the sample (ADMM's tuning).
+    let probe = method.probe().0 as f64 * per_iteration as f64;
+    let exact = probe.max(crate::budget::exact_macs(&p.qp));
+    let macs = method.spent_before() + (cold + warm) as f64 * (probe + exact);
     if macs <= crate::budget::LOWERING_MACS {
         return Ok(());
     }
@@ -1020,7 +1091,7 @@ fn check_budget<M: Sampled>(spec: &Spec, p: &Problem, method: &M) -> Result<(), 
         region_span(spec),
     )
     .label(format!("{cold} cold cases and {warm} warm steps (up to four rounds), {per_iteration} multiply-adds an iteration"))
-    .note("hint: fewer `samples`, `sequences` or `steps` in `[mpc.region]`, or a smaller problem")
+    .note(crate::budget::region_hint(spec, p.nx))
     .into())
 }
 
@@ -1069,7 +1140,7 @@ fn warm_sequence<M: Sampled>(
     let qp = &p.qp;
     let mut warm = Warm::default();
     let mut spends = Vec::new();
-    let per_iteration = method.macs_per_iteration(qp) as f64;
+    let per_iteration = method.sampled_macs_per_iteration(qp) as f64;
     let mut c = start_case.clone();
     let mut start = method.cold(qp);
     let mut plan = qp.rest_plan();

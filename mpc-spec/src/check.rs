@@ -180,6 +180,22 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
             );
             None
         }
+        // A zero row tracks the constant 0: its weight weighs nothing, and the controller does not see
+        // the output it was meant to be.
+        Some(c) if (0..c.value.rows).any(|i| (0..nx).all(|j| c.value.get(i, j) == 0.0)) => {
+            let i = (0..c.value.rows)
+                .find(|&i| (0..nx).all(|j| c.value.get(i, j) == 0.0))
+                .unwrap_or(0);
+            diags.push(
+                Diagnostic::new(
+                    format!("row {i} of `mpc.outputs` is zero"),
+                    entry_span(raw, "mpc.outputs", i, &c.span),
+                )
+                .label("tracks the constant 0")
+                .note("hint: each row of `outputs` maps the state to one tracked output; give the row the states it measures, or remove it (and its entries of `q`, `qf` and the references)"),
+            );
+            None
+        }
         Some(c) => Some(Some(c.value.clone())),
         None if raw.has("mpc.outputs") => None,
         None => Some(None),
@@ -206,6 +222,21 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
                 Diagnostic::new("`mpc.r` must be positive definite", raw.r.as_ref().map(|x| x.span.clone()))
                     .label("a zero diagonal entry")
                     .note("hint: with a zero input weight the QP is not strongly convex and the gradient method has no rate; a weight on the moves, `r_du`, allows `r = 0`"),
+            );
+        }
+    }
+    // `r = 0` needs the moves' weight on that input: with `r_du` zero there too, nothing weighs the
+    // input and the LQR of the stage weights has no solution.
+    if let (Some(r), Some(Some(r_du))) = (&r, &r_du) {
+        if let Some(i) = (0..nu).find(|&i| r.get(i, i) <= 0.0 && r_du.get(i, i) <= 0.0) {
+            diags.push(
+                Diagnostic::new(
+                    format!("input {i} has no weight: its entries of `mpc.r` and `mpc.r_du` are both zero"),
+                    raw.r_du.as_ref().map(|x| x.span.clone()),
+                )
+                .label(format!("zero on input {i}, where `r` is zero too"))
+                .related(raw.r.as_ref().map(|x| x.span.clone()), format!("zero on input {i}"))
+                .note("hint: `r = 0` is allowed when `r_du` weighs the moves of every input; give input {i} a positive `r_du` (move suppression) or a positive `r`".replace("{i}", &i.to_string())),
             );
         }
     }
@@ -253,11 +284,36 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
     let method_requested = spelled(&raw.method, Method::Auto, Method::from_name);
     // Keys only a first-order method takes make `auto` choose the fast gradient method.
     let fgm_keys = raw.step.as_ref().is_some_and(|s| s.value.is_some()) || raw.tolerance.is_some();
+    let constrained = CONSTRAINT_KEYS.iter().any(|k| raw.has(k)) || !raw.constraints.is_empty();
+    // Under `auto`, FGM-only keys choose FGM, unless the spec has constraints, which FGM cannot take:
+    // then the key is the mistake (one error on it), and `auto` stays among the constrained methods.
     let method = match method_requested {
+        Method::Auto if fgm_keys && constrained => {
+            let (key, span, what) = match &raw.tolerance {
+                Some(t) => (
+                    "tolerance",
+                    Some(t.span.clone()),
+                    "the a priori bound on FGM's cost gap",
+                ),
+                None => (
+                    "step",
+                    raw.step.as_ref().map(|s| s.span.clone()),
+                    "a gradient step size",
+                ),
+            };
+            diags.push(
+                Diagnostic::new(
+                    format!("`{key}` is a setting of the first-order methods, which cannot take this spec's constraints"),
+                    span,
+                )
+                .label(what)
+                .note(format!("hint: `method = \"auto\"` weighs `ipm` and `admm` for a constrained spec, and they are certified on `[mpc.region]` against `accuracy` (default {DEFAULT_ACCURACY}), not `{key}`: remove `{key}` (write `accuracy` instead of `tolerance`), or remove the constraints for `fgm`")),
+            );
+            Method::Auto
+        }
         Method::Auto if fgm_keys => Method::Fgm,
         m => m,
     };
-    let constrained = CONSTRAINT_KEYS.iter().any(|k| raw.has(k)) || !raw.constraints.is_empty();
     // An interior-point method's "auto" is certified on `[mpc.region]` against `accuracy`; a
     // first-order method's by its a priori bound for `tolerance`, or on `[mpc.region]` when written.
     // Under `auto` without constraints only a first-order method is certain to be a candidate.
@@ -915,6 +971,36 @@ fn check_row_group(
     };
     if ax.value.cols != nx {
         return None;
+    }
+    // A coefficient past MAX_ROW_COEFFICIENT: the interior-point method forms products of two entries
+    // of a row times the row's weight, which overflow f64 from about 1.3e154 (and are meaningless far
+    // before: such a row is solved at the rounding of its other entries).
+    for (key, m) in [("ax", &ax.value), ("au", &au)] {
+        let Some((i, v)) = (0..rows)
+            .flat_map(|i| {
+                m.data[i * m.cols..(i + 1) * m.cols]
+                    .iter()
+                    .map(move |v| (i, *v))
+            })
+            .find(|(_, v)| v.abs() > crate::MAX_ROW_COEFFICIENT)
+        else {
+            continue;
+        };
+        ok = false;
+        let path = format!("{p}.{key}");
+        let whole = raw
+            .spans
+            .get(&path)
+            .cloned()
+            .unwrap_or_else(|| g.span.clone());
+        diags.push(
+            Diagnostic::new(
+                format!("row {i} of `{path}` has a coefficient {v:e}, beyond the largest a row may have, {:e}", crate::MAX_ROW_COEFFICIENT),
+                entry_span(raw, &path, i, &whole),
+            )
+            .label("too large to square in f64 with the row's weight")
+            .note("hint: the solver forms products of two coefficients of a row and its weight, which overflow f64; divide the row's `ax`, `au`, `lower` and `upper` by the same factor (a row's scale does not change what it allows)"),
+        );
     }
     for i in 0..rows {
         if lower[i] == f64::NEG_INFINITY && upper[i] == f64::INFINITY {

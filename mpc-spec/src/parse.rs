@@ -243,7 +243,7 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.qf_scale = t
             .get("qf_scale")
             .and_then(|v| p.non_negative(v, "mpc.qf_scale"));
-        raw.outputs = t.get("outputs").and_then(|v| p.matrix(v, "mpc.outputs"));
+        raw.outputs = t.get("outputs").and_then(|v| p.rows(v, "mpc.outputs"));
         raw.r_du = t
             .get("r_du")
             .and_then(|v| p.matrix_input(v, "mpc.r_du", false));

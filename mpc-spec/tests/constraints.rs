@@ -325,11 +325,16 @@ fn constraints_need_a_method_that_takes_them() {
             load(&with_method("", extra)).unwrap().mpc.method,
             Method::Auto
         );
-        for method in [
-            "method = \"fgm\"\n",
-            "method = \"gradient\"\n",
-            "step = 0.5\n",
-        ] {
+        // A numeric `step` is FGM's key, which `auto` no longer follows into a method that cannot
+        // take the constraints: one error, on the key (issue 31, item 7).
+        let (msg, span, note) = only_error(&with_method("step = 0.5\n", extra));
+        assert_eq!(
+            msg,
+            "`step` is a setting of the first-order methods, which cannot take this spec's constraints"
+        );
+        assert_eq!(span, "0.5");
+        assert!(note.unwrap().contains("remove `step`"));
+        for method in ["method = \"fgm\"\n", "method = \"gradient\"\n"] {
             let (msg, span, note) = only_error(&with_method(method, extra));
             let name = if method.contains("gradient") {
                 "gradient"
@@ -343,14 +348,6 @@ fn constraints_need_a_method_that_takes_them() {
             assert_eq!(span, at);
             let note = note.unwrap();
             assert!(note.contains("solves the input box only"), "{note}");
-            if method.starts_with("step") {
-                assert!(
-                    note.starts_with(
-                        "hint: `method = \"auto\"` chooses `fgm` for a numeric `step`"
-                    ),
-                    "{note}"
-                );
-            }
         }
     }
     // Both bounds written: one error each.
@@ -571,4 +568,69 @@ fn every_mistake_is_reported_at_once() {
             "`mpc.region.steps` must be between 1 and 1000",
         ]
     );
+}
+
+#[test]
+fn a_row_coefficient_past_the_limit_is_located_on_its_row() {
+    let group = |body: &str| ipm(&format!("\n[[mpc.constraint]]\n{body}"));
+    // 1e160 squared overflows f64; the limit is MAX_ROW_COEFFICIENT, inclusive.
+    let (msg, at, note) = only_error(&group("ax = [[1, 0]]\nau = [[1e160]]\nupper = [1]\n"));
+    assert_eq!(
+        msg,
+        "row 0 of `mpc.constraint[0].au` has a coefficient 1e160, beyond the largest a row may have, 1e100"
+    );
+    assert_eq!(at, "[1e160]");
+    assert!(note.unwrap().starts_with("hint:"));
+    let (msg, at, _) = only_error(&group("ax = [[1, 0], [-2e100, 1]]\nupper = [1, 1]\n"));
+    assert!(
+        msg.starts_with("row 1 of `mpc.constraint[0].ax` has a coefficient -2e100"),
+        "{msg}"
+    );
+    assert_eq!(at, "[-2e100, 1]");
+    load(&group(&format!(
+        "ax = [[{:e}, 0]]\nupper = [1]\n",
+        MAX_ROW_COEFFICIENT
+    )))
+    .unwrap();
+}
+
+#[test]
+fn auto_with_tolerance_and_constraints_is_one_error_on_tolerance() {
+    let src = with_method("", "tolerance = 1e-4\nx_max = [1, 1]\n");
+    let (msg, at, note) = only_error(&src);
+    assert!(
+        msg.starts_with("`tolerance` is a setting of the first-order methods, which cannot take"),
+        "{msg}"
+    );
+    assert_eq!(at, "1e-4");
+    assert!(note.unwrap().contains("`accuracy`"));
+    // The method stays `auto` (the constrained methods), not FGM.
+    let spec = load(&with_method("", "accuracy = 1e-3\nx_max = [1, 1]\n")).unwrap();
+    assert_eq!(spec.mpc.method, Method::Auto);
+    // Without constraints `tolerance` still chooses FGM.
+    let spec = load(&with_method("", "tolerance = 1e-4\n")).unwrap();
+    assert_eq!(spec.mpc.method, Method::Fgm);
+}
+
+#[test]
+fn an_input_weighted_by_neither_r_nor_r_du_is_located_on_r_du() {
+    let src = with_method("method = \"fgm\"\n", "r_du = 0\n").replace("r = 0.1", "r = 0");
+    let (msg, at, _) = only_error(&src);
+    assert_eq!(
+        msg,
+        "input 0 has no weight: its entries of `mpc.r` and `mpc.r_du` are both zero"
+    );
+    assert_eq!(at, "0");
+    // A weight on the moves allows `r = 0`.
+    load(&with_method("method = \"fgm\"\n", "r_du = 1\n").replace("r = 0.1", "r = 0")).unwrap();
+}
+
+#[test]
+fn a_zero_row_of_outputs_is_located_on_the_row() {
+    let src = with_method("method = \"fgm\"\n", "outputs = [[1, 0], [0, 0]]\n")
+        .replace("q = 1", "q = [1, 1]");
+    let (msg, at, note) = only_error(&src);
+    assert_eq!(msg, "row 1 of `mpc.outputs` is zero");
+    assert_eq!(at, "[0, 0]");
+    assert!(note.unwrap().starts_with("hint:"));
 }

@@ -8,6 +8,18 @@ use nalgebra::DMatrix;
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
+thread_local! {
+    /// Numbers not finite in their emitted type met by [`Num::lit`] on this thread since the last
+    /// [`take_non_finite`].
+    static NON_FINITE: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// The numbers not finite in their emitted type that the emission on this thread met since the last
+/// call (each written as NaN instead of a literal), and resets the count.
+pub fn take_non_finite() -> usize {
+    NON_FINITE.with(|n| n.replace(0))
+}
+
 /// Writes numbers of one scalar type as tokens.
 #[derive(Clone, Copy, Debug)]
 pub struct Num(pub Scalar);
@@ -42,6 +54,15 @@ impl Num {
     }
 
     fn unsigned(self, v: f64) -> TokenStream {
+        // A number not finite in the emitted type has no literal (proc-macro2 asserts): the emission
+        // writes NaN in its place and counts it, and `codegen::generate` refuses the module
+        // ([`take_non_finite`]). Lowering's range checks keep every such number out; this is the last
+        // line behind them.
+        if !self.round(v).is_finite() {
+            NON_FINITE.with(|n| n.set(n.get() + 1));
+            let ty = self.ty();
+            return quote!(#ty::NAN);
+        }
         let lit = match self.0 {
             Scalar::F32 => Literal::f32_suffixed(v as f32),
             Scalar::F64 => Literal::f64_suffixed(v),

@@ -1035,9 +1035,32 @@ pub fn tune_rho(
     accuracy: f64,
     cap: usize,
 ) -> Option<Tuning> {
+    tune_rho_within(cases, settings, accuracy, cap, usize::MAX).ok()
+}
+
+/// Why [`tune_rho_within`] found no ρ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Untuned {
+    /// No ρ of the grid reaches `accuracy` within the cap on every case.
+    NoRho,
+    /// The search would have run past its most iterations (it had run this many when it stopped).
+    OverBudget(usize),
+}
+
+/// [`tune_rho`] within `most` iterations over all cases and trials: no trial starts that could run
+/// past it (each case runs at most as long as the budget left shares out), so the search spends at
+/// most `most` iterations, and says so when it stops short.
+pub fn tune_rho_within(
+    cases: &[Case],
+    settings: &(dyn Fn(&InequalityQp, f64) -> Settings + Sync),
+    accuracy: f64,
+    cap: usize,
+    most: usize,
+) -> Result<Tuning, Untuned> {
     let mut grid: Vec<(f64, Option<usize>)> = Vec::new();
     let mut best: Option<(f64, usize)> = None;
     let mut iterations_run = 0;
+    let mut over = false;
     let mut trial = |rho: f64,
                      grid: &mut Vec<(f64, Option<usize>)>,
                      best: &mut Option<(f64, usize)>| {
@@ -1045,6 +1068,11 @@ pub fn tune_rho(
         // so a candidate that may beat the best count w runs up to about 2w.
         let limit = best.map_or(cap, |(_, w)| w.min(cap));
         let run = best.map_or(cap, |(_, w)| (2 * w + 20).min(cap));
+        // Each case runs at most its share of what the budget leaves; a case that misses when its
+        // share, not the cap, stopped it may be the budget's doing, and the search then says so.
+        let share = most.saturating_sub(iterations_run) / cases.len().max(1);
+        let truncated = share < run;
+        let (limit, run) = (limit.min(share), run.min(share));
         let mut worst = 0;
         // The cases on every core; their iterations are counted in order up to the first that
         // misses, as a loop over them would.
@@ -1064,6 +1092,7 @@ pub fn tune_rho(
                 Some(k) => worst = worst.max(k),
                 None => {
                     grid.push((rho, None));
+                    over |= truncated;
                     return;
                 }
             }
@@ -1077,13 +1106,16 @@ pub fn tune_rho(
         trial(10f64.powi(e), &mut grid, &mut best);
     }
     for factor in [10f64.sqrt(), 10f64.powf(0.25)] {
-        let (centre, _) = best?;
+        let Some((centre, _)) = best else { break };
         for rho in [centre / factor, centre * factor] {
             trial(rho, &mut grid, &mut best);
         }
     }
-    let (rho, worst) = best?;
-    Some(Tuning {
+    if over {
+        return Err(Untuned::OverBudget(iterations_run));
+    }
+    let (rho, worst) = best.ok_or(Untuned::NoRho)?;
+    Ok(Tuning {
         rho,
         worst,
         grid,
