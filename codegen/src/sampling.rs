@@ -499,9 +499,9 @@ pub fn tune_admm(spec: &Spec, p: &Problem) -> Result<(f64, f64), Diagnostics> {
             .starts
             .first()
             .map_or(0, |_| TUNING_WARM.min(sample.steps));
-    let exact = tuning_cases as f64 * crate::budget::exact_macs(qp);
+    let exact_cost = tuning_cases as f64 * crate::budget::exact_macs(qp);
     let checked = per_iteration;
-    let least = exact + 9.0 * (tuning_cases * ADMM_PROBE.0) as f64 * checked;
+    let least = exact_cost + 9.0 * (tuning_cases * ADMM_PROBE.0) as f64 * checked;
     if least > crate::budget::LOWERING_MACS {
         return Err(admm_over_budget(spec, p, least, tuning_cases, true));
     }
@@ -559,18 +559,18 @@ pub fn tune_admm(spec: &Spec, p: &Problem) -> Result<(f64, f64), Diagnostics> {
     }
     let settings = |problem: &InequalityQp, rho: f64| crate::admm::Settings::scaled(problem, rho);
     // The search stops once it has spent what the budget leaves after the exact solves.
-    let most = ((crate::budget::LOWERING_MACS - exact) / checked).max(0.0) as usize;
+    let most = ((crate::budget::LOWERING_MACS - exact_cost) / checked).max(0.0) as usize;
     let tuned = crate::admm::tune_rho_within(&cases, &settings, qp.accuracy, ADMM_PROBE.1, most);
     match tuned {
         Ok(t) => {
-            let macs = exact + t.iterations_run as f64 * checked;
+            let macs = exact_cost + t.iterations_run as f64 * checked;
             Spent { macs: 0.0 }.add(macs, spec, "ADMM")?;
             Ok((t.rho, macs))
         }
         Err(crate::admm::Untuned::OverBudget(run)) => Err(admm_over_budget(
             spec,
             p,
-            exact + run as f64 * checked,
+            exact_cost + run as f64 * checked,
             tuning_cases,
             false,
         )),

@@ -133,11 +133,7 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
     };
     let real_name = num.numeric().name();
     let wide_of_abs = widen(quote!(x.abs()));
-    let (wide_px, wide_x, wide_q) = (
-        widen(quote!(px[i])),
-        widen(quote!(x[i])),
-        widen(quote!(q[i])),
-    );
+    let (wide_px, wide_x, wide_q) = (widen(quote!(*pxi)), widen(quote!(*xi)), widen(quote!(*qi)));
     let (wide_y, wide_z) = (widen(quote!(*yi)), widen(quote!(*zi)));
     let (wide_lower, wide_upper, wide_d) = (
         widen(quote!(lower[i])),
@@ -532,7 +528,7 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                     return (f64::INFINITY, f64::INFINITY, f64::INFINITY);
                 }
                 let (mut curvature, mut linear, mut support) = (0.0_f64, 0.0_f64, 0.0_f64);
-                for i in 0..NV {
+                for ((pxi, qi), xi) in px.iter().zip(q.iter()).zip(x.iter()) {
                     curvature += #wide_px * #wide_x;
                     linear += #wide_q * #wide_x;
                 }

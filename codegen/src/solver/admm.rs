@@ -470,9 +470,9 @@ impl<T: Real> Operator<T> {
         // The duality gap xᵀPx + qᵀx + yᵀz (y is in the normal cone of the bounds at z, so yᵀz is the
         // support function of [l, u] at y, infinite sides included), in f64 over the iterate's values.
         let (mut curvature, mut linear, mut support) = (0.0_f64, 0.0_f64, 0.0_f64);
-        for i in 0..n {
-            curvature += px[i].wide() * p.x[i].wide();
-            linear += self.q[i].wide() * p.x[i].wide();
+        for ((px, q), x) in px.iter().zip(&self.q).zip(&p.x) {
+            curvature += px.wide() * x.wide();
+            linear += q.wide() * x.wide();
         }
         for (y, z) in p.y.iter().zip(&p.z) {
             support += y.wide() * z.wide();
