@@ -201,6 +201,10 @@ pub mod afti16 {
         /// (`REACH_LO`/`REACH_HI`) and was brought to that distance: the plan moves toward it as fast
         /// as the constraints allow, on a QP like those the region certified.
         pub reference_beyond_region: bool,
+        /// A state counted as an absolute coordinate, or a reference entry, was larger in magnitude
+        /// than `report::COORDINATE_RANGE_*` for this scalar: the command may be off by more than
+        /// `report::COMMAND_ACCURACY` from rounding alone. Give coordinates from a local origin.
+        pub beyond_coordinate_range: bool,
         /// Whether the plan is the solve's or the fallback's.
         pub fallback: Fallback,
     }
@@ -265,6 +269,7 @@ pub mod afti16 {
                     infeasible: false,
                     numerical_failure: false,
                     reference_beyond_region: false,
+                    beyond_coordinate_range: false,
                     fallback: Fallback::NoneYet,
                 },
             }
@@ -295,6 +300,16 @@ pub mod afti16 {
                 for (w, v) in r.iter_mut().zip(flushed(row).iter()) {
                     *w = *v;
                 }
+            }
+            let outside = |v: &f64| !(*v <= report::COORDINATE_RANGE_F64);
+            let mut beyond_coordinates = false;
+            for i in ABSOLUTE_STATES {
+                if let Some(v) = x0.get(i) {
+                    beyond_coordinates |= outside(&v.abs());
+                }
+            }
+            for v in reference.iter() {
+                beyond_coordinates |= outside(&v.abs());
             }
             let mut tracked: [f64; 2] = [0.0; 2];
             for (t, row) in tracked.iter_mut().zip(CZ.iter()) {
@@ -384,6 +399,7 @@ pub mod afti16 {
                 infeasible,
                 numerical_failure: outcome.ended == Ended::Failure,
                 reference_beyond_region: beyond,
+                beyond_coordinate_range: beyond_coordinates,
                 fallback: match (trusted, relax) {
                     (true, false) => Fallback::Solved,
                     (true, true) => Fallback::Relaxed,
@@ -4783,6 +4799,9 @@ pub mod afti16 {
     /// it is brought to that distance, [`SolverStatus::reference_beyond_region`].
     const REACH_LO: [Real; 2] = [-1f64, -12f64];
     const REACH_HI: [Real; 2] = [1f64, 12f64];
+    /// The states counted as absolute coordinates (the null space of F − I): with the references,
+    /// what [`SolverStatus::beyond_coordinate_range`] compares with `report::COORDINATE_RANGE_*`.
+    const ABSOLUTE_STATES: [usize; 4] = [0, 1, 2, 3];
     /// Tuning of the method, as in the reference (`codegen::ipm`): the fraction of the step to the
     /// boundary, the warm start's floor on s and λ, the rounding level at which a point is held,
     /// and the infeasibility certificate's tolerance.

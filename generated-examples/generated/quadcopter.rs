@@ -166,6 +166,10 @@ pub mod quadcopter {
         /// (`REACH_LO`/`REACH_HI`) and was brought to that distance: the plan moves toward it as fast
         /// as the constraints allow, on a QP like those the region certified.
         pub reference_beyond_region: bool,
+        /// A state counted as an absolute coordinate, or a reference entry, was larger in magnitude
+        /// than `report::COORDINATE_RANGE_*` for this scalar: the command may be off by more than
+        /// `report::COMMAND_ACCURACY` from rounding alone. Give coordinates from a local origin.
+        pub beyond_coordinate_range: bool,
         /// Whether the plan is the solve's or the fallback's.
         pub fallback: Fallback,
     }
@@ -228,6 +232,7 @@ pub mod quadcopter {
                     infeasible: false,
                     numerical_failure: false,
                     reference_beyond_region: false,
+                    beyond_coordinate_range: false,
                     fallback: Fallback::NoneYet,
                 },
             }
@@ -257,6 +262,16 @@ pub mod quadcopter {
                 for (w, v) in r.iter_mut().zip(flushed(row).iter()) {
                     *w = *v;
                 }
+            }
+            let outside = |v: &f64| !(*v <= report::COORDINATE_RANGE_F64);
+            let mut beyond_coordinates = false;
+            for i in ABSOLUTE_STATES {
+                if let Some(v) = x0.get(i) {
+                    beyond_coordinates |= outside(&v.abs());
+                }
+            }
+            for v in reference.iter() {
+                beyond_coordinates |= outside(&v.abs());
             }
             let mut tracked: [f64; 12] = [0.0; 12];
             tracked.copy_from_slice(&x0);
@@ -344,6 +359,7 @@ pub mod quadcopter {
                 infeasible,
                 numerical_failure: outcome.ended == Ended::Failure,
                 reference_beyond_region: beyond,
+                beyond_coordinate_range: beyond_coordinates,
                 fallback: match (trusted, relax) {
                     (true, false) => Fallback::Solved,
                     (true, true) => Fallback::Relaxed,
@@ -16457,6 +16473,9 @@ pub mod quadcopter {
         2.5f64,
         2.5f64,
     ];
+    /// The states counted as absolute coordinates (the null space of F − I): with the references,
+    /// what [`SolverStatus::beyond_coordinate_range`] compares with `report::COORDINATE_RANGE_*`.
+    const ABSOLUTE_STATES: [usize; 4] = [2, 3, 4, 5];
     /// Tuning of the method, as in the reference (`codegen::ipm`): the fraction of the step to the
     /// boundary, the warm start's floor on s and λ, the rounding level at which a point is held,
     /// and the infeasibility certificate's tolerance.

@@ -476,6 +476,15 @@ fn the_controller_recovers_from_outside_its_bounds_and_approaches_a_far_referenc
         beyond,
         "the status did not say the reference is beyond the region"
     );
+    // Absolute coordinates beyond the stated range are flagged, never a plain `Solved`.
+    let mut far = [0.0; paper_limits::NX];
+    let window = [[0.0; paper_limits::NX]; paper_limits::N];
+    let mut fresh = paper_limits::Mpc::new();
+    fresh.solve(&far, &window);
+    assert!(!fresh.solver_status().beyond_coordinate_range);
+    far[0] = 2.0 * paper_limits::report::COORDINATE_RANGE_F64;
+    fresh.solve(&far, &window);
+    assert!(fresh.solver_status().beyond_coordinate_range);
     assert!(
         (slowest - 2.0).abs() <= 0.1 && (fastest - 2.0).abs() <= 0.1,
         "speed {slowest} … {fastest} m/s"

@@ -8,7 +8,9 @@
 //! does). The residuals and the infeasibility test run once, after the iterations.
 #![allow(non_snake_case)]
 
-use super::constrained::{entry, evidence_doc, offsets, reach, status_types, Entry, Offsets};
+use super::constrained::{
+    coordinate_check, entry, evidence_doc, offsets, reach, status_types, Entry, Offsets,
+};
 use super::tokens::{at, Num};
 use super::Sections;
 use crate::lower::Problem;
@@ -32,6 +34,7 @@ fn bound(num: Num, v: f64) -> TokenStream {
 /// The ADMM `Mpc`, its kernels and its tables. `p` must be certified (its evidence carries ρ).
 pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
     let (reach_tables, reach_code) = reach(p, num, false);
+    let (coordinate_tables, coordinate_code) = coordinate_check(p, false);
     let qp = &p.qp;
     let (nu, N) = (p.nu, qp.N);
     let np = N * nu;
@@ -279,6 +282,7 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                             infeasible: false,
                             numerical_failure: false,
                             reference_beyond_region: false,
+                            beyond_coordinate_range: false,
                             fallback: Fallback::NoneYet,
                         },
                     }
@@ -299,6 +303,7 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                     for (r, row) in reference.chunks_exact_mut(xref[0].len()).zip(xref.iter()) {
                         r.copy_from_slice(&flushed(row));
                     }
+                    #coordinate_code
                     #reach_code
                     // q = Fx·x0 − Fr·Xref (+ Fu·u₋₁ + Fd·d) for the plan, the penalties' weights for the slacks.
                     let mut q = [0.0; NV];
@@ -392,6 +397,7 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
                         infeasible,
                         numerical_failure,
                         reference_beyond_region: beyond,
+                        beyond_coordinate_range: beyond_coordinates,
                         fallback: match (trusted, relax) {
                             (true, false) => Fallback::Solved,
                             (true, true) => Fallback::Relaxed,
@@ -606,6 +612,7 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
         },
         tables: quote! {
             #reach_tables
+            #coordinate_tables
             /// OSQP's over-relaxation α, and 1 − α.
             const ALPHA: Real = #alpha;
             const BETA: Real = 1.0 - ALPHA;

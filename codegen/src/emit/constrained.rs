@@ -39,6 +39,10 @@ pub fn status_types(method: &str, iterations_doc: &[&str]) -> TokenStream {
             /// (`REACH_LO`/`REACH_HI`) and was brought to that distance: the plan moves toward it as fast
             /// as the constraints allow, on a QP like those the region certified.
             pub reference_beyond_region: bool,
+            /// A state counted as an absolute coordinate, or a reference entry, was larger in magnitude
+            /// than `report::COORDINATE_RANGE_*` for this scalar: the command may be off by more than
+            /// `report::COMMAND_ACCURACY` from rounding alone. Give coordinates from a local origin.
+            pub beyond_coordinate_range: bool,
             /// Whether the plan is the solve's or the fallback's.
             pub fallback: Fallback,
         }
@@ -186,6 +190,49 @@ pub fn reach(p: &Problem, num: Num, wide: bool) -> (TokenStream, TokenStream) {
                 beyond |= (*v < a) | (*v > b);
                 *v = if *v < a { a } else if *v > b { b } else { *v };
             }
+        }
+    };
+    (tables, code)
+}
+
+/// The check of the data against the absolute-coordinate range the compiler states for the module's
+/// scalar (`report::COORDINATE_RANGE_*`, [`crate::coordinates`]): the table of the states counted as
+/// absolute coordinates, and the code that sets `beyond_coordinates` when one of them in `x0`, or any
+/// entry of `reference` (before its reach), is larger in magnitude than the range. `x0` and `reference`
+/// are f64 with `wide`, else `Real`.
+pub fn coordinate_check(p: &Problem, wide: bool) -> (TokenStream, TokenStream) {
+    let states = crate::coordinates::absolute_states(&p.F);
+    let count = Literal::usize_unsuffixed(states.len());
+    let indices = states.iter().map(|i| Literal::usize_unsuffixed(*i));
+    let range = match p.scalar {
+        mpc_spec::Scalar::F32 => quote!(report::COORDINATE_RANGE_F32),
+        mpc_spec::Scalar::F64 => quote!(report::COORDINATE_RANGE_F64),
+    };
+    let magnitude = if wide {
+        quote!(v.abs())
+    } else {
+        match p.scalar {
+            mpc_spec::Scalar::F32 => quote!(f64::from(v.abs())),
+            mpc_spec::Scalar::F64 => quote!(v.abs()),
+        }
+    };
+    let tables = quote! {
+        /// The states counted as absolute coordinates (the null space of F − I): with the references,
+        /// what [`SolverStatus::beyond_coordinate_range`] compares with `report::COORDINATE_RANGE_*`.
+        const ABSOLUTE_STATES: [usize; #count] = [#(#indices),*];
+    };
+    let code = quote! {
+        // Absolute coordinates beyond the range stated for this scalar: the command may be off by more
+        // than `report::COMMAND_ACCURACY`, and the status says so.
+        let outside = |v: &f64| !(*v <= #range);
+        let mut beyond_coordinates = false;
+        for i in ABSOLUTE_STATES {
+            if let Some(v) = x0.get(i) {
+                beyond_coordinates |= outside(&#magnitude);
+            }
+        }
+        for v in reference.iter() {
+            beyond_coordinates |= outside(&#magnitude);
         }
     };
     (tables, code)

@@ -10,7 +10,9 @@
 //! exactly that). Its control flow does not depend on the data.
 #![allow(non_snake_case)]
 
-use super::constrained::{entry, evidence_doc, offsets, reach, status_types, Entry, Offsets};
+use super::constrained::{
+    coordinate_check, entry, evidence_doc, offsets, reach, status_types, Entry, Offsets,
+};
 use super::rows::{self, Rows};
 use super::tokens::Num;
 use super::Sections;
@@ -27,6 +29,7 @@ use quote::quote;
 /// The interior-point `Mpc`, its kernels and its tables.
 pub fn emit(p: &Problem, num: Num) -> Sections {
     let (reach_tables, reach_code) = reach(p, num, true);
+    let (coordinate_tables, coordinate_code) = coordinate_check(p, true);
     let qp = &p.qp;
     let wide = Num(Scalar::F64);
     let (nu, N) = (p.nu, qp.N);
@@ -444,6 +447,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                             infeasible: false,
                             numerical_failure: false,
                             reference_beyond_region: false,
+                            beyond_coordinate_range: false,
                             fallback: Fallback::NoneYet,
                         },
                     }
@@ -467,6 +471,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                             *w = #wide_of_v;
                         }
                     }
+                    #coordinate_code
                     #reach_code
                     // f = Fx·x0 − Fr·Xref (+ Fu·u₋₁ + Fd·d) for the plan, the penalties' weights for the slacks.
                     let mut f = [0.0; NV];
@@ -547,6 +552,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
                         infeasible,
                         numerical_failure: outcome.ended == Ended::Failure,
                         reference_beyond_region: beyond,
+                        beyond_coordinate_range: beyond_coordinates,
                         fallback: match (trusted, relax) {
                             (true, false) => Fallback::Solved,
                             (true, true) => Fallback::Relaxed,
@@ -1043,6 +1049,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
         },
         tables: quote! {
             #reach_tables
+            #coordinate_tables
             /// Tuning of the method, as in the reference (`codegen::ipm`): the fraction of the step to the
             /// boundary, the warm start's floor on s and λ, the rounding level at which a point is held,
             /// and the infeasibility certificate's tolerance.
