@@ -139,10 +139,15 @@ fn the_solver_loop_analysis_is_skipped_past_its_budget_instead_of_hanging() {
 fn a_forced_emission_past_the_budget_is_an_error_at_the_emission() {
     // Unrolled code at the longest horizon: about 1.3 million unrolled multiply-adds, where the cost
     // model's own choice builds.
-    let src = PAPER.replace("horizon = 15", "horizon = 250").replace(
-        "scalar = \"f32\"",
-        "scalar = \"f32\"\nemission = \"unrolled\"",
-    );
+    // At N = 250 the paper's 30 iterations guarantee nothing (a located error of their own): the count
+    // the default tolerance needs.
+    let src = PAPER
+        .replace("horizon = 15", "horizon = 250")
+        .replace("iterations = 30", "iterations = 1227")
+        .replace(
+            "scalar = \"f32\"",
+            "scalar = \"f32\"\nemission = \"unrolled\"",
+        );
     let Err(diags) = generate_from_source(&src, &Opt::default()) else {
         panic!("the spec was accepted");
     };
