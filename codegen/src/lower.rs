@@ -19,6 +19,19 @@ use mpc_spec::{
 };
 use nalgebra::{DMatrix, DVector};
 
+/// Where a constrained method lets the reference lie ([`Qp::reference_reach`]), per tracked component.
+#[derive(Clone, Debug)]
+pub struct Reach {
+    /// The least offset of a reference from the tracked output that `[mpc.region]` covers.
+    pub lo: DVector<f64>,
+    /// The greatest such offset.
+    pub hi: DVector<f64>,
+    /// The region's `reference_min`: an entry inside the range is never moved.
+    pub range_min: DVector<f64>,
+    /// The region's `reference_max`.
+    pub range_max: DVector<f64>,
+}
+
 /// The condensed MPC problem and its solver parameters.
 #[derive(Clone, Debug)]
 pub struct Qp {
@@ -100,15 +113,16 @@ impl Qp {
             .map_or(crate::evidence::Limits::NONE, |e| e.limits)
     }
 
-    /// How far the reference may lie from the tracked output, per tracked component: (lo, hi) with
-    /// lo = reference_min − the output's largest value, hi = reference_max − its smallest, over the box
-    /// that spans `[mpc.region]`'s states and the finite state bounds (interval arithmetic). A
-    /// constrained method's window is brought within [z0 + lo, z0 + hi] (z0 the output at x0) before
-    /// the solve: for a reference in the region and a state in the region or the bounds it is never
-    /// moved, and a reference out of reach is then approached as fast as the constraints allow instead
-    /// of asking the fixed-iteration solver for a QP far from what the sample certified. `None` for the
+    /// How far the reference may lie from the tracked output, per tracked component ([`Reach`]): lo =
+    /// reference_min − the output's largest value, hi = reference_max − its smallest, over the box that
+    /// spans `[mpc.region]`'s states and the finite state bounds (interval arithmetic). A constrained
+    /// method brings a reference entry that lies outside the region's reference range within
+    /// [z0 + lo, z0 + hi] (z0 the output at x0) before the solve ([`Qp::reach_reference`]): a far
+    /// reference is then approached as fast as the constraints allow instead of asking the
+    /// fixed-iteration solver for a QP far from what the sample certified. An entry inside the range is
+    /// never moved, wherever the state is: the QP is then the one the README defines. `None` for the
     /// first-order methods and before the certificate.
-    pub fn reference_reach(&self) -> Option<(DVector<f64>, DVector<f64>)> {
+    pub fn reference_reach(&self) -> Option<Reach> {
         let e = self.evidence.as_ref().filter(|_| !self.method.box_only())?;
         let mut r = e.region.clone();
         let nz = self.nz;
@@ -140,31 +154,36 @@ impl Qp {
                 DVector::from_column_slice(&r.x_max),
             ),
         };
-        Some((
-            DVector::from_fn(nz, |i, _| r.reference_min[i] - hi[i]),
-            DVector::from_fn(nz, |i, _| r.reference_max[i] - lo[i]),
-        ))
+        Some(Reach {
+            lo: DVector::from_fn(nz, |i, _| r.reference_min[i] - hi[i]),
+            hi: DVector::from_fn(nz, |i, _| r.reference_max[i] - lo[i]),
+            range_min: DVector::from_fn(nz, |i, _| r.reference_min[i]),
+            range_max: DVector::from_fn(nz, |i, _| r.reference_max[i]),
+        })
     }
 
-    /// `window` (N references of nz, each of a predicted step) brought within [`Qp::reference_reach`] of
-    /// the output at `x0`; whether any entry was moved.
+    /// `window` (N references of nz, each of a predicted step) with every entry outside the region's
+    /// reference range brought within [`Qp::reference_reach`] of the output at `x0`; whether any entry
+    /// lay outside the range (the status's `reference_beyond_region`).
     pub fn reach_reference(&self, x0: &DVector<f64>, window: &mut [DVector<f64>]) -> bool {
-        let Some((lo, hi)) = self.reference_reach() else {
+        let Some(reach) = self.reference_reach() else {
             return false;
         };
         let z0 = match &self.Cz {
             Some(Cz) => Cz * x0,
             None => x0.clone(),
         };
-        let mut moved = false;
+        let mut beyond = false;
         for r in window.iter_mut() {
             for i in 0..r.len().min(self.nz) {
-                let (a, b) = (z0[i] + lo[i], z0[i] + hi[i]);
-                moved |= r[i] < a || r[i] > b;
-                r[i] = r[i].max(a).min(b);
+                let outside = r[i] < reach.range_min[i] || r[i] > reach.range_max[i];
+                beyond |= outside;
+                if outside {
+                    r[i] = r[i].max(z0[i] + reach.lo[i]).min(z0[i] + reach.hi[i]);
+                }
             }
         }
-        moved
+        beyond
     }
 
     /// The rest plan: [`Qp::rest_input`] at every step (a cold start, and what warm starts append).

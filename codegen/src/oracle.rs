@@ -29,7 +29,7 @@ pub struct Mpc {
     admm_step: Option<admm::Step>,
     /// Whether the controller is recovering from infeasible hard rows ([`crate::ipm::recovering_after`]).
     relax: bool,
-    /// Whether the last solve's reference was beyond [`Qp::reference_reach`] and brought to it.
+    /// Whether the last solve's reference lay outside the region's range ([`Qp::reach_reference`]).
     reference_beyond_region: bool,
 }
 
@@ -52,8 +52,8 @@ impl Mpc {
         }
     }
 
-    /// Whether the last constrained solve's reference lay farther from the tracked output than
-    /// `[mpc.region]` covers and was brought to that distance ([`Qp::reach_reference`]).
+    /// Whether an entry of the last constrained solve's reference lay outside `[mpc.region]`'s reference
+    /// range (and was brought within the distance the region covers, [`Qp::reach_reference`]).
     pub fn reference_beyond_region(&self) -> bool {
         self.reference_beyond_region
     }

@@ -53,21 +53,23 @@ fn fgm_only_keys_choose_fgm() {
     let tolerance =
         without_method(PAPER).replace("iterations = 30", "iterations = \"auto\"\ntolerance = 1e-4");
     assert_eq!(load(&tolerance).unwrap().mpc.method, Method::Fgm);
-    // With a constraint as well, the error says why the constraint cannot be taken.
+    // With a constraint as well, `auto` does not follow `step` into a method that cannot take the
+    // constraint: the one error is on `step`, and its hint names the constrained methods' key.
     let constrained = stepped.replace(
         "u_max = [10, 10, 10]",
         "u_max = [10, 10, 10]\nx_max = [inf, inf, inf, 2, 2, 2]",
     );
     let err = load(&constrained).unwrap_err();
+    assert_eq!(err.iter().count(), 1, "{err:?}");
     let d = err.iter().next().unwrap();
     assert!(
-        d.message.contains("`x_max` is a constraint"),
+        d.message.starts_with("`step` is a setting of the first-order methods"),
         "{}",
         d.message
     );
     let note = d.note.as_deref().unwrap();
     assert!(
-        note.contains("a numeric `step`") && note.contains("remove it"),
+        note.contains("weighs `ipm` and `admm`") && note.contains("remove `step`"),
         "{note}"
     );
 }

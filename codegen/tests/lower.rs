@@ -576,7 +576,16 @@ r_du = [1, 0]
 u_min = [-1, -1]
 u_max = [1, 1]
 "#;
-    let (message, key) = first_error(free_input);
-    assert!(message.contains("numerically singular"), "{message}");
-    assert_eq!(key, "[0, 0]", "{message}");
+    // The spec's check sees it before the Hessian is formed: the error names both keys, on `r_du`'s
+    // entry with `r`'s beside it (issue 31, "errors that blame the wrong key").
+    let errors = mpc_spec::load(free_input).unwrap_err();
+    let d = errors.iter().next().unwrap();
+    assert!(
+        d.message
+            .starts_with("input 1 has no weight: its entries of `mpc.r` and `mpc.r_du` are both zero"),
+        "{}",
+        d.message
+    );
+    assert_eq!(&free_input[d.span.clone().unwrap()], "[1, 0]");
+    assert_eq!(&free_input[d.related[0].0.clone()], "[0, 0]");
 }

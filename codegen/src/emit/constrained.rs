@@ -35,9 +35,10 @@ pub fn status_types(method: &str, iterations_doc: &[&str]) -> TokenStream {
             pub infeasible: bool,
             /// A factorisation was refused, or a step was not finite.
             pub numerical_failure: bool,
-            /// The reference window lay farther from the tracked output than `[mpc.region]` covers
-            /// (`REACH_LO`/`REACH_HI`) and was brought to that distance: the plan moves toward it as fast
-            /// as the constraints allow, on a QP like those the region certified.
+            /// An entry of the reference window lay outside `[mpc.region]`'s reference range
+            /// (`REFERENCE_MIN`/`REFERENCE_MAX`); where it was farther from the tracked output than the
+            /// region covers (`REACH_LO`/`REACH_HI`) it was brought to that distance: the plan moves
+            /// toward it as fast as the constraints allow, on a QP like those the region certified.
             pub reference_beyond_region: bool,
             /// A state counted as an absolute coordinate, or a reference entry, was larger in magnitude
             /// than `report::COORDINATE_RANGE_*` for this scalar: the command may be off by more than
@@ -146,19 +147,21 @@ pub fn entry(p: &Problem) -> Entry {
 /// the tracked output at `x0` (same type), setting `beyond`. Without a reach (no certificate), `beyond`
 /// is false and nothing is emitted.
 pub fn reach(p: &Problem, num: Num, wide: bool) -> (TokenStream, TokenStream) {
-    let Some((lo, hi)) = p.qp.reference_reach() else {
+    let Some(reach) = p.qp.reference_reach() else {
         return (quote!(), quote!(let beyond = false;));
     };
     let nz = Literal::usize_unsuffixed(p.qp.nz);
-    let (lo, hi) = (
-        num.vector(lo.iter().copied()),
-        num.vector(hi.iter().copied()),
-    );
+    let [lo, hi, range_min, range_max] = [&reach.lo, &reach.hi, &reach.range_min, &reach.range_max]
+        .map(|v| num.vector(v.iter().copied()));
     let ty = if wide { quote!(f64) } else { quote!(Real) };
     let tables = quote! {
-        /// How far the reference may lie from the tracked output (`[mpc.region]`: reference_min − the
-        /// output's largest value over the state region, reference_max − its smallest): a window beyond
-        /// it is brought to that distance, [`SolverStatus::reference_beyond_region`].
+        /// The region's reference range (`[mpc.region]` reference_min, reference_max): an entry inside
+        /// it is never moved; one outside is [`SolverStatus::reference_beyond_region`].
+        const REFERENCE_MIN: [Real; #nz] = #range_min;
+        const REFERENCE_MAX: [Real; #nz] = #range_max;
+        /// How far the reference may lie from the tracked output (reference_min − the output's largest
+        /// value over the state region, reference_max − its smallest): an entry outside the range is
+        /// brought within that distance.
         const REACH_LO: [Real; #nz] = #lo;
         const REACH_HI: [Real; #nz] = #hi;
     };
@@ -166,7 +169,7 @@ pub fn reach(p: &Problem, num: Num, wide: bool) -> (TokenStream, TokenStream) {
         (true, mpc_spec::Scalar::F32) => quote!(f64::from(#e)),
         _ => e,
     };
-    let (lo_of, hi_of) = (of(quote!(*lo)), of(quote!(*hi)));
+    let [lo_of, hi_of, min_of, max_of] = [quote!(*lo), quote!(*hi), quote!(*min), quote!(*max)].map(of);
     let fill = match &p.qp.Cz {
         Some(_) => {
             let c_of = of(quote!(*c));
@@ -179,16 +182,20 @@ pub fn reach(p: &Problem, num: Num, wide: bool) -> (TokenStream, TokenStream) {
         None => quote!(tracked.copy_from_slice(&x0);),
     };
     let code = quote! {
-        // A reference farther from the tracked output than `[mpc.region]` covers is brought to that
-        // distance: the plan then moves toward it as fast as the constraints allow.
+        // A reference entry outside `[mpc.region]`'s range is brought within the distance of the tracked
+        // output that the region covers: the plan then moves toward it as fast as the constraints
+        // allow. An entry inside the range is never moved.
         let mut tracked: [#ty; #nz] = [0.0; #nz];
         #fill
         let mut beyond = false;
         for r in reference.chunks_exact_mut(#nz) {
-            for (((v, t), lo), hi) in r.iter_mut().zip(tracked.iter()).zip(REACH_LO.iter()).zip(REACH_HI.iter()) {
+            let bounds = REACH_LO.iter().zip(REACH_HI.iter()).zip(REFERENCE_MIN.iter().zip(REFERENCE_MAX.iter()));
+            for ((v, t), ((lo, hi), (min, max))) in r.iter_mut().zip(tracked.iter()).zip(bounds) {
+                let outside = (*v < #min_of) | (*v > #max_of);
+                beyond |= outside;
                 let (a, b) = (*t + #lo_of, *t + #hi_of);
-                beyond |= (*v < a) | (*v > b);
-                *v = if *v < a { a } else if *v > b { b } else { *v };
+                let reached = if *v < a { a } else if *v > b { b } else { *v };
+                *v = if outside { reached } else { *v };
             }
         }
     };
@@ -224,7 +231,8 @@ pub fn coordinate_check(p: &Problem, wide: bool) -> (TokenStream, TokenStream) {
     let code = quote! {
         // Absolute coordinates beyond the range stated for this scalar: the command may be off by more
         // than `report::COMMAND_ACCURACY`, and the status says so.
-        let outside = |v: &f64| !(*v <= #range);
+        // (The data are finite here: a non-finite argument was refused before.)
+        let outside = |v: &f64| *v > #range;
         let mut beyond_coordinates = false;
         for i in ABSOLUTE_STATES {
             if let Some(v) = x0.get(i) {
