@@ -119,6 +119,12 @@ pub trait Sampled: Sync {
     }
     /// Whether the method's final residuals are limited at run time ([`Limits`]).
     fn limits_residuals(&self) -> bool;
+    /// The run-time limits' multiple of the sample's worst final residuals, given the sample's worst
+    /// error at the count used (relative to the span) and `accuracy`: [`LIMIT_FACTOR`] for a method whose
+    /// residuals fall much faster than its error near the solution (the interior-point method's).
+    fn limit_factor(&self, _accuracy: f64, _worst_error: f64) -> f64 {
+        LIMIT_FACTOR
+    }
     /// The tuned parameters the evidence reports (ADMM's ρ and form); `None` for a method without them.
     fn admm(&self) -> Option<crate::admm::Tuned> {
         None
@@ -463,6 +469,19 @@ impl Sampled for Admm {
 
     fn limits_residuals(&self) -> bool {
         true
+    }
+
+    /// ADMM converges linearly: its error falls in proportion to its residuals, so a residual
+    /// [`LIMIT_FACTOR`] times the sample's worst admits an error up to that many times the sample's
+    /// (a cold case the sample missed was accepted at 5× `accuracy`, residual 15× the sample's worst).
+    /// The limits allow the residuals to grow only as far as the error may: accuracy / worst error, at
+    /// least 1, at most [`LIMIT_FACTOR`].
+    fn limit_factor(&self, accuracy: f64, worst_error: f64) -> f64 {
+        if worst_error > 0.0 {
+            (accuracy / worst_error).clamp(1.0, LIMIT_FACTOR)
+        } else {
+            LIMIT_FACTOR
+        }
     }
 
     fn admm(&self) -> Option<crate::admm::Tuned> {
@@ -924,10 +943,11 @@ fn certify_spending<M: Sampled>(
             dual = dual.max(d);
             gap = gap.max(g);
         }
+        let factor = method.limit_factor(qp.accuracy, worst_error);
         Limits {
-            primal: (LIMIT_FACTOR * primal).max(LIMIT_FLOOR),
-            dual: (LIMIT_FACTOR * dual).max(LIMIT_FLOOR),
-            gap: (LIMIT_FACTOR * gap).max(LIMIT_FLOOR),
+            primal: (factor * primal).max(LIMIT_FLOOR),
+            dual: (factor * dual).max(LIMIT_FLOOR),
+            gap: (factor * gap).max(LIMIT_FLOOR),
         }
     } else {
         Limits::NONE

@@ -162,9 +162,10 @@ pub mod hover {
         pub infeasible: bool,
         /// A factorisation was refused, or a step was not finite.
         pub numerical_failure: bool,
-        /// The reference window lay farther from the tracked output than `[mpc.region]` covers
-        /// (`REACH_LO`/`REACH_HI`) and was brought to that distance: the plan moves toward it as fast
-        /// as the constraints allow, on a QP like those the region certified.
+        /// An entry of the reference window lay outside `[mpc.region]`'s reference range
+        /// (`REFERENCE_MIN`/`REFERENCE_MAX`); where it was farther from the tracked output than the
+        /// region covers (`REACH_LO`/`REACH_HI`) it was brought to that distance: the plan moves
+        /// toward it as fast as the constraints allow, on a QP like those the region certified.
         pub reference_beyond_region: bool,
         /// A state counted as an absolute coordinate, or a reference entry, was larger in magnitude
         /// than `report::COORDINATE_RANGE_*` for this scalar: the command may be off by more than
@@ -263,7 +264,7 @@ pub mod hover {
                     *w = *v;
                 }
             }
-            let outside = |v: &f64| !(*v <= report::COORDINATE_RANGE_F64);
+            let outside = |v: &f64| *v > report::COORDINATE_RANGE_F64;
             let mut beyond_coordinates = false;
             for i in ABSOLUTE_STATES {
                 if let Some(v) = x0.get(i) {
@@ -277,15 +278,20 @@ pub mod hover {
             tracked.copy_from_slice(&x0);
             let mut beyond = false;
             for r in reference.chunks_exact_mut(12) {
-                for (((v, t), lo), hi) in r
+                let bounds = REACH_LO
+                    .iter()
+                    .zip(REACH_HI.iter())
+                    .zip(REFERENCE_MIN.iter().zip(REFERENCE_MAX.iter()));
+                for ((v, t), ((lo, hi), (min, max))) in r
                     .iter_mut()
                     .zip(tracked.iter())
-                    .zip(REACH_LO.iter())
-                    .zip(REACH_HI.iter())
+                    .zip(bounds)
                 {
+                    let outside = (*v < *min) | (*v > *max);
+                    beyond |= outside;
                     let (a, b) = (*t + *lo, *t + *hi);
-                    beyond |= (*v < a) | (*v > b);
-                    *v = if *v < a { a } else if *v > b { b } else { *v };
+                    let reached = if *v < a { a } else if *v > b { b } else { *v };
+                    *v = if outside { reached } else { *v };
                 }
             }
             let mut f = [0.0; NV];
@@ -10696,9 +10702,39 @@ pub mod hover {
             6.127876f64,
         ],
     ];
-    /// How far the reference may lie from the tracked output (`[mpc.region]`: reference_min − the
-    /// output's largest value over the state region, reference_max − its smallest): a window beyond
-    /// it is brought to that distance, [`SolverStatus::reference_beyond_region`].
+    /// The region's reference range (`[mpc.region]` reference_min, reference_max): an entry inside
+    /// it is never moved; one outside is [`SolverStatus::reference_beyond_region`].
+    const REFERENCE_MIN: [Real; 12] = [
+        -3f64,
+        -3f64,
+        -3f64,
+        -0.1f64,
+        -0.1f64,
+        -0.1f64,
+        -0.5f64,
+        -0.5f64,
+        -0.5f64,
+        -0.5f64,
+        -0.5f64,
+        -0.5f64,
+    ];
+    const REFERENCE_MAX: [Real; 12] = [
+        3f64,
+        3f64,
+        3f64,
+        0.1f64,
+        0.1f64,
+        0.1f64,
+        0.5f64,
+        0.5f64,
+        0.5f64,
+        0.5f64,
+        0.5f64,
+        0.5f64,
+    ];
+    /// How far the reference may lie from the tracked output (reference_min − the output's largest
+    /// value over the state region, reference_max − its smallest): an entry outside the range is
+    /// brought within that distance.
     const REACH_LO: [Real; 12] = [
         -8f64,
         -8f64,

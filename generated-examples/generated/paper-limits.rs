@@ -191,9 +191,10 @@ pub mod paper_limits {
         pub infeasible: bool,
         /// A factorisation was refused, or a step was not finite.
         pub numerical_failure: bool,
-        /// The reference window lay farther from the tracked output than `[mpc.region]` covers
-        /// (`REACH_LO`/`REACH_HI`) and was brought to that distance: the plan moves toward it as fast
-        /// as the constraints allow, on a QP like those the region certified.
+        /// An entry of the reference window lay outside `[mpc.region]`'s reference range
+        /// (`REFERENCE_MIN`/`REFERENCE_MAX`); where it was farther from the tracked output than the
+        /// region covers (`REACH_LO`/`REACH_HI`) it was brought to that distance: the plan moves
+        /// toward it as fast as the constraints allow, on a QP like those the region certified.
         pub reference_beyond_region: bool,
         /// A state counted as an absolute coordinate, or a reference entry, was larger in magnitude
         /// than `report::COORDINATE_RANGE_*` for this scalar: the command may be off by more than
@@ -292,7 +293,7 @@ pub mod paper_limits {
                     *w = *v;
                 }
             }
-            let outside = |v: &f64| !(*v <= report::COORDINATE_RANGE_F64);
+            let outside = |v: &f64| *v > report::COORDINATE_RANGE_F64;
             let mut beyond_coordinates = false;
             for i in ABSOLUTE_STATES {
                 if let Some(v) = x0.get(i) {
@@ -306,15 +307,20 @@ pub mod paper_limits {
             tracked.copy_from_slice(&x0);
             let mut beyond = false;
             for r in reference.chunks_exact_mut(6) {
-                for (((v, t), lo), hi) in r
+                let bounds = REACH_LO
+                    .iter()
+                    .zip(REACH_HI.iter())
+                    .zip(REFERENCE_MIN.iter().zip(REFERENCE_MAX.iter()));
+                for ((v, t), ((lo, hi), (min, max))) in r
                     .iter_mut()
                     .zip(tracked.iter())
-                    .zip(REACH_LO.iter())
-                    .zip(REACH_HI.iter())
+                    .zip(bounds)
                 {
+                    let outside = (*v < *min) | (*v > *max);
+                    beyond |= outside;
                     let (a, b) = (*t + *lo, *t + *hi);
-                    beyond |= (*v < a) | (*v > b);
-                    *v = if *v < a { a } else if *v > b { b } else { *v };
+                    let reached = if *v < a { a } else if *v > b { b } else { *v };
+                    *v = if outside { reached } else { *v };
                 }
             }
             let mut f = [0.0; NV];
@@ -11519,9 +11525,13 @@ pub mod paper_limits {
         [0f64, 0.006359170862285293f64, 0f64],
         [0f64, 0f64, 0.006359170862285293f64],
     ];
-    /// How far the reference may lie from the tracked output (`[mpc.region]`: reference_min − the
-    /// output's largest value over the state region, reference_max − its smallest): a window beyond
-    /// it is brought to that distance, [`SolverStatus::reference_beyond_region`].
+    /// The region's reference range (`[mpc.region]` reference_min, reference_max): an entry inside
+    /// it is never moved; one outside is [`SolverStatus::reference_beyond_region`].
+    const REFERENCE_MIN: [Real; 6] = [-7f64, -5f64, 0f64, -3.2f64, -3.2f64, -3.2f64];
+    const REFERENCE_MAX: [Real; 6] = [11f64, 11f64, 16f64, 3.2f64, 3.2f64, 3.2f64];
+    /// How far the reference may lie from the tracked output (reference_min − the output's largest
+    /// value over the state region, reference_max − its smallest): an entry outside the range is
+    /// brought within that distance.
     const REACH_LO: [Real; 6] = [-18f64, -16f64, -16f64, -5.2f64, -5.2f64, -5.2f64];
     const REACH_HI: [Real; 6] = [18f64, 16f64, 16f64, 5.2f64, 5.2f64, 5.2f64];
     /// The states counted as absolute coordinates (the null space of F − I): with the references,
