@@ -63,7 +63,8 @@ fn fgm_only_keys_choose_fgm() {
     assert_eq!(err.iter().count(), 1, "{err:?}");
     let d = err.iter().next().unwrap();
     assert!(
-        d.message.starts_with("`step` is a setting of the first-order methods"),
+        d.message
+            .starts_with("`step` is a setting of the first-order methods"),
         "{}",
         d.message
     );

@@ -581,8 +581,9 @@ u_max = [1, 1]
     let errors = mpc_spec::load(free_input).unwrap_err();
     let d = errors.iter().next().unwrap();
     assert!(
-        d.message
-            .starts_with("input 1 has no weight: its entries of `mpc.r` and `mpc.r_du` are both zero"),
+        d.message.starts_with(
+            "input 1 has no weight: its entries of `mpc.r` and `mpc.r_du` are both zero"
+        ),
         "{}",
         d.message
     );

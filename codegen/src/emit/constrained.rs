@@ -169,7 +169,8 @@ pub fn reach(p: &Problem, num: Num, wide: bool) -> (TokenStream, TokenStream) {
         (true, mpc_spec::Scalar::F32) => quote!(f64::from(#e)),
         _ => e,
     };
-    let [lo_of, hi_of, min_of, max_of] = [quote!(*lo), quote!(*hi), quote!(*min), quote!(*max)].map(of);
+    let [lo_of, hi_of, min_of, max_of] =
+        [quote!(*lo), quote!(*hi), quote!(*min), quote!(*max)].map(of);
     let fill = match &p.qp.Cz {
         Some(_) => {
             let c_of = of(quote!(*c));
