@@ -1,4 +1,4 @@
-//! Compile tests of the `mpc!` macro: `ui/pass` must build and run; every other folder of `ui/` is a
+//! Compile tests of the `mpc!` macro: `tests/ui/pass` must build and run; every other folder of `tests/ui/` is a
 //! family of bad specs, each case a compile error whose expected output (the rendered TOML snippet with its
 //! line and column, on the macro's string literal) is the `.stderr` beside it.
 //!
@@ -36,20 +36,20 @@ const FAMILIES: &[&str] = &[
 #[test]
 fn ui() {
     let t = trybuild::TestCases::new();
-    t.pass("ui/pass/*.rs");
+    t.pass("tests/ui/pass/*.rs");
     for family in FAMILIES {
-        t.compile_fail(format!("ui/{family}/*.rs"));
+        t.compile_fail(format!("tests/ui/{family}/*.rs"));
     }
 }
 
 #[test]
 fn every_family_is_listed() {
-    let ui = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("ui");
+    let ui = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests").join("ui");
     for entry in std::fs::read_dir(ui).unwrap() {
         let name = entry.unwrap().file_name().into_string().unwrap();
         assert!(
             name == "pass" || FAMILIES.contains(&name.as_str()),
-            "ui/{name} is not in FAMILIES"
+            "tests/ui/{name} is not in FAMILIES"
         );
     }
 }
