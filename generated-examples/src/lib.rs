@@ -1,5 +1,4 @@
-//! User crates of `mpc!`: the shipped specs, each compiled into a controller module at `cargo build` time.
-//! The library is `#![no_std]`, as a firmware crate would be.
+#![doc = include_str!("../README.md")]
 #![no_std]
 
 mpc_macros::mpc!(pub mod paper = "../specs/paper.toml");

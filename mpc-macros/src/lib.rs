@@ -1,21 +1,4 @@
-//! `mpc!`: compiles a TOML controller spec into a `no_std`, allocation-free MPC and Kalman filter.
-//!
-//! ```ignore
-//! // The spec in a file, relative to the calling crate's CARGO_MANIFEST_DIR; editing it rebuilds the crate.
-//! mpc_macros::mpc!(pub mod drone = "specs/paper.toml");
-//!
-//! // The spec inline: the module's body is the spec text.
-//! mpc_macros::mpc!(pub(crate) mod hover {
-//!     r#"
-//!     [model]
-//!     type = "double_integrator"
-//!     ...
-//!     "#
-//! });
-//! ```
-//!
-//! This crate only parses its input and calls `codegen`; a mistake in the spec becomes a compile error on
-//! the path or string literal, carrying the rendered TOML snippet with line and column.
+#![doc = include_str!("../README.md")]
 
 use codegen::{Opt, Origin};
 use proc_macro::TokenStream;

@@ -1,8 +1,4 @@
-//! The controller spec of `mpc!`: a small TOML file read into typed, validated values.
-//!
-//! [`load`] reads and checks a spec and reports every mistake at once, each with the byte span of the
-//! offending key or value, so that the macro and the `mpcc` command can point at the line.
-//! This crate has no I/O, no rendering and no linear algebra: those live in `codegen`.
+#![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
 mod check;

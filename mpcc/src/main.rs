@@ -1,20 +1,4 @@
-//! `mpcc`: the `mpc!` compiler on the command line.
-//!
-//! - `mpcc check SPEC [--json]` prints what the compiler proves about a controller spec (the certificate
-//!   that `mpc!` emits as the `report` submodule) and its warnings;
-//! - `mpcc emit SPEC [-o FILE]` prints the module `mpc!` would emit, formatted, or writes it to `FILE`:
-//!   a regular file only when its content changed, anything else (`/dev/stdout`, a FIFO) straight
-//!   through; `FILE` may not be the spec itself;
-//! - `mpcc dump-qp SPEC [--x0 LIST] [--reference LIST] [--steps N | --states FILE] [-o FILE]` writes
-//!   the condensed QP and a closed loop's states with their exact solutions as JSON (`dump`), for the
-//!   peer solvers of `peers/`.
-//!
-//! SPEC is a regular file or `-` for standard input, of at most 1 MiB (`codegen::input::SPEC_SIZE_LIMIT`); a
-//! FIFO, a device or a directory is refused before it is opened, so that `mpcc` never blocks on or reads
-//! without bound from its input.
-//!
-//! A bad spec prints the same rendered diagnostics as the macro (`codegen::render`) and exits 1. As in
-//! cxxbridge, `main` calls `try_main` and reports an error as `mpcc: {error}` with its `Caused by:` chain.
+#![doc = include_str!("../README.md")]
 
 mod app;
 mod check;
