@@ -24,18 +24,18 @@
 //! | cortex-a9 | f32, ADMM, x-update stage by stage | 9,312,850 (`firmware-template/specs/quadcopter-m4f.toml`, on the VFP) | 2,942,646 | 3.16 | 1.5 | 4.8 |
 //! | cortex-m4f | f32, ADMM, x-update stage by stage | 8,526,738 (`firmware-template/specs/quadcopter-m4f.toml`) | 2,942,646 | 2.90 | 1 | 3.0 |
 //!
-//! The instruction counts are BENCHMARKS.md's: "Runtime hardening" (both boards' `paper.toml` with
+//! The instruction counts are those of benchmarks/NOTES.md: "Runtime hardening" (both boards' `paper.toml` with
 //! screening) and "Firmware (emulated Zynq-7000)" and "Firmware (emulated Cortex-M4F)" (the f64 rows). Under QEMU they are instructions, not cycles: the A9's 1.5 cycles
-//! per instruction is BENCHMARKS.md's estimate from the A9's published NEON issue rates (section
+//! per instruction is benchmarks/NOTES.md's estimate from the A9's published NEON issue rates (section
 //! "Emulated Cortex-A9", "Cycles, estimated"); a Cortex-M4 retires at most one instruction a cycle, so 1 is
 //! a lower bound there (flash wait states and multi-cycle divides come on top). These are estimates to a
 //! factor of about two, good enough to tell a step that fits its period from one that cannot. The
 //! interior-point method's row is its own: besides its multiply-adds it divides, selects and checks per
-//! side (`scripts/firmware.sh --cycles 30 specs/paper-limits.toml`, ticks × 10; BENCHMARKS.md, "The
+//! side (`scripts/firmware.sh --cycles 30 specs/paper-limits.toml`, ticks × 10; benchmarks/NOTES.md, "The
 //! interior-point method on the emulated Zynq"). The M4F's is the A9's ratio to plain f64 (10.3 / 5.4)
 //! times the M4F's soft-float f64: derived, not measured, as the method is refused there. ADMM's rows
 //! are its own too (`scripts/firmware.sh --cycles 100 [--board netduinoplus2]
-//! firmware-template/specs/quadcopter-m4f.toml`; BENCHMARKS.md, "ADMM on the emulated Cortex-M4F"): its
+//! firmware-template/specs/quadcopter-m4f.toml`; benchmarks/NOTES.md, "ADMM on the emulated Cortex-M4F"): its
 //! products are written out, but every iteration also clamps and updates each row's z and y, which its
 //! multiply-add count leaves out; rounded up. The condensed rows are from the firmware before ADMM's
 //! x-update went stage by stage (commit 6fd3446); the stage-wise rows from after it, which the firmware
@@ -104,7 +104,8 @@ pub const HOST: Machine = Machine {
 
 /// The Zynq-7000's Cortex-A9: VFPv3 with 32 double registers (f64 in hardware) and NEON (f32 only). The
 /// clock is 667 MHz, the fastest of the slowest speed grade (-1) in Xilinx's Zynq-7000 data sheet (DS190)
-/// and that of the common XC7Z020-1 boards; the paper (`../shared/paper.md`) does not state its clock.
+/// and that of the common XC7Z020-1 boards; the paper (Trinh et al., "Enhancing real-time drone trajectory
+/// tracking performance using model predictive control on FPGA-SoC") does not state its clock.
 pub const CORTEX_A9: Machine = Machine {
     target: Target::CortexA9,
     processor: "the Zynq-7000's Cortex-A9",

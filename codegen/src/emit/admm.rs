@@ -650,7 +650,7 @@ pub use crate::plan::WRITE_OUT_BUDGET;
 /// The kernels over the general rows `A` (rows × NV) and the factor `L` of P + σI + CᵀRC, each in the
 /// reference's order of summation (`solver::admm::Operator::{C, Ct, solve}`): written out within
 /// [`WRITE_OUT_BUDGET`], which costs a few instructions a multiply-add where the loops over compressed
-/// rows cost some ten (BENCHMARKS.md, "ADMM on the emulated Cortex-M4F"), else loops over tables.
+/// rows cost some ten (benchmarks/NOTES.md, "ADMM on the emulated Cortex-M4F"), else loops over tables.
 /// The tables are those the loops need (none when written out).
 fn kernels(
     num: Num,

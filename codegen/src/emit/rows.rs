@@ -4,7 +4,7 @@
 //!
 //! Why: the rows are short (a speed row of the paper's drone is its axis's inputs so far and its
 //! slack), so loops over tables of them spent most of their instructions on loop set-up and range
-//! checks (BENCHMARKS.md, "The interior-point method on the emulated Zynq"). With constant indices
+//! checks (benchmarks/NOTES.md, "The interior-point method on the emulated Zynq"). With constant indices
 //! into fixed-size arrays there is nothing to check at run time and nothing that can panic, and the
 //! code is as long as the work: G·z and Gᵀ·v are one term per nonzero of the rows, H·z one per
 //! nonzero of H, the forming one per nonzero product of two entries of a row (Σ nnz²/2, the cost
