@@ -27,7 +27,7 @@ For every spec it
 The cost is the project's: J = Σ_{k=1}^{N−1} (x_k − r_k)ᵀQ(x_k − r_k) + (x_N − r_N)ᵀQf(x_N − r_N)
 + Σ_{k=0}^{N−1} u_kᵀRu_k = ½UᵀHU + fᵀU + const, f = 2Suᵀ Q̄ (Sx x0 − R_ref). A soft state bound adds one
 slack s_i ≥ 0 per constrained component i, shared by x_1 … x_N and both sides, with the cost
-w·s_i + 1e-3·w·s_i²/2 (the design stated in the README, "Constraints and the interior-point method").
+w·s_i + 1e-3·w·s_i²/2 (the design stated in docs/methods.md, "Constraints and the interior-point method").
 """
 
 import math

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# rustc's time and memory on emitted modules, the calibration of codegen::budget's rustc model (README,
+# rustc's time and memory on emitted modules, the calibration of codegen::budget's rustc model (docs/methods.md,
 # "Budgets"): the paper's spec at horizons 30 and 100 (tables), and dense `linear` plants with a
 # time-varying filter, nx = 12 and 24 (unrolled code; a fixed-seed generator below). For each it prints the
 # emitted source's bytes, `mpcc check`'s predicted rustc time and memory, and rustc's measured ones

@@ -1,34 +1,4 @@
-//! Code generation for `mpc!`, as a plain library that the proc macro and the `mpcc` command call.
-//!
-//! The phases are gated, as in cxx: [`mpc_spec::load`] parses and checks the spec; [`lower()`] computes the
-//! condensed QP, its constraint rows ([`constraints`]), its solver's parameters and the filter in f64 with
-//! nalgebra, and certifies an interior-point method's count by sampling ([`sampling`]); [`plan()`] resolves the
-//! algorithm and the gradient form once (no `auto` after it); [`certify`] proves and counts; the [`emit`]
-//! module turns it all into a module with `quote!`. The [`oracle`] runs the same algorithms at run time over
-//! nalgebra matrices: the generic solver every generated controller is tested against.
-//!
-//! One place per concept:
-//! - [`solver`]: one file per algorithm (`gradient.rs`, `fgm.rs`) behind [`solver::Algorithm`], which owns
-//!   the algorithm's parameters, step check, certificate terms, f64 reference iteration, cost and emitted
-//!   iteration;
-//! - [`form`]: one file per gradient form (`unrolled.rs`, `table.rs`, `lanes.rs`, `matrix_free.rs`) behind
-//!   [`form::GradientForm`], each with its cost estimate; the Cortex-A9's NEON kernels in `form/neon.rs`;
-//! - [`ipm`] (`solver/ipm.rs`): the dense primal-dual interior-point method for the constrained QPs, in
-//!   f64: its reference iteration, the MPC's control step with its fallback, and its cost; it is not a
-//!   first-order [`solver::Algorithm`], and `emit/interior.rs` emits it;
-//! - [`admm`] (`solver/admm.rs`, `solver/admm/stages.rs`): OSQP's ADMM on the same QPs, its x-update
-//!   dense on the condensed QP or stage by stage (Riccati gains), in f32 or f64
-//!   (the method for targets without f64 hardware), with ρ measured on a sample; `emit/admm.rs` emits it;
-//! - [`target`]: what the compiler knows of the machine (`[codegen] target`): f64 hardware, SIMD, clock,
-//!   cycles per multiply-add, and the refusal of a step that does not fit its sampling period;
-//! - [`linalg`] the build-time linear algebra, [`numeric`] the emitted scalar's numbers, [`structure`] the
-//!   structure read off the matrices, [`cost`] the cost model's weights.
-//!
-//! ```
-//! let spec = mpc_spec::load(include_str!("../../specs/paper.toml")).unwrap();
-//! let generated = codegen::generate(&spec, &codegen::Opt::default()).unwrap();
-//! assert!(generated.tokens.to_string().contains("pub struct Controller"));
-//! ```
+#![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
 pub mod budget;

@@ -278,7 +278,7 @@ impl Constraints {
     }
 }
 
-/// One `[[mpc.constraint]]`: lower ≤ Ax·x_k + Au·u_k ≤ upper at every predicted step (the README states
+/// One `[[mpc.constraint]]`: lower ≤ Ax·x_k + Au·u_k ≤ upper at every predicted step (docs/spec.md states
 /// the stages: k = 0 … N−1 where the row has an `au`, and the terminal x_N through `ax` alone).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RowGroup {

@@ -1,13 +1,13 @@
 //! An independent check of the constrained QP (issue 31, "What to build" item 1): the condensed QP of
-//! one control step formed here from the README's definitions alone, compared with the compiler's.
+//! one control step formed here from the definitions of docs/spec.md and docs/methods.md alone, compared with the compiler's.
 //!
 //! The independent side uses `mpc_spec::load` for the matrices of the spec (parsing is not under test)
 //! and nothing of `codegen`'s lowering: the model is sampled here (a scaled-and-squared Taylor series of
 //! exp([[A, B], [0, 0]]·dt), not codegen's Padé), the prediction is a simulation of
-//! x_{k+1} = A x_k + B (u_k + d), the cost is evaluated on it as the README writes it, and the QP's
+//! x_{k+1} = A x_k + B (u_k + d), the cost is evaluated on it as docs/methods.md writes it, and the QP's
 //! Hessian and linear term are read off that cost by polarisation (H_ij = J₀(e_i + e_j) − J₀(e_i) −
 //! J₀(e_j) with the data zero, f_i = (J(e_i) − J(−e_i))/2 with the data), the rows' coefficients and
-//! constants off the simulated rows likewise (superposition). Where each constraint holds is the README's
+//! constants off the simulated rows likewise (superposition). Where each constraint holds is that of docs/spec.md
 //! table: `x_min`/`x_max` at x_1 … x_N, moves at k = 0 … N−1 from u₋₁, a `[[mpc.constraint]]` row with a
 //! nonzero `au` at k = 0 … N−1 on (x_k, u_k), an `ax`-only row at k = 1 … N, decided per row; soft ones
 //! with one slack per component / row shared by every stage and both sides, cost w·σ + ½·10⁻³·w·σ².
@@ -41,7 +41,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::{Path, PathBuf};
 
-/// The slack's quadratic weight relative to its linear one, as the README defines the soft penalty.
+/// The slack's quadratic weight relative to its linear one, as docs/methods.md defines the soft penalty.
 const SOFT_QUADRATIC: f64 = 1e-3;
 /// Two QPs are the same when their H and f agree to this, relative to their size.
 const SAME_QP: f64 = 1e-9;
@@ -78,7 +78,7 @@ fn expm_taylor(M: &DMatrix<f64>) -> DMatrix<f64> {
     E
 }
 
-/// The spec's problem as the README defines it, built without codegen.
+/// The spec's problem as docs/methods.md defines it, built without codegen.
 struct Independent {
     nx: usize,
     nu: usize,
@@ -103,7 +103,7 @@ struct Independent {
     slack_weight: Vec<f64>,
 }
 
-/// A constraint expression of the README and its bounds.
+/// A constraint expression of docs/methods.md and its bounds.
 #[derive(Clone, Debug)]
 struct RowDef {
     what: String,
@@ -136,7 +136,7 @@ impl Independent {
         let dt = spec.model.dt;
         let (A, B) = match &spec.model.kind {
             ModelKind::DoubleIntegrator { axes } => {
-                // README: per axis position and velocity, acceleration input; the state is the
+                // docs/spec.md: per axis position and velocity, acceleration input; the state is the
                 // positions of every axis, then their velocities (the exact sampling of p̈ = u).
                 let n = *axes;
                 let mut A = DMatrix::identity(2 * n, 2 * n);
@@ -206,7 +206,7 @@ impl Independent {
                     .collect()
             })
             .collect();
-        // The row expressions, stage by stage in the README's stage ranges.
+        // The row expressions, stage by stage in the stage ranges of docs/spec.md.
         let mut rows = Vec::new();
         for k in 1..=N {
             for (i, slack) in state_slack.iter().enumerate() {
@@ -296,7 +296,7 @@ impl Independent {
         x
     }
 
-    /// The README's cost of the plan U: Σ_{k=1}^{N−1} (C_z x_k − r)ᵀW(C_z x_k − r) + the terminal term
+    /// The cost of docs/methods.md of the plan U: Σ_{k=1}^{N−1} (C_z x_k − r)ᵀW(C_z x_k − r) + the terminal term
     /// (on the outputs with W_f, or (x_N − C_z⁺r)ᵀQf(x_N − C_z⁺r) for a state weight) +
     /// Σ_{k=0}^{N−1} (u_k + d)ᵀR(u_k + d) + Σ_{k=0}^{N−1} Δu_kᵀR_duΔu_k, Δu_k = u_k − u_{k−1}.
     fn cost(&self, data: &Data, U: &DVector<f64>) -> f64 {
@@ -669,7 +669,7 @@ struct Found {
     oracle: Vec<String>,
 }
 
-/// The region the certificate samples, resolved as the README states its defaults: the state bounds
+/// The region the certificate samples, resolved as docs/spec.md states its defaults: the state bounds
 /// where `[mpc.region]` leaves them out, the tracked outputs over the state region for the references.
 fn region_of(spec: &Spec, ind: &Independent) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
     let r = &spec.mpc.region;
@@ -1086,14 +1086,14 @@ fn shipped() -> Vec<PathBuf> {
 }
 
 /// The mixed groups of `tests/specs/mixed/` (`ax`-only rows and `au` rows in one group): the
-/// compiler's QP is the README's.
+/// compiler's QP is the documented one.
 #[test]
 fn mixed_groups_form_the_readme_qp() {
     let (qp, _) = run(&mixed(), Mode::Qp);
     assert_none("discrepancies of the QP", &qp);
 }
 
-/// Every shipped and `tests/specs` constrained spec: the compiler's QP is the README's.
+/// Every shipped and `tests/specs` constrained spec: the compiler's QP is the documented one.
 #[test]
 fn shipped_constrained_specs_form_the_readme_qp() {
     let (qp, _) = run(&shipped(), Mode::Qp);
