@@ -24,7 +24,7 @@ use mpc_spec::{Diagnostics, Iterations, Method, Spec};
 /// ADMM is last: its certificate tunes ρ and samples hundreds to thousands of iterations per case (7 s
 /// for the quadcopter, 50 s for paper-limits in the dev profile), and on f64 hardware the interior-point
 /// method has been cheaper per solve on every shipped spec, so it is weighed only when no earlier
-/// candidate can be used ([`not_weighed`]).
+/// candidate can be used (`not_weighed`).
 pub const CANDIDATES: &[Method] = &[Method::Fgm, Method::Ipm, Method::Admm];
 
 /// Why `auto` does not weigh `method` for `spec`, given whether an earlier candidate can be used

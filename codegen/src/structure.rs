@@ -291,8 +291,8 @@ impl Envelope {
             .map_or(j + 1, |p| p + 1)
     }
 
-    /// Multiply-adds of L·D·Lᵀ within the envelope: per column j, the pivot's j − first[j] and, per row
-    /// p > j whose envelope reaches j, j − max(first[p], first[j]).
+    /// Multiply-adds of L·D·Lᵀ within the envelope: per column j, the pivot's `j − first[j]` and, per row
+    /// p > j whose envelope reaches j, `j − max(first[p], first[j])`.
     pub fn ldl_macs(&self) -> usize {
         let mut macs = 0;
         for j in 0..self.len() {

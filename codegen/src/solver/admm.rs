@@ -10,7 +10,7 @@
 //! - x̃ = K (σx − q + Cᵀ(Rz − y)), z̃ = C x̃ (the direct [`Form`]; the residual form computes the
 //!   same x̃ as x + K (CᵀR(z − Cx) − (Px + q + Cᵀy)), whose fixed point K's rounding does not move);
 //! - x ← α x̃ + (1 − α) x;
-//! - z ← Π[l,u](α z̃ + (1 − α) z + R⁻¹y);
+//! - z ← Π\[l,u\](α z̃ + (1 − α) z + R⁻¹y);
 //! - y ← y + R(α z̃ + (1 − α) z_old − z).
 //!
 //! Measured on the shipped specs (`tests/admm.rs`): ρ = 10-32 times the rows' curvature, 281

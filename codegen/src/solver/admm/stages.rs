@@ -508,8 +508,8 @@ pub fn program(qp: &Qp, settings: &Settings) -> Result<Program, String> {
 }
 
 /// A [`Program`] in compressed rows, the form the emitted loop reads ([`crate::emit`]'s `STAGE_*` tables)
-/// and [`Kernel`] runs: statement k is s[out[k]] = (s[base[k]] + Σ coefficient[t]·s[slot[t]] over
-/// t ∈ start[k]..start[k + 1]) · scale[k], scale 1 where the statement has none (exact).
+/// and `Kernel` runs: statement k is `s[out[k]] = (s[base[k]] + Σ coefficient[t]·s[slot[t]]` over
+/// `t ∈ start[k]..start[k + 1]`) · `scale[k]`, scale 1 where the statement has none (exact).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tables {
     /// The slot each statement writes.

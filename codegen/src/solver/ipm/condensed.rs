@@ -357,7 +357,7 @@ impl Sides {
 /// - the element-wise work on s and λ, about 12 per side.
 ///
 /// The cold start costs one more factorisation, of H + GᵀG, and one direction
-/// ([`mpc_cold_start_macs`]).
+/// (`ipm::mpc_cold_start_macs`).
 pub fn macs_per_iteration(qp: &InequalityQp) -> usize {
     let c = counts(qp);
     c.residuals + c.normal + c.factor + 2 * c.direction + REFINEMENT * c.refinement + c.elementwise
