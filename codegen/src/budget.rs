@@ -112,6 +112,12 @@ pub fn solver_analysis_macs(nx: usize, nz: usize, iterations: usize) -> f64 {
     iterations as f64 * nz * nz * dim + 25.0 * dim.powi(3)
 }
 
+/// What a case of the sample costs besides the iterations priced for it (drawing it, forming its QP,
+/// setting up the exact references), in multiply-adds at the rate the iterations run: on the 2-state
+/// `tests/hostile/region-maxima.toml` (110,016 cases, iterations priced at 2.2e10) the sample took about
+/// as long as the 1e11 of hover's f32 ADMM (about a minute of CPU in `target/release/mpcc check`).
+pub const CASE_OVERHEAD_MACS: f64 = 1e6;
+
 /// Iterations one exact reference solve is priced at: the interior-point method run to
 /// `sampling::EXACT_TOLERANCE` takes 9-21 on average on the shipped specs (at most 200).
 pub const EXACT_ITERATIONS: f64 = 20.0;

@@ -1083,7 +1083,8 @@ fn corner_count(nx: usize) -> usize {
 
 /// The sample's cost, predicted before it is spent: every case, cold and the warm steps' first round,
 /// runs the method's first probe ([`Sampled::probe`]) and the exact reference (about as many iterations
-/// again), each iteration [`Sampled::macs_per_iteration`]. It counts against the build budget of
+/// again), each iteration [`Sampled::macs_per_iteration`], and costs
+/// [`crate::budget::CASE_OVERHEAD_MACS`] besides. It counts against the build budget of
 /// lowering ([`crate::budget::LOWERING_MACS`]), and a sample above it is refused at `[mpc.region]`.
 /// What is spent past the prediction (a probe doubled past the first, the warm rounds after the first,
 /// at most four in all) is counted as it is spent, against the same limit, and stops the sample there:
@@ -1101,7 +1102,8 @@ fn check_budget<M: Sampled>(spec: &Spec, p: &Problem, method: &M) -> Result<(), 
     // after what the method spent before the sample (ADMM's tuning).
     let probe = method.probe().0 as f64 * per_iteration as f64;
     let exact = probe.max(crate::budget::exact_macs(&p.qp));
-    let macs = method.spent_before() + (cold + warm) as f64 * (probe + exact);
+    let macs = method.spent_before()
+        + (cold + warm) as f64 * (probe + exact + crate::budget::CASE_OVERHEAD_MACS);
     if macs <= crate::budget::LOWERING_MACS {
         return Ok(());
     }
