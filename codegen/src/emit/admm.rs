@@ -15,7 +15,7 @@ use super::tokens::{at, Num};
 use super::Sections;
 use crate::lower::Problem;
 use crate::solver::admm::{self, INFEASIBILITY_TOLERANCE};
-use crate::solver::ipm::mpc_qp;
+use crate::solver::ipm::{mpc_qp, InequalityQp};
 use nalgebra::DVector;
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
@@ -31,29 +31,71 @@ fn bound(num: Num, v: f64) -> TokenStream {
     }
 }
 
+/// `e`, a `Real`, in f64 (exact).
+fn in_f64(num: Num, e: TokenStream) -> TokenStream {
+    match num.0 {
+        mpc_spec::Scalar::F32 => quote!(f64::from(#e)),
+        mpc_spec::Scalar::F64 => e,
+    }
+}
+
+/// What the sections of the ADMM module are emitted from.
+struct Admm<'a> {
+    p: &'a Problem,
+    /// The module's `Real`, which ADMM computes in.
+    num: Num,
+    structure: InequalityQp,
+    /// The certificate's settings: the rows' ρ, σ, α, and the stage program of a staged x-update.
+    settings: admm::Settings,
+    /// The tuning's penalty ρ and form of the x-update.
+    rho: f64,
+    form: admm::Form,
+}
+
+impl Admm<'_> {
+    /// ADMM's unknowns x: the plan, then the slacks.
+    fn nv(&self) -> usize {
+        self.p.qp.N * self.p.nu + self.p.qp.rows.slacks()
+    }
+}
+
 /// The ADMM `Mpc`, its kernels and its tables. `p` must be certified (its evidence carries ρ).
 pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
     let (reach_tables, reach_code) = reach(p, num, false);
     let (coordinate_tables, coordinate_code) = coordinate_check(p, false);
     let qp = &p.qp;
-    let (nu, N) = (p.nu, qp.N);
-    let np = N * nu;
-    let structure = mpc_qp(qp, &DVector::zeros(np), &DVector::zeros(qp.rows.len()));
-    let settings = admm::certified_settings(qp).unwrap_or_else(|| admm::mpc_settings(qp, 1.0));
+    let np = qp.N * p.nu;
     let tuning = admm::tuning(qp);
-    let rho = tuning.map_or(1.0, |t| t.rho);
-    let form = tuning.map_or(admm::Form::Direct, |t| t.form);
-    let rows = &qp.rows;
-    let ns = rows.slacks();
-    let nv = np + ns;
-    let ng = rows.len();
-    let nc = nv + ng;
-    let lit = Literal::usize_unsuffixed;
-    let [nv_lit, ns_lit, ng_lit, nc_lit] = [nv, ns, ng, nc].map(lit);
+    let m = Admm {
+        p,
+        num,
+        structure: mpc_qp(qp, &DVector::zeros(np), &DVector::zeros(qp.rows.len())),
+        settings: admm::certified_settings(qp).unwrap_or_else(|| admm::mpc_settings(qp, 1.0)),
+        rho: tuning.map_or(1.0, |t| t.rho),
+        form: tuning.map_or(admm::Form::Direct, |t| t.form),
+    };
+    let operator = operator(&m, write_out_budget);
+    let Offsets {
+        tables: row_tables,
+        terms: row_terms,
+    } = row_offsets(&m);
+    let data_tables = quote!(#reach_tables #coordinate_tables);
+    Sections {
+        constants: constants(&m),
+        api: api(&m, &row_terms, &reach_code, &coordinate_code),
+        kernels: solver_kernels(&m, &operator.kernels),
+        tables: tables(&m, &data_tables, &row_tables, &operator.tables),
+    }
+}
+
+/// The products with C and Cᵀ and the x-update's solve (the factor's, or the stage program's), with
+/// the tables their loops read.
+fn operator(m: &Admm, write_out_budget: usize) -> Sections {
+    let (num, structure, settings, nv) = (m.num, &m.structure, &m.settings, m.nv());
     // The factor of P + σI + CᵀRC, where the x-update is condensed. The settings' factor exists: the
     // certificate ran with it.
     let L = settings.stages.is_none().then(|| {
-        admm::factor(&structure, &settings).unwrap_or_else(|| nalgebra::DMatrix::identity(nv, nv))
+        admm::factor(structure, settings).unwrap_or_else(|| nalgebra::DMatrix::identity(nv, nv))
     });
     let Sections {
         kernels: mut kernel_code,
@@ -65,43 +107,19 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
         kernel_code.extend(staged.kernels);
         kernel_tables.extend(staged.tables);
     }
-    let rho_row = num.vector(settings.rho.iter().copied());
-    let rho_inv = num.vector(settings.rho.iter().map(|r| 1.0 / r));
-    let (sigma, alpha) = (num.lit(settings.sigma), num.lit(settings.alpha));
-    let z_lo = structure.z_min.iter().map(|v| bound(num, *v));
-    let z_hi = structure.z_max.iter().map(|v| bound(num, *v));
-    let row_lower = rows.lower.iter().map(|v| bound(num, *v));
-    let row_upper = rows.upper.iter().map(|v| bound(num, *v));
-    let lower_finite = structure
-        .z_min
-        .iter()
-        .chain(rows.lower.iter())
-        .map(|v| v.is_finite());
-    let upper_finite = structure
-        .z_max
-        .iter()
-        .chain(rows.upper.iter())
-        .map(|v| v.is_finite());
-    let row_soft = rows.soft.iter();
-    let hv = num.matrix(&structure.H);
-    let slack_weight = num.vector(rows.slack_weight.iter().copied());
-    let per_slot = lit(rows.per_slot);
-    let limits = qp.ipm_limits();
-    let wide = Num(mpc_spec::Scalar::F64);
-    let (primal_limit, dual_limit, gap_limit) = (
-        wide.lit(limits.primal),
-        wide.lit(limits.dual),
-        wide.lit(limits.gap),
-    );
-    let accuracy = wide.lit(qp.accuracy);
-    let rho_lit = wide.lit(rho);
-    let infeasibility = wide.lit(INFEASIBILITY_TOLERANCE);
-    let Offsets {
-        tables: row_tables,
-        terms: row_terms,
-    } = offsets(
-        p,
-        num,
+    Sections {
+        kernels: kernel_code,
+        tables: kernel_tables,
+        ..Sections::default()
+    }
+}
+
+/// The rows' dependence on the data: the tables `ROW_X`, `ROW_D`, `ROW_U` and their terms in the
+/// rows' offsets.
+fn row_offsets(m: &Admm) -> Offsets {
+    offsets(
+        m.p,
+        m.num,
         &quote!(Real),
         "ROW",
         &quote!(NG),
@@ -111,45 +129,382 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
             " The rows' dependence on the disturbance estimate: their offset gains ROW_D·d.",
             " The rows' dependence on the last input (the first move): their offset gains ROW_U·u₋₁.",
         ],
+    )
+}
+
+/// The constants section: ADMM's dimensions, its accuracy, ρ and the limits of a trusted plan.
+fn constants(m: &Admm) -> TokenStream {
+    let qp = &m.p.qp;
+    let (nv, ns, ng) = (m.nv(), qp.rows.slacks(), qp.rows.len());
+    let nc = nv + ng;
+    let lit = Literal::usize_unsuffixed;
+    let [nv_lit, ns_lit, ng_lit, nc_lit] = [nv, ns, ng, nc].map(lit);
+    let rho = m.rho;
+    let limits = qp.ipm_limits();
+    let wide = Num(mpc_spec::Scalar::F64);
+    let (primal_limit, dual_limit, gap_limit) = (
+        wide.lit(limits.primal),
+        wide.lit(limits.dual),
+        wide.lit(limits.gap),
     );
+    let accuracy = wide.lit(qp.accuracy);
+    let rho_lit = wide.lit(rho);
+    quote! {
+        /// Entries of the plan, N·NU.
+        pub const NP: usize = N * NU;
+        /// ADMM's unknowns x: the plan, then one slack per soft constraint component.
+        pub const NV: usize = #nv_lit;
+        /// Slacks of the soft constraints.
+        pub const NS: usize = #ns_lit;
+        /// General constraint rows (their bounds move with the data).
+        pub const NG: usize = #ng_lit;
+        /// Rows of C = [I; A]: a box row per unknown, then the general rows; the length of z and y.
+        pub const NC: usize = #nc_lit;
+        /// `[mpc] accuracy`: the plan within ACCURACY·(U_MAX − U_MIN) of the exact solution.
+        pub const ACCURACY: f64 = #accuracy;
+        /// ADMM's penalty ρ, tuned at build time on the certificate's sample; row i's penalty is
+        /// ρ times its curvature ([`RHO_ROW`]).
+        pub const RHO: f64 = #rho_lit;
+        /// Final relative primal residual above which the plan is not trusted ([`Fallback::WarmStart`]).
+        pub const PRIMAL_LIMIT: f64 = #primal_limit;
+        /// Final relative dual residual above which the plan is not trusted.
+        pub const DUAL_LIMIT: f64 = #dual_limit;
+        /// Final duality gap, relative to max(1, |J|), above which the plan is not trusted.
+        pub const GAP_LIMIT: f64 = #gap_limit;
+    }
+}
+
+/// The api section: `SolverStatus`, `Fallback` and the `Mpc` struct with its methods.
+fn api(
+    m: &Admm,
+    row_terms: &[TokenStream],
+    reach_code: &TokenStream,
+    coordinate_code: &TokenStream,
+) -> TokenStream {
+    let (qp, num, settings, form, rho) = (&m.p.qp, m.num, &m.settings, m.form, m.rho);
     let status_types = status_types("ADMM", &[" Iterations run: always [`ITERATIONS`]."]);
-    let row = crate::form::reference_row(p);
-    let nr = lit(N * qp.nz);
-    let nd = p.nd();
+    let evidence_doc = evidence_doc(qp.evidence.as_ref(), &format!(" at ρ = {rho:.3e}"));
+    let real_name = num.numeric().name();
+    let form_doc = match form {
+        admm::Form::Direct => "",
+        admm::Form::Residual => {
+            " The x-update is in residual form (x̃ = x + K·r, r its KKT residual), whose fixed point the\n rounding of the factor does not move."
+        }
+    };
+    let structure_doc = match settings.structure() {
+        admm::Structure::Condensed => "dense on the condensed QP",
+        admm::Structure::Riccati => "its x-update solved stage by stage (a Riccati sweep)",
+    };
+    let mpc_doc = format!(
+        " Fixed-iteration, warm-started MPC with state, output and rate constraints: ADMM (OSQP's\n operator splitting) in {real_name}, {structure_doc}, with its factor computed at build time.{form_doc}"
+    );
+    let mpc_doc: Vec<&str> = mpc_doc.split('\n').collect();
+    let entry = entry(m.p);
+    let checked = checked(m, &entry, row_terms, reach_code, coordinate_code);
     let Entry {
         solve_fns,
-        d_param,
-        d_finite,
-        f_terms,
         last_field,
         last_init,
         last_fns,
+        ..
+    } = entry;
+    quote! {
+        #status_types
+
+        #(#[doc = #mpc_doc])*
+        #[doc = #evidence_doc]
+        #[derive(Clone, Debug, PartialEq)]
+        pub struct Mpc {
+            /// The plan, projected onto the box.
+            plan: [Real; NP],
+            /// The last solve's iterate (x, z, y): the warm start.
+            x: [Real; NV],
+            z: [Real; NC],
+            y: [Real; NC],
+            /// Whether (x, z, y) is a warm start (false after `new`, `reset` or a fallback).
+            warm: bool,
+            /// Whether the controller is recovering from hard rows that admitted no plan: the next solve
+            /// widens them to the held plan where it violates them ([`Fallback::Relaxed`]).
+            relax: bool,
+            #last_field
+            status: SolverStatus,
+        }
+
+        impl Mpc {
+            /// A cold controller: its first solve starts from x = 0, z = Π(0), y = 0.
+            pub const fn new() -> Self {
+                Mpc {
+                    plan: rest_plan(),
+                    x: [0.0; NV],
+                    z: [0.0; NC],
+                    y: [0.0; NC],
+                    warm: false,
+                    relax: false,
+                    #last_init
+                    status: SolverStatus {
+                        iterations: 0,
+                        primal_residual: 0.0,
+                        dual_residual: 0.0,
+                        gap: 0.0,
+                        violation: 0.0,
+                        softened: 0.0,
+                        infeasible: false,
+                        numerical_failure: false,
+                        reference_beyond_region: false,
+                        beyond_coordinate_range: false,
+                        fallback: Fallback::NoneYet,
+                    },
+                }
+            }
+
+            #solve_fns
+
+            #checked
+
+            /// What the last solve did.
+            pub fn solver_status(&self) -> &SolverStatus {
+                &self.status
+            }
+
+            #last_fns
+
+            /// The plan of the last solve, one input per predicted step.
+            pub fn plan(&self) -> [[Real; NU]; N] {
+                let mut out = [[0.0; NU]; N];
+                for (o, step) in out.iter_mut().zip(self.plan.chunks_exact(NU)) {
+                    o.copy_from_slice(step);
+                }
+                out
+            }
+
+            /// Forgets the warm start (and the last input).
+            pub fn reset(&mut self) {
+                *self = Self::new();
+            }
+        }
+
+        impl Default for Mpc {
+            fn default() -> Self {
+                Self::new()
+            }
+        }
+    }
+}
+
+/// `Mpc::checked`, the solve: the QP's data from the arguments, the warm or cold start, the
+/// iterations, and the choice between their plan and the held one.
+fn checked(
+    m: &Admm,
+    entry: &Entry,
+    row_terms: &[TokenStream],
+    reach_code: &TokenStream,
+    coordinate_code: &TokenStream,
+) -> TokenStream {
+    let p = m.p;
+    let row = crate::form::reference_row(p);
+    let nr = Literal::usize_unsuffixed(p.qp.N * p.qp.nz);
+    let Entry {
+        d_param,
+        d_finite,
+        f_terms,
         set_last,
-    } = entry(p);
-    let d_flush = (nd > 0).then(|| quote!(let d = flushed(d);));
+        ..
+    } = entry;
+    let d_flush = (p.nd() > 0).then(|| quote!(let d = flushed(d);));
     let last_local = p.keeps_last_input().then(|| quote!(let last = self.last;));
-    let evidence_doc = evidence_doc(qp.evidence.as_ref(), &format!(" at ρ = {rho:.3e}"));
-    // Real to f64 (exact).
-    let widen = |e: TokenStream| match num.0 {
-        mpc_spec::Scalar::F32 => quote!(f64::from(#e)),
-        mpc_spec::Scalar::F64 => e,
-    };
-    let real_name = num.numeric().name();
-    let wide_of_abs = widen(quote!(x.abs()));
-    let (wide_px, wide_x, wide_q) = (widen(quote!(*pxi)), widen(quote!(*xi)), widen(quote!(*qi)));
-    let (wide_y, wide_z) = (widen(quote!(*yi)), widen(quote!(*zi)));
-    let (wide_lower, wide_upper, wide_d) = (
-        widen(quote!(lower[i])),
-        widen(quote!(upper[i])),
-        widen(quote!(v)),
-    );
-    let (wide_row_lower, wide_row_upper, wide_a) = (
-        widen(quote!(lower[NV + j])),
-        widen(quote!(upper[NV + j])),
-        widen(quote!(a)),
-    );
-    let (wide_bound_lower, wide_bound_upper) =
-        (widen(quote!(ROW_LOWER[j])), widen(quote!(ROW_UPPER[j])));
+    quote! {
+        /// The solve, with `None` (and a reset warm start) for a non-finite argument.
+        fn checked(&mut self, x0: &[Real; NX], #d_param xref: &[[Real; #row]; N]) -> Option<[Real; NU]> {
+            if !(all_finite(x0) #d_finite && xref.iter().all(|r| all_finite(r))) {
+                self.reset();
+                return None;
+            }
+            let x0 = flushed(x0);
+            #d_flush
+            #last_local
+            let mut reference = [0.0; #nr];
+            for (r, row) in reference.chunks_exact_mut(xref[0].len()).zip(xref.iter()) {
+                r.copy_from_slice(&flushed(row));
+            }
+            #coordinate_code
+            #reach_code
+            // q = Fx·x0 − Fr·Xref (+ Fu·u₋₁ + Fd·d) for the plan, the penalties' weights for the slacks.
+            let mut q = [0.0; NV];
+            for (i, qi) in q.iter_mut().enumerate().take(NP) {
+                *qi = dot(&FX[i], &x0) - dot(&FR[i], &reference) #f_terms;
+            }
+            for (qi, w) in q.iter_mut().skip(NP).zip(SLACK_WEIGHT.iter()) {
+                *qi = *w;
+            }
+            // The bounds of C's rows: the box's (constant), then the rows' moved by the data.
+            let (mut lower, mut upper) = ([0.0; NC], [0.0; NC]);
+            lower[..NV].copy_from_slice(&Z_LO);
+            upper[..NV].copy_from_slice(&Z_HI);
+            for j in 0..NG {
+                let offset = #(#row_terms)+*;
+                lower[NV + j] = ROW_LOWER[j] - offset;
+                upper[NV + j] = ROW_UPPER[j] - offset;
+            }
+            // The held plan: the fallback, and what a relaxed solve widens the hard rows to.
+            let mut held = self.plan;
+            shift(&mut held, NU);
+            held[NP - NU..].copy_from_slice(&U_REST);
+            for (i, p) in held.iter_mut().enumerate() {
+                *p = project(*p, U_MIN[i % NU], U_MAX[i % NU]);
+            }
+            // The bounds without the widening: what the status's violation is measured on.
+            let (hard_lower, hard_upper) = (lower, upper);
+            // Recovering, the held plan violating a hard row: relaxed.
+            let relax = self.relax && violations(&held, &lower, &upper).0 > ACCURACY;
+            if relax {
+                // After the hard rows admitted no plan: each hard row widened to the held plan's
+                // value, so that the QP has a plan that violates no row more than holding would.
+                let mut x = [0.0; NV];
+                x[..NP].copy_from_slice(&held);
+                let mut cx = [0.0; NC];
+                c_mul(&x, &mut cx);
+                for j in 0..NG {
+                    if !ROW_SOFT[j] {
+                        let a = cx[NV + j];
+                        lower[NV + j] = if a < lower[NV + j] { a } else { lower[NV + j] };
+                        upper[NV + j] = if a > upper[NV + j] { a } else { upper[NV + j] };
+                    }
+                }
+            }
+            let (mut x, mut z, mut y) = (self.x, self.z, self.y);
+            if self.warm & !relax {
+                // The previous iterate shifted by one slot, the rest input appended to x and z.
+                shift(&mut x[..NP], NU);
+                x[NP - NU..NP].copy_from_slice(&U_REST);
+                shift(&mut z[..NP], NU);
+                z[NP - NU..NP].copy_from_slice(&U_REST);
+                shift(&mut z[NV..], PER_SLOT);
+                shift(&mut y[..NP], NU);
+                shift(&mut y[NV..], PER_SLOT);
+            } else {
+                x = [0.0; NV];
+                for (i, zi) in z.iter_mut().enumerate() {
+                    *zi = clamp(0.0, lower[i], upper[i]);
+                }
+                y = [0.0; NC];
+            }
+            let mut dy = [0.0; NC];
+            for _ in 0..ITERATIONS {
+                iterate(&q, &lower, &upper, &mut x, &mut z, &mut y, &mut dy);
+            }
+            let (primal, dual, gap) = residuals(&q, &x, &z, &y);
+            let numerical_failure = !(primal.is_finite() && dual.is_finite() && gap.is_finite());
+            let infeasible = ITERATIONS > 0 && !numerical_failure && infeasible(&lower, &upper, &dy);
+            let trusted = !numerical_failure && !infeasible && primal <= PRIMAL_LIMIT && dual <= DUAL_LIMIT && gap <= GAP_LIMIT;
+            if trusted {
+                for (i, (p, v)) in self.plan.iter_mut().zip(x.iter()).enumerate() {
+                    *p = project(*v, U_MIN[i % NU], U_MAX[i % NU]);
+                }
+                self.x = x;
+                self.z = z;
+                self.y = y;
+            } else {
+                self.plan = held;
+            }
+            self.warm = trusted & !relax;
+            let (violation, softened) = violations(&self.plan, &hard_lower, &hard_upper);
+            // Recovering after a solve found the hard rows infeasible, or made a relaxed plan.
+            self.relax = infeasible | (trusted & relax);
+            self.status = SolverStatus {
+                iterations: ITERATIONS as u32,
+                primal_residual: primal,
+                dual_residual: dual,
+                gap,
+                violation,
+                softened,
+                infeasible,
+                numerical_failure,
+                reference_beyond_region: beyond,
+                beyond_coordinate_range: beyond_coordinates,
+                fallback: match (trusted, relax) {
+                    (true, false) => Fallback::Solved,
+                    (true, true) => Fallback::Relaxed,
+                    (false, _) => Fallback::WarmStart,
+                },
+            };
+            let mut first = [0.0; NU];
+            first.copy_from_slice(&self.plan[..NU]);
+            #set_last
+            Some(first)
+        }
+    }
+}
+
+/// The kernels section: the helpers, the operator's products and solve, an iteration, and the
+/// residuals and tests that judge its result.
+fn solver_kernels(m: &Admm, operator: &TokenStream) -> TokenStream {
+    let helpers = helpers(m.num);
+    let iterate = iterate(m);
+    let measures = measures(m.num);
+    quote! {
+        #helpers
+
+        #operator
+
+        #iterate
+
+        #measures
+    }
+}
+
+/// The helpers the kernels share: the rest plan, the dot product, the projection, the shift and the
+/// largest magnitude.
+fn helpers(num: Num) -> TokenStream {
+    let wide_of_abs = in_f64(num, quote!(x.abs()));
+    quote! {
+        /// The rest plan: U_REST at every step.
+        const fn rest_plan() -> [Real; NP] {
+            let mut out = [0.0; NP];
+            let mut i = 0;
+            while i < NP {
+                out[i] = U_REST[i % NU];
+                i += 1;
+            }
+            out
+        }
+
+        /// a·b, summed from the first term.
+        #[inline(always)]
+        fn dot(a: &[Real], b: &[Real]) -> Real {
+            a.iter().zip(b.iter()).fold(0.0, |s, (x, y)| s + x * y)
+        }
+
+        /// `v` clamped to [lo, hi], NaN kept (the residuals then see it), as the reference's.
+        #[inline(always)]
+        fn clamp(v: Real, lo: Real, hi: Real) -> Real {
+            if v < lo {
+                lo
+            } else if v > hi {
+                hi
+            } else {
+                v
+            }
+        }
+
+        /// Moves every block of `width` up by one; the last block stays.
+        #[inline(always)]
+        fn shift(v: &mut [Real], width: usize) {
+            if width > 0 && v.len() > width {
+                v.copy_within(width.., 0);
+            }
+        }
+
+        /// max |v_i| in f64 (exact).
+        #[inline(always)]
+        fn amax(v: &[Real]) -> f64 {
+            v.iter().fold(0.0, |m: f64, x| m.max(#wide_of_abs))
+        }
+    }
+}
+
+/// `iterate`: one iteration of OSQP's Algorithm 1, its x-update in the tuned form.
+fn iterate(m: &Admm) -> TokenStream {
+    let (form, settings) = (m.form, &m.settings);
     let x_tilde = match (form, &settings.stages) {
         (_, Some(_)) => quote! {
             let mut xt = [0.0; NV];
@@ -194,6 +549,188 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
             c_mul(&xt, &mut zt);
         },
     };
+    quote! {
+        /// One iteration of OSQP's Algorithm 1 on (x, z, y); `dy` keeps the change of y.
+        fn iterate(
+            q: &[Real; NV],
+            lower: &[Real; NC],
+            upper: &[Real; NC],
+            x: &mut [Real; NV],
+            z: &mut [Real; NC],
+            y: &mut [Real; NC],
+            dy: &mut [Real; NC],
+        ) {
+            #x_tilde
+            for (xi, t) in x.iter_mut().zip(xt.iter()) {
+                *xi = ALPHA * t + BETA * *xi;
+            }
+            for i in 0..NC {
+                let relaxed = ALPHA * zt[i] + BETA * z[i];
+                let zn = clamp(relaxed + RHO_INV[i] * y[i], lower[i], upper[i]);
+                let yn = y[i] + RHO_ROW[i] * (relaxed - zn);
+                dy[i] = yn - y[i];
+                y[i] = yn;
+                z[i] = zn;
+            }
+        }
+    }
+}
+
+/// What judges the iterate, in f64: the residuals, the infeasibility test and the rows' violations.
+fn measures(num: Num) -> TokenStream {
+    let widen = |e: TokenStream| in_f64(num, e);
+    let (wide_px, wide_x, wide_q) = (widen(quote!(*pxi)), widen(quote!(*xi)), widen(quote!(*qi)));
+    let (wide_y, wide_z) = (widen(quote!(*yi)), widen(quote!(*zi)));
+    let (wide_lower, wide_upper, wide_d) = (
+        widen(quote!(lower[i])),
+        widen(quote!(upper[i])),
+        widen(quote!(v)),
+    );
+    let (wide_row_lower, wide_row_upper, wide_a) = (
+        widen(quote!(lower[NV + j])),
+        widen(quote!(upper[NV + j])),
+        widen(quote!(a)),
+    );
+    let (wide_bound_lower, wide_bound_upper) =
+        (widen(quote!(ROW_LOWER[j])), widen(quote!(ROW_UPPER[j])));
+    quote! {
+        /// The relative residuals ‖Cx − z‖∞ / (1 + max(‖Cx‖∞, ‖z‖∞)) and
+        /// ‖Px + q + Cᵀy‖∞ / (1 + max(‖Px‖∞, ‖q‖∞, ‖Cᵀy‖∞)); infinite where an entry is not finite.
+        /// The relative primal and dual residuals and the relative duality gap
+        /// |xᵀPx + qᵀx + yᵀz| / max(1, |½xᵀPx + qᵀx|) (y is in the bounds' normal cone at z, so yᵀz is
+        /// their support function at y), as the reference computes them.
+        fn residuals(q: &[Real; NV], x: &[Real; NV], z: &[Real; NC], y: &[Real; NC]) -> (f64, f64, f64) {
+            let mut cx = [0.0; NC];
+            c_mul(x, &mut cx);
+            let mut primal = [0.0; NC];
+            for i in 0..NC {
+                primal[i] = cx[i] - z[i];
+            }
+            let mut px = [0.0; NV];
+            for (o, row) in px.iter_mut().zip(H.iter()) {
+                *o = dot(row, x);
+            }
+            let mut cty = [0.0; NV];
+            c_tmul(y, &mut cty);
+            let mut dual = [0.0; NV];
+            for i in 0..NV {
+                dual[i] = px[i] + q[i] + cty[i];
+            }
+            if !(all_finite(&primal) && all_finite(&dual)) {
+                return (f64::INFINITY, f64::INFINITY, f64::INFINITY);
+            }
+            let (mut curvature, mut linear, mut support) = (0.0_f64, 0.0_f64, 0.0_f64);
+            for ((pxi, qi), xi) in px.iter().zip(q.iter()).zip(x.iter()) {
+                curvature += #wide_px * #wide_x;
+                linear += #wide_q * #wide_x;
+            }
+            for (yi, zi) in y.iter().zip(z.iter()) {
+                support += #wide_y * #wide_z;
+            }
+            let objective = 0.5 * curvature + linear;
+            (
+                amax(&primal) / (1.0 + amax(&cx).max(amax(z))),
+                amax(&dual) / (1.0 + amax(&px).max(amax(q)).max(amax(&cty))),
+                (curvature + linear + support).abs() / objective.abs().max(1.0),
+            )
+        }
+
+        /// OSQP's primal infeasibility test (§3.4) on the last change of y: δy projected on the polar
+        /// of the bounds' recession cone, δy ≠ 0, ‖Cᵀδy‖∞ ≤ ε‖δy‖∞ and uᵀδy₊ + lᵀδy₋ ≤ −ε‖δy‖∞ (the
+        /// support in f64, as the reference sums it).
+        fn infeasible(lower: &[Real; NC], upper: &[Real; NC], dy: &[Real; NC]) -> bool {
+            let mut d = [0.0; NC];
+            for i in 0..NC {
+                let v = dy[i];
+                d[i] = match (LOWER_FINITE[i], UPPER_FINITE[i]) {
+                    (false, false) => 0.0,
+                    (true, false) => clamp(v, Real::NEG_INFINITY, 0.0),
+                    (false, true) => clamp(v, 0.0, Real::INFINITY),
+                    (true, true) => v,
+                };
+            }
+            let norm = amax(&d);
+            let mut support = 0.0_f64;
+            for i in 0..NC {
+                let v = d[i];
+                let (lo, hi, w) = (#wide_lower, #wide_upper, #wide_d);
+                support += if v > 0.0 {
+                    hi * w
+                } else if v < 0.0 {
+                    lo * w
+                } else {
+                    0.0
+                };
+            }
+            let mut ct = [0.0; NV];
+            c_tmul(&d, &mut ct);
+            let ctn = amax(&ct);
+            let nonzero = !(norm.is_nan() || norm <= INFEASIBILITY_TOLERANCE);
+            nonzero
+                && support <= -INFEASIBILITY_TOLERANCE * norm
+                && ctn <= INFEASIBILITY_TOLERANCE * norm
+        }
+
+        /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and the
+        /// largest soft-row violation in its row's units, as the interior-point method reports them.
+        fn violations(plan: &[Real; NP], lower: &[Real; NC], upper: &[Real; NC]) -> (f64, f64) {
+            let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
+            // The rows at the plan with its slacks zero (Cx's general rows).
+            let mut x = [0.0; NV];
+            x[..NP].copy_from_slice(plan);
+            let mut cx = [0.0; NC];
+            c_mul(&x, &mut cx);
+            for j in 0..NG {
+                let a = cx[NV + j];
+                let (lo, hi, a) = (#wide_row_lower, #wide_row_upper, #wide_a);
+                // The rows' bounds without the data's offset, as the reference measures them.
+                let (bound_lo, bound_hi) = (#wide_bound_lower, #wide_bound_upper);
+                let below = (lo - a).max(0.0) / bound_lo.abs().max(1.0);
+                let above = (a - hi).max(0.0) / bound_hi.abs().max(1.0);
+                if ROW_SOFT[j] {
+                    soft = soft.max((lo - a).max(a - hi).max(0.0));
+                } else {
+                    hard = hard.max(below.max(above));
+                }
+            }
+            (hard, soft)
+        }
+    }
+}
+
+/// The tables section: the method's tuning, the bounds, the rows' data, ρ, the operator's tables and
+/// the Hessian.
+fn tables(
+    m: &Admm,
+    data_tables: &TokenStream,
+    row_tables: &TokenStream,
+    operator_tables: &TokenStream,
+) -> TokenStream {
+    let (num, structure, settings, form) = (m.num, &m.structure, &m.settings, m.form);
+    let rows = &m.p.qp.rows;
+    let lit = Literal::usize_unsuffixed;
+    let rho_row = num.vector(settings.rho.iter().copied());
+    let rho_inv = num.vector(settings.rho.iter().map(|r| 1.0 / r));
+    let (sigma, alpha) = (num.lit(settings.sigma), num.lit(settings.alpha));
+    let z_lo = structure.z_min.iter().map(|v| bound(num, *v));
+    let z_hi = structure.z_max.iter().map(|v| bound(num, *v));
+    let row_lower = rows.lower.iter().map(|v| bound(num, *v));
+    let row_upper = rows.upper.iter().map(|v| bound(num, *v));
+    let lower_finite = structure
+        .z_min
+        .iter()
+        .chain(rows.lower.iter())
+        .map(|v| v.is_finite());
+    let upper_finite = structure
+        .z_max
+        .iter()
+        .chain(rows.upper.iter())
+        .map(|v| v.is_finite());
+    let row_soft = rows.soft.iter();
+    let hv = num.matrix(&structure.H);
+    let slack_weight = num.vector(rows.slack_weight.iter().copied());
+    let per_slot = lit(rows.per_slot);
+    let infeasibility = Num(mpc_spec::Scalar::F64).lit(INFEASIBILITY_TOLERANCE);
     // σ enters the direct form's right-hand side; the residual form has it only inside the factor.
     let sigma_table = (form == admm::Form::Direct && settings.stages.is_none()).then(|| {
         quote! {
@@ -201,447 +738,36 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
             const SIGMA: Real = #sigma;
         }
     });
-    let form_doc = match form {
-        admm::Form::Direct => "",
-        admm::Form::Residual => {
-            " The x-update is in residual form (x̃ = x + K·r, r its KKT residual), whose fixed point the\n rounding of the factor does not move."
-        }
-    };
-    let structure_doc = match settings.structure() {
-        admm::Structure::Condensed => "dense on the condensed QP",
-        admm::Structure::Riccati => "its x-update solved stage by stage (a Riccati sweep)",
-    };
-    let mpc_doc = format!(
-        " Fixed-iteration, warm-started MPC with state, output and rate constraints: ADMM (OSQP's\n operator splitting) in {real_name}, {structure_doc}, with its factor computed at build time.{form_doc}"
-    );
-    let mpc_doc: Vec<&str> = mpc_doc.split('\n').collect();
-    Sections {
-        constants: quote! {
-            /// Entries of the plan, N·NU.
-            pub const NP: usize = N * NU;
-            /// ADMM's unknowns x: the plan, then one slack per soft constraint component.
-            pub const NV: usize = #nv_lit;
-            /// Slacks of the soft constraints.
-            pub const NS: usize = #ns_lit;
-            /// General constraint rows (their bounds move with the data).
-            pub const NG: usize = #ng_lit;
-            /// Rows of C = [I; A]: a box row per unknown, then the general rows; the length of z and y.
-            pub const NC: usize = #nc_lit;
-            /// `[mpc] accuracy`: the plan within ACCURACY·(U_MAX − U_MIN) of the exact solution.
-            pub const ACCURACY: f64 = #accuracy;
-            /// ADMM's penalty ρ, tuned at build time on the certificate's sample; row i's penalty is
-            /// ρ times its curvature ([`RHO_ROW`]).
-            pub const RHO: f64 = #rho_lit;
-            /// Final relative primal residual above which the plan is not trusted ([`Fallback::WarmStart`]).
-            pub const PRIMAL_LIMIT: f64 = #primal_limit;
-            /// Final relative dual residual above which the plan is not trusted.
-            pub const DUAL_LIMIT: f64 = #dual_limit;
-            /// Final duality gap, relative to max(1, |J|), above which the plan is not trusted.
-            pub const GAP_LIMIT: f64 = #gap_limit;
-        },
-        api: quote! {
-            #status_types
-
-            #(#[doc = #mpc_doc])*
-            #[doc = #evidence_doc]
-            #[derive(Clone, Debug, PartialEq)]
-            pub struct Mpc {
-                /// The plan, projected onto the box.
-                plan: [Real; NP],
-                /// The last solve's iterate (x, z, y): the warm start.
-                x: [Real; NV],
-                z: [Real; NC],
-                y: [Real; NC],
-                /// Whether (x, z, y) is a warm start (false after `new`, `reset` or a fallback).
-                warm: bool,
-                /// Whether the controller is recovering from hard rows that admitted no plan: the next solve
-                /// widens them to the held plan where it violates them ([`Fallback::Relaxed`]).
-                relax: bool,
-                #last_field
-                status: SolverStatus,
-            }
-
-            impl Mpc {
-                /// A cold controller: its first solve starts from x = 0, z = Π(0), y = 0.
-                pub const fn new() -> Self {
-                    Mpc {
-                        plan: rest_plan(),
-                        x: [0.0; NV],
-                        z: [0.0; NC],
-                        y: [0.0; NC],
-                        warm: false,
-                        relax: false,
-                        #last_init
-                        status: SolverStatus {
-                            iterations: 0,
-                            primal_residual: 0.0,
-                            dual_residual: 0.0,
-                            gap: 0.0,
-                            violation: 0.0,
-                            softened: 0.0,
-                            infeasible: false,
-                            numerical_failure: false,
-                            reference_beyond_region: false,
-                            beyond_coordinate_range: false,
-                            fallback: Fallback::NoneYet,
-                        },
-                    }
-                }
-
-                #solve_fns
-
-                /// The solve, with `None` (and a reset warm start) for a non-finite argument.
-                fn checked(&mut self, x0: &[Real; NX], #d_param xref: &[[Real; #row]; N]) -> Option<[Real; NU]> {
-                    if !(all_finite(x0) #d_finite && xref.iter().all(|r| all_finite(r))) {
-                        self.reset();
-                        return None;
-                    }
-                    let x0 = flushed(x0);
-                    #d_flush
-                    #last_local
-                    let mut reference = [0.0; #nr];
-                    for (r, row) in reference.chunks_exact_mut(xref[0].len()).zip(xref.iter()) {
-                        r.copy_from_slice(&flushed(row));
-                    }
-                    #coordinate_code
-                    #reach_code
-                    // q = Fx·x0 − Fr·Xref (+ Fu·u₋₁ + Fd·d) for the plan, the penalties' weights for the slacks.
-                    let mut q = [0.0; NV];
-                    for (i, qi) in q.iter_mut().enumerate().take(NP) {
-                        *qi = dot(&FX[i], &x0) - dot(&FR[i], &reference) #f_terms;
-                    }
-                    for (qi, w) in q.iter_mut().skip(NP).zip(SLACK_WEIGHT.iter()) {
-                        *qi = *w;
-                    }
-                    // The bounds of C's rows: the box's (constant), then the rows' moved by the data.
-                    let (mut lower, mut upper) = ([0.0; NC], [0.0; NC]);
-                    lower[..NV].copy_from_slice(&Z_LO);
-                    upper[..NV].copy_from_slice(&Z_HI);
-                    for j in 0..NG {
-                        let offset = #(#row_terms)+*;
-                        lower[NV + j] = ROW_LOWER[j] - offset;
-                        upper[NV + j] = ROW_UPPER[j] - offset;
-                    }
-                    // The held plan: the fallback, and what a relaxed solve widens the hard rows to.
-                    let mut held = self.plan;
-                    shift(&mut held, NU);
-                    held[NP - NU..].copy_from_slice(&U_REST);
-                    for (i, p) in held.iter_mut().enumerate() {
-                        *p = project(*p, U_MIN[i % NU], U_MAX[i % NU]);
-                    }
-                    // The bounds without the widening: what the status's violation is measured on.
-                    let (hard_lower, hard_upper) = (lower, upper);
-                    // Recovering, the held plan violating a hard row: relaxed.
-                    let relax = self.relax && violations(&held, &lower, &upper).0 > ACCURACY;
-                    if relax {
-                        // After the hard rows admitted no plan: each hard row widened to the held plan's
-                        // value, so that the QP has a plan that violates no row more than holding would.
-                        let mut x = [0.0; NV];
-                        x[..NP].copy_from_slice(&held);
-                        let mut cx = [0.0; NC];
-                        c_mul(&x, &mut cx);
-                        for j in 0..NG {
-                            if !ROW_SOFT[j] {
-                                let a = cx[NV + j];
-                                lower[NV + j] = if a < lower[NV + j] { a } else { lower[NV + j] };
-                                upper[NV + j] = if a > upper[NV + j] { a } else { upper[NV + j] };
-                            }
-                        }
-                    }
-                    let (mut x, mut z, mut y) = (self.x, self.z, self.y);
-                    if self.warm & !relax {
-                        // The previous iterate shifted by one slot, the rest input appended to x and z.
-                        shift(&mut x[..NP], NU);
-                        x[NP - NU..NP].copy_from_slice(&U_REST);
-                        shift(&mut z[..NP], NU);
-                        z[NP - NU..NP].copy_from_slice(&U_REST);
-                        shift(&mut z[NV..], PER_SLOT);
-                        shift(&mut y[..NP], NU);
-                        shift(&mut y[NV..], PER_SLOT);
-                    } else {
-                        x = [0.0; NV];
-                        for (i, zi) in z.iter_mut().enumerate() {
-                            *zi = clamp(0.0, lower[i], upper[i]);
-                        }
-                        y = [0.0; NC];
-                    }
-                    let mut dy = [0.0; NC];
-                    for _ in 0..ITERATIONS {
-                        iterate(&q, &lower, &upper, &mut x, &mut z, &mut y, &mut dy);
-                    }
-                    let (primal, dual, gap) = residuals(&q, &x, &z, &y);
-                    let numerical_failure = !(primal.is_finite() && dual.is_finite() && gap.is_finite());
-                    let infeasible = ITERATIONS > 0 && !numerical_failure && infeasible(&lower, &upper, &dy);
-                    let trusted = !numerical_failure && !infeasible && primal <= PRIMAL_LIMIT && dual <= DUAL_LIMIT && gap <= GAP_LIMIT;
-                    if trusted {
-                        for (i, (p, v)) in self.plan.iter_mut().zip(x.iter()).enumerate() {
-                            *p = project(*v, U_MIN[i % NU], U_MAX[i % NU]);
-                        }
-                        self.x = x;
-                        self.z = z;
-                        self.y = y;
-                    } else {
-                        self.plan = held;
-                    }
-                    self.warm = trusted & !relax;
-                    let (violation, softened) = violations(&self.plan, &hard_lower, &hard_upper);
-                    // Recovering after a solve found the hard rows infeasible, or made a relaxed plan.
-                    self.relax = infeasible | (trusted & relax);
-                    self.status = SolverStatus {
-                        iterations: ITERATIONS as u32,
-                        primal_residual: primal,
-                        dual_residual: dual,
-                        gap,
-                        violation,
-                        softened,
-                        infeasible,
-                        numerical_failure,
-                        reference_beyond_region: beyond,
-                        beyond_coordinate_range: beyond_coordinates,
-                        fallback: match (trusted, relax) {
-                            (true, false) => Fallback::Solved,
-                            (true, true) => Fallback::Relaxed,
-                            (false, _) => Fallback::WarmStart,
-                        },
-                    };
-                    let mut first = [0.0; NU];
-                    first.copy_from_slice(&self.plan[..NU]);
-                    #set_last
-                    Some(first)
-                }
-
-                /// What the last solve did.
-                pub fn solver_status(&self) -> &SolverStatus {
-                    &self.status
-                }
-
-                #last_fns
-
-                /// The plan of the last solve, one input per predicted step.
-                pub fn plan(&self) -> [[Real; NU]; N] {
-                    let mut out = [[0.0; NU]; N];
-                    for (o, step) in out.iter_mut().zip(self.plan.chunks_exact(NU)) {
-                        o.copy_from_slice(step);
-                    }
-                    out
-                }
-
-                /// Forgets the warm start (and the last input).
-                pub fn reset(&mut self) {
-                    *self = Self::new();
-                }
-            }
-
-            impl Default for Mpc {
-                fn default() -> Self {
-                    Self::new()
-                }
-            }
-        },
-        kernels: quote! {
-            /// The rest plan: U_REST at every step.
-            const fn rest_plan() -> [Real; NP] {
-                let mut out = [0.0; NP];
-                let mut i = 0;
-                while i < NP {
-                    out[i] = U_REST[i % NU];
-                    i += 1;
-                }
-                out
-            }
-
-            /// a·b, summed from the first term.
-            #[inline(always)]
-            fn dot(a: &[Real], b: &[Real]) -> Real {
-                a.iter().zip(b.iter()).fold(0.0, |s, (x, y)| s + x * y)
-            }
-
-            /// `v` clamped to [lo, hi], NaN kept (the residuals then see it), as the reference's.
-            #[inline(always)]
-            fn clamp(v: Real, lo: Real, hi: Real) -> Real {
-                if v < lo {
-                    lo
-                } else if v > hi {
-                    hi
-                } else {
-                    v
-                }
-            }
-
-            /// Moves every block of `width` up by one; the last block stays.
-            #[inline(always)]
-            fn shift(v: &mut [Real], width: usize) {
-                if width > 0 && v.len() > width {
-                    v.copy_within(width.., 0);
-                }
-            }
-
-            /// max |v_i| in f64 (exact).
-            #[inline(always)]
-            fn amax(v: &[Real]) -> f64 {
-                v.iter().fold(0.0, |m: f64, x| m.max(#wide_of_abs))
-            }
-
-            #kernel_code
-
-            /// One iteration of OSQP's Algorithm 1 on (x, z, y); `dy` keeps the change of y.
-            fn iterate(
-                q: &[Real; NV],
-                lower: &[Real; NC],
-                upper: &[Real; NC],
-                x: &mut [Real; NV],
-                z: &mut [Real; NC],
-                y: &mut [Real; NC],
-                dy: &mut [Real; NC],
-            ) {
-                #x_tilde
-                for (xi, t) in x.iter_mut().zip(xt.iter()) {
-                    *xi = ALPHA * t + BETA * *xi;
-                }
-                for i in 0..NC {
-                    let relaxed = ALPHA * zt[i] + BETA * z[i];
-                    let zn = clamp(relaxed + RHO_INV[i] * y[i], lower[i], upper[i]);
-                    let yn = y[i] + RHO_ROW[i] * (relaxed - zn);
-                    dy[i] = yn - y[i];
-                    y[i] = yn;
-                    z[i] = zn;
-                }
-            }
-
-            /// The relative residuals ‖Cx − z‖∞ / (1 + max(‖Cx‖∞, ‖z‖∞)) and
-            /// ‖Px + q + Cᵀy‖∞ / (1 + max(‖Px‖∞, ‖q‖∞, ‖Cᵀy‖∞)); infinite where an entry is not finite.
-            /// The relative primal and dual residuals and the relative duality gap
-            /// |xᵀPx + qᵀx + yᵀz| / max(1, |½xᵀPx + qᵀx|) (y is in the bounds' normal cone at z, so yᵀz is
-            /// their support function at y), as the reference computes them.
-            fn residuals(q: &[Real; NV], x: &[Real; NV], z: &[Real; NC], y: &[Real; NC]) -> (f64, f64, f64) {
-                let mut cx = [0.0; NC];
-                c_mul(x, &mut cx);
-                let mut primal = [0.0; NC];
-                for i in 0..NC {
-                    primal[i] = cx[i] - z[i];
-                }
-                let mut px = [0.0; NV];
-                for (o, row) in px.iter_mut().zip(H.iter()) {
-                    *o = dot(row, x);
-                }
-                let mut cty = [0.0; NV];
-                c_tmul(y, &mut cty);
-                let mut dual = [0.0; NV];
-                for i in 0..NV {
-                    dual[i] = px[i] + q[i] + cty[i];
-                }
-                if !(all_finite(&primal) && all_finite(&dual)) {
-                    return (f64::INFINITY, f64::INFINITY, f64::INFINITY);
-                }
-                let (mut curvature, mut linear, mut support) = (0.0_f64, 0.0_f64, 0.0_f64);
-                for ((pxi, qi), xi) in px.iter().zip(q.iter()).zip(x.iter()) {
-                    curvature += #wide_px * #wide_x;
-                    linear += #wide_q * #wide_x;
-                }
-                for (yi, zi) in y.iter().zip(z.iter()) {
-                    support += #wide_y * #wide_z;
-                }
-                let objective = 0.5 * curvature + linear;
-                (
-                    amax(&primal) / (1.0 + amax(&cx).max(amax(z))),
-                    amax(&dual) / (1.0 + amax(&px).max(amax(q)).max(amax(&cty))),
-                    (curvature + linear + support).abs() / objective.abs().max(1.0),
-                )
-            }
-
-            /// OSQP's primal infeasibility test (§3.4) on the last change of y: δy projected on the polar
-            /// of the bounds' recession cone, δy ≠ 0, ‖Cᵀδy‖∞ ≤ ε‖δy‖∞ and uᵀδy₊ + lᵀδy₋ ≤ −ε‖δy‖∞ (the
-            /// support in f64, as the reference sums it).
-            fn infeasible(lower: &[Real; NC], upper: &[Real; NC], dy: &[Real; NC]) -> bool {
-                let mut d = [0.0; NC];
-                for i in 0..NC {
-                    let v = dy[i];
-                    d[i] = match (LOWER_FINITE[i], UPPER_FINITE[i]) {
-                        (false, false) => 0.0,
-                        (true, false) => clamp(v, Real::NEG_INFINITY, 0.0),
-                        (false, true) => clamp(v, 0.0, Real::INFINITY),
-                        (true, true) => v,
-                    };
-                }
-                let norm = amax(&d);
-                let mut support = 0.0_f64;
-                for i in 0..NC {
-                    let v = d[i];
-                    let (lo, hi, w) = (#wide_lower, #wide_upper, #wide_d);
-                    support += if v > 0.0 {
-                        hi * w
-                    } else if v < 0.0 {
-                        lo * w
-                    } else {
-                        0.0
-                    };
-                }
-                let mut ct = [0.0; NV];
-                c_tmul(&d, &mut ct);
-                let ctn = amax(&ct);
-                let nonzero = !(norm.is_nan() || norm <= INFEASIBILITY_TOLERANCE);
-                nonzero
-                    && support <= -INFEASIBILITY_TOLERANCE * norm
-                    && ctn <= INFEASIBILITY_TOLERANCE * norm
-            }
-
-            /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and the
-            /// largest soft-row violation in its row's units, as the interior-point method reports them.
-            fn violations(plan: &[Real; NP], lower: &[Real; NC], upper: &[Real; NC]) -> (f64, f64) {
-                let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
-                // The rows at the plan with its slacks zero (Cx's general rows).
-                let mut x = [0.0; NV];
-                x[..NP].copy_from_slice(plan);
-                let mut cx = [0.0; NC];
-                c_mul(&x, &mut cx);
-                for j in 0..NG {
-                    let a = cx[NV + j];
-                    let (lo, hi, a) = (#wide_row_lower, #wide_row_upper, #wide_a);
-                    // The rows' bounds without the data's offset, as the reference measures them.
-                    let (bound_lo, bound_hi) = (#wide_bound_lower, #wide_bound_upper);
-                    let below = (lo - a).max(0.0) / bound_lo.abs().max(1.0);
-                    let above = (a - hi).max(0.0) / bound_hi.abs().max(1.0);
-                    if ROW_SOFT[j] {
-                        soft = soft.max((lo - a).max(a - hi).max(0.0));
-                    } else {
-                        hard = hard.max(below.max(above));
-                    }
-                }
-                (hard, soft)
-            }
-        },
-        tables: quote! {
-            #reach_tables
-            #coordinate_tables
-            /// OSQP's over-relaxation α, and 1 − α.
-            const ALPHA: Real = #alpha;
-            const BETA: Real = 1.0 - ALPHA;
-            #sigma_table
-            /// OSQP's primal infeasibility tolerance ε.
-            const INFEASIBILITY_TOLERANCE: f64 = #infeasibility;
-            /// Row sides per slot: a warm start shifts the rows' z and y by this.
-            const PER_SLOT: usize = #per_slot;
-            /// The slacks' penalty weights (the linear term of the slacks).
-            const SLACK_WEIGHT: [Real; NS] = #slack_weight;
-            /// The box rows' bounds: the input box for the plan, σ ≥ 0 for the slacks.
-            const Z_LO: [Real; NV] = [#(#z_lo),*];
-            const Z_HI: [Real; NV] = [#(#z_hi),*];
-            /// The general rows' bounds before the data's offset (±∞ where absent).
-            const ROW_LOWER: [Real; NG] = [#(#row_lower),*];
-            const ROW_UPPER: [Real; NG] = [#(#row_upper),*];
-            /// Whether a general row is soft (its violation is priced, not forbidden).
-            const ROW_SOFT: [bool; NG] = [#(#row_soft),*];
-            /// Which rows of C have a finite lower / upper bound (whatever the data).
-            const LOWER_FINITE: [bool; NC] = [#(#lower_finite),*];
-            const UPPER_FINITE: [bool; NC] = [#(#upper_finite),*];
-            #row_tables
-            /// Row i's penalty ρ_i = RHO·(its curvature), and 1/ρ_i.
-            const RHO_ROW: [Real; NC] = #rho_row;
-            const RHO_INV: [Real; NC] = #rho_inv;
-            #kernel_tables
-            /// ADMM's P = blkdiag(H, diag(q_σ)): eq. 9's H, then the slacks' quadratic weights.
-            pub const H: [[Real; NV]; NV] = #hv;
-        },
+    quote! {
+        #data_tables
+        /// OSQP's over-relaxation α, and 1 − α.
+        const ALPHA: Real = #alpha;
+        const BETA: Real = 1.0 - ALPHA;
+        #sigma_table
+        /// OSQP's primal infeasibility tolerance ε.
+        const INFEASIBILITY_TOLERANCE: f64 = #infeasibility;
+        /// Row sides per slot: a warm start shifts the rows' z and y by this.
+        const PER_SLOT: usize = #per_slot;
+        /// The slacks' penalty weights (the linear term of the slacks).
+        const SLACK_WEIGHT: [Real; NS] = #slack_weight;
+        /// The box rows' bounds: the input box for the plan, σ ≥ 0 for the slacks.
+        const Z_LO: [Real; NV] = [#(#z_lo),*];
+        const Z_HI: [Real; NV] = [#(#z_hi),*];
+        /// The general rows' bounds before the data's offset (±∞ where absent).
+        const ROW_LOWER: [Real; NG] = [#(#row_lower),*];
+        const ROW_UPPER: [Real; NG] = [#(#row_upper),*];
+        /// Whether a general row is soft (its violation is priced, not forbidden).
+        const ROW_SOFT: [bool; NG] = [#(#row_soft),*];
+        /// Which rows of C have a finite lower / upper bound (whatever the data).
+        const LOWER_FINITE: [bool; NC] = [#(#lower_finite),*];
+        const UPPER_FINITE: [bool; NC] = [#(#upper_finite),*];
+        #row_tables
+        /// Row i's penalty ρ_i = RHO·(its curvature), and 1/ρ_i.
+        const RHO_ROW: [Real; NC] = #rho_row;
+        const RHO_INV: [Real; NC] = #rho_inv;
+        #operator_tables
+        /// ADMM's P = blkdiag(H, diag(q_σ)): eq. 9's H, then the slacks' quadratic weights.
+        pub const H: [[Real; NV]; NV] = #hv;
     }
 }
 

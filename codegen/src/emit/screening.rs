@@ -40,14 +40,8 @@ pub fn emit(
     reset_covariance: TokenStream,
     what: &str,
 ) -> Screen {
-    let reacquire_doc = format!(" the rest and the disturbance kept), and restarts {what}.");
-    let s = &f.screening;
-    let (nx, nd, ny) = (p.nx, f.nd, p.ny);
-    let gate = s.gate.map(|g| num.lit(g));
-    let stuck = s.stuck_cycles;
-    // The last reading is kept when a stuck sensor is detected or a gated run must tell a changing
-    // reading from a repeated one.
-    let history = stuck.is_some() || gate.is_some();
+    let gate = f.screening.gate;
+    let history = keeps_history(f);
     let mut fields = quote!();
     let mut init = quote!();
     if history {
@@ -63,7 +57,36 @@ pub fn emit(
     }
     fields.extend(quote!(status: FilterStatus,));
     init.extend(quote!(status: FilterStatus::new(valid),));
+    Screen {
+        fields,
+        init,
+        methods: methods(f, s_inverse, fuse, reset_covariance, what),
+        sections: Sections {
+            constants: constants(p, f, num),
+            api: api(f.nd),
+            kernels: kernels(p, f, num),
+            tables: tables(f, num),
+        },
+    }
+}
 
+/// Whether the last reading is kept: when a stuck sensor is detected or a gated run must tell a
+/// changing reading from a repeated one.
+fn keeps_history(f: &Filter) -> bool {
+    f.screening.stuck_cycles.is_some() || f.screening.gate.is_some()
+}
+
+/// `Kalman`'s screening methods: `update`, `status`, `has_estimate`, `screen` and `reacquire`.
+fn methods(
+    f: &Filter,
+    s_inverse: TokenStream,
+    fuse: TokenStream,
+    reset_covariance: TokenStream,
+    what: &str,
+) -> TokenStream {
+    let reacquire_doc = format!(" the rest and the disturbance kept), and restarts {what}.");
+    let (gate, stuck) = (f.screening.gate, f.screening.stuck_cycles);
+    let history = keeps_history(f);
     let remember = if history {
         quote! {
             // A reading is new when it differs in any bit from the previous one.
@@ -98,7 +121,7 @@ pub fn emit(
         }
     });
     let reset_gated = gate.as_ref().map(|_| quote!(self.gated = 0;));
-    let methods = quote! {
+    quote! {
         /// The measurement update with `z`, after screening: a non-finite reading, a stuck sensor's
         /// repeated reading and (with a gate) a reading whose normalized innovation squared exceeds
         /// [`GATE`] are rejected and change nothing but the status. Returns what was done with `z`;
@@ -161,10 +184,14 @@ pub fn emit(
             self.status.reacquisitions = self.status.reacquisitions.saturating_add(1);
             Measurement::Reacquired
         }
-    };
+    }
+}
 
-    // Kernels: the innovation, its normalized square, the re-acquired state, the reading comparison and
-    // the disturbance bound.
+/// The kernels section: the innovation, its normalized square, the re-acquired state, the reading
+/// comparison and the disturbance bound.
+fn kernels(p: &Problem, f: &Filter, num: Num) -> TokenStream {
+    let (nx, nd, ny) = (p.nx, f.nd, p.ny);
+    let (gate, history) = (f.screening.gate, keeps_history(f));
     let (x, e) = (quote!(x), quote!(e));
     let reacquired_rows = (0..nx).map(|i| {
         num.sum(
@@ -235,8 +262,13 @@ pub fn emit(
             }
         });
     }
+    kernels
+}
 
-    // Constants: the gate, the counts and the disturbance bound.
+/// The constants section: the gate, the counts and the disturbance bound.
+fn constants(p: &Problem, f: &Filter, num: Num) -> TokenStream {
+    let (s, nd, ny) = (&f.screening, f.nd, p.ny);
+    let (gate, stuck) = (s.gate.map(|g| num.lit(g)), s.stuck_cycles);
     let mut constants = quote!();
     if let Some(g) = &gate {
         let doc = format!(
@@ -271,6 +303,11 @@ pub fn emit(
             pub const D_MAX: [Real; ND] = #d_max;
         });
     }
+    constants
+}
+
+/// The api section: the `Measurement` enum and the `FilterStatus` struct.
+fn api(nd: usize) -> TokenStream {
     let clamped_field = (nd > 0).then(|| {
         quote! {
             /// Whether the disturbance estimate is held at [`D_MIN`] or [`D_MAX`]: the disturbance is larger
@@ -279,7 +316,7 @@ pub fn emit(
         }
     });
     let clamped_init = (nd > 0).then(|| quote!(disturbance_clamped: false,));
-    let api = quote! {
+    quote! {
         /// What the filter did with a reading.
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         pub enum Measurement {
@@ -341,8 +378,12 @@ pub fn emit(
                 }
             }
         }
-    };
-    let tables = if gate.is_some() && f.kind == mpc_spec::FilterKind::SteadyState {
+    }
+}
+
+/// The tables section: the steady-state filter's S⁻¹ for the gate.
+fn tables(f: &Filter, num: Num) -> TokenStream {
+    if f.screening.gate.is_some() && f.kind == mpc_spec::FilterKind::SteadyState {
         let s_inv = num.matrix(&f.S_inf_inv);
         quote! {
             /// (C P∞ Cᵀ + R)⁻¹: the steady-state innovation covariance, inverted, for the gate.
@@ -350,16 +391,5 @@ pub fn emit(
         }
     } else {
         quote!()
-    };
-    Screen {
-        fields,
-        init,
-        methods,
-        sections: Sections {
-            constants,
-            api,
-            kernels,
-            tables,
-        },
     }
 }
