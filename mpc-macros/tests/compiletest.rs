@@ -44,7 +44,9 @@ fn ui() {
 
 #[test]
 fn every_family_is_listed() {
-    let ui = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests").join("ui");
+    let ui = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests")
+        .join("ui");
     for entry in std::fs::read_dir(ui).unwrap() {
         let name = entry.unwrap().file_name().into_string().unwrap();
         assert!(
