@@ -131,7 +131,7 @@ pub fn exact_macs_per_iteration(n: usize, m: usize) -> f64 {
 }
 
 /// The multiply-adds of one exact reference solve on `qp`'s case QPs, priced at [`EXACT_ITERATIONS`].
-pub fn exact_macs(qp: &crate::lower::Qp) -> f64 {
+pub fn exact_macs(qp: &crate::problem::Qp) -> f64 {
     EXACT_ITERATIONS * exact_macs_per_iteration(qp.H.nrows() + qp.rows.slacks(), qp.rows.len())
 }
 
@@ -139,43 +139,10 @@ pub fn exact_macs(qp: &crate::lower::Qp) -> f64 {
 /// simulation multiplies by the dense C = [I; A] and Cᵀ ((n + m)·n each) and checks the iterate's
 /// accuracy against every row (m·n), where the emitted code visits the nonzeros only (on hover the
 /// profile puts these at three quarters of the sample's time).
-pub fn admm_simulation_overhead(qp: &crate::lower::Qp) -> usize {
+pub fn admm_simulation_overhead(qp: &crate::problem::Qp) -> usize {
     let n = qp.H.nrows() + qp.rows.slacks();
     let m = qp.rows.len();
     2 * (n + m) * n + m * n
-}
-
-/// The cold cases and the warm steps of the certificate's sample of `spec` (an `nx`-state plant): the
-/// corners and `samples`, and `sequences`·`steps`.
-pub fn sample_cases(spec: &Spec, nx: usize) -> (usize, usize) {
-    use crate::sampling::{DEFAULT_SAMPLES, DEFAULT_SEQUENCES, DEFAULT_STEPS, MAX_CORNERS};
-    let r = &spec.mpc.region;
-    let corners = 1usize
-        .checked_shl(nx as u32)
-        .unwrap_or(usize::MAX)
-        .min(MAX_CORNERS);
-    (
-        corners + r.samples.unwrap_or(DEFAULT_SAMPLES),
-        r.sequences.unwrap_or(DEFAULT_SEQUENCES) * r.steps.unwrap_or(DEFAULT_STEPS),
-    )
-}
-
-/// The hint of a sample over the budget: which keys of `[mpc.region]` to lower, with their values
-/// (written or default), and how they compose.
-pub fn region_hint(spec: &Spec, nx: usize) -> String {
-    use crate::sampling::{DEFAULT_SAMPLES, DEFAULT_SEQUENCES, DEFAULT_STEPS};
-    let r = &spec.mpc.region;
-    let (cold, warm) = sample_cases(spec, nx);
-    let value = |v: Option<usize>, default: usize| match v {
-        Some(v) => format!("{v}"),
-        None => format!("{default} (default)"),
-    };
-    format!(
-        "hint: the sample is {cold} cold cases (the corners and `samples` = {}) and {warm} warm steps (`sequences` = {} × `steps` = {}), each priced at the method's run and an exact solve; lower `samples`, or `sequences` × `steps`, in `[mpc.region]`, or shorten the `horizon`",
-        value(r.samples, DEFAULT_SAMPLES),
-        value(r.sequences, DEFAULT_SEQUENCES),
-        value(r.steps, DEFAULT_STEPS),
-    )
 }
 
 /// The key a size error points at: the model's dimension.
@@ -504,12 +471,12 @@ mod tests {
     #[test]
     fn the_region_hint_names_the_keys_and_their_values() {
         let s = spec(10, "x_max = [1, 1]\nx_min = [-1, -1]\n\n[mpc.region]\nsamples = 10000\nsequences = 100\nsteps = 1000\n");
-        assert_eq!(sample_cases(&s, 2), (10_004, 100_000));
-        let hint = region_hint(&s, 2);
+        assert_eq!(crate::sampling::sample_cases(&s, 2), (10_004, 100_000));
+        let hint = crate::sampling::region_hint(&s, 2);
         for key in ["`samples` = 10000", "`sequences` = 100", "`steps` = 1000"] {
             assert!(hint.contains(key), "{hint}");
         }
-        let hint = region_hint(&spec(10, "x_max = [1, 1]\n"), 2);
+        let hint = crate::sampling::region_hint(&spec(10, "x_max = [1, 1]\n"), 2);
         assert!(hint.contains("`samples` = 50 (default)"), "{hint}");
     }
 }

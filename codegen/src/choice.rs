@@ -16,7 +16,8 @@
 //! FGM-only keys (a numeric `step`, `tolerance`) choose `fgm` before any of this (`mpc_spec`).
 
 pub use crate::evidence::Candidate;
-use crate::lower::Problem;
+use crate::problem::Problem;
+use crate::{admm, budget, evidence, lower, sampling, solver};
 use mpc_spec::{Diagnostics, Iterations, Method, Spec};
 
 /// The methods `auto` weighs, in the order a tie is broken.
@@ -53,7 +54,7 @@ fn not_weighed(spec: &Spec, method: Method, earlier_usable: bool) -> Option<Stri
 /// was weighed). Fails with the findings of the candidate that fits the spec best when none can be used.
 pub fn resolve(spec: &Spec) -> Result<(Spec, Problem), Diagnostics> {
     if spec.mpc.method != Method::Auto {
-        let mut problem = crate::certified(spec)?;
+        let mut problem = lower_and_certify(spec)?;
         problem.requested = spec.mpc.method_requested;
         return Ok((spec.clone(), problem));
     }
@@ -79,7 +80,7 @@ pub fn resolve(spec: &Spec) -> Result<(Spec, Problem), Diagnostics> {
             candidates.push(unavailable(method, why));
             continue;
         }
-        match crate::certified(&s).and_then(|p| crate::plan(&s, &p).map(|plan| (p, plan))) {
+        match lower_and_certify(&s).and_then(|p| crate::plan::plan(&s, &p).map(|plan| (p, plan))) {
             Ok((p, plan)) => {
                 candidates.push(candidate(&s, &p, &plan));
                 lowered.push((s, p));
@@ -179,4 +180,94 @@ fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
         reaches_accuracy,
         chosen: false,
     }
+}
+
+/// Lowers `spec`, whose method is not `auto`, ([`crate::lower::uncertified`]) and certifies its iteration count on a sample of
+/// `[mpc.region]` ([`crate::sampling::certify`]) where there is one to sample: always for the interior-point
+/// method and for ADMM (its ρ tuned first on part of the same sample, [`crate::sampling::tune_admm`]), and for a first-order method when `[mpc.region]` is written (its `iterations = "auto"` is
+/// then at least the sample's need for `accuracy`, and at least what `tolerance` guarantees): the
+/// problem every later phase works on.
+fn lower_and_certify(spec: &Spec) -> Result<Problem, Diagnostics> {
+    let mut problem = lower::uncertified(spec)?;
+    let evidence = match (spec.mpc.method, solver::algorithm(spec.mpc.method)) {
+        (mpc_spec::Method::Admm, _) => {
+            // ρ measured on part of the sample (in f64, where the forms agree), then the whole sample
+            // at that ρ in the written form; without one, the direct form in f64. In f32 the direct
+            // form's rounded factor biases its fixed point, which on an ill-conditioned H costs many
+            // iterations or misses `accuracy`: the residual form first, then the direct one run at
+            // most as long as it could be cheaper, and the cheaper of the two is kept. Each attempt
+            // counts the earlier ones' multiply-adds against the build's budget.
+            let (rho, tuning_macs) = sampling::tune_admm(spec, &problem)?;
+            let method =
+                |form, spent| sampling::Admm::new(&problem, admm::Tuned { rho, form }, spent);
+            let certify =
+                |method: &sampling::Admm| sampling::certify_metered(spec, &problem, method, 0);
+            // What a pass spent on its exact references, which its meter does not count: one
+            // exact solve a case, at the budget's price.
+            let (cold, warm) = sampling::sample_cases(spec, problem.nx);
+            let exact = (cold + warm) as f64 * budget::exact_macs(&problem.qp);
+            let cost = |method: &sampling::Admm, e: &evidence::Evidence| {
+                e.iterations as f64
+                    * sampling::Sampled::macs_per_iteration(method, &problem.qp) as f64
+            };
+            match spec.mpc.admm_form {
+                Some(form) => Some(certify(&method(form, tuning_macs)).map_err(|(d, _)| d)?),
+                None if problem.scalar == mpc_spec::Scalar::F64 => {
+                    Some(certify(&method(admm::Form::Direct, tuning_macs)).map_err(|(d, _)| d)?)
+                }
+                None => {
+                    let residual = method(admm::Form::Residual, tuning_macs);
+                    match certify(&residual) {
+                        Ok(e) => {
+                            let direct = method(admm::Form::Direct, e.sample_macs + exact);
+                            let per_iteration =
+                                sampling::Sampled::macs_per_iteration(&direct, &problem.qp).max(1);
+                            let most = (cost(&residual, &e) / per_iteration as f64) as usize;
+                            let direct = direct.at_most(most);
+                            match certify(&direct) {
+                                Ok(d) if cost(&direct, &d) < cost(&residual, &e) => Some(d),
+                                Ok(d) => Some(evidence::Evidence {
+                                    sample_macs: d.sample_macs,
+                                    ..e
+                                }),
+                                Err((_, spent)) => Some(evidence::Evidence {
+                                    sample_macs: spent,
+                                    ..e
+                                }),
+                            }
+                        }
+                        Err((_, spent)) => Some(
+                            certify(&method(admm::Form::Direct, spent + exact))
+                                .map_err(|(d, _)| d)?,
+                        ),
+                    }
+                }
+            }
+        }
+        (_, None) => Some(sampling::certify(
+            spec,
+            &problem,
+            &sampling::InteriorPoint,
+            0,
+        )?),
+        (_, Some(algorithm)) if spec.spans.get("mpc.region").is_some() => {
+            // The a priori count of `tolerance` (zero without one) is the floor of `auto`.
+            let floor = match spec.mpc.iterations {
+                mpc_spec::Iterations::Auto => problem.qp.iterations,
+                mpc_spec::Iterations::Fixed(_) => 0,
+            };
+            Some(sampling::certify(
+                spec,
+                &problem,
+                &sampling::FirstOrder(algorithm),
+                floor,
+            )?)
+        }
+        (_, Some(_)) => None,
+    };
+    if let Some(evidence) = evidence {
+        problem.qp.iterations = evidence.iterations;
+        problem.qp.evidence = Some(evidence);
+    }
+    Ok(problem)
 }

@@ -38,8 +38,8 @@
 //! natural large coordinate; then every state is counted, which states the range for states of magnitude X.
 #![allow(non_snake_case)]
 
-use crate::lower::Problem;
 use crate::numeric::Numeric;
+use crate::problem::Problem;
 use mpc_spec::{Emission, Scalar};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -258,7 +258,7 @@ pub fn injections(p: &Problem, emission: Emission) -> Injections {
 
 /// The loop an estimate error follows with the readings fixed: (I − K∞C)(F − G·M) when it is stable,
 /// else the estimation error dynamics (I − K∞C)F.
-pub fn error_loop(f: &crate::lower::Filter, p: &Problem, M: &DMatrix<f64>) -> DMatrix<f64> {
+pub fn error_loop(f: &crate::problem::Filter, p: &Problem, M: &DMatrix<f64>) -> DMatrix<f64> {
     let na = p.nx + f.nd;
     let I_KC = DMatrix::identity(na, na) - &f.K_inf * &f.Ca;
     let own = &I_KC * (&f.Fa - &f.Ga * M);

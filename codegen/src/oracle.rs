@@ -4,7 +4,7 @@
 #![allow(non_snake_case)]
 
 use crate::linalg::{kalman_gain_and_posterior, project, symmetrize, Gain};
-use crate::lower::{Problem, Qp, Screening};
+use crate::problem::{Problem, Qp, Screening};
 use crate::solver::admm;
 use crate::solver::ipm::{control_step, shifted_start, Start, Step};
 use crate::solver::{algorithm, Algorithm, Fgm};

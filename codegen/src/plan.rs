@@ -8,7 +8,7 @@ use crate::cost::{self, Estimate};
 use crate::form::{
     self, lanes::Lanes, matrix_free::MatrixFree, table::Table, unrolled::Unrolled, Form,
 };
-use crate::lower::Problem;
+use crate::problem::Problem;
 use crate::solver::{self, Algorithm};
 use crate::structure::{kronecker_identity, NotKronecker};
 use mpc_spec::{Diagnostic, Diagnostics, Emission, Span, Spec};

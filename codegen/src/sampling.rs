@@ -29,7 +29,7 @@
 
 use crate::evidence::Limits;
 pub use crate::evidence::{Evidence, Region};
-use crate::lower::{Problem, Qp};
+use crate::problem::{Problem, Qp};
 use crate::solver::ipm::{
     chosen_stages, control_step, mpc_macs_per_iteration, mpc_qp, shifted_start, violations,
     Fallback, InequalityQp, IpmResult, Start, Status,
@@ -1081,6 +1081,33 @@ fn corner_count(nx: usize) -> usize {
         .min(MAX_CORNERS)
 }
 
+/// The cold cases and the warm steps of the certificate's sample of `spec` (an `nx`-state plant): the
+/// corners and `samples`, and `sequences`·`steps`.
+pub fn sample_cases(spec: &Spec, nx: usize) -> (usize, usize) {
+    let r = &spec.mpc.region;
+    (
+        corner_count(nx) + r.samples.unwrap_or(DEFAULT_SAMPLES),
+        r.sequences.unwrap_or(DEFAULT_SEQUENCES) * r.steps.unwrap_or(DEFAULT_STEPS),
+    )
+}
+
+/// The hint of a sample over the build's budget ([`crate::budget`]): which keys of `[mpc.region]` to lower, with their values
+/// (written or default), and how they compose.
+pub fn region_hint(spec: &Spec, nx: usize) -> String {
+    let r = &spec.mpc.region;
+    let (cold, warm) = sample_cases(spec, nx);
+    let value = |v: Option<usize>, default: usize| match v {
+        Some(v) => format!("{v}"),
+        None => format!("{default} (default)"),
+    };
+    format!(
+        "hint: the sample is {cold} cold cases (the corners and `samples` = {}) and {warm} warm steps (`sequences` = {} × `steps` = {}), each priced at the method's run and an exact solve; lower `samples`, or `sequences` × `steps`, in `[mpc.region]`, or shorten the `horizon`",
+        value(r.samples, DEFAULT_SAMPLES),
+        value(r.sequences, DEFAULT_SEQUENCES),
+        value(r.steps, DEFAULT_STEPS),
+    )
+}
+
 /// The sample's cost, predicted before it is spent: every case, cold and the warm steps' first round,
 /// runs the method's first probe ([`Sampled::probe`]) and the exact reference (about as many iterations
 /// again), each iteration [`Sampled::macs_per_iteration`], and costs
@@ -1116,7 +1143,7 @@ fn check_budget<M: Sampled>(spec: &Spec, p: &Problem, method: &M) -> Result<(), 
         region_span(spec),
     )
     .label(format!("{cold} cold cases and {warm} warm steps (their first round), {per_iteration} multiply-adds an iteration"))
-    .note(crate::budget::region_hint(spec, p.nx))
+    .note(region_hint(spec, p.nx))
     .into())
 }
 

@@ -44,7 +44,7 @@
 //! (derived, not measured).
 
 use crate::certificate::Resources;
-use crate::lower::Problem;
+use crate::problem::Problem;
 use mpc_spec::{Diagnostic, Diagnostics, Method, Scalar, Spec, Target};
 
 /// The SIMD the emitted code can use on a machine.

@@ -13,7 +13,7 @@ use super::constrained::{
 };
 use super::tokens::{at, Num};
 use super::Sections;
-use crate::lower::Problem;
+use crate::problem::Problem;
 use crate::solver::admm::{self, INFEASIBILITY_TOLERANCE};
 use crate::solver::ipm::{mpc_qp, InequalityQp};
 use nalgebra::DVector;

@@ -5,7 +5,7 @@
 use super::mpc::{last_input_fns, reference_doc, solve_fns};
 use super::tokens::Num;
 use crate::evidence::Evidence;
-use crate::lower::Problem;
+use crate::problem::Problem;
 use nalgebra::DMatrix;
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::quote;
@@ -142,7 +142,7 @@ pub fn entry(p: &Problem) -> Entry {
     }
 }
 
-/// The reference's reach ([`crate::lower::Qp::reference_reach`]): its tables `REACH_LO`/`REACH_HI` in
+/// The reference's reach ([`crate::problem::Qp::reference_reach`]): its tables `REACH_LO`/`REACH_HI` in
 /// `num`, and the code that brings the window `reference` (f64 with `wide`, else `Real`) within them of
 /// the tracked output at `x0` (same type), setting `beyond`. Without a reach (no certificate), `beyond`
 /// is false and nothing is emitted.

@@ -1,6 +1,6 @@
 //! `Controller`, one control cycle in the paper's order, and the `Status` it reports.
 
-use crate::lower::Problem;
+use crate::problem::Problem;
 use proc_macro2::TokenStream;
 use quote::quote;
 

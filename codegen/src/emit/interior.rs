@@ -16,7 +16,7 @@ use super::constrained::{
 use super::rows::{self, Rows};
 use super::tokens::Num;
 use super::Sections;
-use crate::lower::Problem;
+use crate::problem::Problem;
 use crate::solver::ipm::{
     mpc_qp, side_bound, InequalityQp, Layout, Sparsity, FINISHED, FRACTION,
     INFEASIBILITY_TOLERANCE, REFINEMENT, WARM_FLOOR,

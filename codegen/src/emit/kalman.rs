@@ -5,7 +5,7 @@
 use super::screening::{self, Screen};
 use super::tokens::{at1, Num};
 use super::Sections;
-use crate::lower::{Filter, Problem};
+use crate::problem::{Filter, Problem};
 use mpc_spec::FilterKind;
 use nalgebra::DMatrix;
 use proc_macro2::{Literal, TokenStream};

@@ -18,9 +18,9 @@ mod support;
 pub(crate) mod tokens;
 
 use crate::certificate::Certificate;
-use crate::lower::Problem;
 use crate::numeric::Numeric;
 use crate::plan::Plan;
+use crate::problem::Problem;
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
 use tokens::Num;

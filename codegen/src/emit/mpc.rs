@@ -4,8 +4,8 @@
 
 use super::tokens::Num;
 use super::Sections;
-use crate::lower::Problem;
 use crate::plan::Plan;
+use crate::problem::Problem;
 use crate::solver::Algorithm;
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;

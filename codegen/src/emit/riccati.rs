@@ -14,7 +14,7 @@
 
 use super::tokens::Num;
 use super::Sections;
-use crate::lower::Problem;
+use crate::problem::Problem;
 use crate::solver::ipm::{mpc_qp, Layout, Sparsity};
 use crate::solver::riccati::{Choice, Form, Stages};
 use mpc_spec::Scalar;
@@ -47,7 +47,7 @@ struct Stagewise<'a> {
 }
 
 /// The Riccati form's kernels and tables.
-fn emit(qp: &crate::lower::Qp, stages: &Stages) -> Sections {
+fn emit(qp: &crate::problem::Qp, stages: &Stages) -> Sections {
     let wide = Num(Scalar::F64);
     let lit = Literal::usize_unsuffixed;
     let structure = mpc_qp(

@@ -10,7 +10,7 @@
 
 use super::tokens::{at1, Num};
 use super::Sections;
-use crate::lower::{Filter, Problem};
+use crate::problem::{Filter, Problem};
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 

@@ -2,8 +2,8 @@
 //! of bounds, so nothing can panic.
 
 use crate::form::{neon, Form};
-use crate::lower::Problem;
 use crate::plan::Plan;
+use crate::problem::Problem;
 use proc_macro2::TokenStream;
 use quote::quote;
 

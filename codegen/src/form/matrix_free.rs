@@ -1,7 +1,7 @@
 //! `matrix_free`: the gradient ∇J(v) = 2 Suᵀ Q_blk (Sx·x0 + Su·v − Xref) + 2 R_blk·v without Su or H: a
 //! forward sweep of the dynamics and a backward adjoint sweep, O(N) per iteration, but a recursion from
 //! step to step whose latency the hardware cannot hide. The same sweeps give f = ∇J(0) for the table
-//! forms. When the model has lanes ([`crate::lower::ModelLanes`]) the sweeps run every lane at once with
+//! forms. When the model has lanes ([`crate::problem::ModelLanes`]) the sweeps run every lane at once with
 //! one set of constants (NEON on the A9); otherwise they are unrolled over the model's nonzeros.
 #![allow(non_snake_case)]
 
@@ -10,8 +10,8 @@ use crate::cost::{
     Estimate, BYTES_OF_A_LOOP, BYTES_PER_INLINED_MAC, SWEEP, SWEEP_IN_LANES, VECTOR_WIDTH,
 };
 use crate::emit::tokens::{at1, Num};
-use crate::lower::{ModelLanes, Problem};
 use crate::numeric::Numeric;
+use crate::problem::{ModelLanes, Problem};
 use crate::solver::Algorithm;
 use mpc_spec::Emission;
 use nalgebra::DMatrix;
@@ -25,7 +25,7 @@ use std::collections::BTreeSet;
 pub struct MatrixFree;
 
 /// Per step: x⁺ = F x + G u forward; λ = 2W e + Fᵀ λ⁺ and g = Gᵀ λ⁺ + 2R u backward, e = x − r. With the
-/// model in lanes ([`crate::lower::ModelLanes`]) every operation is one lane vector.
+/// model in lanes ([`crate::problem::ModelLanes`]) every operation is one lane vector.
 pub fn estimate(p: &Problem) -> Estimate {
     let num = Numeric(p.scalar);
     let nnz = |M: &DMatrix<f64>| num.nonzeros(M);
@@ -110,7 +110,7 @@ pub(crate) fn uses_neon(p: &Problem, lanes: usize) -> bool {
 /// The matrix-free gradient ∇J(v) = 2 Suᵀ Q_blk (Sx·x0 + Su·v − Xref) + 2 R_blk·v without Su: a forward
 /// sweep x_{k+1} = F x_k + G u_k, then a backward adjoint sweep λ_k = 2W_k (x_k − r_k) + Fᵀ λ_{k+1},
 /// g_k = Gᵀ λ_{k+1} + 2R u_k. With a disturbance, u = v + d (the offset-free problem is the plain one in
-/// v + d, see [`crate::lower::Qp::Fd`]).
+/// v + d, see [`crate::problem::Qp::Fd`]).
 fn scalar(p: &Problem, num: Num, lanes: usize) -> TokenStream {
     let qp = &p.qp;
     let (nx, nu, nd) = (p.nx, p.nu, p.nd());

@@ -18,8 +18,8 @@ pub mod unrolled;
 
 use crate::cost::Estimate;
 use crate::emit::tokens::Num;
-use crate::lower::Problem;
 use crate::numeric::Numeric;
+use crate::problem::Problem;
 use crate::solver::Algorithm;
 use mpc_spec::Emission;
 use nalgebra::DMatrix;

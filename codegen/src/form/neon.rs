@@ -6,7 +6,7 @@
 #![allow(non_snake_case)]
 
 use super::lane_count;
-use crate::lower::Problem;
+use crate::problem::Problem;
 use crate::solver::Algorithm;
 use mpc_spec::Scalar;
 use proc_macro2::{Literal, TokenStream};

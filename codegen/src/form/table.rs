@@ -5,8 +5,8 @@
 use super::{matrix_free, GradientForm};
 use crate::cost::{Estimate, BYTES_OF_A_LOOP, VECTOR_WIDTH};
 use crate::emit::tokens::Num;
-use crate::lower::Problem;
 use crate::numeric::Numeric;
+use crate::problem::Problem;
 use crate::solver::Algorithm;
 use mpc_spec::Emission;
 use proc_macro2::TokenStream;

@@ -6,8 +6,8 @@
 use super::{linear_args, linear_params, reference_row, GradientForm};
 use crate::cost::{Estimate, BYTES_PER_INLINED_MAC};
 use crate::emit::tokens::{at1, at2, blocks, Num};
-use crate::lower::Problem;
 use crate::numeric::Numeric;
+use crate::problem::Problem;
 use crate::solver::Algorithm;
 use mpc_spec::Emission;
 use proc_macro2::TokenStream;

@@ -35,7 +35,7 @@
 #![allow(non_snake_case)]
 
 use crate::evidence::Limits;
-use crate::lower::Qp;
+use crate::problem::Qp;
 use crate::solver::ipm::{self, InequalityQp, IpmResult, Layout};
 use nalgebra::{DMatrix, DVector};
 use std::fmt::Debug;

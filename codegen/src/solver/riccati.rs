@@ -26,7 +26,7 @@
 #![allow(non_snake_case)]
 
 use crate::constraints::StageRow;
-use crate::lower::Qp;
+use crate::problem::Qp;
 use nalgebra::{DMatrix, DVector};
 
 /// How a constrained method solves its linear system, condensed or stage by stage: the interior-point

@@ -5,7 +5,7 @@
 //! ([`crate::solver::riccati`]) shares the counts; the method ([`super`]) uses both.
 #![allow(non_snake_case)]
 
-use crate::lower::Qp;
+use crate::problem::Qp;
 use nalgebra::{DMatrix, DVector};
 
 /// [`macs_per_iteration`] of the MPC's QP: the condensed form's count.

@@ -22,7 +22,7 @@
 #![allow(non_snake_case)]
 
 use crate::evidence::Limits;
-use crate::lower::Qp;
+use crate::problem::Qp;
 use crate::solver::riccati::{Choice, Form, Stages};
 use nalgebra::{DMatrix, DVector};
 
