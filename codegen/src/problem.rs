@@ -1,4 +1,4 @@
-//! The lowered problem: what [`crate::lower`] computes from a spec and every later phase reads (the
+//! The lowered problem: what [`mod@crate::lower`] computes from a spec and every later phase reads (the
 //! condensed QP with its constraint rows and certificate, the filter, the screening), apart from the
 //! lowering itself so that the solvers, the certificate and the budget name these types without
 //! depending on the phase that forms them.
@@ -246,7 +246,7 @@ pub struct Filter {
     pub S_inf_inv: DMatrix<f64>,
     /// The steady-state filter's gains after a re-acquisition: the k-th reading it fuses from then on
     /// uses entry k − 1 (gate and correction), the gain of the time-varying filter restarted at P0
-    /// ([`restart_gains`]), and K∞ once the table is used up. Empty for the time-varying filter, which
+    /// ([`crate::linalg::restart_gains`]), and K∞ once the table is used up. Empty for the time-varying filter, which
     /// restarts its own covariance.
     pub restart: Vec<Gain>,
 }
