@@ -111,7 +111,7 @@ impl Qp {
     /// [z0 + lo, z0 + hi] (z0 the output at x0) before the solve ([`Qp::reach_reference`]): a far
     /// reference is then approached as fast as the constraints allow instead of asking the
     /// fixed-iteration solver for a QP far from what the sample certified. An entry inside the range is
-    /// never moved, wherever the state is: the QP is then the one the README defines. `None` for the
+    /// never moved, wherever the state is: the QP is then the one docs/methods.md defines. `None` for the
     /// first-order methods and before the certificate.
     pub fn reference_reach(&self) -> Option<Reach> {
         let e = self.evidence.as_ref().filter(|_| !self.method.box_only())?;

@@ -1091,8 +1091,8 @@ pub fn sample_cases(spec: &Spec, nx: usize) -> (usize, usize) {
     )
 }
 
-/// The hint of a sample over the build's budget ([`crate::budget`]): which keys of `[mpc.region]` to lower, with their values
-/// (written or default), and how they compose.
+/// The hint of a sample over the build's budget ([`crate::budget`]): which keys of `[mpc.region]` to
+/// lower, with their values (written or default), and how they compose.
 pub fn region_hint(spec: &Spec, nx: usize) -> String {
     let r = &spec.mpc.region;
     let (cold, warm) = sample_cases(spec, nx);
@@ -1115,8 +1115,8 @@ pub fn region_hint(spec: &Spec, nx: usize) -> String {
 /// lowering ([`crate::budget::LOWERING_MACS`]), and a sample above it is refused at `[mpc.region]`.
 /// What is spent past the prediction (a probe doubled past the first, the warm rounds after the first,
 /// at most four in all) is counted as it is spent, against the same limit, and stops the sample there:
-/// pricing all four rounds up front refused specs whose sample fits (hover's f32 ADMM on the M4F, priced
-/// at 6.2e10, is certified within the limit: `codegen/tests/m4f.rs`).
+/// pricing all four rounds up front refused specs whose sample fits (hover's f32 ADMM on the M4F,
+/// `codegen/tests/m4f.rs`).
 fn check_budget<M: Sampled>(spec: &Spec, p: &Problem, method: &M) -> Result<(), Diagnostics> {
     let written = &spec.mpc.region;
     let corners = corner_count(p.nx);
