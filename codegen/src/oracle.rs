@@ -3,11 +3,13 @@
 //! and the baseline the benchmarks compare with.
 #![allow(non_snake_case)]
 
-use crate::linalg::{kalman_gain_and_posterior, project, symmetrize, Gain};
-use crate::problem::{Problem, Qp, Screening};
+use crate::linalg::{kalman_gain_and_posterior, symmetrize, Gain};
+use crate::lower::problem::{Problem, Qp, Screening};
 use crate::solver::admm;
-use crate::solver::ipm::{control_step, shifted_start, Start, Step};
-use crate::solver::{algorithm, Algorithm, Fgm};
+use crate::solver::first_order::reference as first_order;
+use crate::solver::first_order::{Algorithm, Fgm};
+use crate::solver::ipm::Step;
+use crate::solver::stepping::{StepData, Stepping};
 use mpc_spec::{FilterKind, Method};
 use nalgebra::{DMatrix, DVector};
 
@@ -19,16 +21,8 @@ pub struct Mpc {
     plan: DVector<f64>,
     /// u₋₁, the last input returned (or set): what the first move Δu₀ is measured from.
     last: DVector<f64>,
-    /// The interior-point method's warm start (`Cold` for the first-order methods, unused).
-    start: Start,
-    /// The interior-point method's last step: its solve and fallback.
-    last_step: Option<Step>,
-    /// ADMM's warm start (`Cold` for the other methods, unused).
-    admm_start: admm::Start,
-    /// ADMM's last step.
-    admm_step: Option<admm::Step>,
-    /// Whether the controller is recovering from infeasible hard rows ([`crate::ipm::recovering_after`]).
-    relax: bool,
+    /// The method's state between steps (its warm start, last step, recovery).
+    stepping: Stepping,
     /// Whether the last solve's reference lay outside the region's range ([`Qp::reach_reference`]).
     reference_beyond_region: bool,
 }
@@ -43,11 +37,7 @@ impl Mpc {
             qp,
             plan,
             last,
-            start: Start::Cold,
-            last_step: None,
-            admm_start: admm::Start::Cold,
-            admm_step: None,
-            relax: false,
+            stepping: Stepping::cold(),
             reference_beyond_region: false,
         }
     }
@@ -61,13 +51,13 @@ impl Mpc {
     /// ADMM's last step (its residuals, status and fallback); `None` before the first solve, after a
     /// reset, or for another method.
     pub fn admm_step(&self) -> Option<&admm::Step> {
-        self.admm_step.as_ref()
+        self.stepping.admm_step.as_ref()
     }
 
     /// The interior-point method's last step (its residuals, iterations and fallback); `None` before
     /// the first solve, after a reset, or for a first-order method.
     pub fn last_step(&self) -> Option<&Step> {
-        self.last_step.as_ref()
+        self.stepping.last_step.as_ref()
     }
 
     /// The last input u₋₁ the moves are measured from.
@@ -98,11 +88,7 @@ impl Mpc {
     pub fn reset(&mut self) {
         self.plan = self.qp.rest_plan();
         self.last = self.qp.rest_input();
-        self.start = Start::Cold;
-        self.last_step = None;
-        self.admm_start = admm::Start::Cold;
-        self.admm_step = None;
-        self.relax = false;
+        self.stepping = Stepping::cold();
         self.reference_beyond_region = false;
     }
 
@@ -137,73 +123,30 @@ impl Mpc {
         let mut window = xref.to_vec();
         self.reference_beyond_region = self.qp.reach_reference(x0, &mut window);
         let f = self.linear_term(x0, &window) + &self.qp.Fd * d;
-        if self.qp.method == Method::Ipm {
-            let offset = self.qp.rows.offset(x0, d, &self.last);
-            let limits = self.qp.ipm_limits();
-            let step = control_step(
-                &self.qp,
-                &f,
-                &offset,
-                &self.start,
-                &self.plan,
-                self.qp.iterations,
-                &limits,
-                self.relax,
-            );
-            self.relax = step.result.status == crate::solver::Status::Infeasible
-                || step.fallback == crate::ipm::Fallback::Relaxed;
-            self.start = shifted_start(&self.qp, &step);
-            self.plan = step.plan.clone();
-            self.last_step = Some(step);
-        } else if self.qp.method == Method::Admm {
-            // The certified ρ and residual limits, the iteration in f64 (the emitted f64 module's).
-            let offset = self.qp.rows.offset(x0, d, &self.last);
-            let limits = self.qp.ipm_limits();
-            let settings = admm::certified_settings(&self.qp)
-                .expect("an ADMM problem is certified before it is run");
-            let step = admm::control_step::<f64>(
-                &self.qp,
-                &settings,
-                &f,
-                &offset,
-                &self.admm_start,
-                &self.plan,
-                self.qp.iterations,
-                &limits,
-                self.relax,
-            );
-            self.relax = step.result.status == crate::solver::Status::Infeasible
-                || step.fallback == crate::ipm::Fallback::Relaxed;
-            self.admm_start = admm::shifted_start(&self.qp, &step);
-            self.plan = step.plan.clone();
-            self.admm_step = Some(step);
-        } else {
-            let start = self.warm_start();
-            self.plan = iterate(&self.qp, &f, start, self.qp.iterations);
-        }
+        let data = StepData {
+            f: &f,
+            x0,
+            d,
+            last: &self.last,
+            plan: &self.plan,
+        };
+        self.plan = crate::plan::of(self.qp.method).oracle_step(&self.qp, &mut self.stepping, data);
         self.last = self.plan.rows(0, nu).into_owned();
         self.last.clone()
     }
 
     /// The previous plan shifted by one step, with the rest input appended (Algorithm 1, line 8).
     pub fn warm_start(&self) -> DVector<f64> {
-        let nu = self.qp.u_min.len();
-        let n = self.plan.len();
-        let mut u = DVector::zeros(n);
-        u.rows_mut(0, n - nu).copy_from(&self.plan.rows(nu, n - nu));
-        u.rows_mut(n - nu, nu).copy_from(&self.qp.rest_input());
-        u
+        first_order::shifted(&self.qp, &self.plan)
     }
 }
 
 /// `iterations` steps of the spec's method from `start`, projecting onto the box after each: the
-/// algorithm's reference iteration ([`crate::solver::Algorithm::reference`]).
+/// algorithm's reference iteration ([`crate::solver::first_order::Algorithm::reference`]).
 pub fn iterate(qp: &Qp, f: &DVector<f64>, start: DVector<f64>, iterations: usize) -> DVector<f64> {
-    let step = |y: &DVector<f64>| project_box(qp, &(y - (&qp.H * y + f) * qp.step));
-    // The interior-point method has its own step (`solve_with_disturbance`); FGM stands in for it here.
-    algorithm(qp.method)
-        .unwrap_or(&Fgm)
-        .reference(&qp.parameters(), start, iterations, &step)
+    // The constrained methods have their own step (`solve_with_disturbance`); FGM stands in for them here.
+    let algorithm = crate::plan::of(qp.method).first_order().unwrap_or(&Fgm);
+    first_order::iterate(algorithm, qp, f, start, iterations)
 }
 
 /// The exact minimiser of the box-constrained QP ½UᵀHU + fᵀU, by projected gradient with step 1/L run
@@ -232,13 +175,7 @@ pub fn kkt_residual(qp: &Qp, f: &DVector<f64>, U: &DVector<f64>) -> f64 {
 }
 
 fn project_box(qp: &Qp, v: &DVector<f64>) -> DVector<f64> {
-    let nu = qp.u_min.len();
-    DVector::from_iterator(
-        v.len(),
-        v.iter()
-            .enumerate()
-            .map(|(i, x)| project(*x, qp.u_min[i % nu], qp.u_max[i % nu])),
-    )
+    first_order::project_box(qp, v)
 }
 
 fn stack(xs: &[DVector<f64>]) -> DVector<f64> {

@@ -52,7 +52,7 @@ struct Spec {
 fn load(text: &str) -> Spec {
     let spec = mpc_spec::load(text).unwrap();
     let p = codegen::lower::uncertified(&spec).unwrap();
-    let region = codegen::sampling::resolve_region(&spec, &p).unwrap();
+    let region = codegen::sampling::resolve_region(&spec, &p, "ADMM").unwrap();
     Spec { p, region }
 }
 

@@ -130,7 +130,7 @@ fn no_shipped_spec_is_refused() {
         // The target changes nothing the compiler lowers or plans: the same problem costed elsewhere.
         for t in Target::ALL {
             let m = target::machine(*t);
-            if g.plan.algorithm.is_none() && !m.f64_in_hardware {
+            if g.plan.algorithm().is_none() && !m.f64_in_hardware {
                 continue;
             }
             let mut on = spec.clone();

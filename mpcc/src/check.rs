@@ -143,12 +143,7 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
         }
     }
     // The bound's form opens its section.
-    let form = match (c.rate, g.plan.algorithm) {
-        (Some(_), Some(a)) => a.bound_form().to_string(),
-        (_, None) if p.qp.method == mpc_spec::Method::Admm => "none: ADMM's bound is on its residuals, not on |U − U*|∞ (see the sampled evidence)".to_string(),
-        (_, None) => "none: an interior-point method has no practical a priori bound (see the sampled evidence)".to_string(),
-        (None, Some(_)) => "none: the step is above 1/L (see the contraction)".to_string(),
-    };
+    let form = g.plan.solver.bound_form(c.rate.is_some());
     if let Some((_, lines)) = sections
         .iter_mut()
         .find(|(title, _)| *title == codegen::certificate::section::BOUND)

@@ -1,13 +1,13 @@
 //! `Controller`, one control cycle in the paper's order, and the `Status` it reports.
 
-use crate::problem::Problem;
+use crate::lower::problem::Problem;
 use proc_macro2::TokenStream;
 use quote::quote;
 
 /// The `Controller` and `Status` types (API), and the saturation kernel.
 /// `solver` names the constrained method whose status `Status::solver` carries (`None`: no such field).
 pub fn emit(p: &Problem, solver: Option<&str>) -> (TokenStream, TokenStream) {
-    let row = crate::form::reference_row(p);
+    let row = crate::solver::first_order::form::reference_row(p);
     // The constrained method's own status (the interior-point method's, ADMM's), copied into the cycle's.
     let solver = Solver::new(solver);
     let keeps_last = p.keeps_last_input();

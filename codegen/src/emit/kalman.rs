@@ -3,9 +3,9 @@
 #![allow(non_snake_case)]
 
 use super::screening::{self, Screen};
+use super::sections::Sections;
 use super::tokens::{at1, Num};
-use super::Sections;
-use crate::problem::{Filter, Problem};
+use crate::lower::problem::{Filter, Problem};
 use mpc_spec::FilterKind;
 use nalgebra::DMatrix;
 use proc_macro2::{Literal, TokenStream};
@@ -507,7 +507,8 @@ fn time_varying(p: &Problem, f: &Filter, num: Num, kernels: TokenStream) -> Sect
     // F·P, then (F·P)·Fᵀ + Q, upper triangle computed and mirrored so P stays symmetric. Entries of P
     // that are structurally zero (`Filter::P_pattern`) are skipped, and so are those of F·P.
     let pattern = &f.P_pattern;
-    let fp_pattern = crate::structure::pattern_product(&crate::structure::pattern(Fa), pattern);
+    let fp_pattern =
+        crate::lower::structure::pattern_product(&crate::lower::structure::pattern(Fa), pattern);
     let fp_rows = (0..na).map(|i| {
         let row = (0..na).map(|j| {
             let terms = (0..na).filter(|k| pattern[(*k, j)]);
@@ -682,7 +683,7 @@ fn spd_inverse(ny: usize) -> TokenStream {
 /// not positive definite), the second, which reads `innovation`, binds `x` (and `d`) and `P`.
 fn update_covariance(p: &Problem, f: &Filter, num: Num) -> (TokenStream, TokenStream) {
     use super::sparse::{product, symmetrized, Sym};
-    use crate::structure::pattern_inverse;
+    use crate::lower::structure::pattern_inverse;
     let (nx, nd, ny) = (p.nx, f.nd, p.ny);
     let na = nx + nd;
     let P = Sym::place(&quote!(self.P), &f.P_pattern);

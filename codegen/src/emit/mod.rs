@@ -1,57 +1,25 @@
 //! The emitter: `quote!` only, no math. It turns a lowered [`Problem`] into the generated module.
 
-mod admm;
-mod admm_stages;
-
-pub use admm::WRITE_OUT_BUDGET;
-mod constrained;
+pub use crate::plan::WRITE_OUT_BUDGET;
 mod controller;
-mod interior;
 mod kalman;
-mod mpc;
 mod report;
-mod riccati;
-mod rows;
 mod screening;
-mod sparse;
+pub mod sections;
+pub mod solve_api;
+pub mod sparse;
 mod support;
-pub(crate) mod tokens;
+pub mod tokens;
 
-use crate::certificate::Certificate;
+pub use sections::Sections;
+
+use crate::certify::certificate::Certificate;
+use crate::lower::problem::Problem;
 use crate::numeric::Numeric;
 use crate::plan::Plan;
-use crate::problem::Problem;
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::quote;
 use tokens::Num;
-
-/// The items of one part of the module (the MPC, the filter), by the section a reader meets them in.
-#[derive(Default)]
-pub(crate) struct Sections {
-    /// Small public constants: dimensions and parameters.
-    pub constants: TokenStream,
-    /// The public types and their methods.
-    pub api: TokenStream,
-    /// The private functions they call.
-    pub kernels: TokenStream,
-    /// The constant tables, last.
-    pub tables: TokenStream,
-}
-
-impl Sections {
-    /// `self` with `other`'s items after its own, section by section.
-    pub(crate) fn append(self, other: Sections) -> Sections {
-        let (a, b) = (self, other);
-        let (c1, c2, p1, p2) = (a.constants, b.constants, a.api, b.api);
-        let (k1, k2, t1, t2) = (a.kernels, b.kernels, a.tables, b.tables);
-        Sections {
-            constants: quote!(#c1 #c2),
-            api: quote!(#p1 #p2),
-            kernels: quote!(#k1 #k2),
-            tables: quote!(#t1 #t2),
-        }
-    }
-}
 
 /// Where the spec came from, for the module's docs and for rebuild tracking.
 #[derive(Clone, Debug)]
@@ -133,17 +101,7 @@ pub fn module(
         .gradient()
         .uses_neon(p)
         .then(|| quote!(unexpected_cfgs,));
-    let nv = p.qp.N * p.nu + p.qp.rows.slacks();
-    let largest_table = match (plan.algorithm, p.qp.method) {
-        (Some(_), _) => {
-            let (nz, nr, na) = (p.qp.N * p.nu, p.qp.N * p.qp.nz.max(p.nx), p.nx + p.nd());
-            nz.max(na) * nz.max(nr).max(na) * Numeric(p.scalar).bytes()
-        }
-        // ADMM's tables are `Real`, its largest H (NV × NV) or FR.
-        (None, mpc_spec::Method::Admm) => nv * nv.max(p.qp.N * p.qp.nz) * Numeric(p.scalar).bytes(),
-        // The interior-point method's tables are f64, its largest H (NV × NV) or FR.
-        (None, _) => nv * nv.max(p.qp.N * p.qp.nz) * 8,
-    };
+    let largest_table = plan.solver.largest_table(p);
     let large_tables = (largest_table > 16 * 1024).then(|| quote!(clippy::large_const_arrays,));
     // A spec's value rounded to f32 that is a std constant's f32 (an angle bound of π/6 as
     // -0.5235988f32) reads to clippy as an approximation of it: the value is the spec's, not a constant's.
@@ -155,33 +113,7 @@ pub fn module(
     } else {
         " [`Controller::step`] runs one control cycle from the measured state (no filter); [`Mpc`] solves."
     };
-    let (algorithm, shape) = match plan.algorithm {
-        Some(a) => (
-            a.title(),
-            format!(
-                " horizon {}, gradient form `{}` ([`EMISSION`]).",
-                p.qp.N,
-                plan.emission().name()
-            ),
-        ),
-        None if p.qp.method == mpc_spec::Method::Admm => (
-            crate::solver::admm::TITLE,
-            format!(
-                " horizon {}, in {} with {} constraint rows.",
-                p.qp.N,
-                Numeric(p.scalar).name(),
-                p.qp.rows.len()
-            ),
-        ),
-        None => (
-            crate::solver::ipm::TITLE,
-            format!(
-                " horizon {}, dense on the condensed QP in f64 with {} constraint rows.",
-                p.qp.N,
-                p.qp.rows.len()
-            ),
-        ),
-    };
+    let (algorithm, shape) = (plan.solver.title(), plan.solver.shape_doc(p, plan));
     let summary = format!(" {algorithm}: {} iterations per step,", p.qp.iterations);
     let range = &certificate.coordinate_range;
     let coordinates = format!(
@@ -242,17 +174,15 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     let nz = Literal::usize_unsuffixed(qp.N * p.nu);
     let nr = Literal::usize_unsuffixed(qp.N * qp.nz);
     let dt = num.lit(p.dt);
-    let step = num.lit(qp.step);
-    let momentum = num.lit(qp.momentum);
     let u_min = num.vector(qp.u_min.iter().copied());
     let u_max = num.vector(qp.u_max.iter().copied());
     let u_rest = num.vector(qp.rest_input().iter().copied());
-    // The interior-point method computes in f64 whatever `Real` is: its tables are f64. ADMM computes
-    // in `Real`.
-    let admm = qp.method == mpc_spec::Method::Admm;
-    let (wide, table) = match plan.algorithm {
-        None if !admm => (Num(mpc_spec::Scalar::F64), quote!(f64)),
-        _ => (num, quote!(Real)),
+    // The interior-point method computes in f64 whatever `Real` is: its tables are f64. The others
+    // compute in `Real`.
+    let (wide, table) = if plan.solver.widens() {
+        (Num(mpc_spec::Scalar::F64), quote!(f64))
+    } else {
+        (num, quote!(Real))
     };
     let (h, fx, fr) = (num.matrix(&qp.H), wide.matrix(&qp.Fx), wide.matrix(&qp.Fr));
     let (f, g) = (num.matrix(&p.F), num.matrix(&p.G));
@@ -342,16 +272,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     } else {
         " Measurement dimension: the state, measured (no filter)."
     };
-    let first_order = plan.algorithm.map(|a| {
-        let step_doc = a.step_doc(&qp.parameters());
-        let momentum_doc = a.momentum_doc(&qp.parameters());
-        quote! {
-            #[doc = #step_doc]
-            pub const STEP: Real = #step;
-            #[doc = #momentum_doc]
-            pub const MOMENTUM: Real = #momentum;
-        }
-    });
+    let parameters = plan.solver.parameter_constants(p, num);
     let fr_doc = if qp.Cz.is_some() {
         " Fr = 2 Suᵀ Qr_blk, Qr = C_zᵀ·W (eq. 10 for outputs), acting on the output references stacked."
     } else {
@@ -362,23 +283,19 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         qp.L, qp.mu
     );
     // The constrained methods' H carries the slacks: their emitters write it.
-    let h_table = plan.algorithm.is_some().then(|| {
+    let h_table = plan.solver.skeleton_writes_h().then(|| {
         quote! {
             #[doc = #h_doc]
             pub const H: [[Real; #nz]; #nz] = #h;
         }
     });
-    let mpc = match plan.algorithm {
-        Some(a) => mpc::emit(p, plan, a, num),
-        None if admm => admm::emit(p, num, plan.write_out_budget),
-        None => interior::emit(p, num),
-    };
+    let mpc = plan.solver.emit(p, plan, num);
     let kalman = p
         .filter
         .as_ref()
         .map(|f| kalman::emit(p, f, num))
         .unwrap_or_default();
-    let support = support::emit(p, plan, plan.algorithm.is_some() || admm);
+    let support = support::emit(p, plan, plan.solver.projects());
     let Sections {
         constants: mpc_constants,
         api: mpc_api,
@@ -391,12 +308,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         kernels: kalman_kernels,
         tables: kalman_tables,
     } = kalman;
-    let solver = match (plan.algorithm, admm) {
-        (Some(_), _) => None,
-        (None, true) => Some("ADMM"),
-        (None, false) => Some("interior-point method"),
-    };
-    let (controller_api, controller_kernels) = controller::emit(p, solver);
+    let (controller_api, controller_kernels) = controller::emit(p, plan.solver.fallback_name());
     quote! {
         /// The scalar type of this controller.
         pub type Real = #real;
@@ -412,7 +324,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         pub const ITERATIONS: usize = #iterations;
         /// Sampling time, s.
         pub const DT: Real = #dt;
-        #first_order
+        #parameters
         /// Lower input bounds (eq. 6).
         pub const U_MIN: [Real; NU] = #u_min;
         /// Upper input bounds (eq. 6).

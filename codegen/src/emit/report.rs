@@ -2,7 +2,7 @@
 //! compiler proved. One constant per [`Certificate::fields`] entry, and the a priori rate and the two
 //! gains beside them.
 
-use crate::certificate::{Certificate, Value};
+use crate::certify::certificate::{Certificate, Value};
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::quote;
 

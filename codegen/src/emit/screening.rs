@@ -8,9 +8,9 @@
 //! re-acquisition restarts (P at P0, or the restart table); the rest is here.
 #![allow(non_snake_case)]
 
+use super::sections::Sections;
 use super::tokens::{at1, Num};
-use super::Sections;
-use crate::problem::{Filter, Problem};
+use crate::lower::problem::{Filter, Problem};
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 

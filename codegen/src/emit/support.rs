@@ -1,9 +1,9 @@
 //! The scalar helpers shared by the emitted filter and MPC. They use iterators only: nothing can index out
 //! of bounds, so nothing can panic.
 
-use crate::form::{neon, Form};
+use crate::lower::problem::Problem;
 use crate::plan::Plan;
-use crate::problem::Problem;
+use crate::solver::first_order::form::{neon, Form};
 use proc_macro2::TokenStream;
 use quote::quote;
 

@@ -28,7 +28,7 @@ pub const CLARABEL_TOLERANCES: [f64; 6] = [1e-13, 1e-12, 1e-11, 1e-10, 1e-9, 1e-
 /// Which solver produced an exact solution.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Solver {
-    /// The interior-point method ([`crate::ipm::solve`]).
+    /// The interior-point method ([`crate::solver::ipm::solve`]).
     InteriorPoint,
     /// Clarabel, after the interior-point method did not converge.
     Clarabel,

@@ -24,7 +24,7 @@
 #![allow(non_snake_case)]
 
 use super::{Real, Settings};
-use crate::problem::Qp;
+use crate::lower::problem::Qp;
 use crate::solver::riccati::Stages;
 use nalgebra::DMatrix;
 

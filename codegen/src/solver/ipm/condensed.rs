@@ -5,7 +5,7 @@
 //! ([`crate::solver::riccati`]) shares the counts; the method ([`super`]) uses both.
 #![allow(non_snake_case)]
 
-use crate::problem::Qp;
+use crate::lower::problem::Qp;
 use nalgebra::{DMatrix, DVector};
 
 /// [`macs_per_iteration`] of the MPC's QP: the condensed form's count.
@@ -32,7 +32,7 @@ pub(super) fn structure_of(qp: &Qp) -> InequalityQp {
 }
 
 /// Where the normal matrix H + Gᵀ·diag(d)·G can be nonzero, whatever the weights d: H's nonzeros, the
-/// diagonal, and each row's outer product of its nonzero columns. Its [`crate::structure::Envelope`]
+/// diagonal, and each row's outer product of its nonzero columns. Its [`crate::lower::structure::Envelope`]
 /// is what the emitted factorisation visits.
 pub fn normal_pattern(qp: &InequalityQp) -> DMatrix<bool> {
     let n = qp.n();
@@ -56,7 +56,7 @@ pub fn normal_pattern(qp: &InequalityQp) -> DMatrix<bool> {
 #[derive(Clone, Debug)]
 pub struct Sparsity {
     /// The ordering and the factor's envelope.
-    pub envelope: crate::structure::Envelope,
+    pub envelope: crate::lower::structure::Envelope,
     /// Per position p, the positions [lo, hi) where row p of the reordered H can be nonzero.
     pub h_span: Vec<(usize, usize)>,
     /// The rows with a finite side, in the order of [`Layout::rows`]: the row's index in `A`.
@@ -71,7 +71,7 @@ impl Sparsity {
     /// The structure of `qp`.
     pub fn of(qp: &InequalityQp) -> Self {
         let n = qp.n();
-        let envelope = crate::structure::Envelope::of(&normal_pattern(qp));
+        let envelope = crate::lower::structure::Envelope::of(&normal_pattern(qp));
         let h_span = (0..n)
             .map(|p| {
                 let i = envelope.order[p];
@@ -350,7 +350,7 @@ impl Sides {
 /// GᵀDG Σ_r nnz_r²/2):
 /// - residuals: H z over the spans, G z and Gᵀλ (nnz of the distinct rows, plus a term per side);
 /// - the normal matrix, Σ_r nnz_r(nnz_r + 1)/2 over the distinct rows, and its L·D·Lᵀ within the
-///   envelope ([`crate::structure::Envelope::ldl_macs`]);
+///   envelope ([`crate::lower::structure::Envelope::ldl_macs`]);
 /// - two directions (predictor, corrector), each a right-hand side Gᵀ(·), the triangular solves
 ///   within the envelope and G Δz;
 /// - [`REFINEMENT`] steps of the corrector: H Δz, Gᵀ Δλ, a solve and G of its result;
@@ -408,7 +408,7 @@ pub(super) fn counts(qp: &InequalityQp) -> Counts {
 }
 
 /// The MPC's QP of one control step on z = (U, σ): ½zᵀ·blkdiag(H, diag(q_σ))·z + (f, w)ᵀz over the
-/// input box and σ ≥ 0, with the rows of [`crate::constraints`] shifted by their data `offset`
+/// input box and σ ≥ 0, with the rows of [`crate::lower::constraints`] shifted by their data `offset`
 /// (Wx·x0 + Wd·d + Wu·u₋₁).
 pub fn mpc_qp(qp: &Qp, f: &DVector<f64>, offset: &DVector<f64>) -> InequalityQp {
     let rows = &qp.rows;

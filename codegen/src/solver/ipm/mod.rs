@@ -21,12 +21,15 @@
 //! counts). [`macs_per_iteration`] counts an iteration's cost by the calibration rule of issue 17.
 #![allow(non_snake_case)]
 
-use crate::evidence::Limits;
-use crate::problem::Qp;
+use crate::certify::evidence::Limits;
+use crate::lower::problem::Qp;
 use crate::solver::riccati::{Choice, Form, Stages};
 use nalgebra::{DMatrix, DVector};
 
 pub mod condensed;
+pub mod emit;
+mod emit_rows;
+pub mod method;
 
 pub use condensed::{
     condensed_macs_per_iteration, macs_per_iteration, mpc_qp, normal_pattern, side_bound,
@@ -105,7 +108,7 @@ pub enum Start {
 }
 
 /// How a solve ended: the constrained methods' shared status.
-pub use crate::solver::Status;
+pub use crate::solver::constrained::Status;
 
 /// What a solve returns. z is always finite.
 #[derive(Clone, Debug)]
@@ -126,7 +129,7 @@ pub struct IpmResult {
     /// The mean complementarity sᵀλ / (number of sides), in the objective's units.
     pub gap: f64,
     /// The duality gap sᵀλ relative to the objective, sᵀλ / max(1, |½zᵀHz + fᵀz|): what the control
-    /// step's acceptance test holds to [`crate::evidence::Limits::gap`].
+    /// step's acceptance test holds to [`crate::certify::evidence::Limits::gap`].
     pub relative_gap: f64,
     /// max_i min(s_i, λ_i): zero exactly at complementarity. Unlike the gap it shrinks only like √gap at
     /// a degenerate side (s_i and λ_i both tending to zero), where z is off by as much, so [`solve`]

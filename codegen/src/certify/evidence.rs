@@ -1,0 +1,161 @@
+//! What a method's sampled certificate found ([`crate::certify::sampling`] computes it): plain data, so that the
+//! lowered problem can carry it and the emitter and the certificate read it, without their depending
+//! on the sampling.
+
+/// The operating region the sample is drawn from.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Region {
+    /// Lower corner of the states (nx).
+    pub x_min: Vec<f64>,
+    /// Upper corner of the states.
+    pub x_max: Vec<f64>,
+    /// Lower corner of the references (nz).
+    pub reference_min: Vec<f64>,
+    /// Upper corner of the references.
+    pub reference_max: Vec<f64>,
+}
+
+/// What the sample showed.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Evidence {
+    /// The method sampled.
+    pub method: mpc_spec::Method,
+    /// Where the sample was drawn.
+    pub region: Region,
+    /// Cold cases run (corners and draws) that have an exact solution.
+    pub cold_cases: usize,
+    /// Corners among them.
+    pub corners: usize,
+    /// Draws whose hard rows admit no plan (certified by the interior-point method or Clarabel,
+    /// [`crate::solver::exact`]), left out of the counts: the fallback covers them.
+    pub infeasible_cases: usize,
+    /// Draws that neither exact solver resolved (a numerical failure of both), left out of the counts
+    /// too; more than [`crate::certify::sampling::UNRESOLVED_WARNING`] is a warning.
+    pub unresolved_cases: usize,
+    /// Warm closed-loop steps run (sequences × steps).
+    pub warm_steps: usize,
+    /// Closed-loop sequences.
+    pub sequences: usize,
+    /// The most iterations a cold case needed.
+    pub cold_worst: usize,
+    /// The median a cold case needed.
+    pub cold_median: usize,
+    /// The most iterations a warm step needed.
+    pub warm_worst: usize,
+    /// The median a warm step needed.
+    pub warm_median: usize,
+    /// The iterations per control step: `iterations` as written, or the worst observed plus the margin.
+    pub iterations: usize,
+    /// Whether `iterations` came from `"auto"`.
+    pub auto: bool,
+    /// The most iterations any case needed (cold or warm): a written `iterations` below it misses
+    /// `accuracy` on part of the sample.
+    pub worst_needed: usize,
+    /// The worst |U − U*|∞ / span over every case at `iterations`.
+    pub worst_error: f64,
+    /// The worst hard-row violation (relative to max(1, |bound|)) at `iterations`.
+    pub worst_violation: f64,
+    /// The run-time limits on the final residuals.
+    pub limits: Limits,
+    /// Cases at `iterations` that fell back (none within the region, as far as the sample shows).
+    pub fallbacks: usize,
+    /// Multiply-adds the sample took at build time (against [`crate::certify::budget::LOWERING_MACS`]), ADMM's
+    /// tuning of ρ included.
+    pub sample_macs: f64,
+    /// ADMM's penalty ρ, tuned on the sample ([`crate::solver::admm::tune_rho`]; each row's penalty is ρ times
+    /// its curvature, [`crate::solver::admm::row_scales`]); `None` for the other methods.
+    pub rho: Option<f64>,
+    /// How ADMM's x-update is computed ([`crate::solver::admm::Form`]), chosen or as written; `None` for the
+    /// other methods.
+    pub admm_form: Option<mpc_spec::AdmmForm>,
+}
+
+/// The limits above which a fixed-iteration solve is not trusted and [`crate::solver::ipm::Fallback::WarmStart`] is used.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Limits {
+    /// On [`crate::solver::ipm::IpmResult::primal_residual`].
+    pub primal: f64,
+    /// On [`crate::solver::ipm::IpmResult::dual_residual`].
+    pub dual: f64,
+    /// On the relative duality gap ([`crate::solver::ipm::IpmResult::relative_gap`]): small residuals alone
+    /// accept a point far from the optimum where the QP is infeasible by rounding.
+    pub gap: f64,
+}
+
+impl Limits {
+    /// No limit: only failures and infeasibility fall back.
+    pub const NONE: Limits = Limits {
+        primal: f64::INFINITY,
+        dual: f64::INFINITY,
+        gap: f64::INFINITY,
+    };
+}
+
+/// One method `method = "auto"` weighed ([`crate::plan::choice`]).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Candidate {
+    /// The method.
+    pub method: mpc_spec::Method,
+    /// Why it could not be used, if it could not (the first finding of its lowering or certificate,
+    /// or the rule that excludes it).
+    pub unavailable: Option<String>,
+    /// Its iterations per control step.
+    pub iterations: usize,
+    /// Multiply-adds of one iteration.
+    pub macs_per_iteration: usize,
+    /// Multiply-adds of one solve (iterations × per iteration).
+    pub macs_per_solve: usize,
+    /// Estimated cycles of one solve on the spec's target ([`crate::plan::target`]): what the choice ranks
+    /// (infinite for an unavailable candidate; on the host one cycle a multiply-add).
+    pub cycles_per_solve: f64,
+    /// How its count is certified: `"sampled"` on `[mpc.region]`, `"a priori"` (the bound of
+    /// `tolerance`) or `"as written"`.
+    pub certified: &'static str,
+    /// Whether its certificate shows it reaching `accuracy` at its count (`None`: no sample to show
+    /// it, for a first-order method certified a priori or as written).
+    pub reaches_accuracy: Option<bool>,
+    /// Whether it was chosen.
+    pub chosen: bool,
+}
+
+/// Fewer cold cases with a solution than this make a thin sample ([`thin`]).
+pub const THIN_COLD: usize = 10;
+
+/// A warning when the sample's feasible evidence is thin: fewer than [`THIN_COLD`] cold cases with a
+/// solution, fewer with one than without, or no warm step at all while sequences were asked for. The
+/// count is then certified on what few states of `[mpc.region]` the hard rows admit (a hard equality
+/// row certified on one cold case of 84 and no warm step); the warning is on `[mpc.region]` (or, without
+/// one, on the constraints its default comes from).
+pub fn thin(spec: &mpc_spec::Spec, e: &Evidence) -> Option<mpc_spec::Diagnostic> {
+    let drawn = e.cold_cases + e.infeasible_cases;
+    let no_warm = e.sequences > 0 && e.warm_steps == 0;
+    if e.cold_cases >= THIN_COLD && e.cold_cases >= e.infeasible_cases && !no_warm {
+        return None;
+    }
+    let warm = if no_warm {
+        "no warm step (every closed-loop sequence starts where the hard rows admit no plan)"
+            .to_string()
+    } else {
+        format!("{} warm steps", e.warm_steps)
+    };
+    let at = [
+        "mpc.region",
+        "mpc.constraint",
+        "mpc.x_min",
+        "mpc.x_max",
+        "mpc",
+    ]
+    .iter()
+    .find_map(|k| spec.spans.get(k));
+    Some(
+        mpc_spec::Diagnostic::new(
+            format!(
+                "the certificate rests on thin evidence: {} of {drawn} cold cases of `[mpc.region]` have a solution, and {warm}",
+                e.cold_cases
+            ),
+            at,
+        )
+        .label("the hard constraints admit no plan from most of this region")
+        .note("hint: draw `[mpc.region]` where the hard rows admit a plan (its `x_min`/`x_max`), or make the rows soft (`soft`, `x_soft`); a count certified on a few cases says little about the rest"),
+    )
+}
