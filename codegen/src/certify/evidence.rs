@@ -70,7 +70,7 @@ pub struct Evidence {
     pub admm_form: Option<mpc_spec::AdmmForm>,
 }
 
-/// The limits above which a fixed-iteration solve is not trusted and [`crate::solver::ipm::Fallback::WarmStart`] is used.
+/// The limits above which a fixed-iteration solve is not trusted and [`crate::solver::constrained::Fallback::WarmStart`] is used.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Limits {
     /// On [`crate::solver::ipm::IpmResult::primal_residual`].

@@ -1,8 +1,8 @@
 //! Sampled certificates: evidence, not a proof. A fixed-iteration interior-point method has no
 //! practical a priori bound (short-step theory asks 32-122× the counts observed), and a first-order
 //! method's bound is on the gap of the cost, not on |U − U*|∞, and 2.4-3.6× the counts observed. So the
-//! compiler runs the method ([`Sampled`]: [`InteriorPoint`], [`FirstOrder`], [`Admm`]) at build time (in
-//! f64; ADMM in the module's scalar, at the ρ [`tune_admm`] measured on part of the sample), on a
+//! compiler runs the method ([`Sampled`]: [`crate::solver::ipm::sampled::InteriorPoint`], [`crate::solver::first_order::sampled::FirstOrder`], [`crate::solver::admm::sampled::Admm`]) at build time (in
+//! f64; ADMM in the module's scalar, at the ρ [`crate::solver::admm::sampled::tune_admm`] measured on part of the sample), on a
 //! seeded sample of the operating region `[mpc.region]` and measures how many iterations reach
 //! `accuracy` against the exact solution (the interior-point method run to a 1e-10 tolerance,
 //! cross-checked against Clarabel in the tests):
@@ -16,7 +16,7 @@
 //! A case needs k iterations when every iterate from the k-th on has |U − U*|∞ ≤
 //! accuracy·(u_max − u_min) per input and violates no hard row by more than accuracy·max(1, |bound|),
 //! over a run at least twice k long (up to the method's most, [`Sampled::probe`]: [`MAX_PROBE`] for
-//! the interior-point method, [`FIRST_ORDER_PROBE`] for a first-order one). `iterations = "auto"` is
+//! the interior-point method, [`crate::solver::first_order::sampled::FIRST_ORDER_PROBE`] for a first-order one). `iterations = "auto"` is
 //! the worst count observed plus [`margin`]. At the count used, the interior-point method's worst
 //! final residuals set the run-time [`Limits`]: [`LIMIT_FACTOR`] times them (at least
 //! [`LIMIT_FLOOR`]), above which the emitted solver falls back.
@@ -30,11 +30,8 @@
 use crate::certify::evidence::Limits;
 pub use crate::certify::evidence::{Evidence, Region};
 use crate::lower::problem::{Problem, Qp};
-use crate::solver::first_order::Algorithm;
-use crate::solver::ipm::{
-    chosen_stages, control_step, mpc_macs_per_iteration, mpc_qp, shifted_start, violations,
-    Fallback, InequalityQp, IpmResult, Start, Status,
-};
+use crate::solver::constrained::{InequalityQp, Status};
+use crate::solver::ipm::{mpc_qp, violations, IpmResult};
 use mpc_spec::{Diagnostic, Diagnostics, Iterations, Spec, MAX_ITERATIONS};
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
@@ -70,15 +67,16 @@ pub fn margin(worst: usize) -> usize {
 
 /// A case's data: the state, the reference (per stage), the disturbance, the last input.
 #[derive(Clone)]
-struct Case {
-    x0: DVector<f64>,
+pub(crate) struct Case {
+    pub(crate) x0: DVector<f64>,
     reference: DVector<f64>,
-    d: DVector<f64>,
-    last: DVector<f64>,
+    pub(crate) d: DVector<f64>,
+    pub(crate) last: DVector<f64>,
 }
 
 /// What the certificate needs of a method: its iterates on one control step's QP ([`mpc_qp`]), and
-/// its control step as the emitted controller runs it. One adapter per method below.
+/// its control step as the emitted controller runs it. One adapter per method, in its folder
+/// (`solver/<method>/sampled.rs`).
 pub trait Sampled: Sync {
     /// What one control step hands the next as its warm start.
     type Start: Clone + Send + Sync;
@@ -162,180 +160,8 @@ pub struct Stepped<S> {
     pub fell_back: bool,
 }
 
-/// The interior-point method ([`crate::solver::ipm`]): Mehrotra from the shifted (z, s, λ).
-pub struct InteriorPoint;
-
-impl Sampled for InteriorPoint {
-    type Start = Start;
-
-    fn title(&self) -> &'static str {
-        "the interior-point method"
-    }
-
-    fn cold(&self, _qp: &Qp) -> Start {
-        Start::Cold
-    }
-
-    fn probe(&self) -> (usize, usize) {
-        (MAX_PROBE, MAX_PROBE)
-    }
-
-    fn trajectory(
-        &self,
-        qp: &Qp,
-        problem: &InequalityQp,
-        start: &Start,
-        iterations: usize,
-    ) -> Vec<Iterate> {
-        // In the form the emitted method uses (the same iterates to rounding).
-        crate::solver::ipm::trajectory_in(problem, start, iterations, chosen_stages(qp).as_ref())
-            .into_iter()
-            .map(|r| interior_iterate(&r))
-            .collect()
-    }
-
-    fn control_step(
-        &self,
-        qp: &Qp,
-        f: &DVector<f64>,
-        offset: &DVector<f64>,
-        start: &Start,
-        previous_plan: &DVector<f64>,
-        count: usize,
-    ) -> Stepped<Start> {
-        // The sequences end where the hard rows admit no plan, so a sampled step never relaxes them.
-        let step = control_step(
-            qp,
-            f,
-            offset,
-            start,
-            previous_plan,
-            count,
-            &Limits::NONE,
-            false,
-        );
-        Stepped {
-            iterate: interior_iterate(&step.result),
-            next: shifted_start(qp, &step),
-            fell_back: step.fallback != Fallback::Solved,
-            plan: step.plan,
-        }
-    }
-
-    fn macs_per_iteration(&self, qp: &Qp) -> usize {
-        mpc_macs_per_iteration(qp)
-    }
-
-    fn limits_residuals(&self) -> bool {
-        true
-    }
-}
-
-fn interior_iterate(r: &IpmResult) -> Iterate {
-    Iterate {
-        z: r.z.clone(),
-        primal: r.primal_residual,
-        dual: r.dual_residual,
-        gap: r.relative_gap,
-        failed: r.status == Status::NumericalFailure,
-    }
-}
-
-/// A first-order method on the input box ([`crate::solver::first_order::Algorithm`]): its reference iteration with
-/// the spec's step, warm-started from the previous plan shifted with the rest input appended.
-pub struct FirstOrder(pub &'static dyn Algorithm);
-
-/// The most iterations a first-order case is run for when its count is measured.
-pub const FIRST_ORDER_PROBE: usize = 20_000;
-
-impl FirstOrder {
-    /// `iterations` reference iterations from `start`, reporting every plan.
-    fn run(
-        &self,
-        qp: &Qp,
-        f: &DVector<f64>,
-        start: &DVector<f64>,
-        iterations: usize,
-        observe: &mut dyn FnMut(&DVector<f64>),
-    ) -> DVector<f64> {
-        let nu = qp.u_min.len();
-        let observe = std::cell::RefCell::new(observe);
-        let step = |y: &DVector<f64>| {
-            let stepped = y - (&qp.H * y + f) * qp.step;
-            let u = DVector::from_fn(stepped.len(), |i, _| {
-                crate::linalg::project(stepped[i], qp.u_min[i % nu], qp.u_max[i % nu])
-            });
-            (observe.borrow_mut())(&u);
-            u
-        };
-        self.0
-            .reference(&qp.parameters(), start.clone(), iterations, &step)
-    }
-}
-
-impl Sampled for FirstOrder {
-    type Start = DVector<f64>;
-
-    fn title(&self) -> &'static str {
-        self.0.title()
-    }
-
-    fn cold(&self, qp: &Qp) -> DVector<f64> {
-        qp.rest_plan()
-    }
-
-    fn probe(&self) -> (usize, usize) {
-        (64, FIRST_ORDER_PROBE)
-    }
-
-    fn trajectory(
-        &self,
-        qp: &Qp,
-        problem: &InequalityQp,
-        start: &DVector<f64>,
-        iterations: usize,
-    ) -> Vec<Iterate> {
-        let mut out = vec![plain_iterate(start.clone())];
-        self.run(qp, &problem.f, start, iterations, &mut |u| {
-            out.push(plain_iterate(u.clone()))
-        });
-        out
-    }
-
-    fn control_step(
-        &self,
-        qp: &Qp,
-        f: &DVector<f64>,
-        _offset: &DVector<f64>,
-        start: &DVector<f64>,
-        _previous_plan: &DVector<f64>,
-        count: usize,
-    ) -> Stepped<DVector<f64>> {
-        let plan = self.run(qp, f, start, count, &mut |_| {});
-        let nu = qp.u_min.len();
-        let mut next = plan.clone();
-        let n = next.len();
-        next.as_mut_slice().copy_within(nu.., 0);
-        next.rows_mut(n - nu, nu).copy_from(&qp.rest_input());
-        Stepped {
-            iterate: plain_iterate(plan.clone()),
-            plan,
-            next,
-            fell_back: false,
-        }
-    }
-
-    fn macs_per_iteration(&self, qp: &Qp) -> usize {
-        let n = qp.H.nrows();
-        n * n + self.0.update_macs(n)
-    }
-
-    fn limits_residuals(&self) -> bool {
-        false
-    }
-}
-
-fn plain_iterate(z: DVector<f64>) -> Iterate {
+/// An iterate of a method without residuals: its plan alone.
+pub fn plain_iterate(z: DVector<f64>) -> Iterate {
     Iterate {
         z,
         primal: 0.0,
@@ -345,310 +171,13 @@ fn plain_iterate(z: DVector<f64>) -> Iterate {
     }
 }
 
-/// ADMM ([`crate::solver::admm`]) at a tuned ρ ([`tune_admm`]), run in the module's scalar (`f32` runs the
-/// f32 iteration: the certificate measures what the emitted solver does), warm-started from the
-/// shifted (x, z, y).
-pub struct Admm {
-    /// The penalty (each row's is ρ times its curvature) and the x-update's form.
-    pub tuned: crate::solver::admm::Tuned,
-    /// Whether the iteration runs in f32.
-    pub f32: bool,
-    /// [`crate::solver::admm::tuned_settings`] of `tuned`.
-    pub settings: crate::solver::admm::Settings,
-    /// The multiply-adds the tuning spent.
-    pub tuning_macs: f64,
-    /// The most iterations a case is run for ([`ADMM_PROBE`]'s, or less where a cheaper rival is
-    /// known).
-    pub most: usize,
-}
-
-/// The first and the most iterations an ADMM case is run for when its count is measured.
-pub const ADMM_PROBE: (usize, usize) = (256, 20000);
-
-impl Admm {
-    /// ADMM on `p` as `tuned` says, in `p`'s scalar.
-    pub fn new(p: &Problem, tuned: crate::solver::admm::Tuned, tuning_macs: f64) -> Self {
-        Admm {
-            tuned,
-            f32: p.scalar == mpc_spec::Scalar::F32,
-            settings: crate::solver::admm::tuned_settings(&p.qp, tuned),
-            tuning_macs,
-            most: ADMM_PROBE.1,
-        }
-    }
-
-    /// The same, a case run for at most `most` iterations (at least the first probe's).
-    pub fn at_most(self, most: usize) -> Self {
-        Admm {
-            most: most.clamp(ADMM_PROBE.0, ADMM_PROBE.1),
-            ..self
-        }
-    }
-}
-
-fn admm_iterate(r: &crate::solver::admm::AdmmResult) -> Iterate {
-    Iterate {
-        z: r.x.clone(),
-        primal: r.primal_residual,
-        dual: r.dual_residual,
-        gap: r.gap,
-        failed: r.status == crate::solver::admm::Status::NumericalFailure,
-    }
-}
-
-impl Sampled for Admm {
-    type Start = crate::solver::admm::Start;
-
-    fn title(&self) -> &'static str {
-        "ADMM"
-    }
-
-    fn cold(&self, _qp: &Qp) -> crate::solver::admm::Start {
-        crate::solver::admm::Start::Cold
-    }
-
-    fn probe(&self) -> (usize, usize) {
-        (ADMM_PROBE.0, self.most)
-    }
-
-    fn trajectory(
-        &self,
-        _qp: &Qp,
-        problem: &InequalityQp,
-        start: &crate::solver::admm::Start,
-        iterations: usize,
-    ) -> Vec<Iterate> {
-        let run = if self.f32 {
-            crate::solver::admm::trajectory::<f32>(problem, &self.settings, start, iterations)
-        } else {
-            crate::solver::admm::trajectory::<f64>(problem, &self.settings, start, iterations)
-        };
-        run.iter().map(admm_iterate).collect()
-    }
-
-    fn control_step(
-        &self,
-        qp: &Qp,
-        f: &DVector<f64>,
-        offset: &DVector<f64>,
-        start: &crate::solver::admm::Start,
-        previous_plan: &DVector<f64>,
-        count: usize,
-    ) -> Stepped<crate::solver::admm::Start> {
-        let step = if self.f32 {
-            crate::solver::admm::control_step::<f32>
-        } else {
-            crate::solver::admm::control_step::<f64>
-        };
-        let step = step(
-            qp,
-            &self.settings,
-            f,
-            offset,
-            start,
-            previous_plan,
-            count,
-            &Limits::NONE,
-            false,
-        );
-        Stepped {
-            iterate: admm_iterate(&step.result),
-            next: crate::solver::admm::shifted_start(qp, &step),
-            fell_back: step.fallback != Fallback::Solved,
-            plan: step.plan,
-        }
-    }
-
-    fn macs_per_iteration(&self, qp: &Qp) -> usize {
-        crate::solver::admm::mpc_settings_macs_per_iteration(qp, &self.settings)
-    }
-
-    fn sampled_macs_per_iteration(&self, qp: &Qp) -> usize {
-        self.macs_per_iteration(qp) + crate::certify::budget::admm_simulation_overhead(qp)
-    }
-
-    fn limits_residuals(&self) -> bool {
-        true
-    }
-
-    /// ADMM converges linearly: its error falls in proportion to its residuals, so a residual
-    /// [`LIMIT_FACTOR`] times the sample's worst admits an error up to that many times the sample's
-    /// (a cold case the sample missed was accepted at 5× `accuracy`, residual 15× the sample's worst).
-    /// The limits allow the residuals to grow only as far as the error may: accuracy / worst error, at
-    /// least 1, at most [`LIMIT_FACTOR`].
-    fn limit_factor(&self, accuracy: f64, worst_error: f64) -> f64 {
-        if worst_error > 0.0 {
-            (accuracy / worst_error).clamp(1.0, LIMIT_FACTOR)
-        } else {
-            LIMIT_FACTOR
-        }
-    }
-
-    fn admm(&self) -> Option<crate::solver::admm::Tuned> {
-        Some(self.tuned)
-    }
-
-    fn spent_before(&self) -> f64 {
-        self.tuning_macs
-    }
-}
-
-/// Cold cases of the certificate's sample ADMM's ρ is tuned on: the first of them, in the sample's order.
-pub const TUNING_COLD: usize = 32;
-/// Steps of the warm sequence ρ is tuned on: the certificate's first sequence, flown by the exact solution.
-pub const TUNING_WARM: usize = 32;
-
-/// ADMM's ρ, measured on a subset of the certificate's own sample ([`crate::solver::admm::tune_rho`] in f64):
-/// its first [`TUNING_COLD`] cold cases that have a solution, and [`TUNING_WARM`] steps of its first
-/// warm sequence flown by the exact solution, each warm-started from the previous exact (x, z, y)
-/// shifted. Returns ρ and the multiply-adds the search spent (counted against the build's budget).
-pub fn tune_admm(spec: &Spec, p: &Problem) -> Result<(f64, f64), Diagnostics> {
-    let region = resolve_region(spec, p, "ADMM")?;
-    let qp = &p.qp;
-    let sample = draw_sample(spec, p, &region);
-    let nu = qp.u_min.len();
-    let span = DVector::from_fn(qp.N * nu, |i, _| qp.u_max[i % nu] - qp.u_min[i % nu]);
-    // Priced before it runs: an exact solve per tuning case, and the coarse grid's nine trials at
-    // least the first probe on each, an iteration at the direct form's count and the simulation's
-    // dense products and accuracy check.
-    let per_iteration =
-        (crate::solver::admm::mpc_macs_per_iteration_in(qp, crate::solver::admm::Form::Direct)
-            + crate::certify::budget::admm_simulation_overhead(qp)) as f64;
-    let tuning_cases = TUNING_COLD.min(sample.cold.len())
-        + sample
-            .starts
-            .first()
-            .map_or(0, |_| TUNING_WARM.min(sample.steps));
-    let exact_cost = tuning_cases as f64 * crate::certify::budget::exact_macs(qp);
-    let checked = per_iteration;
-    let least = exact_cost + 9.0 * (tuning_cases * ADMM_PROBE.0) as f64 * checked;
-    if least > crate::certify::budget::LOWERING_MACS {
-        return Err(admm_over_budget(spec, p, least, tuning_cases, true));
-    }
-    let mut cases = Vec::new();
-    for c in &sample.cold {
-        if cases.len() == TUNING_COLD {
-            break;
-        }
-        let (f, offset) = data(p, c);
-        let problem = mpc_qp(qp, &f, &offset);
-        let exact = exact(&problem);
-        if exact.status == Status::Converged {
-            cases.push(crate::solver::admm::Case {
-                qp: problem,
-                exact: exact.z,
-                start: crate::solver::admm::Start::Cold,
-                span: span.clone(),
-            });
-        }
-    }
-    if let Some(first) = sample.starts.first() {
-        let mut c = first.clone();
-        let mut start = crate::solver::admm::Start::Cold;
-        for _ in 0..TUNING_WARM.min(sample.steps) {
-            let (f, offset) = data(p, &c);
-            let problem = mpc_qp(qp, &f, &offset);
-            let exact = exact(&problem);
-            if exact.status != Status::Converged {
-                break;
-            }
-            cases.push(crate::solver::admm::Case {
-                qp: problem.clone(),
-                exact: exact.z.clone(),
-                start: start.clone(),
-                span: span.clone(),
-            });
-            let y = crate::solver::admm::duals_from_ipm(&problem, &exact);
-            let cz = DVector::from_iterator(
-                problem.n() + problem.A.nrows(),
-                exact
-                    .z
-                    .iter()
-                    .copied()
-                    .chain((&problem.A * &exact.z).iter().copied()),
-            );
-            start = crate::solver::admm::shift(qp, &exact.z, &cz, &y);
-            let u = exact.z.rows(0, p.nu).into_owned();
-            let mut push = u.clone();
-            for i in 0..c.d.len() {
-                push[i] += c.d[i];
-            }
-            c.x0 = &p.F * &c.x0 + &p.G * push;
-            c.last = u;
-        }
-    }
-    let settings =
-        |problem: &InequalityQp, rho: f64| crate::solver::admm::Settings::scaled(problem, rho);
-    // The search stops once it has spent what the budget leaves after the exact solves.
-    let most = ((crate::certify::budget::LOWERING_MACS - exact_cost) / checked).max(0.0) as usize;
-    let tuned =
-        crate::solver::admm::tune_rho_within(&cases, &settings, qp.accuracy, ADMM_PROBE.1, most);
-    match tuned {
-        Ok(t) => {
-            let macs = exact_cost + t.iterations_run as f64 * checked;
-            Spent { macs: 0.0 }.add(macs, spec, "ADMM")?;
-            Ok((t.rho, macs))
-        }
-        Err(crate::solver::admm::Untuned::OverBudget(run)) => Err(admm_over_budget(
-            spec,
-            p,
-            exact_cost + run as f64 * checked,
-            tuning_cases,
-            false,
-        )),
-        Err(crate::solver::admm::Untuned::NoRho) => Err(Diagnostic::new(
-            format!(
-                "ADMM reaches `accuracy = {:e}` within {} iterations at no ρ from 1e-4 to 1e4 on the tuning cases of `[mpc.region]`",
-                spec.mpc.accuracy, ADMM_PROBE.1
-            ),
-            spec.spans.get("mpc.accuracy").or(spec.spans.get("mpc.method")).or(spec.spans.get("mpc.region")),
-        )
-        .note("hint: loosen `accuracy`, scale the model's units so the Hessian is better conditioned, narrow `[mpc.region]`, or choose `method = \"ipm\"`")
-        .into()),
-    }
-}
-
-/// The diagnostic of ADMM's tuning of ρ over the build's budget (`macs` predicted or spent), on the
-/// method: ADMM's build cost grows with the horizon (an exact solve of every tuning case, then
-/// thousands of iterations on each at up to thirteen ρ).
-fn admm_over_budget(
-    spec: &Spec,
-    p: &Problem,
-    macs: f64,
-    cases: usize,
-    predicted: bool,
-) -> Diagnostics {
-    let how = if predicted {
-        format!("at least {macs:.2e} before any trial of ρ")
-    } else {
-        format!("its trials of ρ had spent {macs:.2e} when the next could run past it")
-    };
-    Diagnostic::new(
-        format!(
-            "tuning ADMM's ρ would take more than the build's limit of {:.0e} multiply-adds: {how}",
-            crate::certify::budget::LOWERING_MACS
-        ),
-        spec.spans
-            .get("mpc.method")
-            .or_else(|| region_span(spec)),
-    )
-    .label(format!(
-        "{cases} tuning cases at horizon N = {}, n = {} unknowns and {} rows each",
-        p.qp.N,
-        p.qp.H.nrows() + p.qp.rows.slacks(),
-        p.qp.rows.len()
-    ))
-    .note("hint: `method = \"ipm\"` (or `\"auto\"`) certifies this problem at a fraction of ADMM's build cost; or shorten the `horizon`, or loosen `accuracy`")
-    .into()
-}
-
 /// The multiply-adds the sample has spent, against the build's budget.
-struct Spent {
-    macs: f64,
+pub(crate) struct Spent {
+    pub(crate) macs: f64,
 }
 
 impl Spent {
-    fn add(&mut self, macs: f64, spec: &Spec, title: &str) -> Result<(), Diagnostics> {
+    pub(crate) fn add(&mut self, macs: f64, spec: &Spec, title: &str) -> Result<(), Diagnostics> {
         self.macs += macs;
         if self.macs <= crate::certify::budget::LOWERING_MACS {
             return Ok(());
@@ -989,15 +518,15 @@ fn certify_spending<M: Sampled>(
 
 /// The seeded sample of `[mpc.region]`: the cold cases (corners, then draws) and the warm sequences'
 /// first cases, drawn in that order from [`SEED`].
-struct Sample {
-    cold: Vec<Case>,
+pub(crate) struct Sample {
+    pub(crate) cold: Vec<Case>,
     corners: usize,
-    starts: Vec<Case>,
+    pub(crate) starts: Vec<Case>,
     sequences: usize,
-    steps: usize,
+    pub(crate) steps: usize,
 }
 
-fn draw_sample(spec: &Spec, p: &Problem, region: &Region) -> Sample {
+pub(crate) fn draw_sample(spec: &Spec, p: &Problem, region: &Region) -> Sample {
     let qp = &p.qp;
     let nx = p.nx;
     let written = &spec.mpc.region;
@@ -1262,7 +791,7 @@ fn warm_sequence<M: Sampled>(
 }
 
 /// f and the rows' offset of a case.
-fn data(p: &Problem, c: &Case) -> (DVector<f64>, DVector<f64>) {
+pub(crate) fn data(p: &Problem, c: &Case) -> (DVector<f64>, DVector<f64>) {
     let qp = &p.qp;
     let N = qp.N;
     let nz = qp.nz;
@@ -1326,7 +855,7 @@ fn not_reached<M: Sampled>(spec: &Spec, method: &M, what: &str, c: &Case) -> Dia
 
 /// Where a finding about the sample points: `[mpc.region]`, else `method`, else the first constraint key
 /// (under the default `auto` neither may be written), else `[mpc]`.
-fn region_span(spec: &Spec) -> Option<mpc_spec::Span> {
+pub(crate) fn region_span(spec: &Spec) -> Option<mpc_spec::Span> {
     [
         "mpc.region",
         "mpc.method",
@@ -1459,7 +988,11 @@ mod tests {
                 &items,
                 work,
                 &mut spent,
-                (&spec, &InteriorPoint, "a cold case"),
+                (
+                    &spec,
+                    &crate::solver::ipm::sampled::InteriorPoint,
+                    "a cold case",
+                ),
             )
             .map_err(|d| d.iter().next().unwrap().message.clone())
         })

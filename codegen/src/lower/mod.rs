@@ -14,8 +14,8 @@ use crate::linalg::{
     dense, extreme_eigenvalues, pseudo_inverse, restart_gains, steady_state_filter, symmetrize,
 };
 use crate::numeric::Numeric;
+use crate::solver::constrained::InequalityQp;
 use crate::solver::first_order::Parameters;
-use crate::solver::ipm::InequalityQp;
 use mpc_spec::{
     Diagnostic, Diagnostics, FilterKind, Iterations, KalmanNoise, Matrix, ModelKind, Spec, Step,
     TimeDomain, MAX_ITERATIONS,

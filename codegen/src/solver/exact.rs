@@ -11,7 +11,8 @@
 //! which the sampling reports apart.
 #![allow(non_snake_case)]
 
-use super::ipm::{solve, InequalityQp, IpmResult, Layout};
+use super::constrained::InequalityQp;
+use super::ipm::{solve, IpmResult, Layout};
 use super::Status;
 use nalgebra::{DMatrix, DVector};
 

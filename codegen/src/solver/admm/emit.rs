@@ -15,7 +15,8 @@ use crate::solver::admm::{self, INFEASIBILITY_TOLERANCE};
 use crate::solver::constrained::emit::{
     coordinate_check, entry, evidence_doc, offsets, reach, status_types, Entry, Offsets,
 };
-use crate::solver::ipm::{mpc_qp, InequalityQp};
+use crate::solver::constrained::InequalityQp;
+use crate::solver::ipm::mpc_qp;
 use nalgebra::DVector;
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;

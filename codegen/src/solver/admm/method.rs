@@ -11,8 +11,8 @@ use crate::lower::problem::{Problem, Qp};
 use crate::numeric::Numeric;
 use crate::plan::machine::{machine, Machine};
 use crate::plan::{Plan, Solver};
+use crate::solver::constrained::Fallback;
 use crate::solver::constrained::Status;
-use crate::solver::ipm::Fallback;
 use crate::solver::stepping::{StepData, Stepping};
 use mpc_spec::{Diagnostics, Method, Scalar, Spec};
 use nalgebra::DVector;
@@ -77,14 +77,15 @@ impl Solver for Admm {
     /// cheaper of the two is kept. Each attempt counts the earlier ones' multiply-adds against the
     /// build's budget.
     fn certify(&self, spec: &Spec, problem: &Problem) -> Result<Option<Evidence>, Diagnostics> {
-        let (rho, tuning_macs) = sampling::tune_admm(spec, problem)?;
-        let method = |form, spent| sampling::Admm::new(problem, Tuned { rho, form }, spent);
-        let certify = |method: &sampling::Admm| sampling::certify_metered(spec, problem, method, 0);
+        let (rho, tuning_macs) = super::sampled::tune_admm(spec, problem)?;
+        let method = |form, spent| super::sampled::Admm::new(problem, Tuned { rho, form }, spent);
+        let certify =
+            |method: &super::sampled::Admm| sampling::certify_metered(spec, problem, method, 0);
         // What a pass spent on its exact references, which its meter does not count: one exact solve a
         // case, at the budget's price.
         let (cold, warm) = sampling::sample_cases(spec, problem.nx);
         let exact = (cold + warm) as f64 * budget::exact_macs(&problem.qp);
-        let cost = |method: &sampling::Admm, e: &Evidence| {
+        let cost = |method: &super::sampled::Admm, e: &Evidence| {
             e.iterations as f64 * sampling::Sampled::macs_per_iteration(method, &problem.qp) as f64
         };
         let evidence = match spec.mpc.admm_form {

@@ -2,7 +2,7 @@
 //!
 //! The operator splitting of OSQP (B. Stellato, G. Banjac, P. Goulart, A. Bemporad, S. Boyd, "OSQP:
 //! an operator splitting solver for quadratic programs", Math. Prog. Comp. 12, 2020, Algorithm 1) on
-//! the same problem the interior-point method solves ([`crate::solver::ipm::InequalityQp`], built by
+//! the same problem the interior-point method solves ([`crate::solver::constrained::InequalityQp`], built by
 //! [`crate::solver::ipm::mpc_qp`]): minimise ½xᵀPx + qᵀx subject to l ≤ C x ≤ u with C = [I; A], the box
 //! z_min ≤ x ≤ z_max as C's identity rows and the general rows A after them. One iteration, with R =
 //! diag(ρ) one penalty per row of C and K = (P + σI + CᵀRC)⁻¹ factored once at build time (M = L Lᵀ):
@@ -36,7 +36,8 @@
 
 use crate::certify::evidence::Limits;
 use crate::lower::problem::Qp;
-use crate::solver::ipm::{self, InequalityQp, IpmResult, Layout};
+use crate::solver::constrained::InequalityQp;
+use crate::solver::ipm::{self, IpmResult, Layout};
 use nalgebra::{DMatrix, DVector};
 use std::fmt::Debug;
 use std::ops::{Add, Div, Mul, Neg, Sub};
@@ -45,6 +46,7 @@ use std::sync::Arc;
 pub mod emit;
 mod emit_stages;
 pub mod method;
+pub mod sampled;
 mod stages;
 pub use stages::{program as stages_program, Program, Statement, Structure, Tables, ZERO_SLOT};
 
@@ -818,7 +820,7 @@ fn zero_data(qp: &Qp) -> InequalityQp {
 }
 
 /// How a control step made its plan.
-pub use ipm::Fallback;
+pub use crate::solver::constrained::Fallback;
 
 /// One ADMM control step: the plan and what happened.
 #[derive(Clone, Debug)]

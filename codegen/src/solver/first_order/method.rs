@@ -70,7 +70,7 @@ impl Solver for FirstOrder {
             Iterations::Auto => problem.qp.iterations,
             Iterations::Fixed(_) => 0,
         };
-        sampling::certify(spec, problem, &sampling::FirstOrder(self.0), floor).map(Some)
+        sampling::certify(spec, problem, &super::sampled::FirstOrder(self.0), floor).map(Some)
     }
 
     fn bound_form(&self, rate: bool) -> String {

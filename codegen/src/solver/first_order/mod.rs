@@ -18,6 +18,7 @@ pub mod form;
 mod gradient;
 pub mod method;
 pub mod reference;
+pub mod sampled;
 
 pub use fgm::Fgm;
 pub use gradient::Gradient;

@@ -6,6 +6,7 @@
 #![allow(non_snake_case)]
 
 use crate::lower::problem::Qp;
+use crate::solver::constrained::InequalityQp;
 use nalgebra::{DMatrix, DVector};
 
 /// [`macs_per_iteration`] of the MPC's QP: the condensed form's count.
@@ -125,92 +126,10 @@ impl Sparsity {
 /// the centering and is not refined).
 pub const REFINEMENT: usize = 1;
 
-/// min ½zᵀHz + fᵀz subject to z_min ≤ z ≤ z_max and lower ≤ A z ≤ upper; ±∞ entries drop their side.
-#[derive(Clone, Debug)]
-pub struct InequalityQp {
-    /// The Hessian (n × n), symmetric positive semidefinite.
-    pub H: DMatrix<f64>,
-    /// The linear term (n).
-    pub f: DVector<f64>,
-    /// Lower bounds on z (n).
-    pub z_min: DVector<f64>,
-    /// Upper bounds on z (n).
-    pub z_max: DVector<f64>,
-    /// The general rows (m × n).
-    pub A: DMatrix<f64>,
-    /// Lower bounds of the rows (m).
-    pub lower: DVector<f64>,
-    /// Upper bounds of the rows (m).
-    pub upper: DVector<f64>,
-}
-
 impl InequalityQp {
-    /// Today's condensed QP: ½UᵀHU + fᵀU over the input box repeated for the N steps, no rows.
-    pub fn from_box(qp: &Qp, f: &DVector<f64>) -> Self {
-        let nu = qp.u_min.len();
-        let n = qp.N * nu;
-        InequalityQp {
-            H: qp.H.clone(),
-            f: f.clone(),
-            z_min: DVector::from_fn(n, |i, _| qp.u_min[i % nu]),
-            z_max: DVector::from_fn(n, |i, _| qp.u_max[i % nu]),
-            A: DMatrix::zeros(0, n),
-            lower: DVector::zeros(0),
-            upper: DVector::zeros(0),
-        }
-    }
-
-    /// The same problem with the rows lower ≤ A z ≤ upper appended.
-    pub fn with_rows(
-        mut self,
-        A: &DMatrix<f64>,
-        lower: &DVector<f64>,
-        upper: &DVector<f64>,
-    ) -> Self {
-        let (m0, m, n) = (self.A.nrows(), A.nrows(), self.A.ncols());
-        let mut stacked = DMatrix::zeros(m0 + m, n);
-        stacked.rows_mut(0, m0).copy_from(&self.A);
-        stacked.rows_mut(m0, m).copy_from(A);
-        self.A = stacked;
-        self.lower = DVector::from_iterator(m0 + m, self.lower.iter().chain(lower.iter()).copied());
-        self.upper = DVector::from_iterator(m0 + m, self.upper.iter().chain(upper.iter()).copied());
-        self
-    }
-
-    /// The number of unknowns n.
-    pub fn n(&self) -> usize {
-        self.H.nrows()
-    }
-
     /// The number of finite sides: the length of s and λ.
     pub fn sides(&self) -> usize {
         Sides::new(self).len()
-    }
-
-    /// Whether the dimensions agree.
-    pub(super) fn consistent(&self) -> bool {
-        let n = self.n();
-        let m = self.A.nrows();
-        self.H.ncols() == n
-            && self.f.len() == n
-            && self.z_min.len() == n
-            && self.z_max.len() == n
-            && self.A.ncols() == n
-            && self.lower.len() == m
-            && self.upper.len() == m
-    }
-
-    /// Whether the data can be iterated on: finite H, f, A, and bounds that are not NaN.
-    pub(super) fn finite(&self) -> bool {
-        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
-        let not_nan = |v: &[f64]| v.iter().all(|x| !x.is_nan());
-        finite(self.H.as_slice())
-            && finite(self.f.as_slice())
-            && finite(self.A.as_slice())
-            && not_nan(self.z_min.as_slice())
-            && not_nan(self.z_max.as_slice())
-            && not_nan(self.lower.as_slice())
-            && not_nan(self.upper.as_slice())
     }
 }
 

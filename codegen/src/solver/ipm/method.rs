@@ -1,7 +1,7 @@
 //! The interior-point method behind [`Solver`].
 #![allow(non_snake_case)]
 
-use super::{control_step, shifted_start, Fallback};
+use super::{control_step, shifted_start};
 use crate::certify::evidence::Evidence;
 use crate::certify::sampling;
 use crate::emit::sections::Sections;
@@ -9,7 +9,7 @@ use crate::emit::tokens::Num;
 use crate::lower::problem::{Problem, Qp};
 use crate::plan::machine::{machine, Machine};
 use crate::plan::{Plan, Solver};
-use crate::solver::constrained::Status;
+use crate::solver::constrained::{Fallback, Status};
 use crate::solver::riccati;
 use crate::solver::stepping::{StepData, Stepping};
 use mpc_spec::{Diagnostics, Method, Scalar, Spec};
@@ -62,7 +62,7 @@ impl Solver for InteriorPoint {
     }
 
     fn certify(&self, spec: &Spec, problem: &Problem) -> Result<Option<Evidence>, Diagnostics> {
-        sampling::certify(spec, problem, &sampling::InteriorPoint, 0).map(Some)
+        sampling::certify(spec, problem, &super::sampled::InteriorPoint, 0).map(Some)
     }
 
     fn bound_form(&self, _rate: bool) -> String {

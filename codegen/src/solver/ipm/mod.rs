@@ -30,10 +30,12 @@ pub mod condensed;
 pub mod emit;
 mod emit_rows;
 pub mod method;
+pub mod sampled;
 
+pub use crate::solver::constrained::{Fallback, InequalityQp};
 pub use condensed::{
-    condensed_macs_per_iteration, macs_per_iteration, mpc_qp, normal_pattern, side_bound,
-    InequalityQp, Layout, Sparsity, REFINEMENT,
+    condensed_macs_per_iteration, macs_per_iteration, mpc_qp, normal_pattern, side_bound, Layout,
+    Sparsity, REFINEMENT,
 };
 use condensed::{counts, structure_of, Sides};
 
@@ -650,22 +652,6 @@ fn run_observed(
         Status::IterationLimit
     };
     ended(p, &r, iterations, status, finished)
-}
-
-/// How an interior-point control step made its plan.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-pub enum Fallback {
-    /// The iterate, projected onto the input box (a no-op but for rounding).
-    Solved,
-    /// The iteration failed (non-finite, infeasibility detected, or residuals above the limits): the
-    /// previous plan shifted by one step with the rest input appended, projected onto the box; the next
-    /// solve starts cold.
-    WarmStart,
-    /// The hard rows admitted no plan at an earlier step, and this plan solves the QP with each hard
-    /// row's bounds widened to the value the held plan (the previous plan shifted) gives it: it violates
-    /// no hard row more than holding would, and the cost steers it back toward the rows
-    /// ([`relaxed`]). The next solve starts cold.
-    Relaxed,
 }
 
 /// One interior-point control step: the plan and what happened.
