@@ -11,6 +11,7 @@
 //! `mpc_spec::model`) and one arm in [`algorithm`].
 #![allow(non_snake_case)]
 
+pub mod active_set;
 pub mod admm;
 pub mod exact;
 mod fgm;
