@@ -394,7 +394,7 @@ pub(super) fn run(
             // full steps without progress is cycling.
             let value: f64 = -(0..k).map(|i| run.d(i) * run.lambda[i]).sum::<f64>();
             run.macs.step += k;
-            if value - best <= tol.progress * (1.0 + best.abs()) {
+            if best.is_finite() && value - best <= tol.progress * (1.0 + best.abs()) {
                 stalled += 1;
                 if stalled > tol.cycle {
                     if refactored {
