@@ -135,7 +135,12 @@ fn kkt(qp: &InequalityQp, out: &Outcome) -> (f64, f64, f64, f64) {
             .max((Az[r] - qp.upper[r]) / (1.0 + qp.upper[r].abs()))
             .max((qp.lower[r] - Az[r]) / (1.0 + qp.lower[r].abs()));
     }
-    (residual.amax() / scale, violation, complementarity, negative)
+    (
+        residual.amax() / scale,
+        violation,
+        complementarity,
+        negative,
+    )
 }
 
 /// Random QPs of several sizes: the solution within 1e-8 (relative to max(1, ‖z*‖∞)) of Clarabel's,
@@ -165,7 +170,7 @@ fn random_qps_agree_with_clarabel_and_satisfy_kkt() {
         let warm = solve_qp(&qp, Some(&out.working_set), 1000).unwrap();
         assert_eq!(warm.status, Status::Solved);
         assert!(
-            warm.iterations <= 1,
+            warm.iterations == 0,
             "case {case}: {} iterations from the optimal set",
             warm.iterations
         );
@@ -414,6 +419,8 @@ struct Tally {
     worst_pass: usize,
     worst_error: f64,
     infeasible: usize,
+    /// Solves where neither reference agreed and the KKT conditions decided.
+    references_inexact: usize,
 }
 
 fn median_max(v: &[usize]) -> (usize, usize) {
@@ -484,40 +491,67 @@ fn spec_agrees(name: &str, src: &str, seed: u64) {
         };
         (x0, reference, d, last)
     };
-    let problem_of = |x0: &DVector<f64>,
-                      reference: &DVector<f64>,
-                      d: &DVector<f64>,
-                      last: &DVector<f64>| {
-        let Xref = DVector::from_fn(N * nz, |i, _| reference[i % nz]);
-        let f = &qp.Fx * x0 - &qp.Fr * Xref + &qp.Fu * last + qp.Fd.columns(0, nd) * d;
-        let offset = qp.rows.offset(x0, d, last);
-        mpc_qp(qp, &f, &offset)
-    };
+    let problem_of =
+        |x0: &DVector<f64>, reference: &DVector<f64>, d: &DVector<f64>, last: &DVector<f64>| {
+            let Xref = DVector::from_fn(N * nz, |i, _| reference[i % nz]);
+            let f = &qp.Fx * x0 - &qp.Fr * Xref + &qp.Fu * last + qp.Fd.columns(0, nd) * d;
+            let offset = qp.rows.offset(x0, d, last);
+            mpc_qp(qp, &f, &offset)
+        };
     let mut tally = Tally::default();
     // Solves `problem` from `start`; checks it against the exact reference; None where infeasible.
-    let check = |tally: &mut Tally, problem: &InequalityQp, start: Option<&WorkingSet>, what: &str| {
-        let offsets = prepared.offsets(problem).unwrap();
-        let out = solve(&prepared, &offsets, start, 10_000);
-        let reference = exact(problem);
-        match reference.status {
-            IpmStatus::Converged => {
-                assert_eq!(out.status, Status::Solved, "{name} {what}");
-                let error = plan_error(qp, &out.z, &reference.z);
-                assert!(error <= AGREEMENT, "{name} {what}: {error:e} of the span");
-                tally.worst_error = tally.worst_error.max(error);
-                tally.worst_pass = tally
-                    .worst_pass
-                    .max(out.per_pass.iter().copied().max().unwrap_or(0));
-                Some(out)
+    let check =
+        |tally: &mut Tally, problem: &InequalityQp, start: Option<&WorkingSet>, what: &str| {
+            let offsets = prepared.offsets(problem).unwrap();
+            let out = solve(&prepared, &offsets, start, 10_000);
+            let reference = exact(problem);
+            match reference.status {
+                IpmStatus::Converged => {
+                    assert_eq!(out.status, Status::Solved, "{name} {what}");
+                    let mut error = plan_error(qp, &out.z, &reference.z);
+                    if error > AGREEMENT {
+                        // The interior-point reference can stop with complementarity near 1e-5 on the
+                        // ill-conditioned QPs (hover's κ(H) = 2.8e4) and still report convergence: then
+                        // Clarabel is asked, and where neither is within the agreement the solve must be
+                        // the better one, its KKT conditions met to round-off and its cost no higher.
+                        if let Clarabel::Solved(r) = clarabel(problem) {
+                            error = error.min(plan_error(qp, &out.z, &r.z));
+                        }
+                        if error > AGREEMENT {
+                            let (stationarity, violation, complementarity, negative) =
+                                kkt(problem, &out);
+                            let cost = |z: &DVector<f64>| {
+                                0.5 * z.dot(&(&problem.H * z)) + problem.f.dot(z)
+                            };
+                            let (ours, theirs) = (cost(&out.z), cost(&reference.z));
+                            assert!(
+                                stationarity <= 1e-12
+                                    && violation <= 1e-12
+                                    && complementarity <= 1e-12
+                                    && negative >= -1e-12
+                                    && ours <= theirs + 1e-12 * theirs.abs().max(1.0),
+                                "{name} {what}: {error:e} of the span from both references, KKT \
+                             {stationarity:e} {violation:e} {complementarity:e} {negative:e}, cost \
+                             {ours} against {theirs}"
+                            );
+                            tally.references_inexact += 1;
+                            error = 0.0;
+                        }
+                    }
+                    tally.worst_error = tally.worst_error.max(error);
+                    tally.worst_pass = tally
+                        .worst_pass
+                        .max(out.per_pass.iter().copied().max().unwrap_or(0));
+                    Some(out)
+                }
+                IpmStatus::Infeasible => {
+                    assert_eq!(out.status, Status::Infeasible, "{name} {what}");
+                    tally.infeasible += 1;
+                    None
+                }
+                _ => None,
             }
-            IpmStatus::Infeasible => {
-                assert_eq!(out.status, Status::Infeasible, "{name} {what}");
-                tally.infeasible += 1;
-                None
-            }
-            _ => None,
-        }
-    };
+        };
     for k in 0..COLD_SAMPLES {
         let (x0, reference, d, last) = draw_case(&mut rng);
         let problem = problem_of(&x0, &reference, &d, &last);
@@ -544,8 +578,13 @@ fn spec_agrees(name: &str, src: &str, seed: u64) {
                     let warm = check(&mut tally, &problem, Some(ws), &format!("{what} warm"))
                         .expect("the cold solve was feasible");
                     let moved = shifted(qp, ws);
-                    let shift = check(&mut tally, &problem, Some(&moved), &format!("{what} shifted"))
-                        .expect("the cold solve was feasible");
+                    let shift = check(
+                        &mut tally,
+                        &problem,
+                        Some(&moved),
+                        &format!("{what} shifted"),
+                    )
+                    .expect("the cold solve was feasible");
                     tally.warm_iterations.push(warm.iterations);
                     tally.warm_macs.push(warm.macs.total());
                     tally.shifted_iterations.push(shift.iterations);
@@ -554,7 +593,8 @@ fn spec_agrees(name: &str, src: &str, seed: u64) {
                 }
             };
             let u = out.z.rows(0, p.nu).into_owned();
-            x = &p.F * &x + &p.G * (&u + DVector::from_fn(p.nu, |i, _| d.get(i).copied().unwrap_or(0.0)));
+            x = &p.F * &x
+                + &p.G * (&u + DVector::from_fn(p.nu, |i, _| d.get(i).copied().unwrap_or(0.0)));
             last = u;
             previous = Some(out.working_set.clone());
         }
@@ -571,7 +611,7 @@ fn spec_agrees(name: &str, src: &str, seed: u64) {
         "{name}: n {} in blocks {blocks:?}, {} constraints; {} cold cases ({} infeasible): iterations median {cm} max {cx}; \
          warm steps {} (first steps cold, max {fx}): previous set median {wm} max {wx}, shifted median {sm} max {sx}; \
          multiply-adds per solve cold median {cmm} max {cmx}, warm median {wmm} max {wmx}, shifted median {smm} max {smx}; \
-         worst pass {}; worst error {:.1e} of the span",
+         worst pass {}; worst error {:.1e} of the span ({} solves closer to the KKT conditions than both references)",
         template.n(),
         prepared.constraints(),
         tally.cold_iterations.len(),
@@ -579,9 +619,16 @@ fn spec_agrees(name: &str, src: &str, seed: u64) {
         tally.warm_iterations.len(),
         tally.worst_pass,
         tally.worst_error,
+        tally.references_inexact,
     );
-    assert!(tally.cold_iterations.len() >= COLD_SAMPLES / 2, "{name}: too few feasible cases");
-    assert!(tally.warm_iterations.len() >= STEPS, "{name}: too few warm steps");
+    assert!(
+        tally.cold_iterations.len() >= COLD_SAMPLES / 2,
+        "{name}: too few feasible cases"
+    );
+    assert!(
+        tally.warm_iterations.len() >= STEPS,
+        "{name}: too few warm steps"
+    );
 }
 
 #[test]
@@ -596,7 +643,11 @@ fn hover_agrees_with_the_exact_reference() {
 
 #[test]
 fn paper_limits_agrees_with_the_exact_reference() {
-    spec_agrees("paper-limits", include_str!("../../specs/paper-limits.toml"), 3);
+    spec_agrees(
+        "paper-limits",
+        include_str!("../../specs/paper-limits.toml"),
+        3,
+    );
 }
 
 #[test]

@@ -128,11 +128,8 @@ impl Run<'_> {
     /// Refactorises G_WW from scratch in the working set's order, dropping a side whose pivot is then
     /// below the tolerance.
     fn refactor(&mut self) {
-        let old: Vec<((usize, Side), f64)> = self
-            .working
-            .drain(..)
-            .zip(self.lambda.drain(..))
-            .collect();
+        let old: Vec<((usize, Side), f64)> =
+            self.working.drain(..).zip(self.lambda.drain(..)).collect();
         for &((c, _), _) in &old {
             self.active[c] = false;
         }
