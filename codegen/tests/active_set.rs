@@ -663,3 +663,57 @@ fn paper_geofence_agrees_with_the_exact_reference() {
 fn afti16_agrees_with_the_exact_reference() {
     spec_agrees("afti16", include_str!("../../specs/afti16.toml"), 5);
 }
+
+/// Degenerate QPs: rows written twice, rows that repeat a bound, and a row that is the sum of two
+/// others with the matching sides, so that dependent sides are active together at the optimum. They
+/// are solved, and agree with Clarabel.
+#[test]
+fn degenerate_qps_are_solved() {
+    let mut rng = ChaCha8Rng::seed_from_u64(17);
+    for case in 0..60 {
+        let n = rng.gen_range(3..12);
+        let m = rng.gen_range(2..2 * n);
+        let mut qp = random_qp(&mut rng, n, m);
+        let copies = rng.gen_range(1..4);
+        for _ in 0..copies {
+            let r = rng.gen_range(0..m);
+            let row = qp.A.rows(r, 1).into_owned();
+            let (lo, hi) = (
+                DVector::from_element(1, qp.lower[r]),
+                DVector::from_element(1, qp.upper[r]),
+            );
+            qp = qp.with_rows(&row, &lo, &hi);
+        }
+        // A bound repeated as a row.
+        let j = rng.gen_range(0..n);
+        let e = DMatrix::from_fn(1, n, |_, i| if i == j { 1.0 } else { 0.0 });
+        let (lo, hi) = (
+            DVector::from_element(1, qp.z_min[j]),
+            DVector::from_element(1, qp.z_max[j]),
+        );
+        if lo[0].is_finite() || hi[0].is_finite() {
+            qp = qp.with_rows(&e, &lo, &hi);
+        }
+        // The sum of rows 0 and 1 bounded by the sum of their upper sides.
+        if qp.upper[0].is_finite() && qp.upper[1].is_finite() {
+            let row = qp.A.rows(0, 1) + qp.A.rows(1, 1);
+            let hi = DVector::from_element(1, qp.upper[0] + qp.upper[1]);
+            qp = qp.with_rows(&row, &DVector::from_element(1, f64::NEG_INFINITY), &hi);
+        }
+        let out = solve_qp(&qp, None, 1000).unwrap();
+        let Clarabel::Solved(reference) = clarabel(&qp) else {
+            panic!("case {case}: Clarabel did not solve a feasible QP");
+        };
+        assert_eq!(out.status, Status::Solved, "case {case}");
+        let error = (&out.z - &reference.z).amax() / reference.z.amax().max(1.0);
+        assert!(error <= 1e-8, "case {case}: {error:e} from Clarabel");
+        let (stationarity, violation, complementarity, negative) = kkt(&qp, &out);
+        assert!(
+            stationarity <= 1e-9
+                && violation <= 1e-9
+                && complementarity <= 1e-9
+                && negative >= -1e-10,
+            "case {case}: KKT {stationarity:e} {violation:e} {complementarity:e} {negative:e}"
+        );
+    }
+}

@@ -81,7 +81,7 @@ impl Run<'_> {
         self.working.push((c, side));
         self.lambda.push(lambda);
         self.active[c] = true;
-        if !(pivot >= self.tol.singular) || self.working.len() > self.block.n() {
+        if pivot.is_nan() || pivot < self.tol.singular || self.working.len() > self.block.n() {
             self.ldl.set_last_pivot(0.0);
             self.singular = true;
         }
@@ -97,7 +97,8 @@ impl Run<'_> {
         self.reuse = self.reuse.min(i);
         self.singular = false;
         let k = self.ldl.len();
-        if k > 0 && !(self.ldl.pivot(k - 1) >= self.tol.singular) {
+        let last = if k > 0 { self.ldl.pivot(k - 1) } else { 1.0 };
+        if last.is_nan() || last < self.tol.singular {
             self.ldl.set_last_pivot(0.0);
             self.singular = true;
         } else {

@@ -103,10 +103,10 @@ impl Ldl {
             let beta = p * alpha / dbar;
             alpha = di * alpha / dbar;
             self.d[r + j] = dbar;
-            for q in j + 1..t {
+            for (q, wq) in w.iter_mut().enumerate().skip(j + 1) {
                 let lq = &mut self.l[r + q][r + j];
-                w[q] -= p * *lq;
-                *lq += beta * w[q];
+                *wq -= p * *lq;
+                *lq += beta * *wq;
             }
             *macs += 5 + 2 * (t - j - 1);
         }
@@ -146,8 +146,8 @@ impl Ldl {
         let k = self.len();
         for i in (0..k).rev() {
             let mut s = z[i];
-            for j in i + 1..k {
-                s -= self.l[j][i] * x[j];
+            for (j, xj) in x.iter().enumerate().take(k).skip(i + 1) {
+                s -= self.l[j][i] * xj;
             }
             x[i] = s;
         }

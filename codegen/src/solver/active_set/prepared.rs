@@ -80,6 +80,9 @@ pub struct Offsets {
     pub macs: usize,
 }
 
+/// A block's constraints while it is formed: each with its nonzero coefficients.
+type Constraints = Vec<(Row, Vec<(usize, f64)>)>;
+
 /// Union–find with path halving, over the variables.
 struct Components(Vec<usize>);
 
@@ -153,7 +156,7 @@ impl Prepared {
             vars[block_of[j]].push(j);
         }
         let mut place = vec![None; n + m];
-        let mut rows: Vec<Vec<(Row, Vec<(usize, f64)>)>> = vec![Vec::new(); vars.len()];
+        let mut rows: Vec<Constraints> = vec![Vec::new(); vars.len()];
         let mut position = vec![0; n];
         for block in &vars {
             for (p, &j) in block.iter().enumerate() {
@@ -300,7 +303,7 @@ fn block(
     qp: &InequalityQp,
     index: usize,
     vars: Vec<usize>,
-    rows: Vec<(Row, Vec<(usize, f64)>)>,
+    rows: Constraints,
 ) -> Result<Block, Error> {
     let nb = vars.len();
     let H = DMatrix::from_fn(nb, nb, |i, j| {
