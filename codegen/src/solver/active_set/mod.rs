@@ -14,8 +14,9 @@
 //!   columns Z = R⁻¹·M̂ᵀ that map multipliers back to z ([`prepared`]);
 //! - **per solve** ([`Prepared::offsets`]): the sides of the least-distance problem, affine in f and
 //!   the bounds;
-//! - **run time** ([`solve`]): the dual active-set iteration on each block ([`iterate`]), the L·D·Lᵀ of
-//!   the working set's block of G updated and downdated by rank one ([`ldl`]), and z = z_free − Z_W·λ.
+//! - **run time** ([`solve`]): the dual active-set iteration on each block (`iterate.rs`), the L·D·Lᵀ
+//!   of the working set's block of G updated and downdated by rank one (`ldl.rs`), and
+//!   z = z_free − Z_W·λ.
 //!
 //! Every tolerance is in [`Tolerances`], relative to quantities of the normalised problem (rows of
 //! unit norm, so the pivots are relative to one and the slacks to the sides), so that a later f32
@@ -37,9 +38,9 @@ use std::fmt;
 /// A constraint of the QP: a bound on one variable, or a row of A.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Row {
-    /// z_min[i] ≤ z[i] ≤ z_max[i].
+    /// `z_min[i] ≤ z[i] ≤ z_max[i]`.
     Bound(usize),
-    /// lower[r] ≤ (A·z)[r] ≤ upper[r].
+    /// `lower[r] ≤ (A·z)[r] ≤ upper[r]`.
     General(usize),
 }
 
