@@ -167,8 +167,18 @@ fn random_qps_agree_with_clarabel_and_satisfy_kkt() {
             "case {case}: KKT {stationarity:e} {violation:e} {complementarity:e}"
         );
         assert!(negative >= -1e-10, "case {case}: multiplier {negative:e}");
+        let m = out.macs;
+        assert_eq!(
+            out.per_pass.iter().sum::<usize>() + m.offsets + m.recover,
+            m.total(),
+            "case {case}: the passes account for the multiply-adds"
+        );
         let warm = solve_qp(&qp, Some(&out.working_set), 1000).unwrap();
         assert_eq!(warm.status, Status::Solved);
+        assert_eq!(
+            warm.per_pass.iter().sum::<usize>() + warm.macs.offsets + warm.macs.recover,
+            warm.macs.total()
+        );
         assert!(
             warm.iterations == 0,
             "case {case}: {} iterations from the optimal set",

@@ -364,13 +364,19 @@ pub(super) fn run(
             run.drop_last();
         }
     }
+    // Each pass's multiply-adds; the first pass carries the warm start's factorisation, and a pass
+    // that ends the solve is recorded after the loop.
+    let mut mark = 0;
+    let record = |run: &Run, per_pass: &mut Vec<usize>, mark: &mut usize| {
+        per_pass.push(run.macs.total() - *mark);
+        *mark = run.macs.total();
+    };
     let mut iterations = 0;
     let mut refactored = false;
     let mut refined = false;
     let mut best = f64::NEG_INFINITY;
     let mut stalled = 0;
     let status = loop {
-        let before = run.macs.total();
         let changed;
         if !run.singular {
             run.stationary();
@@ -383,7 +389,7 @@ pub(super) fn run(
                 }
                 run.step_and_remove(i, alpha);
                 iterations += 1;
-                per_pass.push(run.macs.total() - before);
+                record(&run, &mut per_pass, &mut mark);
                 continue;
             }
             let k = run.working.len();
@@ -402,7 +408,7 @@ pub(super) fn run(
                     run.refactor();
                     stalled = 0;
                     best = f64::NEG_INFINITY;
-                    per_pass.push(run.macs.total() - before);
+                    record(&run, &mut per_pass, &mut mark);
                     continue;
                 }
             } else {
@@ -415,7 +421,7 @@ pub(super) fn run(
                     if !refactored && k > 2 && min_pivot < tol.refactor {
                         refactored = true;
                         run.refactor();
-                        per_pass.push(run.macs.total() - before);
+                        record(&run, &mut per_pass, &mut mark);
                         continue;
                     }
                     if !refined && k > 0 && min_pivot < tol.pivot {
@@ -432,16 +438,16 @@ pub(super) fn run(
                                 run.pivot_last();
                             }
                             iterations += 1;
-                            per_pass.push(run.macs.total() - before);
+                            record(&run, &mut per_pass, &mut mark);
                             continue;
                         }
                     }
-                    per_pass.push(run.macs.total() - before);
+                    record(&run, &mut per_pass, &mut mark);
                     break Status::Solved;
                 }
                 Some((c, side, violation)) => {
                     if iterations >= max_iterations {
-                        per_pass.push(run.macs.total() - before);
+                        record(&run, &mut per_pass, &mut mark);
                         break Status::IterationLimit;
                     }
                     run.added_violation = violation;
@@ -476,10 +482,10 @@ pub(super) fn run(
                         // aside for this solve rather than call the QP infeasible.
                         run.drop_last();
                         run.excluded[c] = true;
-                        per_pass.push(run.macs.total() - before);
+                        record(&run, &mut per_pass, &mut mark);
                         continue;
                     }
-                    per_pass.push(run.macs.total() - before);
+                    record(&run, &mut per_pass, &mut mark);
                     break Status::Infeasible;
                 }
             }
@@ -487,7 +493,10 @@ pub(super) fn run(
         if changed {
             iterations += 1;
         }
-        per_pass.push(run.macs.total() - before);
+        record(&run, &mut per_pass, &mut mark);
     };
+    if run.macs.total() > mark {
+        record(&run, &mut per_pass, &mut mark);
+    }
     finish(run, status, iterations, per_pass)
 }
