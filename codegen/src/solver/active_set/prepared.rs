@@ -9,7 +9,10 @@
 //! Everything that depends on H and A alone is computed here in f64: R, the normalised rows M̂, their
 //! Gram matrix G = M̂·M̂ᵀ (which the iteration reads instead of M̂: a slack costs |W| instead of n,
 //! and a row added to the factor is a lookup), the scales s, and Z = R⁻¹·M̂ᵀ, the columns that turn
-//! multipliers back into z. The offsets d are affine in f and the bounds ([`Prepared::offsets`]).
+//! multipliers back into z. The offsets d are affine in f and the bounds ([`Prepared::offsets`]):
+//! d = (b + aᵀH⁻¹f) / s = (b + (R⁻ᵀa)ᵀv) / s with DAQP's v = R⁻ᵀf, so for the MPC, whose f and row
+//! bounds are affine in θ = (x₀, reference window, u₋₁, disturbance), d = d₀ + D_θ·θ with
+//! D_θ = diag(1/s)·(A·H⁻¹·F_θ + the bounds' maps), a matrix a later step can bake in.
 //!
 //! The variables are split into **independent blocks**: the connected components of the graph with
 //! an edge where H couples two variables or a row of A holds both. Each block is a QP of its own (the
