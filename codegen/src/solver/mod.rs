@@ -4,6 +4,7 @@
 //! the exact reference solves.
 #![allow(non_snake_case)]
 
+pub mod active_set;
 pub mod admm;
 pub mod constrained;
 pub mod exact;

@@ -1,0 +1,383 @@
+//! A dual active-set method for the condensed inequality QP, specialised at build time: the f64
+//! reference of the method's core (issue "A dual active-set method, specialised at build time").
+//!
+//! The QP is the one the interior-point method solves ([`InequalityQp`]):
+//! min ½zᵀHz + fᵀz s.t. z_min ≤ z ≤ z_max, lower ≤ A·z ≤ upper, H ≻ 0. Soft rows need nothing of
+//! their own: the MPC's QP keeps their slacks as variables with the L1 weight in f and the small
+//! quadratic weight on H's diagonal (`ipm::mpc_qp`), so solving that QP exactly is solving the exact
+//! penalty exactly. (DAQP's soft rows add a weight to their pivot instead, an L2 penalty whose
+//! solutions differ; that is not done here.)
+//!
+//! The work is split as the generated controller will split it:
+//! - **build time** ([`Prepared::new`]): the independent blocks, and per block the Cholesky factor R
+//!   of H, the normalised rows M̂ = A·R⁻¹ (bounds as rows of R⁻¹), their Gram matrix G = M̂·M̂ᵀ, and the
+//!   columns Z = R⁻¹·M̂ᵀ that map multipliers back to z ([`prepared`]);
+//! - **per solve** ([`Prepared::offsets`]): the sides of the least-distance problem, affine in f and
+//!   the bounds;
+//! - **run time** ([`solve`]): the dual active-set iteration on each block (`iterate.rs`), the L·D·Lᵀ
+//!   of the working set's block of G updated and downdated by rank one (`ldl.rs`), and
+//!   z = z_free − Z_W·λ.
+//!
+//! Every tolerance is in [`Tolerances`], relative to quantities of the normalised problem (rows of
+//! unit norm, so the pivots are relative to one and the slacks to the sides), so that a later f32
+//! build can scale them to its unit roundoff in one place; the arithmetic is plain f64 loops that a
+//! generic scalar can replace.
+#![allow(non_snake_case)]
+
+use super::ipm::InequalityQp;
+
+mod iterate;
+mod ldl;
+pub mod prepared;
+
+pub use prepared::{Block, Offsets, Prepared};
+
+use nalgebra::DVector;
+use std::fmt;
+
+/// A constraint of the QP: a bound on one variable, or a row of A.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Row {
+    /// `z_min[i] ≤ z[i] ≤ z_max[i]`.
+    Bound(usize),
+    /// `lower[r] ≤ (A·z)[r] ≤ upper[r]`.
+    General(usize),
+}
+
+/// Which side of a constraint is active. A constraint is active at one side at most: its two sides
+/// are distinct constraints of the method, with multipliers of opposite signs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Side {
+    /// The lower bound holds with equality.
+    Lower,
+    /// The upper bound holds with equality.
+    Upper,
+}
+
+/// An active side: a constraint and the side at which it holds with equality.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Active {
+    /// The constraint.
+    pub row: Row,
+    /// Its side.
+    pub side: Side,
+}
+
+/// A working set, in the order its sides entered the factor (the order a warm start adds them in).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct WorkingSet(pub Vec<Active>);
+
+impl WorkingSet {
+    /// The sides `map` keeps, mapped: a warm start shifted by a stage maps each constraint to the one
+    /// a stage earlier and drops those of the first stage.
+    pub fn filter_map(&self, map: impl Fn(Active) -> Option<Active>) -> WorkingSet {
+        WorkingSet(self.0.iter().filter_map(|a| map(*a)).collect())
+    }
+
+    /// The number of active sides.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    /// Whether no side is active.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
+
+/// How a solve ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    /// The KKT conditions hold within [`Tolerances`].
+    Solved,
+    /// The iterations ran out; z is the last dual-feasible iterate's (not primal feasible in general).
+    IterationLimit,
+    /// A violated side depends on the working set and no multiplier blocks the dual ray (the dual is
+    /// unbounded), a row's sides cross, or a zero row of A excludes 0.
+    Infeasible,
+    /// The dual objective stopped increasing for [`Tolerances::cycle`] full steps, even after a
+    /// refactorisation.
+    Cycling,
+    /// A non-finite offset or multiplier.
+    NumericalFailure,
+}
+
+/// Why a QP cannot be prepared or its offsets formed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Error {
+    /// H, A, f and the bounds disagree in size (or differ from the prepared QP's).
+    Dimensions,
+    /// The named data hold an infinite or NaN entry (a NaN for the bounds, which may be infinite).
+    NonFinite(&'static str),
+    /// A block of H is not positive definite (its Cholesky factorisation failed).
+    NotPositiveDefinite {
+        /// The block.
+        block: usize,
+    },
+    /// A constraint without a finite side when prepared has one now.
+    Pattern(Row),
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::Dimensions => write!(f, "the QP's dimensions are inconsistent"),
+            Error::NonFinite(what) => write!(f, "{what} has a non-finite entry"),
+            Error::NotPositiveDefinite { block } => write!(
+                f,
+                "block {block} of the Hessian is not positive definite: the dual active-set method needs H ≻ 0"
+            ),
+            Error::Pattern(row) => write!(
+                f,
+                "{row:?} has a finite side but had none when the QP was prepared"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+/// The tolerances of the iteration, in one place. They are relative to the normalised problem: the
+/// rows of M̂ have unit norm, so a pivot of the factor is relative to one and a slack is compared with
+/// its side. The values suit f64.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tolerances {
+    /// A side is violated when its slack exceeds primal·(1 + |d|).
+    pub primal: f64,
+    /// A multiplier has the wrong sign beyond this.
+    pub dual: f64,
+    /// A pivot below this marks the new side dependent on the working set (DAQP's `sing_tol`).
+    pub singular: f64,
+    /// The factor is recomputed once, when the optimum is reached with a pivot below this (DAQP's
+    /// `refactor_tol`): the downdates' round-off is dropped and the check repeated.
+    pub refactor: f64,
+    /// A pivot below this moves its side to the end of the factor, and at the optimum triggers one
+    /// step of iterative refinement of λ (DAQP's `pivot_tol`).
+    pub pivot: f64,
+    /// A full step that raises the dual objective by less than progress·(1 + |objective|) makes no
+    /// progress.
+    pub progress: f64,
+    /// Full steps in a row without progress before the factor is recomputed, and then before the
+    /// solve ends [`Status::Cycling`].
+    pub cycle: usize,
+    /// A dependent side whose violation is at most infeasible·(1 + |d|), with no multiplier blocking,
+    /// is taken for round-off at a degenerate vertex and set aside, not called infeasible.
+    pub infeasible: f64,
+}
+
+impl Tolerances {
+    /// The f64 values: DAQP's defaults but for the primal tolerance, tightened from 1e-6 (absolute)
+    /// to 1e-11 relative, since the reference must agree with an exact solve to 1e-8.
+    pub const F64: Tolerances = Tolerances {
+        primal: 1e-11,
+        dual: 1e-12,
+        singular: 3.7e-11,
+        refactor: 1e-9,
+        pivot: 1e-6,
+        progress: 1e-14,
+        cycle: 10,
+        infeasible: 1e-8,
+    };
+}
+
+impl Default for Tolerances {
+    fn default() -> Self {
+        Tolerances::F64
+    }
+}
+
+/// Multiply-adds of a solve, by where they are spent (a division counts as one).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Macs {
+    /// The offsets d from f and the bounds: z_free (two triangular solves per block), then a dot
+    /// product per constraint.
+    pub offsets: usize,
+    /// The slacks of the inactive rows, −G_{:,W}·λ: |W| per row scanned.
+    pub scan: usize,
+    /// The factor: the new row of L (a forward substitution), downdates, refactorisations.
+    pub factor: usize,
+    /// Solves with the factor: λ*, the singular directions, refinement.
+    pub solve: usize,
+    /// Steps of λ and the dual objective.
+    pub step: usize,
+    /// z = z_free − Z_W·λ.
+    pub recover: usize,
+}
+
+impl Macs {
+    /// All of them.
+    pub fn total(&self) -> usize {
+        self.offsets + self.scan + self.factor + self.solve + self.step + self.recover
+    }
+
+    fn add(&mut self, other: &Macs) {
+        self.offsets += other.offsets;
+        self.scan += other.scan;
+        self.factor += other.factor;
+        self.solve += other.solve;
+        self.step += other.step;
+        self.recover += other.recover;
+    }
+}
+
+/// What a solve returns.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// How it ended; the worst of the blocks' (in the order of [`Status`]'s severity: numerical
+    /// failure, infeasible, cycling, iteration limit, solved).
+    pub status: Status,
+    /// The solution (the last iterate where the solve did not end [`Status::Solved`]).
+    pub z: DVector<f64>,
+    /// The final working set, block by block; the warm start of the next solve.
+    pub working_set: WorkingSet,
+    /// The multipliers of the working set's sides in the QP's own scale, aligned with it: y ≥ 0 with
+    /// H·z + f + Σ_upper y·a − Σ_lower y·a = 0 (a the side's row, e_i for a bound).
+    pub multipliers: Vec<f64>,
+    /// Changes of the working set (additions and removals), over all blocks. A warm start from the
+    /// optimal working set takes none.
+    pub iterations: usize,
+    /// The same per block.
+    pub block_iterations: Vec<usize>,
+    /// The multiply-adds spent, offsets and recovery included.
+    pub macs: Macs,
+    /// The multiply-adds of each pass of the iteration (λ*, then a removal, or the scan and an
+    /// addition, or the final check), block after block; a pass that changes the working set is one
+    /// iteration.
+    pub per_pass: Vec<usize>,
+}
+
+/// Solves the prepared QP with the offsets of its data ([`Prepared::offsets`]) from `start` (the
+/// previous solve's working set, or `None` for a cold start), with at most `max_iterations` changes of
+/// the working set over all blocks; [`Tolerances::F64`].
+///
+/// **The warm start's rule.** The sides of `start` are added to the factor in their order, each with
+/// multiplier ±1 (its side's sign, so the start is dual feasible); a side is dropped when its
+/// constraint is not among the prepared ones (no finite side when prepared) or has no finite bound at
+/// that side now, when its constraint is already in the set (at either side), or when it depends on
+/// the sides before it (its pivot below [`Tolerances::singular`], or more sides than the block has
+/// variables). The start need not be primal feasible: the dual method only needs it independent. Its
+/// sides whose multipliers at the constrained stationary point have the wrong sign are then removed by
+/// the ordinary blocking steps, which count as iterations.
+pub fn solve(
+    prepared: &Prepared,
+    offsets: &Offsets,
+    start: Option<&WorkingSet>,
+    max_iterations: usize,
+) -> Outcome {
+    solve_with(prepared, offsets, start, max_iterations, &Tolerances::F64)
+}
+
+/// [`solve`] with the given tolerances.
+pub fn solve_with(
+    prepared: &Prepared,
+    offsets: &Offsets,
+    start: Option<&WorkingSet>,
+    max_iterations: usize,
+    tol: &Tolerances,
+) -> Outcome {
+    let nblocks = prepared.blocks.len();
+    let mut macs = Macs {
+        offsets: offsets.macs,
+        ..Macs::default()
+    };
+    let mut z = DVector::from_element(prepared.n, f64::NAN);
+    let mut outcome = Outcome {
+        status: Status::Solved,
+        z: z.clone(),
+        working_set: WorkingSet::default(),
+        multipliers: Vec::new(),
+        iterations: 0,
+        block_iterations: vec![0; nblocks],
+        macs,
+        per_pass: Vec::new(),
+    };
+    let shapes_agree = offsets.z_free.len() == nblocks
+        && offsets.lower.len() == nblocks
+        && offsets.upper.len() == nblocks
+        && prepared.blocks.iter().enumerate().all(|(b, block)| {
+            offsets.z_free[b].len() == block.n()
+                && offsets.lower[b].len() == block.rows.len()
+                && offsets.upper[b].len() == block.rows.len()
+        });
+    if !shapes_agree {
+        outcome.status = Status::NumericalFailure;
+        return outcome;
+    }
+    if offsets.empty_zero_row.is_some() {
+        outcome.status = Status::Infeasible;
+        return outcome;
+    }
+    // The warm start, split by block.
+    let mut warm: Vec<Vec<(usize, Side)>> = vec![Vec::new(); nblocks];
+    for a in start.map(|s| s.0.as_slice()).unwrap_or(&[]) {
+        let index = match a.row {
+            Row::Bound(i) if i < prepared.n => i,
+            Row::General(r) if r < prepared.m => prepared.n + r,
+            _ => continue,
+        };
+        if let Some((b, c)) = prepared.place[index] {
+            warm[b].push((c, a.side));
+        }
+    }
+    let severity = |s: Status| match s {
+        Status::Solved => 0,
+        Status::IterationLimit => 1,
+        Status::Cycling => 2,
+        Status::Infeasible => 3,
+        Status::NumericalFailure => 4,
+    };
+    let mut status = Status::Solved;
+    let mut iterations = 0;
+    for (b, block) in prepared.blocks.iter().enumerate() {
+        let run = iterate::run(
+            block,
+            &offsets.lower[b],
+            &offsets.upper[b],
+            &warm[b],
+            max_iterations.saturating_sub(iterations),
+            tol,
+        );
+        iterations += run.iterations;
+        outcome.block_iterations[b] = run.iterations;
+        if severity(run.status) > severity(status) {
+            status = run.status;
+        }
+        macs.add(&run.macs);
+        outcome.per_pass.extend(run.per_pass);
+        // z_b = z_free − Z_W·λ.
+        let mut zb = offsets.z_free[b].clone();
+        for (&(c, side), &l) in run.working.iter().zip(&run.lambda) {
+            zb.axpy(-l, &block.Z.column(c), 1.0);
+            let sign = match side {
+                Side::Upper => 1.0,
+                Side::Lower => -1.0,
+            };
+            outcome.working_set.0.push(Active {
+                row: block.rows[c],
+                side,
+            });
+            outcome.multipliers.push(sign * l / block.scale[c]);
+        }
+        macs.recover += block.n() * run.working.len();
+        for (p, &j) in block.vars.iter().enumerate() {
+            z[j] = zb[p];
+        }
+    }
+    outcome.status = status;
+    outcome.z = z;
+    outcome.iterations = iterations;
+    outcome.macs = macs;
+    outcome
+}
+
+/// Prepares `qp`, forms its offsets and solves it: for tests and one-off solves (a controller prepares
+/// once and forms offsets per step).
+pub fn solve_qp(
+    qp: &InequalityQp,
+    start: Option<&WorkingSet>,
+    max_iterations: usize,
+) -> Result<Outcome, Error> {
+    let prepared = Prepared::new(qp)?;
+    let offsets = prepared.offsets(qp)?;
+    Ok(solve(&prepared, &offsets, start, max_iterations))
+}

@@ -1,0 +1,370 @@
+//! What the build computes once from the QP's constant data (H and A, and which bounds are finite),
+//! and what a solve computes from the data that change (f and the bounds): [`Prepared`] and
+//! [`Offsets`].
+//!
+//! With H = Rᵀ·R (R upper triangular) and z = z_free + R⁻¹·u, z_free = −H⁻¹·f the unconstrained
+//! minimiser, the cost is ½‖u‖² plus a constant, and a constraint aᵀz ≤ b reads m̂ᵀu ≤ d with
+//! m̂ = R⁻ᵀa / s, s = ‖R⁻ᵀa‖ and d = (b − aᵀz_free) / s: the least-distance problem DAQP solves. A
+//! bound on z_j is the row a = e_j, so its m̂ is row j of R⁻¹, normalised (DAQP's packed `Rinv`).
+//! Everything that depends on H and A alone is computed here in f64: R, the normalised rows M̂, their
+//! Gram matrix G = M̂·M̂ᵀ (which the iteration reads instead of M̂: a slack costs |W| instead of n,
+//! and a row added to the factor is a lookup), the scales s, and Z = R⁻¹·M̂ᵀ, the columns that turn
+//! multipliers back into z. The offsets d are affine in f and the bounds ([`Prepared::offsets`]):
+//! d = (b + aᵀH⁻¹f) / s = (b + (R⁻ᵀa)ᵀv) / s with DAQP's v = R⁻ᵀf, so for the MPC, whose f and row
+//! bounds are affine in θ = (x₀, reference window, u₋₁, disturbance), d = d₀ + D_θ·θ with
+//! D_θ = diag(1/s)·(A·H⁻¹·F_θ + the bounds' maps), a matrix a later step can bake in.
+//!
+//! The variables are split into **independent blocks**: the connected components of the graph with
+//! an edge where H couples two variables or a row of A holds both. Each block is a QP of its own (the
+//! paper's three axes are three), prepared and solved apart, so its G holds no structural zeros
+//! between blocks and a scan never visits another block's rows.
+#![allow(non_snake_case)]
+
+use super::{Error, InequalityQp, Row};
+use nalgebra::{DMatrix, DVector};
+
+/// The build-time data of one independent block.
+#[derive(Clone, Debug)]
+pub struct Block {
+    /// The block's variables, indices into z, ascending.
+    pub vars: Vec<usize>,
+    /// The block's constraints: its variables' bounds (those with a finite side), then its rows of A
+    /// (those with a finite side), in the QP's order.
+    pub rows: Vec<Row>,
+    /// Per constraint, its nonzero coefficients as (position in `vars`, value).
+    pub coefficients: Vec<Vec<(usize, f64)>>,
+    /// The upper-triangular Cholesky factor of the block of H: H_bb = Rᵀ·R.
+    pub R: DMatrix<f64>,
+    /// Per constraint, s = ‖R⁻ᵀ·a‖, the norm its row had before it was normalised.
+    pub scale: Vec<f64>,
+    /// The normalised rows m̂ = R⁻ᵀ·a / s (constraints × variables).
+    pub M: DMatrix<f64>,
+    /// Their Gram matrix G = M̂·M̂ᵀ (constraints × constraints, unit diagonal up to round-off).
+    pub G: DMatrix<f64>,
+    /// Z = R⁻¹·M̂ᵀ (variables × constraints): z = z_free − Z_W·λ.
+    pub Z: DMatrix<f64>,
+}
+
+impl Block {
+    /// The number of variables.
+    pub fn n(&self) -> usize {
+        self.vars.len()
+    }
+}
+
+/// A QP prepared for the dual active-set method: its blocks and where each constraint went.
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    /// The number of variables n.
+    pub n: usize,
+    /// The number of rows of A.
+    pub m: usize,
+    /// The independent blocks.
+    pub blocks: Vec<Block>,
+    /// Per constraint (the n bounds, then the m rows), its block and position there; `None` for a
+    /// constraint without a finite side when prepared, and for a zero row of A.
+    pub place: Vec<Option<(usize, usize)>>,
+    /// The rows of A that are zero: lower ≤ 0 ≤ upper is checked by [`Prepared::offsets`].
+    pub zero_rows: Vec<usize>,
+}
+
+/// The offsets of one solve: per block, z_free and the scaled sides d.
+#[derive(Clone, Debug)]
+pub struct Offsets {
+    /// Per block, the unconstrained minimiser −H_bb⁻¹·f_b.
+    pub z_free: Vec<DVector<f64>>,
+    /// Per block and constraint, the lower side (lower − aᵀz_free) / s; −∞ where absent.
+    pub lower: Vec<Vec<f64>>,
+    /// Per block and constraint, the upper side (upper − aᵀz_free) / s; +∞ where absent.
+    pub upper: Vec<Vec<f64>>,
+    /// A zero row whose sides exclude 0: the QP has no solution.
+    pub empty_zero_row: Option<usize>,
+    /// The multiply-adds spent forming them.
+    pub macs: usize,
+}
+
+/// A block's constraints while it is formed: each with its nonzero coefficients.
+type Constraints = Vec<(Row, Vec<(usize, f64)>)>;
+
+/// Union–find with path halving, over the variables.
+struct Components(Vec<usize>);
+
+impl Components {
+    fn find(&mut self, mut i: usize) -> usize {
+        while self.0[i] != i {
+            self.0[i] = self.0[self.0[i]];
+            i = self.0[i];
+        }
+        i
+    }
+
+    fn union(&mut self, a: usize, b: usize) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra != rb {
+            self.0[ra.max(rb)] = ra.min(rb);
+        }
+    }
+}
+
+impl Prepared {
+    /// Prepares `qp` (its f and bounds are not read, only which bounds are finite): the blocks, and per
+    /// block R, M̂, G, Z and the scales. Errors on inconsistent dimensions, non-finite H or A, or a block
+    /// of H that is not positive definite (the method needs H ≻ 0; the MPC's H is, its slacks carrying a
+    /// quadratic weight).
+    pub fn new(qp: &InequalityQp) -> Result<Prepared, Error> {
+        let n = qp.H.nrows();
+        let m = qp.A.nrows();
+        if qp.H.ncols() != n
+            || qp.A.ncols() != n
+            || qp.z_min.len() != n
+            || qp.z_max.len() != n
+            || qp.lower.len() != m
+            || qp.upper.len() != m
+        {
+            return Err(Error::Dimensions);
+        }
+        if !qp.H.iter().all(|v| v.is_finite()) {
+            return Err(Error::NonFinite("H"));
+        }
+        if !qp.A.iter().all(|v| v.is_finite()) {
+            return Err(Error::NonFinite("A"));
+        }
+        let mut comps = Components((0..n).collect());
+        for j in 0..n {
+            for i in 0..j {
+                if qp.H[(i, j)] != 0.0 || qp.H[(j, i)] != 0.0 {
+                    comps.union(i, j);
+                }
+            }
+        }
+        let supports: Vec<Vec<usize>> = (0..m)
+            .map(|r| (0..n).filter(|&j| qp.A[(r, j)] != 0.0).collect())
+            .collect();
+        for s in &supports {
+            for w in s.windows(2) {
+                comps.union(w[0], w[1]);
+            }
+        }
+        // Blocks in the order of their first variable.
+        let mut block_of = vec![usize::MAX; n];
+        let mut vars: Vec<Vec<usize>> = Vec::new();
+        let mut root_block = vec![usize::MAX; n];
+        for j in 0..n {
+            let root = comps.find(j);
+            if root_block[root] == usize::MAX {
+                root_block[root] = vars.len();
+                vars.push(Vec::new());
+            }
+            block_of[j] = root_block[root];
+            vars[block_of[j]].push(j);
+        }
+        let mut place = vec![None; n + m];
+        let mut rows: Vec<Constraints> = vec![Vec::new(); vars.len()];
+        let mut position = vec![0; n];
+        for block in &vars {
+            for (p, &j) in block.iter().enumerate() {
+                position[j] = p;
+            }
+        }
+        for j in 0..n {
+            if qp.z_min[j].is_finite() || qp.z_max[j].is_finite() {
+                let b = block_of[j];
+                place[j] = Some((b, rows[b].len()));
+                rows[b].push((Row::Bound(j), vec![(position[j], 1.0)]));
+            }
+        }
+        let mut zero_rows = Vec::new();
+        for (r, support) in supports.iter().enumerate() {
+            if !(qp.lower[r].is_finite() || qp.upper[r].is_finite()) {
+                continue;
+            }
+            let Some(&first) = support.first() else {
+                zero_rows.push(r);
+                continue;
+            };
+            let b = block_of[first];
+            place[n + r] = Some((b, rows[b].len()));
+            let coefficients = support
+                .iter()
+                .map(|&j| (position[j], qp.A[(r, j)]))
+                .collect();
+            rows[b].push((Row::General(r), coefficients));
+        }
+        let blocks = vars
+            .into_iter()
+            .zip(rows)
+            .enumerate()
+            .map(|(b, (vars, rows))| block(qp, b, vars, rows))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Prepared {
+            n,
+            m,
+            blocks,
+            place,
+            zero_rows,
+        })
+    }
+
+    /// The offsets of a QP with this one's H and A (not checked: the caller forms both from the same
+    /// constant data) for its f and bounds: per block z_free = −H_bb⁻¹·f_b (two triangular solves), then
+    /// per constraint d = (bound − aᵀz_free) / s. Errors on dimensions that differ from the prepared
+    /// QP's, a non-finite f, a NaN bound, or a finite side on a constraint that had none when prepared
+    /// (it was left out of the blocks).
+    pub fn offsets(&self, qp: &InequalityQp) -> Result<Offsets, Error> {
+        let (n, m) = (self.n, self.m);
+        if qp.f.len() != n
+            || qp.z_min.len() != n
+            || qp.z_max.len() != n
+            || qp.lower.len() != m
+            || qp.upper.len() != m
+        {
+            return Err(Error::Dimensions);
+        }
+        if !qp.f.iter().all(|v| v.is_finite()) {
+            return Err(Error::NonFinite("f"));
+        }
+        let bounds = [&qp.z_min, &qp.z_max, &qp.lower, &qp.upper];
+        if bounds.iter().any(|b| b.iter().any(|v| v.is_nan())) {
+            return Err(Error::NonFinite("a bound"));
+        }
+        for (c, place) in self.place.iter().enumerate() {
+            let finite = if c < n {
+                qp.z_min[c].is_finite() || qp.z_max[c].is_finite()
+            } else {
+                qp.lower[c - n].is_finite() || qp.upper[c - n].is_finite()
+            };
+            let zero = c >= n && self.zero_rows.contains(&(c - n));
+            if place.is_none() && finite && !zero {
+                return Err(Error::Pattern(if c < n {
+                    Row::Bound(c)
+                } else {
+                    Row::General(c - n)
+                }));
+            }
+        }
+        let empty_zero_row = self
+            .zero_rows
+            .iter()
+            .copied()
+            .find(|&r| !(qp.lower[r] <= 0.0 && 0.0 <= qp.upper[r]));
+        let mut macs = 0;
+        let mut z_free = Vec::with_capacity(self.blocks.len());
+        let mut lower = Vec::with_capacity(self.blocks.len());
+        let mut upper = Vec::with_capacity(self.blocks.len());
+        for b in &self.blocks {
+            let nb = b.n();
+            // Rᵀ·y = −f_b, then R·z = y.
+            let mut z = DVector::from_fn(nb, |i, _| -qp.f[b.vars[i]]);
+            for i in 0..nb {
+                let mut s = z[i];
+                for k in 0..i {
+                    s -= b.R[(k, i)] * z[k];
+                }
+                z[i] = s / b.R[(i, i)];
+            }
+            for i in (0..nb).rev() {
+                let mut s = z[i];
+                for k in i + 1..nb {
+                    s -= b.R[(i, k)] * z[k];
+                }
+                z[i] = s / b.R[(i, i)];
+            }
+            macs += nb * (nb + 1);
+            let mut lo = Vec::with_capacity(b.rows.len());
+            let mut hi = Vec::with_capacity(b.rows.len());
+            for (k, row) in b.rows.iter().enumerate() {
+                let at: f64 = b.coefficients[k].iter().map(|&(p, a)| a * z[p]).sum();
+                let (l, u) = match *row {
+                    Row::Bound(j) => (qp.z_min[j], qp.z_max[j]),
+                    Row::General(r) => (qp.lower[r], qp.upper[r]),
+                };
+                lo.push((l - at) / b.scale[k]);
+                hi.push((u - at) / b.scale[k]);
+                macs += b.coefficients[k].len() + 2;
+            }
+            z_free.push(z);
+            lower.push(lo);
+            upper.push(hi);
+        }
+        Ok(Offsets {
+            z_free,
+            lower,
+            upper,
+            empty_zero_row,
+            macs,
+        })
+    }
+
+    /// The number of constraints the blocks hold (bounds and rows with a finite side).
+    pub fn constraints(&self) -> usize {
+        self.blocks.iter().map(|b| b.rows.len()).sum()
+    }
+}
+
+/// One block's R, M̂, G, Z and scales.
+fn block(
+    qp: &InequalityQp,
+    index: usize,
+    vars: Vec<usize>,
+    rows: Constraints,
+) -> Result<Block, Error> {
+    let nb = vars.len();
+    let H = DMatrix::from_fn(nb, nb, |i, j| {
+        0.5 * (qp.H[(vars[i], vars[j])] + qp.H[(vars[j], vars[i])])
+    });
+    let chol = H
+        .cholesky()
+        .ok_or(Error::NotPositiveDefinite { block: index })?;
+    let Lc = chol.l();
+    if !Lc.iter().all(|v| v.is_finite()) || (0..nb).any(|i| Lc[(i, i)] <= 0.0) {
+        return Err(Error::NotPositiveDefinite { block: index });
+    }
+    let R = Lc.transpose();
+    let nc = rows.len();
+    let mut M = DMatrix::zeros(nc, nb);
+    let mut scale = Vec::with_capacity(nc);
+    for (k, (_, coefficients)) in rows.iter().enumerate() {
+        // Rᵀ·m = a (forward substitution, Rᵀ lower triangular).
+        let mut a = DVector::zeros(nb);
+        for &(p, v) in coefficients {
+            a[p] = v;
+        }
+        let mut mrow = DVector::zeros(nb);
+        for i in 0..nb {
+            let mut s = a[i];
+            for j in 0..i {
+                s -= Lc[(i, j)] * mrow[j];
+            }
+            mrow[i] = s / Lc[(i, i)];
+        }
+        let s = mrow.norm();
+        if !(s.is_finite() && s > 0.0) {
+            return Err(Error::NotPositiveDefinite { block: index });
+        }
+        M.row_mut(k).copy_from(&(mrow / s).transpose());
+        scale.push(s);
+    }
+    let G = &M * M.transpose();
+    // Z = R⁻¹·M̂ᵀ, column by column (back substitution).
+    let mut Z = DMatrix::zeros(nb, nc);
+    for k in 0..nc {
+        for i in (0..nb).rev() {
+            let mut s = M[(k, i)];
+            for j in i + 1..nb {
+                s -= R[(i, j)] * Z[(j, k)];
+            }
+            Z[(i, k)] = s / R[(i, i)];
+        }
+    }
+    let (rows, coefficients) = rows.into_iter().unzip();
+    Ok(Block {
+        vars,
+        rows,
+        coefficients,
+        R,
+        scale,
+        M,
+        G,
+        Z,
+    })
+}
