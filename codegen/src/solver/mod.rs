@@ -1,7 +1,8 @@
 //! The QP methods, one folder each: [`first_order`] (FGM and projected gradient, with their gradient
 //! forms), [`ipm`] (the interior-point method) and [`admm`]; [`riccati`] is the stage-wise factorisation
 //! that the interior-point method and ADMM share, [`constrained`] what else they share, and [`exact`]
-//! the exact reference solves.
+//! the exact reference solves. [`active_set`] is the dual active-set method's f64 reference solver, not
+//! yet a method a spec can choose.
 #![allow(non_snake_case)]
 
 pub mod active_set;

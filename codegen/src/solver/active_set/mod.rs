@@ -24,7 +24,7 @@
 //! generic scalar can replace.
 #![allow(non_snake_case)]
 
-use super::ipm::InequalityQp;
+use super::constrained::InequalityQp;
 
 mod iterate;
 mod ldl;
