@@ -3,6 +3,7 @@
 ///
 /// A primal-dual interior-point method (Mehrotra's predictor-corrector, dense, f64): 16 iterations per step,
 /// horizon 10, dense on the condensed QP in f64 with 120 constraint rows.
+/// Its helpers that do not depend on the QP's shape are emitted into every such module, so that the module is self-contained and firmware links only what it uses.
 /// [`Controller::step`] runs one control cycle from the measured state (no filter); [`Mpc`] solves.
 /// Every constant was computed at compile time in f64 and rounded once to [`Real`].
 /// Absolute coordinates up to |x[0], x[1], x[2], x[5]| ≤ 1.9e12 keep u₀ within 1 % of the input span in f64

@@ -3,6 +3,7 @@
 ///
 /// A primal-dual interior-point method (Mehrotra's predictor-corrector, dense, f64): 22 iterations per step,
 /// horizon 15, dense on the condensed QP in f64 with 120 constraint rows.
+/// Its helpers that do not depend on the QP's shape are emitted into every such module, so that the module is self-contained and firmware links only what it uses.
 /// [`Controller::step`] runs one control cycle; [`Mpc`] and [`Kalman`] are its two halves.
 /// Every constant was computed at compile time in f64 and rounded once to [`Real`].
 /// Absolute coordinates up to |x[0..3]| ≤ 6.2e11 keep u₀ within 1 % of the input span in f64

@@ -114,6 +114,10 @@ pub fn module(
         " [`Controller::step`] runs one control cycle from the measured state (no filter); [`Mpc`] solves."
     };
     let (algorithm, shape) = (plan.solver.title(), plan.solver.shape_doc(p, plan));
+    let note = plan
+        .solver
+        .emission_note()
+        .map(|note| quote!(#[doc = #note]));
     let summary = format!(" {algorithm}: {} iterations per step,", p.qp.iterations);
     let range = &certificate.coordinate_range;
     let coordinates = format!(
@@ -149,6 +153,7 @@ pub fn module(
         ///
         #[doc = #summary]
         #[doc = #shape]
+        #note
         #[doc = #halves]
         /// Every constant was computed at compile time in f64 and rounded once to [`Real`].
         #[doc = #coordinates]

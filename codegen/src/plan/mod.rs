@@ -143,6 +143,11 @@ pub trait Solver: Debug + Sync {
     /// The module doc's line on the solver's shape.
     fn shape_doc(&self, p: &Problem, plan: &Plan) -> String;
 
+    /// A line of the module's doc on how the method is emitted, after its shape; `None` for none.
+    fn emission_note(&self) -> Option<&'static str> {
+        None
+    }
+
     /// Bytes of the largest constant table the module holds (clippy's `large_const_arrays`).
     fn largest_table(&self, p: &Problem) -> usize;
 

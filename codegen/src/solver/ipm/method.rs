@@ -82,6 +82,13 @@ impl Solver for InteriorPoint {
         )
     }
 
+    /// Its helpers that do not depend on the QP's shape (`helpers`, `newton_step`, `interior_point` in
+    /// `emit.rs`, about 280 lines) are emitted into every module rather than shared from a runtime crate:
+    /// a module stays one self-contained file, and firmware links only what its own module uses.
+    fn emission_note(&self) -> Option<&'static str> {
+        Some(" Its helpers that do not depend on the QP's shape are emitted into every such module, so that the module is self-contained and firmware links only what it uses.")
+    }
+
     /// Its tables are f64: the largest is H (NV × NV) or FR.
     fn largest_table(&self, p: &Problem) -> usize {
         let nv = p.qp.N * p.nu + p.qp.rows.slacks();
