@@ -478,7 +478,8 @@ fn shifted(qp: &codegen::lower::Qp, ws: &WorkingSet) -> WorkingSet {
 fn spec_agrees(name: &str, src: &str, seed: u64) {
     let spec = mpc_spec::load(src).unwrap();
     let p = codegen::lower(&spec).unwrap();
-    let region = codegen::sampling::resolve_region(&spec, &p).unwrap();
+    let region =
+        codegen::sampling::resolve_region(&spec, &p, "the dual active-set method").unwrap();
     let qp = &p.qp;
     let (N, nz, nd) = (qp.N, qp.nz, p.nd());
     let n = N * p.nu;

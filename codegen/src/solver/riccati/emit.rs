@@ -1,5 +1,5 @@
 //! The Riccati form of the emitted interior-point method's normal system ([`crate::solver::riccati`]):
-//! `factor` and `ldl_solve` with the contract of the condensed form's (`emit/interior.rs`: the same
+//! `factor` and `ldl_solve` with the contract of the condensed form's (`solver/ipm/emit.rs`: the same
 //! signatures but for the factor's type, f64, control flow independent of the data but for the
 //! regularised retries, no reachable panic, every table index checked), which they replace where the
 //! cost model chooses the Riccati form.

@@ -386,7 +386,7 @@ impl Stages {
         (nnz(&self.A), nnz(&self.B))
     }
 
-    /// Multiply-adds of the emitted factorisation (`emit/riccati.rs`): the stage Hessians (a
+    /// Multiply-adds of the emitted factorisation (`solver/riccati/emit.rs`): the stage Hessians (a
     /// weight per box side, nnz² per distinct row on its stage), then per stage k ≥ 1 P·A and Aᵀ(P·A)
     /// (nx·nnz(A) each), P·B (nx·nnz(B)), Bᵀ(P·B) (nu·nnz(B)), (P·B)ᵀA (nu·nnz(A)), L·D·Lᵀ of Re_k, the
     /// gain Re_k⁻¹·Se_k (nx·nu²) and Se_kᵀ·K_k (nx²·nu); stage 0 needs P·B, Re_0 and its L·D·Lᵀ only.
