@@ -241,8 +241,17 @@ fn candidate_lines(c: &Certificate) -> Vec<(String, String)> {
                         Some(false) => ", misses `accuracy` on the sample",
                         None => "",
                     };
+                    // What runs once per solve besides the iterations (a cold start, final residuals).
+                    let once = k
+                        .macs_per_solve
+                        .saturating_sub(k.iterations * k.macs_per_iteration);
+                    let once = if once > 0 {
+                        format!(" + {once} once")
+                    } else {
+                        String::new()
+                    };
                     format!(
-                        "{} iterations ({}{reach}) × {} = {} multiply-adds a solve",
+                        "{} iterations ({}{reach}) × {}{once} = {} multiply-adds a solve",
                         k.iterations, k.certified, k.macs_per_iteration, k.macs_per_solve
                     )
                 }
