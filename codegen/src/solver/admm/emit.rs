@@ -13,7 +13,8 @@ use crate::emit::tokens::{at, Num};
 use crate::lower::problem::Problem;
 use crate::solver::admm::{self, INFEASIBILITY_TOLERANCE};
 use crate::solver::constrained::emit::{
-    coordinate_check, entry, evidence_doc, offsets, reach, status_types, Entry, Offsets,
+    coordinate_check, entry, evidence_doc, mpc_type, offsets, reach, status_types, Entry, MpcParts,
+    Offsets,
 };
 use crate::solver::constrained::InequalityQp;
 use crate::solver::ipm::mpc_qp;
@@ -202,94 +203,29 @@ fn api(
     let mpc_doc: Vec<&str> = mpc_doc.split('\n').collect();
     let entry = entry(m.p);
     let checked = checked(m, &entry, row_terms, reach_code, coordinate_code);
-    let Entry {
-        solve_fns,
-        last_field,
-        last_init,
-        last_fns,
-        ..
-    } = entry;
-    quote! {
-        #status_types
-
-        #(#[doc = #mpc_doc])*
-        #[doc = #evidence_doc]
-        #[derive(Clone, Debug, PartialEq)]
-        pub struct Mpc {
-            /// The plan, projected onto the box.
-            plan: [Real; NP],
+    mpc_type(MpcParts {
+        status_types,
+        doc: &mpc_doc,
+        evidence_doc: &evidence_doc,
+        plan_scalar: quote!(Real),
+        point_fields: quote! {
             /// The last solve's iterate (x, z, y): the warm start.
             x: [Real; NV],
             z: [Real; NC],
             y: [Real; NC],
             /// Whether (x, z, y) is a warm start (false after `new`, `reset` or a fallback).
             warm: bool,
-            /// Whether the controller is recovering from hard rows that admitted no plan: the next solve
-            /// widens them to the held plan where it violates them ([`Fallback::Relaxed`]).
-            relax: bool,
-            #last_field
-            status: SolverStatus,
-        }
-
-        impl Mpc {
-            /// A cold controller: its first solve starts from x = 0, z = Π(0), y = 0.
-            pub const fn new() -> Self {
-                Mpc {
-                    plan: rest_plan(),
-                    x: [0.0; NV],
-                    z: [0.0; NC],
-                    y: [0.0; NC],
-                    warm: false,
-                    relax: false,
-                    #last_init
-                    status: SolverStatus {
-                        iterations: 0,
-                        primal_residual: 0.0,
-                        dual_residual: 0.0,
-                        gap: 0.0,
-                        violation: 0.0,
-                        softened: 0.0,
-                        infeasible: false,
-                        numerical_failure: false,
-                        reference_beyond_region: false,
-                        beyond_coordinate_range: false,
-                        fallback: Fallback::NoneYet,
-                    },
-                }
-            }
-
-            #solve_fns
-
-            #checked
-
-            /// What the last solve did.
-            pub fn solver_status(&self) -> &SolverStatus {
-                &self.status
-            }
-
-            #last_fns
-
-            /// The plan of the last solve, one input per predicted step.
-            pub fn plan(&self) -> [[Real; NU]; N] {
-                let mut out = [[0.0; NU]; N];
-                for (o, step) in out.iter_mut().zip(self.plan.chunks_exact(NU)) {
-                    o.copy_from_slice(step);
-                }
-                out
-            }
-
-            /// Forgets the warm start (and the last input).
-            pub fn reset(&mut self) {
-                *self = Self::new();
-            }
-        }
-
-        impl Default for Mpc {
-            fn default() -> Self {
-                Self::new()
-            }
-        }
-    }
+        },
+        point_init: quote! {
+            x: [0.0; NV],
+            z: [0.0; NC],
+            y: [0.0; NC],
+        },
+        new_doc: " A cold controller: its first solve starts from x = 0, z = Π(0), y = 0.",
+        plan_step: quote!(o.copy_from_slice(step);),
+        entry,
+        checked,
+    })
 }
 
 /// `Mpc::checked`, the solve: the QP's data from the arguments, the warm or cold start, the

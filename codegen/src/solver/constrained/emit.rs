@@ -308,3 +308,125 @@ pub fn offsets(
     }
     Offsets { tables, terms }
 }
+
+/// What a constrained method's `Mpc` holds besides the fields every method's has, for [`mpc_type`].
+pub struct MpcParts<'a> {
+    /// `SolverStatus` and `Fallback` ([`status_types`]).
+    pub status_types: TokenStream,
+    /// The type's doc, line by line, and the certificate's line after it ([`evidence_doc`]).
+    pub doc: &'a [&'a str],
+    /// The certificate's line of the type's doc ([`evidence_doc`]).
+    pub evidence_doc: &'a str,
+    /// The scalar of the plan the method keeps: `f64` for a method that widens, else `Real`.
+    pub plan_scalar: TokenStream,
+    /// The method's warm-start fields with their docs, after the plan.
+    pub point_fields: TokenStream,
+    /// Their cold values in `new`.
+    pub point_init: TokenStream,
+    /// The doc of `new`.
+    pub new_doc: &'a str,
+    /// The body of `plan()`'s loop over one step: `o` the output's step, `step` the plan's.
+    pub plan_step: TokenStream,
+    /// The entry points ([`entry`]) and `checked`, the method's solve.
+    pub entry: Entry,
+    /// `Mpc::checked`.
+    pub checked: TokenStream,
+}
+
+/// The constrained `Mpc` struct with `new`, the solve functions, `solver_status`, the last-input
+/// accessors, `plan`, `reset` and `Default`: written once for the interior-point method and ADMM.
+pub fn mpc_type(parts: MpcParts) -> TokenStream {
+    let MpcParts {
+        status_types,
+        doc,
+        evidence_doc,
+        plan_scalar,
+        point_fields,
+        point_init,
+        new_doc,
+        plan_step,
+        entry,
+        checked,
+    } = parts;
+    let Entry {
+        solve_fns,
+        last_field,
+        last_init,
+        last_fns,
+        ..
+    } = entry;
+    quote! {
+        #status_types
+
+        #(#[doc = #doc])*
+        #[doc = #evidence_doc]
+        #[derive(Clone, Debug, PartialEq)]
+        pub struct Mpc {
+            /// The plan, projected onto the box.
+            plan: [#plan_scalar; NP],
+            #point_fields
+            /// Whether the controller is recovering from hard rows that admitted no plan: the next solve
+            /// widens them to the held plan where it violates them ([`Fallback::Relaxed`]).
+            relax: bool,
+            #last_field
+            status: SolverStatus,
+        }
+
+        impl Mpc {
+            #[doc = #new_doc]
+            pub const fn new() -> Self {
+                Mpc {
+                    plan: rest_plan(),
+                    #point_init
+                    warm: false,
+                    relax: false,
+                    #last_init
+                    status: SolverStatus {
+                        iterations: 0,
+                        primal_residual: 0.0,
+                        dual_residual: 0.0,
+                        gap: 0.0,
+                        violation: 0.0,
+                        softened: 0.0,
+                        infeasible: false,
+                        numerical_failure: false,
+                        reference_beyond_region: false,
+                        beyond_coordinate_range: false,
+                        fallback: Fallback::NoneYet,
+                    },
+                }
+            }
+
+            #solve_fns
+
+            #checked
+
+            /// What the last solve did.
+            pub fn solver_status(&self) -> &SolverStatus {
+                &self.status
+            }
+
+            #last_fns
+
+            /// The plan of the last solve, one input per predicted step.
+            pub fn plan(&self) -> [[Real; NU]; N] {
+                let mut out = [[0.0; NU]; N];
+                for (o, step) in out.iter_mut().zip(self.plan.chunks_exact(NU)) {
+                    #plan_step
+                }
+                out
+            }
+
+            /// Forgets the warm start (and the last input).
+            pub fn reset(&mut self) {
+                *self = Self::new();
+            }
+        }
+
+        impl Default for Mpc {
+            fn default() -> Self {
+                Self::new()
+            }
+        }
+    }
+}

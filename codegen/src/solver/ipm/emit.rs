@@ -16,7 +16,8 @@ use crate::emit::tokens::Num;
 use crate::lower::problem::Problem;
 use crate::lower::structure::Envelope;
 use crate::solver::constrained::emit::{
-    coordinate_check, entry, evidence_doc, offsets, reach, status_types, Entry, Offsets,
+    coordinate_check, entry, evidence_doc, mpc_type, offsets, reach, status_types, Entry, MpcParts,
+    Offsets,
 };
 use crate::solver::ipm::{
     mpc_qp, side_bound, InequalityQp, Layout, Sparsity, FINISHED, FRACTION,
@@ -178,99 +179,38 @@ fn api(
     let evidence_doc = evidence_doc(m.p.qp.evidence.as_ref(), "");
     let entry = entry(m.p);
     let checked = checked(m, &entry, side_terms, reach_code, coordinate_code);
-    let Entry {
-        solve_fns,
-        last_field,
-        last_init,
-        last_fns,
-        ..
-    } = entry;
-    quote! {
-        #status_types
-
-        /// Fixed-iteration, warm-started MPC with state, output and rate constraints: a primal-dual
-        /// interior-point method (Mehrotra's predictor-corrector) in f64, its normal matrix factored
-        /// within its envelope. Every solve runs the same instructions, but for the regularised
-        /// refactorisations after a pivot that is not positive.
-        #[doc = #evidence_doc]
-        #[derive(Clone, Debug, PartialEq)]
-        pub struct Mpc {
-            /// The plan, projected onto the box.
-            plan: [f64; NP],
+    mpc_type(MpcParts {
+        status_types,
+        doc: &[
+            " Fixed-iteration, warm-started MPC with state, output and rate constraints: a primal-dual",
+            " interior-point method (Mehrotra's predictor-corrector) in f64, its normal matrix factored",
+            " within its envelope. Every solve runs the same instructions, but for the regularised",
+            " refactorisations after a pivot that is not positive.",
+        ],
+        evidence_doc: &evidence_doc,
+        plan_scalar: quote!(f64),
+        point_fields: quote! {
             /// The last solve's point (plan and slacks, sides' slacks, multipliers): the warm start.
             z: [f64; NV],
             s: [f64; NSIDES],
             lambda: [f64; NSIDES],
             /// Whether the point is a warm start (false after `new`, `reset` or a fallback).
             warm: bool,
-            /// Whether the controller is recovering from hard rows that admitted no plan: the next solve
-            /// widens them to the held plan where it violates them ([`Fallback::Relaxed`]).
-            relax: bool,
-            #last_field
-            status: SolverStatus,
-        }
-
-        impl Mpc {
-            /// A cold controller: its first solve starts from the method's cold start.
-            pub const fn new() -> Self {
-                Mpc {
-                    plan: rest_plan(),
-                    z: [0.0; NV],
-                    s: [1.0; NSIDES],
-                    lambda: [1.0; NSIDES],
-                    warm: false,
-                    relax: false,
-                    #last_init
-                    status: SolverStatus {
-                        iterations: 0,
-                        primal_residual: 0.0,
-                        dual_residual: 0.0,
-                        gap: 0.0,
-                        violation: 0.0,
-                        softened: 0.0,
-                        infeasible: false,
-                        numerical_failure: false,
-                        reference_beyond_region: false,
-                        beyond_coordinate_range: false,
-                        fallback: Fallback::NoneYet,
-                    },
-                }
+        },
+        point_init: quote! {
+            z: [0.0; NV],
+            s: [1.0; NSIDES],
+            lambda: [1.0; NSIDES],
+        },
+        new_doc: " A cold controller: its first solve starts from the method's cold start.",
+        plan_step: quote! {
+            for (a, v) in o.iter_mut().zip(step.iter()) {
+                *a = *v as Real;
             }
-
-            #solve_fns
-
-            #checked
-
-            /// What the last solve did.
-            pub fn solver_status(&self) -> &SolverStatus {
-                &self.status
-            }
-
-            #last_fns
-
-            /// The plan of the last solve, one input per predicted step.
-            pub fn plan(&self) -> [[Real; NU]; N] {
-                let mut out = [[0.0; NU]; N];
-                for (o, step) in out.iter_mut().zip(self.plan.chunks_exact(NU)) {
-                    for (a, v) in o.iter_mut().zip(step.iter()) {
-                        *a = *v as Real;
-                    }
-                }
-                out
-            }
-
-            /// Forgets the warm start (and the last input).
-            pub fn reset(&mut self) {
-                *self = Self::new();
-            }
-        }
-
-        impl Default for Mpc {
-            fn default() -> Self {
-                Self::new()
-            }
-        }
-    }
+        },
+        entry,
+        checked,
+    })
 }
 
 /// `Mpc::checked`, the solve: the QP's data from the arguments, the warm start, the method, and the
