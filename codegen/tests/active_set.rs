@@ -329,7 +329,8 @@ fn bad_data_is_reported() {
         );
     }
     let mut o = prepared.offsets(&qp).unwrap();
-    o.upper[0][0] = f64::NAN;
+    // The side of the first constraint the blocks hold.
+    o.upper[prepared.blocks[0].packed.sides[0]] = f64::NAN;
     assert_eq!(
         solve(&prepared, &o, None, 100).status,
         Status::NumericalFailure

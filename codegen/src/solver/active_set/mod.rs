@@ -26,9 +26,28 @@
 
 use super::constrained::InequalityQp;
 
-mod iterate;
-mod ldl;
 pub mod prepared;
+
+/// The run-time kernel in f64: the reference, and what an f64 module runs.
+#[allow(dead_code)]
+pub(crate) mod kernel64 {
+    use super::Tally;
+    /// The kernel's scalar.
+    pub(crate) type Real = f64;
+    include!("kernel.rs");
+}
+
+/// The run-time kernel in f32: what an f32 module runs, and its build-time check.
+#[allow(dead_code)]
+pub(crate) mod kernel32 {
+    use super::Tally;
+    /// The kernel's scalar.
+    pub(crate) type Real = f32;
+    include!("kernel.rs");
+}
+
+/// The kernel's source, which every emitted module includes.
+pub const KERNEL_SOURCE: &str = include_str!("kernel.rs");
 
 pub use prepared::{Block, Offsets, Prepared};
 
@@ -180,6 +199,22 @@ impl Tolerances {
     };
 }
 
+impl Tolerances {
+    /// The kernel's tolerances in f64.
+    fn kernel(&self) -> kernel64::Tolerances {
+        kernel64::Tolerances {
+            primal: self.primal,
+            dual: self.dual,
+            singular: self.singular,
+            refactor: self.refactor,
+            pivot: self.pivot,
+            progress: self.progress,
+            cycle: self.cycle,
+            infeasible: self.infeasible,
+        }
+    }
+}
+
 impl Default for Tolerances {
     fn default() -> Self {
         Tolerances::F64
@@ -209,14 +244,98 @@ impl Macs {
     pub fn total(&self) -> usize {
         self.offsets + self.scan + self.factor + self.solve + self.step + self.recover
     }
+}
 
-    fn add(&mut self, other: &Macs) {
-        self.offsets += other.offsets;
-        self.scan += other.scan;
-        self.factor += other.factor;
-        self.solve += other.solve;
-        self.step += other.step;
-        self.recover += other.recover;
+/// The kernel's counter of multiply-adds (the emitted module's counts nothing): by kind, and per pass
+/// of the iteration.
+#[derive(Debug, Default)]
+pub(crate) struct Tally {
+    macs: Macs,
+    per_pass: Vec<usize>,
+    mark: usize,
+}
+
+impl Tally {
+    fn offsets(&mut self, n: usize) {
+        self.macs.offsets += n;
+    }
+    fn scan(&mut self, n: usize) {
+        self.macs.scan += n;
+    }
+    fn factor(&mut self, n: usize) {
+        self.macs.factor += n;
+    }
+    fn solve(&mut self, n: usize) {
+        self.macs.solve += n;
+    }
+    fn step(&mut self, n: usize) {
+        self.macs.step += n;
+    }
+    fn recover(&mut self, n: usize) {
+        self.macs.recover += n;
+    }
+    /// Ends a pass of the iteration: its multiply-adds since the last (offsets and recovery apart).
+    fn pass(&mut self) {
+        let total = self.macs.scan + self.macs.factor + self.macs.solve + self.macs.step;
+        if total > self.mark {
+            self.per_pass.push(total - self.mark);
+            self.mark = total;
+        }
+    }
+}
+
+/// The kernel's storage for the largest of `blocks`.
+struct Storage {
+    cap: usize,
+    set: Vec<usize>,
+    upper: Vec<bool>,
+    real: [Vec<f64>; 6],
+    l: Vec<f64>,
+    active: Vec<bool>,
+    excluded: Vec<bool>,
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    z_free: Vec<f64>,
+}
+
+impl Storage {
+    fn for_blocks(blocks: &[Block]) -> Storage {
+        let n = blocks.iter().map(Block::n).max().unwrap_or(0);
+        let nc = blocks.iter().map(|b| b.rows.len()).max().unwrap_or(0);
+        let cap = n + 1;
+        Storage {
+            cap,
+            set: vec![0; cap],
+            upper: vec![false; cap],
+            real: std::array::from_fn(|_| vec![0.0; cap]),
+            l: vec![0.0; cap * cap],
+            active: vec![false; nc],
+            excluded: vec![false; nc],
+            lo: vec![0.0; nc],
+            hi: vec![0.0; nc],
+            z_free: vec![0.0; n],
+        }
+    }
+
+    fn work(&mut self) -> kernel64::Work<'_> {
+        let [lambda, star, y, scaled, tmp, d] = &mut self.real;
+        kernel64::Work {
+            set: &mut self.set,
+            upper: &mut self.upper,
+            lambda,
+            star,
+            y,
+            scaled,
+            tmp,
+            l: &mut self.l,
+            d,
+            active: &mut self.active,
+            excluded: &mut self.excluded,
+            lo: &mut self.lo,
+            hi: &mut self.hi,
+            z_free: &mut self.z_free,
+            cap: self.cap,
+        }
     }
 }
 
@@ -267,7 +386,8 @@ pub fn solve(
     solve_with(prepared, offsets, start, max_iterations, &Tolerances::F64)
 }
 
-/// [`solve`] with the given tolerances.
+/// [`solve`] with the given tolerances: the run-time kernel (`kernel.rs`, the code the emitted module
+/// runs) in f64, with its multiply-adds counted.
 pub fn solve_with(
     prepared: &Prepared,
     offsets: &Offsets,
@@ -276,29 +396,19 @@ pub fn solve_with(
     tol: &Tolerances,
 ) -> Outcome {
     let nblocks = prepared.blocks.len();
-    let mut macs = Macs {
-        offsets: offsets.macs,
-        ..Macs::default()
-    };
-    let mut z = DVector::from_element(prepared.n, f64::NAN);
+    let (n, m) = (prepared.n, prepared.m);
     let mut outcome = Outcome {
         status: Status::Solved,
-        z: z.clone(),
+        z: DVector::from_element(n, f64::NAN),
         working_set: WorkingSet::default(),
         multipliers: Vec::new(),
         iterations: 0,
         block_iterations: vec![0; nblocks],
-        macs,
+        macs: Macs::default(),
         per_pass: Vec::new(),
     };
-    let shapes_agree = offsets.z_free.len() == nblocks
-        && offsets.lower.len() == nblocks
-        && offsets.upper.len() == nblocks
-        && prepared.blocks.iter().enumerate().all(|(b, block)| {
-            offsets.z_free[b].len() == block.n()
-                && offsets.lower[b].len() == block.rows.len()
-                && offsets.upper[b].len() == block.rows.len()
-        });
+    let shapes_agree =
+        offsets.f.len() == n && offsets.lower.len() == n + m && offsets.upper.len() == n + m;
     if !shapes_agree {
         outcome.status = Status::NumericalFailure;
         return outcome;
@@ -307,66 +417,73 @@ pub fn solve_with(
         outcome.status = Status::Infeasible;
         return outcome;
     }
-    // The warm start, split by block.
-    let mut warm: Vec<Vec<(usize, Side)>> = vec![Vec::new(); nblocks];
+    // The warm start, split by block, in the kernel's code: twice the constraint, plus one at an upper
+    // side.
+    let mut warm = vec![0; prepared.warm_len()];
+    let mut warm_len = vec![0; nblocks];
     for a in start.map(|s| s.0.as_slice()).unwrap_or(&[]) {
         let index = match a.row {
-            Row::Bound(i) if i < prepared.n => i,
-            Row::General(r) if r < prepared.m => prepared.n + r,
+            Row::Bound(i) if i < n => i,
+            Row::General(r) if r < m => n + r,
             _ => continue,
         };
         if let Some((b, c)) = prepared.place[index] {
-            warm[b].push((c, a.side));
+            let block = &prepared.blocks[b];
+            if warm_len[b] <= block.n() {
+                warm[block.packed.warm_at + warm_len[b]] =
+                    2 * c + usize::from(a.side == Side::Upper);
+                warm_len[b] += 1;
+            }
         }
     }
-    let severity = |s: Status| match s {
-        Status::Solved => 0,
-        Status::IterationLimit => 1,
-        Status::Cycling => 2,
-        Status::Infeasible => 3,
-        Status::NumericalFailure => 4,
+    let kernel_blocks: Vec<kernel64::Block> = prepared.blocks.iter().map(Block::kernel).collect();
+    let mut storage = Storage::for_blocks(&prepared.blocks);
+    let mut work = storage.work();
+    let mut tally = Tally::default();
+    let mut z = vec![f64::NAN; n];
+    let (ended, iterations) = {
+        let outcome = &mut outcome;
+        kernel64::solve(
+            &kernel_blocks,
+            &offsets.f,
+            &offsets.lower,
+            &offsets.upper,
+            &mut work,
+            &mut warm,
+            &mut warm_len,
+            max_iterations,
+            &tol.kernel(),
+            &mut tally,
+            &mut z,
+            |b, w, k, changes| {
+                let block = &prepared.blocks[b];
+                outcome.block_iterations[b] = changes;
+                for i in 0..k {
+                    let c = w.set[i];
+                    let side = if w.upper[i] { Side::Upper } else { Side::Lower };
+                    let sign = if w.upper[i] { 1.0 } else { -1.0 };
+                    outcome.working_set.0.push(Active {
+                        row: block.rows[c],
+                        side,
+                    });
+                    outcome
+                        .multipliers
+                        .push(sign * w.lambda[i] / block.scale[c]);
+                }
+            },
+        )
     };
-    let mut status = Status::Solved;
-    let mut iterations = 0;
-    for (b, block) in prepared.blocks.iter().enumerate() {
-        let run = iterate::run(
-            block,
-            &offsets.lower[b],
-            &offsets.upper[b],
-            &warm[b],
-            max_iterations.saturating_sub(iterations),
-            tol,
-        );
-        iterations += run.iterations;
-        outcome.block_iterations[b] = run.iterations;
-        if severity(run.status) > severity(status) {
-            status = run.status;
-        }
-        macs.add(&run.macs);
-        outcome.per_pass.extend(run.per_pass);
-        // z_b = z_free − Z_W·λ.
-        let mut zb = offsets.z_free[b].clone();
-        for (&(c, side), &l) in run.working.iter().zip(&run.lambda) {
-            zb.axpy(-l, &block.Z.column(c), 1.0);
-            let sign = match side {
-                Side::Upper => 1.0,
-                Side::Lower => -1.0,
-            };
-            outcome.working_set.0.push(Active {
-                row: block.rows[c],
-                side,
-            });
-            outcome.multipliers.push(sign * l / block.scale[c]);
-        }
-        macs.recover += block.n() * run.working.len();
-        for (p, &j) in block.vars.iter().enumerate() {
-            z[j] = zb[p];
-        }
-    }
-    outcome.status = status;
-    outcome.z = z;
+    outcome.status = match ended {
+        kernel64::Ended::Solved => Status::Solved,
+        kernel64::Ended::IterationLimit => Status::IterationLimit,
+        kernel64::Ended::Cycling => Status::Cycling,
+        kernel64::Ended::Infeasible => Status::Infeasible,
+        kernel64::Ended::NumericalFailure => Status::NumericalFailure,
+    };
+    outcome.z = DVector::from_vec(z);
     outcome.iterations = iterations;
-    outcome.macs = macs;
+    outcome.macs = tally.macs;
+    outcome.per_pass = tally.per_pass;
     outcome
 }
 

@@ -43,12 +43,52 @@ pub struct Block {
     pub G: DMatrix<f64>,
     /// Z = R⁻¹·M̂ᵀ (variables × constraints): z = z_free − Z_W·λ.
     pub Z: DMatrix<f64>,
+    /// The tables the run-time kernel reads, packed ([`Packed`]).
+    pub packed: Packed,
+}
+
+/// A block's tables as the run-time kernel reads them (and the emitted module holds them).
+#[derive(Clone, Debug)]
+pub struct Packed {
+    /// R packed by rows: row i holds R[i][i..n].
+    pub r: Vec<f64>,
+    /// Per constraint, its index into the QP's sides: a bound on variable j is j, row r is n + r.
+    pub sides: Vec<usize>,
+    /// Constraint c's coefficients are `values[starts[c]..starts[c + 1]]` at `positions[…]`.
+    pub starts: Vec<usize>,
+    /// See `starts`.
+    pub positions: Vec<usize>,
+    /// See `starts`.
+    pub values: Vec<f64>,
+    /// G's lower triangle packed by rows.
+    pub gram: Vec<f64>,
+    /// Z by columns.
+    pub z_cols: Vec<f64>,
+    /// Where the block's warm start begins in the warm-start storage.
+    pub warm_at: usize,
 }
 
 impl Block {
     /// The number of variables.
     pub fn n(&self) -> usize {
         self.vars.len()
+    }
+
+    /// The block as the f64 kernel reads it.
+    pub(super) fn kernel(&self) -> super::kernel64::Block<'_> {
+        let p = &self.packed;
+        super::kernel64::Block {
+            vars: &self.vars,
+            r: &p.r,
+            sides: &p.sides,
+            scale: &self.scale,
+            starts: &p.starts,
+            positions: &p.positions,
+            values: &p.values,
+            gram: &p.gram,
+            z_cols: &p.z_cols,
+            warm_at: p.warm_at,
+        }
     }
 }
 
@@ -68,19 +108,18 @@ pub struct Prepared {
     pub zero_rows: Vec<usize>,
 }
 
-/// The offsets of one solve: per block, z_free and the scaled sides d.
+/// The data of one solve, checked against the prepared QP: f and the sides, which the kernel turns
+/// into each block's offsets (z_free and the scaled sides).
 #[derive(Clone, Debug)]
 pub struct Offsets {
-    /// Per block, the unconstrained minimiser −H_bb⁻¹·f_b.
-    pub z_free: Vec<DVector<f64>>,
-    /// Per block and constraint, the lower side (lower − aᵀz_free) / s; −∞ where absent.
-    pub lower: Vec<Vec<f64>>,
-    /// Per block and constraint, the upper side (upper − aᵀz_free) / s; +∞ where absent.
-    pub upper: Vec<Vec<f64>>,
+    /// The linear term (n).
+    pub f: Vec<f64>,
+    /// The lower sides: the n bounds, then the m rows; −∞ where absent.
+    pub lower: Vec<f64>,
+    /// The upper sides, likewise; +∞ where absent.
+    pub upper: Vec<f64>,
     /// A zero row whose sides exclude 0: the QP has no solution.
     pub empty_zero_row: Option<usize>,
-    /// The multiply-adds spent forming them.
-    pub macs: usize,
 }
 
 /// A block's constraints while it is formed: each with its nonzero coefficients.
@@ -196,6 +235,12 @@ impl Prepared {
             .enumerate()
             .map(|(b, (vars, rows))| block(qp, b, vars, rows))
             .collect::<Result<Vec<_>, _>>()?;
+        let mut blocks = blocks;
+        let mut warm_at = 0;
+        for b in &mut blocks {
+            b.packed.warm_at = warm_at;
+            warm_at += b.n() + 1;
+        }
         Ok(Prepared {
             n,
             m,
@@ -247,52 +292,20 @@ impl Prepared {
             .iter()
             .copied()
             .find(|&r| !(qp.lower[r] <= 0.0 && 0.0 <= qp.upper[r]));
-        let mut macs = 0;
-        let mut z_free = Vec::with_capacity(self.blocks.len());
-        let mut lower = Vec::with_capacity(self.blocks.len());
-        let mut upper = Vec::with_capacity(self.blocks.len());
-        for b in &self.blocks {
-            let nb = b.n();
-            // Rᵀ·y = −f_b, then R·z = y.
-            let mut z = DVector::from_fn(nb, |i, _| -qp.f[b.vars[i]]);
-            for i in 0..nb {
-                let mut s = z[i];
-                for k in 0..i {
-                    s -= b.R[(k, i)] * z[k];
-                }
-                z[i] = s / b.R[(i, i)];
-            }
-            for i in (0..nb).rev() {
-                let mut s = z[i];
-                for k in i + 1..nb {
-                    s -= b.R[(i, k)] * z[k];
-                }
-                z[i] = s / b.R[(i, i)];
-            }
-            macs += nb * (nb + 1);
-            let mut lo = Vec::with_capacity(b.rows.len());
-            let mut hi = Vec::with_capacity(b.rows.len());
-            for (k, row) in b.rows.iter().enumerate() {
-                let at: f64 = b.coefficients[k].iter().map(|&(p, a)| a * z[p]).sum();
-                let (l, u) = match *row {
-                    Row::Bound(j) => (qp.z_min[j], qp.z_max[j]),
-                    Row::General(r) => (qp.lower[r], qp.upper[r]),
-                };
-                lo.push((l - at) / b.scale[k]);
-                hi.push((u - at) / b.scale[k]);
-                macs += b.coefficients[k].len() + 2;
-            }
-            z_free.push(z);
-            lower.push(lo);
-            upper.push(hi);
-        }
+        let sides = |lo: &DVector<f64>, rows: &DVector<f64>| {
+            lo.iter().chain(rows.iter()).copied().collect()
+        };
         Ok(Offsets {
-            z_free,
-            lower,
-            upper,
+            f: qp.f.iter().copied().collect(),
+            lower: sides(&qp.z_min, &qp.lower),
+            upper: sides(&qp.z_max, &qp.upper),
             empty_zero_row,
-            macs,
         })
+    }
+
+    /// The length of the warm-start storage: n + 1 entries per block.
+    pub fn warm_len(&self) -> usize {
+        self.blocks.iter().map(|b| b.n() + 1).sum()
     }
 
     /// The number of constraints the blocks hold (bounds and rows with a finite side).
@@ -356,6 +369,37 @@ fn block(
             Z[(i, k)] = s / R[(i, i)];
         }
     }
+    let n = qp.H.nrows();
+    let mut packed = Packed {
+        r: (0..nb)
+            .flat_map(|i| (i..nb).map(move |j| (i, j)))
+            .map(|(i, j)| R[(i, j)])
+            .collect(),
+        sides: Vec::with_capacity(nc),
+        starts: vec![0],
+        positions: Vec::new(),
+        values: Vec::new(),
+        gram: (0..nc)
+            .flat_map(|i| (0..=i).map(move |j| (i, j)))
+            .map(|(i, j)| G[(i, j)])
+            .collect(),
+        z_cols: (0..nc)
+            .flat_map(|c| (0..nb).map(move |p| (p, c)))
+            .map(|(p, c)| Z[(p, c)])
+            .collect(),
+        warm_at: 0,
+    };
+    for (row, coefficients) in &rows {
+        packed.sides.push(match *row {
+            Row::Bound(j) => j,
+            Row::General(r) => n + r,
+        });
+        for &(p, v) in coefficients {
+            packed.positions.push(p);
+            packed.values.push(v);
+        }
+        packed.starts.push(packed.positions.len());
+    }
     let (rows, coefficients) = rows.into_iter().unzip();
     Ok(Block {
         vars,
@@ -366,5 +410,6 @@ fn block(
         M,
         G,
         Z,
+        packed,
     })
 }

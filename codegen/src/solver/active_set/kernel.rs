@@ -1,0 +1,859 @@
+// The dual active-set method's run time, written once: the build's reference compiles this file with
+// `Real` = f64 (and f32) and a counting `Tally` (`solver/active_set/mod.rs`), and every emitted module
+// includes it verbatim with its own `Real` and a `Tally` that counts nothing (`emit.rs`). So the
+// controller runs the reference's arithmetic in the reference's order, and agrees with it to the bit.
+//
+// The file is plain `core` Rust over slices and caller-owned storage: no allocation, and every index
+// that depends on the data goes through `at`/`put`, which read 0 and write nothing past an end, so no
+// path panics. A block's method is DAQP's (`daqp_ldp`): Goldfarb and Idnani's dual active-set method on
+// the least-distance problem min ½‖u‖² s.t. lo ≤ M̂·u ≤ hi, with the L·D·Lᵀ of the working set's block of
+// the Gram matrix G = M̂·M̂ᵀ updated by rank one (Gill, Golub, Murray and Saunders' method C1 for a
+// removal). See `mod.rs` for the method and its tolerances.
+
+/// `v[i]`, or 0 past its end.
+#[inline(always)]
+fn at(v: &[Real], i: usize) -> Real {
+    match v.get(i) {
+        Some(x) => *x,
+        None => 0.0,
+    }
+}
+
+/// `v[i]` of an index table, or 0 past its end.
+#[inline(always)]
+fn at_index(v: &[usize], i: usize) -> usize {
+    match v.get(i) {
+        Some(x) => *x,
+        None => 0,
+    }
+}
+
+/// `v[i]` of a flag table, or false past its end.
+#[inline(always)]
+fn at_flag(v: &[bool], i: usize) -> bool {
+    match v.get(i) {
+        Some(x) => *x,
+        None => false,
+    }
+}
+
+/// `v[i] = x`, nothing past its end.
+#[inline(always)]
+fn put<T>(v: &mut [T], i: usize, x: T) {
+    if let Some(o) = v.get_mut(i) {
+        *o = x;
+    }
+}
+
+/// Removes entry `i` of the first `k` of `v`, moving the later ones down.
+#[inline(always)]
+fn remove_at<T>(v: &mut [T], i: usize, k: usize) {
+    if i < k {
+        if let Some(s) = v.get_mut(i..k) {
+            s.rotate_left(1);
+        }
+    }
+}
+
+/// How a solve ended, in increasing severity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Ended {
+    /// The KKT conditions hold within the tolerances.
+    Solved,
+    /// The iterations ran out: the iterate is dual feasible, not primal feasible.
+    IterationLimit,
+    /// The dual objective stopped increasing, even after a refactorisation.
+    Cycling,
+    /// The dual is unbounded, or a row's sides cross: the constraints admit no point.
+    Infeasible,
+    /// A side or a multiplier is not finite.
+    NumericalFailure,
+}
+
+impl Ended {
+    /// The order of severity.
+    fn severity(self) -> u8 {
+        match self {
+            Ended::Solved => 0,
+            Ended::IterationLimit => 1,
+            Ended::Cycling => 2,
+            Ended::Infeasible => 3,
+            Ended::NumericalFailure => 4,
+        }
+    }
+}
+
+/// The iteration's tolerances, relative to the normalised problem (rows of unit norm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Tolerances {
+    /// A side is violated when its slack exceeds primal·(1 + |side|).
+    pub(super) primal: Real,
+    /// A multiplier has the wrong sign beyond this.
+    pub(super) dual: Real,
+    /// A pivot below this marks the new side dependent on the working set.
+    pub(super) singular: Real,
+    /// At the optimum, a pivot below this refactorises once.
+    pub(super) refactor: Real,
+    /// A pivot below this moves its side last, and at the optimum refines λ once.
+    pub(super) pivot: Real,
+    /// A full step raising the dual objective by less than progress·(1 + |objective|) is no progress.
+    pub(super) progress: Real,
+    /// Full steps without progress before a refactorisation, and then before `Cycling`.
+    pub(super) cycle: usize,
+    /// A dependent side violated by at most infeasible·(1 + |side|) is round-off at a degenerate
+    /// vertex: set aside for the solve.
+    pub(super) infeasible: Real,
+}
+
+/// One independent block's constant data, computed at build time.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Block<'a> {
+    /// The block's variables, indices into z.
+    pub(super) vars: &'a [usize],
+    /// The upper-triangular Cholesky factor R of the block of H (H_bb = Rᵀ·R), packed by rows: row i
+    /// holds R[i][i..n].
+    pub(super) r: &'a [Real],
+    /// Per constraint, its index into the QP's sides: a bound on variable j is j, row r of A is n + r.
+    pub(super) sides: &'a [usize],
+    /// Per constraint, s = ‖R⁻ᵀ·a‖, the norm its row had before it was normalised.
+    pub(super) scale: &'a [Real],
+    /// Constraint c's nonzero coefficients are `values[starts[c]..starts[c + 1]]` at the block's
+    /// positions `positions[…]`.
+    pub(super) starts: &'a [usize],
+    /// See `starts`.
+    pub(super) positions: &'a [usize],
+    /// See `starts`.
+    pub(super) values: &'a [Real],
+    /// The Gram matrix G = M̂·M̂ᵀ of the normalised rows, its lower triangle packed by rows.
+    pub(super) gram: &'a [Real],
+    /// Z = R⁻¹·M̂ᵀ by columns: column c at c·n (z = z_free − Z_W·λ).
+    pub(super) z_cols: &'a [Real],
+    /// Where the block's warm start begins in the warm-start storage (n + 1 entries).
+    pub(super) warm_at: usize,
+}
+
+impl Block<'_> {
+    /// The number of variables.
+    fn n(&self) -> usize {
+        self.vars.len()
+    }
+
+    /// The number of constraints.
+    fn nc(&self) -> usize {
+        self.sides.len()
+    }
+
+    /// G[i][j].
+    #[inline(always)]
+    fn g(&self, i: usize, j: usize) -> Real {
+        let (a, b) = if i >= j { (i, j) } else { (j, i) };
+        at(self.gram, a * (a + 1) / 2 + b)
+    }
+
+    /// R[i][j], j ≥ i.
+    #[inline(always)]
+    fn r(&self, i: usize, j: usize) -> Real {
+        let n = self.n();
+        at(self.r, i * n - i * i.saturating_sub(1) / 2 - i + j)
+    }
+}
+
+/// The run-time storage of a block's solve, owned by the caller and sized for the largest block: the
+/// working set (at most n + 1 sides: the last may be dependent) with its multipliers and factor, and per
+/// constraint the scaled sides and marks.
+pub(super) struct Work<'a> {
+    /// The working set's constraints, in the factor's order.
+    pub(super) set: &'a mut [usize],
+    /// Whether each is active at its upper side.
+    pub(super) upper: &'a mut [bool],
+    /// Their multipliers (≥ 0 at an upper side, ≤ 0 at a lower one).
+    pub(super) lambda: &'a mut [Real],
+    /// λ* of the working set, or the singular direction.
+    pub(super) star: &'a mut [Real],
+    /// L⁻¹·(−d_W), cached up to `reuse`.
+    pub(super) y: &'a mut [Real],
+    /// D⁻¹·L⁻¹·(−d_W), cached up to `reuse`.
+    pub(super) scaled: &'a mut [Real],
+    /// Scratch of the working set's length.
+    pub(super) tmp: &'a mut [Real],
+    /// L by rows, row i at i·cap holding L[i][0..i].
+    pub(super) l: &'a mut [Real],
+    /// The pivots D.
+    pub(super) d: &'a mut [Real],
+    /// Per constraint, whether it is in the working set.
+    pub(super) active: &'a mut [bool],
+    /// Per constraint, whether it was set aside as dependent within round-off.
+    pub(super) excluded: &'a mut [bool],
+    /// Per constraint, the scaled lower side (lower − aᵀz_free) / s.
+    pub(super) lo: &'a mut [Real],
+    /// Per constraint, the scaled upper side.
+    pub(super) hi: &'a mut [Real],
+    /// The block's unconstrained minimiser −H_bb⁻¹·f_b.
+    pub(super) z_free: &'a mut [Real],
+    /// The capacity of the working set and the row stride of `l`.
+    pub(super) cap: usize,
+}
+
+/// The state of one block's iteration.
+struct Run<'w, 'a, 'b> {
+    b: &'b Block<'b>,
+    w: &'w mut Work<'a>,
+    tol: &'b Tolerances,
+    tally: &'w mut Tally,
+    /// The working set's size.
+    k: usize,
+    /// Rows of `y` and `scaled` still valid.
+    reuse: usize,
+    /// The last side of the factor depends on the others (its pivot set to zero).
+    singular: bool,
+    /// The violation the last added side had when it was added.
+    added_violation: Real,
+}
+
+impl Run<'_, '_, '_> {
+    /// The side of working entry i.
+    fn side(&self, i: usize) -> Real {
+        let c = at_index(self.w.set, i);
+        if at_flag(self.w.upper, i) {
+            at(self.w.hi, c)
+        } else {
+            at(self.w.lo, c)
+        }
+    }
+
+    /// L[i][j].
+    #[inline(always)]
+    fn l(&self, i: usize, j: usize) -> Real {
+        at(self.w.l, i * self.w.cap + j)
+    }
+
+    /// Appends the factor's row for constraint `c` (its Gram entries with the set looked up, one forward
+    /// substitution) and returns its pivot.
+    fn ldl_push(&mut self, c: usize) -> Real {
+        let (k, cap) = (self.k, self.w.cap);
+        for i in 0..k {
+            let mut s = self.b.g(at_index(self.w.set, i), c);
+            for j in 0..i {
+                s -= self.l(i, j) * at(self.w.l, k * cap + j);
+            }
+            put(self.w.l, k * cap + i, s);
+        }
+        self.tally.factor(k * k.saturating_sub(1) / 2);
+        let mut pivot = self.b.g(c, c);
+        for i in 0..k {
+            let t = at(self.w.l, k * cap + i);
+            let r = t / at(self.w.d, i);
+            put(self.w.l, k * cap + i, r);
+            pivot -= t * r;
+        }
+        self.tally.factor(2 * k);
+        put(self.w.d, k, pivot);
+        pivot
+    }
+
+    /// Removes row and column `r` of the factor: the rows after it keep their L and D up to the
+    /// rank-one term D_r·w·wᵀ (w the removed column), added back to the trailing block by method C1.
+    fn ldl_remove(&mut self, r: usize) {
+        let (k, cap) = (self.k, self.w.cap);
+        if r >= k {
+            return;
+        }
+        let t = k - r - 1;
+        for q in 0..t {
+            let v = self.l(r + 1 + q, r);
+            put(self.w.tmp, q, v);
+        }
+        let mut alpha = at(self.w.d, r);
+        // Rows after r move up one, without column r.
+        for i in r..k - 1 {
+            for j in 0..i {
+                let from = if j < r { j } else { j + 1 };
+                let v = self.l(i + 1, from);
+                put(self.w.l, i * cap + j, v);
+            }
+            let v = at(self.w.d, i + 1);
+            put(self.w.d, i, v);
+        }
+        for j in 0..t {
+            let p = at(self.w.tmp, j);
+            if p == 0.0 {
+                // Row r + j is untouched by the term (and the division below would be 0/0 on a zero
+                // pivot).
+                continue;
+            }
+            let di = at(self.w.d, r + j);
+            let dbar = di + alpha * p * p;
+            let beta = p * alpha / dbar;
+            alpha = di * alpha / dbar;
+            put(self.w.d, r + j, dbar);
+            for q in j + 1..t {
+                let at_l = (r + q) * cap + r + j;
+                let lq = at(self.w.l, at_l);
+                let wq = at(self.w.tmp, q) - p * lq;
+                put(self.w.tmp, q, wq);
+                put(self.w.l, at_l, lq + beta * wq);
+            }
+            self.tally.factor(5 + 2 * (t - j - 1));
+        }
+    }
+
+    /// Appends constraint `c` at its upper (or lower) side with multiplier `lambda`; marks the set
+    /// singular when its pivot is below the tolerance or the set has more sides than variables.
+    fn push(&mut self, c: usize, upper: bool, lambda: Real) {
+        if self.k >= self.w.cap {
+            // Not reached: a set grows past n only by one dependent side, which leaves before the next.
+            self.singular = true;
+            return;
+        }
+        let pivot = self.ldl_push(c);
+        put(self.w.set, self.k, c);
+        put(self.w.upper, self.k, upper);
+        put(self.w.lambda, self.k, lambda);
+        put(self.w.active, c, true);
+        self.k += 1;
+        if pivot.is_nan() || pivot < self.tol.singular || self.k > self.b.n() {
+            put(self.w.d, self.k - 1, 0.0);
+            self.singular = true;
+        }
+    }
+
+    /// Removes working entry `i` without touching the singular mark or the pivots' guard.
+    fn take(&mut self, i: usize) -> (usize, bool, Real) {
+        let c = at_index(self.w.set, i);
+        let upper = at_flag(self.w.upper, i);
+        let lambda = at(self.w.lambda, i);
+        self.ldl_remove(i);
+        remove_at(self.w.set, i, self.k);
+        remove_at(self.w.upper, i, self.k);
+        remove_at(self.w.lambda, i, self.k);
+        put(self.w.active, c, false);
+        self.k -= 1;
+        self.reuse = self.reuse.min(i);
+        (c, upper, lambda)
+    }
+
+    /// Removes working entry `i` (a downdate); the set is singular afterwards when the last pivot fell
+    /// below the tolerance (round-off), else the small-pivot guard runs.
+    fn remove(&mut self, i: usize) {
+        if i >= self.k {
+            return;
+        }
+        self.take(i);
+        self.singular = false;
+        let k = self.k;
+        let last = if k > 0 { at(self.w.d, k - 1) } else { 1.0 };
+        if last.is_nan() || last < self.tol.singular {
+            if k > 0 {
+                put(self.w.d, k - 1, 0.0);
+            }
+            self.singular = true;
+        } else {
+            self.pivot_last();
+        }
+    }
+
+    /// DAQP's `pivot_last`: a small second-to-last pivot, smaller than the last, moves its side to the
+    /// end, where the next change can drop it without perturbing the sides after it.
+    fn pivot_last(&mut self) {
+        let k = self.k;
+        if k < 2 {
+            return;
+        }
+        let r = k - 2;
+        let (dr, dl) = (at(self.w.d, r), at(self.w.d, k - 1));
+        if dr < self.tol.pivot && dr < dl {
+            let (c, upper, lambda) = self.take(r);
+            self.push(c, upper, lambda);
+        }
+    }
+
+    /// Removes the last side (no downdate needed) and clears the singular mark.
+    fn drop_last(&mut self) {
+        if self.k == 0 {
+            return;
+        }
+        let last = self.k - 1;
+        self.take(last);
+        self.singular = false;
+    }
+
+    /// Refactorises G_WW from scratch in the working set's order, dropping a side whose pivot is then
+    /// below the tolerance.
+    fn refactor(&mut self) {
+        let old = self.k;
+        for i in 0..old {
+            put(self.w.active, at_index(self.w.set, i), false);
+        }
+        self.k = 0;
+        self.reuse = 0;
+        self.singular = false;
+        // Entry i is read before the rebuilt set (never longer than i) writes there.
+        for i in 0..old {
+            let (c, upper, lambda) = (
+                at_index(self.w.set, i),
+                at_flag(self.w.upper, i),
+                at(self.w.lambda, i),
+            );
+            self.push(c, upper, lambda);
+            if self.singular {
+                self.drop_last();
+            }
+        }
+    }
+
+    /// Solves L·D·Lᵀ·x = b into `star` (b = −d_W, the cached rows reused from `from`), or, with
+    /// `refining`, b = `tmp` with nothing cached.
+    fn ldl_solve(&mut self, from: usize, refining: bool) {
+        let k = self.k;
+        for i in from.min(k)..k {
+            let mut s = if refining {
+                at(self.w.tmp, i)
+            } else {
+                -self.side(i)
+            };
+            for j in 0..i {
+                s -= self.l(i, j) * at(self.w.y, j);
+            }
+            put(self.w.y, i, s);
+            put(self.w.scaled, i, s / at(self.w.d, i));
+            self.tally.solve(i + 1);
+        }
+        for i in (0..k).rev() {
+            let mut s = at(self.w.scaled, i);
+            for j in i + 1..k {
+                s -= self.l(j, i) * at(self.w.star, j);
+            }
+            put(self.w.star, i, s);
+        }
+        self.tally.solve(k * k.saturating_sub(1) / 2);
+    }
+
+    /// λ* of the working set, into `star`.
+    fn stationary(&mut self) {
+        self.ldl_solve(self.reuse, false);
+        self.reuse = self.k;
+    }
+
+    /// The null direction of the singular set, into `star`: p = L⁻ᵀ·e_last, flipped at a lower side so
+    /// that the new side's multiplier grows with the right sign.
+    fn singular_direction(&mut self) {
+        let k = self.k;
+        if k == 0 {
+            return;
+        }
+        let s = k - 1;
+        put(self.w.star, s, 1.0);
+        for i in (0..s).rev() {
+            let mut v = -self.l(s, i);
+            for j in i + 1..s {
+                v -= self.l(j, i) * at(self.w.star, j);
+            }
+            put(self.w.star, i, v);
+        }
+        self.tally.solve(s * s.saturating_sub(1) / 2);
+        if !at_flag(self.w.upper, s) {
+            for p in self.w.star.iter_mut().take(k) {
+                *p = -*p;
+            }
+        }
+    }
+
+    /// The first multiplier to reach zero on the way from λ toward λ* (or along the singular
+    /// direction): its position and the step.
+    fn blocking(&self) -> Option<(usize, Real)> {
+        let mut best: Option<(usize, Real)> = None;
+        for i in 0..self.k {
+            let st = at(self.w.star, i);
+            let wrong = if at_flag(self.w.upper, i) {
+                st < -self.tol.dual
+            } else {
+                st > self.tol.dual
+            };
+            if !wrong {
+                continue;
+            }
+            let lambda = at(self.w.lambda, i);
+            let p = if self.singular { st } else { st - lambda };
+            let alpha = (-lambda / p).max(0.0);
+            let better = match best {
+                None => true,
+                Some((_, b)) => alpha < b,
+            };
+            if better {
+                best = Some((i, alpha));
+            }
+        }
+        best
+    }
+
+    /// λ ← λ + α·(λ* − λ) (or + α·p), then the blocking side leaves.
+    fn step_and_remove(&mut self, i: usize, alpha: Real) {
+        let k = self.k;
+        for j in 0..k {
+            let st = at(self.w.star, j);
+            let lambda = at(self.w.lambda, j);
+            let p = if self.singular { st } else { st - lambda };
+            put(self.w.lambda, j, lambda + alpha * p);
+        }
+        self.tally.step(k);
+        put(self.w.lambda, i, 0.0);
+        self.remove(i);
+    }
+
+    /// The most violated inactive side: (constraint, upper, violation).
+    fn scan(&mut self) -> Option<(usize, bool, Real)> {
+        let k = self.k;
+        let mut best: Option<(usize, bool, Real)> = None;
+        let mut scanned = 0;
+        for c in 0..self.b.nc() {
+            if at_flag(self.w.active, c) || at_flag(self.w.excluded, c) {
+                continue;
+            }
+            scanned += 1;
+            let mut mu = 0.0;
+            for i in 0..k {
+                mu -= self.b.g(at_index(self.w.set, i), c) * at(self.w.lambda, i);
+            }
+            let (lo, hi) = (at(self.w.lo, c), at(self.w.hi, c));
+            for (upper, violation, side) in [(true, mu - hi, hi), (false, lo - mu, lo)] {
+                let worse = match best {
+                    None => true,
+                    Some((_, _, b)) => violation > b,
+                };
+                if violation > self.tol.primal * (1.0 + side.abs()) && worse {
+                    best = Some((c, upper, violation));
+                }
+            }
+        }
+        self.tally.scan(scanned * k);
+        best
+    }
+
+    /// One step of iterative refinement of λ on the working set: r = G_WW·λ + d_W, λ −= (L·D·Lᵀ)⁻¹·r.
+    fn refine(&mut self) {
+        let k = self.k;
+        for i in 0..k {
+            let wi = at_index(self.w.set, i);
+            let mut s = 0.0;
+            for j in 0..k {
+                s += self.b.g(wi, at_index(self.w.set, j)) * at(self.w.lambda, j);
+            }
+            let r = s + self.side(i);
+            put(self.w.tmp, i, r);
+        }
+        self.tally.solve(k * k);
+        self.ldl_solve(0, true);
+        for i in 0..k {
+            let l = at(self.w.lambda, i) - at(self.w.star, i);
+            put(self.w.lambda, i, l);
+        }
+        self.tally.step(k);
+        self.reuse = 0;
+    }
+
+    /// Adds the violated side (c, upper) with multiplier 0, the small-pivot guard after it.
+    fn add(&mut self, c: usize, upper: bool, violation: Real) {
+        self.added_violation = violation;
+        self.push(c, upper, 0.0);
+        if !self.singular {
+            self.pivot_last();
+        }
+    }
+}
+
+/// The block's offsets for the QP's linear term `f` and sides `lower`/`upper` (indexed as the block's
+/// `sides`): z_free = −H_bb⁻¹·f_b (Rᵀ·y = −f_b, R·z = y), then per constraint the scaled sides
+/// (side − aᵀz_free) / s.
+pub(super) fn offsets(
+    b: &Block,
+    f: &[Real],
+    lower: &[Real],
+    upper: &[Real],
+    w: &mut Work,
+    tally: &mut Tally,
+) {
+    let n = b.n();
+    for i in 0..n {
+        let mut s = -at(f, at_index(b.vars, i));
+        for k in 0..i {
+            s -= b.r(k, i) * at(w.z_free, k);
+        }
+        put(w.z_free, i, s / b.r(i, i));
+    }
+    for i in (0..n).rev() {
+        let mut s = at(w.z_free, i);
+        for k in i + 1..n {
+            s -= b.r(i, k) * at(w.z_free, k);
+        }
+        put(w.z_free, i, s / b.r(i, i));
+    }
+    tally.offsets(n * (n + 1));
+    for c in 0..b.nc() {
+        let (start, end) = (at_index(b.starts, c), at_index(b.starts, c + 1));
+        let mut a = 0.0;
+        for e in start..end {
+            a += at(b.values, e) * at(w.z_free, at_index(b.positions, e));
+        }
+        let side = at_index(b.sides, c);
+        let s = at(b.scale, c);
+        put(w.lo, c, (at(lower, side) - a) / s);
+        put(w.hi, c, (at(upper, side) - a) / s);
+        tally.offsets(end.saturating_sub(start) + 2);
+    }
+}
+
+/// Solves one block's least-distance problem, its offsets formed ([`offsets`]), from the warm start
+/// `warm[..warm_len]` (constraints, twice plus one at an upper side), with at most `max_iterations`
+/// changes of the working set. Returns how it ended and the changes made; `k_out` receives the working
+/// set's size (its entries in `w.set`, `w.upper`, `w.lambda`).
+///
+/// The warm start: its sides are added in order, each with multiplier ±1 (dual feasible); a side is
+/// skipped when its constraint does not exist, has no finite side there, is already in the set, or
+/// depends on the sides before it. The first passes then remove the sides whose λ* has the wrong sign.
+#[allow(clippy::too_many_arguments)]
+fn solve_block(
+    b: &Block,
+    w: &mut Work,
+    warm: &[usize],
+    warm_len: usize,
+    max_iterations: usize,
+    tol: &Tolerances,
+    tally: &mut Tally,
+    k_out: &mut usize,
+) -> (Ended, usize) {
+    let nc = b.nc();
+    for c in 0..nc {
+        put(w.active, c, false);
+        put(w.excluded, c, false);
+    }
+    let mut run = Run {
+        b,
+        w,
+        tol,
+        tally,
+        k: 0,
+        reuse: 0,
+        singular: false,
+        added_violation: 0.0,
+    };
+    *k_out = 0;
+    let mut broken = false;
+    let mut crossed = false;
+    for c in 0..nc {
+        let (lo, hi) = (at(run.w.lo, c), at(run.w.hi, c));
+        broken |= lo.is_nan() | hi.is_nan();
+        crossed |= lo > hi;
+    }
+    if broken {
+        return (Ended::NumericalFailure, 0);
+    }
+    if crossed {
+        return (Ended::Infeasible, 0);
+    }
+    for e in 0..warm_len {
+        let code = at_index(warm, e);
+        let (c, upper) = (code / 2, code % 2 == 1);
+        let exists = c < nc
+            && if upper {
+                at(run.w.hi, c).is_finite()
+            } else {
+                at(run.w.lo, c).is_finite()
+            };
+        if !exists || at_flag(run.w.active, c) {
+            continue;
+        }
+        run.push(c, upper, if upper { 1.0 } else { -1.0 });
+        if run.singular {
+            run.drop_last();
+        }
+    }
+    let mut iterations = 0;
+    let mut refactored = false;
+    let mut refined = false;
+    let mut best = Real::NEG_INFINITY;
+    let mut stalled = 0;
+    let ended = loop {
+        let changed;
+        if !run.singular {
+            run.stationary();
+            let mut finite = true;
+            for i in 0..run.k {
+                finite &= at(run.w.star, i).is_finite();
+            }
+            if !finite {
+                break Ended::NumericalFailure;
+            }
+            if let Some((i, alpha)) = run.blocking() {
+                if iterations >= max_iterations {
+                    break Ended::IterationLimit;
+                }
+                run.step_and_remove(i, alpha);
+                iterations += 1;
+                run.tally.pass();
+                continue;
+            }
+            let k = run.k;
+            let mut value = 0.0;
+            for i in 0..k {
+                let st = at(run.w.star, i);
+                put(run.w.lambda, i, st);
+                value -= run.side(i) * st;
+            }
+            run.tally.step(k);
+            // The dual objective ‖u‖² = −d_Wᵀλ* grows from one full step to the next; a run of full
+            // steps without progress is cycling.
+            if best.is_finite() && value - best <= tol.progress * (1.0 + best.abs()) {
+                stalled += 1;
+                if stalled > tol.cycle {
+                    if refactored {
+                        break Ended::Cycling;
+                    }
+                    refactored = true;
+                    run.refactor();
+                    stalled = 0;
+                    best = Real::NEG_INFINITY;
+                    run.tally.pass();
+                    continue;
+                }
+            } else {
+                best = value;
+                stalled = 0;
+            }
+            match run.scan() {
+                None => {
+                    let mut min_pivot = Real::INFINITY;
+                    for i in 0..k {
+                        min_pivot = min_pivot.min(at(run.w.d, i));
+                    }
+                    if !refactored && k > 2 && min_pivot < tol.refactor {
+                        refactored = true;
+                        run.refactor();
+                        run.tally.pass();
+                        continue;
+                    }
+                    if !refined && k > 0 && min_pivot < tol.pivot {
+                        refined = true;
+                        run.refine();
+                        if let Some((c, upper, violation)) = run.scan() {
+                            if iterations >= max_iterations {
+                                break Ended::IterationLimit;
+                            }
+                            run.add(c, upper, violation);
+                            iterations += 1;
+                            run.tally.pass();
+                            continue;
+                        }
+                    }
+                    run.tally.pass();
+                    break Ended::Solved;
+                }
+                Some((c, upper, violation)) => {
+                    if iterations >= max_iterations {
+                        run.tally.pass();
+                        break Ended::IterationLimit;
+                    }
+                    run.add(c, upper, violation);
+                    changed = true;
+                }
+            }
+        } else {
+            run.singular_direction();
+            match run.blocking() {
+                Some((i, alpha)) => {
+                    if iterations >= max_iterations {
+                        break Ended::IterationLimit;
+                    }
+                    run.step_and_remove(i, alpha);
+                    changed = true;
+                }
+                None => {
+                    let last = run.k.saturating_sub(1);
+                    let c = at_index(run.w.set, last);
+                    let side = run.side(last);
+                    if at(run.w.lambda, last) == 0.0
+                        && run.added_violation <= tol.infeasible * (1.0 + side.abs())
+                    {
+                        // A dependent side violated within round-off (a degenerate vertex): set aside
+                        // for this solve rather than call the QP infeasible.
+                        run.drop_last();
+                        put(run.w.excluded, c, true);
+                        run.tally.pass();
+                        continue;
+                    }
+                    run.tally.pass();
+                    break Ended::Infeasible;
+                }
+            }
+        }
+        if changed {
+            iterations += 1;
+        }
+        run.tally.pass();
+    };
+    run.tally.pass();
+    *k_out = run.k;
+    (ended, iterations)
+}
+
+/// Solves the QP min ½zᵀHz + fᵀz s.t. lower ≤ (z, A·z) ≤ upper block by block, each from its warm start
+/// in `warm` (a block's at its `warm_at`, `warm_len[b]` entries), with at most `max_iterations` changes
+/// of the working set over all blocks. Writes z (z = z_free − Z_W·λ per block) and each block's final
+/// working set back into `warm` as the next solve's start; `each(b, w, k, changes)` sees each block's
+/// work after its solve, with its working set's size and its changes. Returns the most severe ending and the changes made.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn solve(
+    blocks: &[Block],
+    f: &[Real],
+    lower: &[Real],
+    upper: &[Real],
+    w: &mut Work,
+    warm: &mut [usize],
+    warm_len: &mut [usize],
+    max_iterations: usize,
+    tol: &Tolerances,
+    tally: &mut Tally,
+    z: &mut [Real],
+    mut each: impl FnMut(usize, &Work, usize, usize),
+) -> (Ended, usize) {
+    let mut ended = Ended::Solved;
+    let mut iterations = 0;
+    for (index, b) in blocks.iter().enumerate() {
+        offsets(b, f, lower, upper, w, tally);
+        let start = match warm.get(b.warm_at..) {
+            Some(s) => s,
+            None => &[],
+        };
+        let mut k = 0;
+        let (block_ended, block_iterations) = solve_block(
+            b,
+            w,
+            start,
+            at_index(warm_len, index),
+            max_iterations.saturating_sub(iterations),
+            tol,
+            tally,
+            &mut k,
+        );
+        iterations += block_iterations;
+        if block_ended.severity() > ended.severity() {
+            ended = block_ended;
+        }
+        // z_b = z_free − Z_W·λ.
+        let n = b.n();
+        for p in 0..n {
+            let mut v = at(w.z_free, p);
+            for i in 0..k {
+                v -= at(w.lambda, i) * at(b.z_cols, at_index(w.set, i) * n + p);
+            }
+            put(z, at_index(b.vars, p), v);
+        }
+        tally.recover(n * k);
+        for i in 0..k {
+            let code = 2 * at_index(w.set, i) + usize::from(at_flag(w.upper, i));
+            put(warm, b.warm_at + i, code);
+        }
+        put(warm_len, index, k);
+        each(index, w, k, block_iterations);
+    }
+    (ended, iterations)
+}
