@@ -736,6 +736,7 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
             .label("a gradient step size")
             .note(format!("hint: {}; remove `step`", match method {
                 Method::Admm => "ADMM's step is its penalty ρ, tuned at build time on `[mpc.region]`",
+                Method::ActiveSet => "the dual active-set method steps from one working set to the next, each step as long as the multipliers allow",
                 _ => "the interior-point method takes Newton steps, each as long as the boundary allows",
             })),
         );
@@ -749,6 +750,7 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
             .label("the a priori bound of `fgm` and `gradient`")
             .note(format!("hint: {} is certified on `[mpc.region]` against `accuracy` (default {DEFAULT_ACCURACY}): write `accuracy` instead of `tolerance`", match method {
                 Method::Admm => "ADMM",
+                Method::ActiveSet => "the dual active-set method",
                 _ => "the interior-point method",
             })),
         );
@@ -760,15 +762,20 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
 /// is allowed, with a warning from the compiler: the first-order methods and the filter still run.)
 fn check_target(raw: &Raw, target: Target, diags: &mut Diagnostics) {
     let Some(method) = &raw.method else { return };
-    if Method::from_name(&method.value) == Some(Method::Ipm) && !target.has_f64() {
+    let wide = Method::from_name(&method.value);
+    if matches!(wide, Some(Method::Ipm | Method::ActiveSet)) && !target.has_f64() {
         let name = target.name();
+        let (spelling, title) = match wide {
+            Some(Method::ActiveSet) => ("active_set", "the dual active-set method"),
+            _ => ("ipm", "the interior-point method"),
+        };
         let target_span = raw.target.as_ref().map(|t| t.span.clone());
         diags.push(
             Diagnostic::new(
-                format!("`method = \"ipm\"` computes in f64, which `target = \"{name}\"` has no hardware for"),
+                format!("`method = \"{spelling}\"` computes in f64, which `target = \"{name}\"` has no hardware for"),
                 method.span.clone(),
             )
-            .label("the interior-point method runs in f64")
+            .label(format!("{title} runs in f64"))
             .related(target_span, "a single-precision FPU: f64 runs in software, about 45× slower")
             .note("hint: the first-order methods compute in the spec's `scalar` (f32 by default): `method = \"fgm\"` solves a problem constrained by the input box alone; for state, move or row constraints, `target = \"cortex-a9\"` runs the interior-point method on its VFP"),
         );

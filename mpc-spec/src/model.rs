@@ -204,6 +204,10 @@ spelled! {
         /// ADMM (OSQP's operator splitting) with a build-time factor and a build-time tuned penalty ρ,
         /// in the module's scalar: for the same constraints as `ipm` on targets without f64 hardware.
         Admm = "admm",
+        /// A dual active-set method (Goldfarb and Idnani's, as DAQP) in f64, its factor, Gram matrix
+        /// and independent blocks computed at build time, warm-started from the last working set: for
+        /// the same constraints as `ipm`, at the optimum in a few changes of the working set.
+        ActiveSet = "active_set",
         /// The compiler's choice (the default): the cheapest method that its certificate shows
         /// reaching `accuracy`, resolved at build time; FGM-only keys (a numeric `step`, `tolerance`)
         /// choose `fgm`.

@@ -5,6 +5,7 @@ use super::cost;
 use super::{Plan, Solver, WRITE_OUT_BUDGET};
 use crate::lower::problem::Problem;
 use crate::lower::structure::{kronecker_identity, NotKronecker};
+use crate::solver::active_set::method::ACTIVE_SET;
 use crate::solver::admm::method::ADMM;
 use crate::solver::first_order::form::{
     self, lanes::Lanes, matrix_free::MatrixFree, table::Table, unrolled::Unrolled, Form,
@@ -21,6 +22,7 @@ pub fn of(method: Method) -> &'static dyn Solver {
         Method::Gradient => &GRADIENT,
         Method::Ipm => &INTERIOR_POINT,
         Method::Admm => &ADMM,
+        Method::ActiveSet => &ACTIVE_SET,
     }
 }
 

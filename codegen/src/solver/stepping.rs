@@ -1,6 +1,7 @@
 //! The oracle's state between control steps and the data of one step, which every method's
 //! [`crate::plan::Solver::oracle_step`] takes.
 
+use crate::solver::active_set;
 use crate::solver::admm;
 use crate::solver::ipm;
 use nalgebra::DVector;
@@ -17,6 +18,12 @@ pub struct Stepping {
     pub admm_start: admm::Start,
     /// ADMM's last step.
     pub admm_step: Option<admm::Step>,
+    /// The dual active-set method's warm start: the last working set.
+    pub active_set_start: Option<active_set::WorkingSet>,
+    /// The dual active-set method's last step.
+    pub active_set_step: Option<active_set::mpc::Step>,
+    /// The dual active-set method's build-time data, prepared on its first step.
+    pub active_set_prepared: Option<std::sync::Arc<active_set::Prepared>>,
     /// Whether the controller is recovering from infeasible hard rows ([`ipm::recovering_after`]).
     pub relax: bool,
 }
@@ -29,6 +36,9 @@ impl Stepping {
             last_step: None,
             admm_start: admm::Start::Cold,
             admm_step: None,
+            active_set_start: None,
+            active_set_step: None,
+            active_set_prepared: None,
             relax: false,
         }
     }

@@ -26,7 +26,14 @@
 
 use super::constrained::InequalityQp;
 
+pub mod emit;
+pub mod method;
+pub mod mpc;
 pub mod prepared;
+pub mod sampled;
+
+/// The method's title in the module's docs and diagnostics.
+pub const TITLE: &str = "the dual active-set method";
 
 /// The run-time kernel in f64: the reference, and what an f64 module runs.
 #[allow(dead_code)]
@@ -34,15 +41,6 @@ pub(crate) mod kernel64 {
     use super::Tally;
     /// The kernel's scalar.
     pub(crate) type Real = f64;
-    include!("kernel.rs");
-}
-
-/// The run-time kernel in f32: what an f32 module runs, and its build-time check.
-#[allow(dead_code)]
-pub(crate) mod kernel32 {
-    use super::Tally;
-    /// The kernel's scalar.
-    pub(crate) type Real = f32;
     include!("kernel.rs");
 }
 

@@ -1,0 +1,717 @@
+//! The dual active-set `Mpc`: the QP's data from the arguments, the kernel (`kernel.rs`, included as
+//! the reference runs it), the fallback, and the build-time tables: per independent block R, the
+//! normalised rows' Gram matrix, Z and the constraints' coefficients. Everything is f64 (the method
+//! widens an f32 module's arguments, as the interior-point method does).
+#![allow(non_snake_case)]
+
+use super::mpc::prepare;
+use super::{Prepared, Tolerances, KERNEL_SOURCE};
+use crate::emit::sections::Sections;
+use crate::emit::tokens::Num;
+use crate::lower::problem::Problem;
+use crate::solver::constrained::emit::{
+    coordinate_check, entry, evidence_doc, mpc_type, offsets, reach, status_types, Entry, MpcParts,
+    Offsets,
+};
+use crate::solver::constrained::InequalityQp;
+use crate::solver::ipm::mpc_qp;
+use mpc_spec::Scalar;
+use nalgebra::DVector;
+use proc_macro2::{Ident, Literal, Span, TokenStream};
+use quote::quote;
+
+/// What the sections are emitted from.
+struct Method<'a> {
+    p: &'a Problem,
+    num: Num,
+    structure: InequalityQp,
+    prepared: Prepared,
+}
+
+impl Method<'_> {
+    fn nv(&self) -> usize {
+        self.p.qp.N * self.p.nu + self.p.qp.rows.slacks()
+    }
+}
+
+/// An f64 literal, `f64::INFINITY` / `f64::NEG_INFINITY` where infinite.
+fn wide(v: f64) -> TokenStream {
+    if v == f64::INFINITY {
+        quote!(f64::INFINITY)
+    } else if v == f64::NEG_INFINITY {
+        quote!(f64::NEG_INFINITY)
+    } else {
+        Num(Scalar::F64).lit(v)
+    }
+}
+
+/// `[v, …]` in f64.
+fn wide_table(v: impl IntoIterator<Item = f64>) -> TokenStream {
+    let v = v.into_iter().map(wide);
+    quote!([#(#v),*])
+}
+
+/// `[i, …]`.
+fn index_table(v: &[usize]) -> TokenStream {
+    let v = v.iter().map(|i| Literal::usize_unsuffixed(*i));
+    quote!([#(#v),*])
+}
+
+/// The dual active-set `Mpc`, its kernel and its tables.
+pub fn emit(p: &Problem, num: Num) -> Sections {
+    let qp = &p.qp;
+    let np = qp.N * p.nu;
+    let structure = mpc_qp(qp, &DVector::zeros(np), &DVector::zeros(qp.rows.len()));
+    let prepared = prepare(qp).unwrap_or_else(|| Prepared {
+        n: 0,
+        m: 0,
+        blocks: Vec::new(),
+        place: Vec::new(),
+        zero_rows: Vec::new(),
+    });
+    let m = Method {
+        p,
+        num,
+        structure,
+        prepared,
+    };
+    let (reach_tables, reach_code) = reach(p, num, true);
+    let (coordinate_tables, coordinate_code) = coordinate_check(p, true);
+    let Offsets {
+        tables: row_tables,
+        terms: row_terms,
+    } = offsets(
+        p,
+        Num(Scalar::F64),
+        &quote!(f64),
+        "ROW",
+        &quote!(NG),
+        &|M| M.clone(),
+        [
+            " The rows' dependence on the state: their offset gains ROW_X·x0.",
+            " The rows' dependence on the disturbance estimate: their offset gains ROW_D·d.",
+            " The rows' dependence on the last input (the first move): their offset gains ROW_U·u₋₁.",
+        ],
+    );
+    Sections {
+        constants: constants(&m),
+        api: api(&m, &row_terms, &reach_code, &coordinate_code),
+        kernels: kernels(&m),
+        tables: tables(&m, quote!(#reach_tables #coordinate_tables #row_tables)),
+    }
+}
+
+/// The constants section: the dimensions of the QP, the blocks and the kernel's storage.
+fn constants(m: &Method) -> TokenStream {
+    let qp = &m.p.qp;
+    let blocks = &m.prepared.blocks;
+    let (nv, ns, ng) = (m.nv(), qp.rows.slacks(), qp.rows.len());
+    let n_max = blocks.iter().map(|b| b.n()).max().unwrap_or(0);
+    let nc_max = blocks.iter().map(|b| b.rows.len()).max().unwrap_or(0);
+    let lit = Literal::usize_unsuffixed;
+    let [nv, ns, ng, nblocks, n_max, nc_max, nwarm] = [
+        nv,
+        ns,
+        ng,
+        blocks.len(),
+        n_max,
+        nc_max,
+        m.prepared.warm_len(),
+    ]
+    .map(lit);
+    let accuracy = Num(Scalar::F64).lit(qp.accuracy);
+    quote! {
+        /// Entries of the plan, N·NU.
+        pub const NP: usize = N * NU;
+        /// The QP's unknowns z: the plan, then one slack per soft constraint component.
+        pub const NV: usize = #nv;
+        /// Slacks of the soft constraints.
+        pub const NS: usize = #ns;
+        /// General constraint rows (their sides move with the data).
+        pub const NG: usize = #ng;
+        /// The QP's sides: a bound per unknown, then the general rows.
+        pub const NC: usize = NV + NG;
+        /// Independent blocks of the QP, each solved on its own.
+        pub const NBLOCKS: usize = #nblocks;
+        /// Unknowns of the largest block.
+        pub const N_MAX: usize = #n_max;
+        /// Constraints of the largest block.
+        pub const NC_MAX: usize = #nc_max;
+        /// A working set's capacity: N_MAX + 1 (the last side may be dependent, until it leaves).
+        pub const CAP: usize = N_MAX + 1;
+        /// The warm start's storage: CAP entries per block.
+        pub const NWARM: usize = #nwarm;
+        /// `[mpc] accuracy`: the plan within ACCURACY·(U_MAX − U_MIN) of the exact solution.
+        pub const ACCURACY: f64 = #accuracy;
+    }
+}
+
+/// The api section: `SolverStatus`, `Fallback`, the kernel's storage and the `Mpc` struct.
+fn api(
+    m: &Method,
+    row_terms: &[TokenStream],
+    reach_code: &TokenStream,
+    coordinate_code: &TokenStream,
+) -> TokenStream {
+    let status_types = status_types(
+        "dual active-set method",
+        &[
+            " Changes of the working set (sides added or removed) over all blocks: at most",
+            " [`ITERATIONS`], the certified count with its margin. A solve that needs more falls back.",
+        ],
+    );
+    let evidence_doc = evidence_doc(m.p.qp.evidence.as_ref(), "");
+    let blocks = m.prepared.blocks.len();
+    let doc = format!(
+        " Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and\n Idnani's, as DAQP) on the condensed QP in f64, in {blocks} independent block(s), with the Cholesky\n factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve\n starts from the previous working set and stops at the optimum or after [`ITERATIONS`] changes;\n a solve that does not reach the optimum falls back to the held plan ([`Fallback::WarmStart`])."
+    );
+    let doc: Vec<&str> = doc.split('\n').collect();
+    let entry = entry(m.p);
+    let checked = checked(m, &entry, row_terms, reach_code, coordinate_code);
+    let mpc = mpc_type(MpcParts {
+        status_types,
+        doc: &doc,
+        evidence_doc: &evidence_doc,
+        plan_scalar: quote!(f64),
+        point_fields: quote! {
+            /// The last solve's working sets, block by block (CAP entries each, `warm_len` of them used):
+            /// twice the constraint, plus one at its upper side.
+            warm_set: [usize; NWARM],
+            /// The used entries of each block's working set.
+            warm_len: [usize; NBLOCKS],
+            /// Whether the working sets are a warm start (false after `new`, `reset` or a fallback).
+            warm: bool,
+            /// The kernel's storage, kept here rather than on the stack.
+            work: Storage,
+        },
+        point_init: quote! {
+            warm_set: [0; NWARM],
+            warm_len: [0; NBLOCKS],
+            work: Storage::new(),
+        },
+        new_doc: " A cold controller: its first solve starts from an empty working set.",
+        plan_step: quote! {
+            for (a, v) in o.iter_mut().zip(step.iter()) {
+                *a = *v as Real;
+            }
+        },
+        entry,
+        checked,
+    });
+    quote! {
+        #mpc
+
+        /// The kernel's storage for the largest block: the working set, its multipliers and factor,
+        /// and per constraint its scaled sides and marks.
+        #[derive(Clone, Debug, PartialEq)]
+        struct Storage {
+            set: [usize; CAP],
+            upper: [bool; CAP],
+            lambda: [f64; CAP],
+            star: [f64; CAP],
+            y: [f64; CAP],
+            scaled: [f64; CAP],
+            tmp: [f64; CAP],
+            l: [f64; CAP * CAP],
+            d: [f64; CAP],
+            active: [bool; NC_MAX],
+            excluded: [bool; NC_MAX],
+            lo: [f64; NC_MAX],
+            hi: [f64; NC_MAX],
+            z_free: [f64; N_MAX],
+        }
+
+        impl Storage {
+            /// Zeroed storage.
+            const fn new() -> Self {
+                Storage {
+                    set: [0; CAP],
+                    upper: [false; CAP],
+                    lambda: [0.0; CAP],
+                    star: [0.0; CAP],
+                    y: [0.0; CAP],
+                    scaled: [0.0; CAP],
+                    tmp: [0.0; CAP],
+                    l: [0.0; CAP * CAP],
+                    d: [0.0; CAP],
+                    active: [false; NC_MAX],
+                    excluded: [false; NC_MAX],
+                    lo: [0.0; NC_MAX],
+                    hi: [0.0; NC_MAX],
+                    z_free: [0.0; N_MAX],
+                }
+            }
+
+            /// The kernel's view of it.
+            fn work(&mut self) -> Work<'_> {
+                Work {
+                    set: &mut self.set,
+                    upper: &mut self.upper,
+                    lambda: &mut self.lambda,
+                    star: &mut self.star,
+                    y: &mut self.y,
+                    scaled: &mut self.scaled,
+                    tmp: &mut self.tmp,
+                    l: &mut self.l,
+                    d: &mut self.d,
+                    active: &mut self.active,
+                    excluded: &mut self.excluded,
+                    lo: &mut self.lo,
+                    hi: &mut self.hi,
+                    z_free: &mut self.z_free,
+                    cap: CAP,
+                }
+            }
+        }
+    }
+}
+
+/// `Mpc::checked`, the solve: the QP's data from the arguments, the warm start, the kernel, and the
+/// choice between its plan and the held one.
+fn checked(
+    m: &Method,
+    entry: &Entry,
+    row_terms: &[TokenStream],
+    reach_code: &TokenStream,
+    coordinate_code: &TokenStream,
+) -> TokenStream {
+    let p = m.p;
+    let row = crate::solver::first_order::form::reference_row(p);
+    let n_reference = Literal::usize_unsuffixed(p.qp.N * p.qp.nz);
+    let Entry {
+        d_param,
+        d_finite,
+        f_terms,
+        set_last,
+        ..
+    } = entry;
+    let (d_flush, d_wide) = if p.nd() > 0 {
+        (quote!(let d = &flushed(d);), quote!(let d = widen(d);))
+    } else {
+        (quote!(), quote!())
+    };
+    let last_wide = p
+        .keeps_last_input()
+        .then(|| quote!(let last = widen(&self.last);));
+    let wide_of_v = match m.num.0 {
+        Scalar::F32 => quote!(f64::from(*v)),
+        Scalar::F64 => quote!(*v),
+    };
+    let zero_rows = (!m.prepared.zero_rows.is_empty()).then(|| {
+        quote! {
+            // A row without coefficients: its sides must hold 0, or no plan meets it.
+            let mut empty = false;
+            for j in ZERO_ROWS {
+                empty |= !((at(&lower, NV + j) <= 0.0) & (0.0 <= at(&upper, NV + j)));
+            }
+        }
+    });
+    let (empty_check, empty_end) = if zero_rows.is_some() {
+        (
+            quote!(let (ended, iterations) = if empty { (Ended::Infeasible, 0) } else),
+            quote!(;),
+        )
+    } else {
+        (quote!(let (ended, iterations) =), quote!(;))
+    };
+    quote! {
+        /// The solve, with `None` (and a reset warm start) for a non-finite argument.
+        fn checked(&mut self, x0: &[Real; NX], #d_param xref: &[[Real; #row]; N]) -> Option<[Real; NU]> {
+            if !(all_finite(x0) #d_finite && xref.iter().all(|r| all_finite(r))) {
+                self.reset();
+                return None;
+            }
+            let x0 = widen(&flushed(x0));
+            #d_flush
+            #d_wide
+            #last_wide
+            let mut reference = [0.0; #n_reference];
+            for (r, row) in reference.chunks_exact_mut(xref[0].len()).zip(xref.iter()) {
+                for (w, v) in r.iter_mut().zip(flushed(row).iter()) {
+                    *w = #wide_of_v;
+                }
+            }
+            #coordinate_code
+            #reach_code
+            // f = Fx·x0 − Fr·Xref (+ Fu·u₋₁ + Fd·d) for the plan, the penalties' weights for the slacks.
+            let mut f = [0.0; NV];
+            for (i, fi) in f.iter_mut().enumerate().take(NP) {
+                *fi = dot(&FX[i], &x0) - dot(&FR[i], &reference) #f_terms;
+            }
+            for (fi, w) in f.iter_mut().skip(NP).zip(SLACK_WEIGHT.iter()) {
+                *fi = *w;
+            }
+            // The sides: the unknowns' bounds (constant), then the rows' moved by the data.
+            let (mut lower, mut upper) = ([0.0; NC], [0.0; NC]);
+            lower[..NV].copy_from_slice(&Z_LO);
+            upper[..NV].copy_from_slice(&Z_HI);
+            for j in 0..NG {
+                let offset = #(#row_terms)+*;
+                lower[NV + j] = ROW_LOWER[j] - offset;
+                upper[NV + j] = ROW_UPPER[j] - offset;
+            }
+            // The held plan: the fallback, and what a relaxed solve widens the hard rows to.
+            let mut held = self.plan;
+            shift(&mut held, NU);
+            held[NP - NU..].copy_from_slice(&REST);
+            for (i, p) in held.iter_mut().enumerate() {
+                *p = clamp(*p, i);
+            }
+            // The sides without the widening: what the status's violation is measured on.
+            let (hard_lower, hard_upper) = (lower, upper);
+            // Recovering, the held plan violating a hard row: relaxed, each hard row widened to the
+            // held plan's value, so that the QP has a plan that violates no row more than holding would.
+            let relax = self.relax && violations(&held, &lower, &upper).0 > ACCURACY;
+            if relax {
+                let values = row_values(&held);
+                for j in 0..NG {
+                    if !ROW_SOFT[j] {
+                        let a = values[j];
+                        lower[NV + j] = if a < lower[NV + j] { a } else { lower[NV + j] };
+                        upper[NV + j] = if a > upper[NV + j] { a } else { upper[NV + j] };
+                    }
+                }
+            }
+            // A cold start after `new`, `reset`, a fallback or a relaxed solve.
+            if !self.warm | relax {
+                self.warm_len = [0; NBLOCKS];
+            }
+            #zero_rows
+            let mut z = [0.0; NV];
+            let mut work = self.work.work();
+            #empty_check {
+                solve(
+                    &BLOCKS,
+                    &f,
+                    &lower,
+                    &upper,
+                    &mut work,
+                    &mut self.warm_set,
+                    &mut self.warm_len,
+                    ITERATIONS,
+                    &TOLERANCES,
+                    &mut Tally,
+                    &mut z,
+                    |_, _, _, _| {},
+                )
+            } #empty_end
+            let trusted = ended == Ended::Solved;
+            if trusted {
+                for (i, (p, v)) in self.plan.iter_mut().zip(z.iter()).enumerate() {
+                    *p = clamp(*v, i);
+                }
+            } else {
+                self.plan = held;
+            }
+            self.warm = trusted & !relax;
+            let (violation, softened) = violations(&self.plan, &hard_lower, &hard_upper);
+            let infeasible = ended == Ended::Infeasible;
+            // Recovering after a solve found the hard rows infeasible, or made a relaxed plan.
+            self.relax = infeasible | (trusted & relax);
+            self.status = SolverStatus {
+                iterations: iterations as u32,
+                primal_residual: 0.0,
+                dual_residual: 0.0,
+                gap: 0.0,
+                violation,
+                softened,
+                infeasible,
+                numerical_failure: (ended == Ended::NumericalFailure) | (ended == Ended::Cycling),
+                reference_beyond_region: beyond,
+                beyond_coordinate_range: beyond_coordinates,
+                fallback: match (trusted, relax) {
+                    (true, false) => Fallback::Solved,
+                    (true, true) => Fallback::Relaxed,
+                    (false, _) => Fallback::WarmStart,
+                },
+            };
+            let mut first = [0.0; NU];
+            for (o, v) in first.iter_mut().zip(self.plan.iter()) {
+                *o = *v as Real;
+            }
+            #set_last
+            Some(first)
+        }
+    }
+}
+
+/// The kernels section: the helpers, the rows' values and violations, and the kernel (`kernel.rs`,
+/// as the reference compiles it) with a tally that counts nothing.
+fn kernels(m: &Method) -> TokenStream {
+    let wide_of_x = match m.num.0 {
+        Scalar::F32 => quote!(f64::from(*x)),
+        Scalar::F64 => quote!(*x),
+    };
+    let kernel: TokenStream = KERNEL_SOURCE
+        .replace("pub(super) ", "")
+        .replace("Real", "f64")
+        .parse()
+        .unwrap_or_default();
+    quote! {
+        /// The rest plan: U_REST at every step.
+        const fn rest_plan() -> [f64; NP] {
+            let mut out = [0.0; NP];
+            let mut i = 0;
+            while i < NP {
+                out[i] = REST[i % NU];
+                i += 1;
+            }
+            out
+        }
+
+        /// `v` in f64.
+        #[inline(always)]
+        fn widen<const M: usize>(v: &[Real; M]) -> [f64; M] {
+            let mut out = [0.0; M];
+            for (o, x) in out.iter_mut().zip(v.iter()) {
+                *o = #wide_of_x;
+            }
+            out
+        }
+
+        /// a·b.
+        #[inline(always)]
+        fn dot(a: &[f64], b: &[f64]) -> f64 {
+            a.iter().zip(b.iter()).map(|(x, y)| x * y).sum()
+        }
+
+        /// Plan entry `i` projected onto its input's bounds; NaN maps to the lower bound.
+        #[inline(always)]
+        fn clamp(v: f64, i: usize) -> f64 {
+            let (lo, hi) = (LO[i % NU], HI[i % NU]);
+            let v = if v >= lo { v } else { lo };
+            if v <= hi { v } else { hi }
+        }
+
+        /// Moves every block of `width` up by one; the last block stays.
+        #[inline(always)]
+        fn shift(v: &mut [f64], width: usize) {
+            if width > 0 && v.len() > width {
+                v.copy_within(width.., 0);
+            }
+        }
+
+        /// Every row's value at the plan (slacks zero), A·(plan, 0).
+        fn row_values(plan: &[f64; NP]) -> [f64; NG] {
+            let mut out = [0.0; NG];
+            for (j, o) in out.iter_mut().enumerate() {
+                let mut s = 0.0;
+                for e in at_index(&ROW_STARTS, j)..at_index(&ROW_STARTS, j + 1) {
+                    s += at(&ROW_VALUES, e) * at(plan, at_index(&ROW_COLUMNS, e));
+                }
+                *o = s;
+            }
+            out
+        }
+
+        /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and
+        /// the largest soft-row violation in its row's units, against the sides `lower`/`upper`.
+        fn violations(plan: &[f64; NP], lower: &[f64; NC], upper: &[f64; NC]) -> (f64, f64) {
+            let values = row_values(plan);
+            let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
+            for j in 0..NG {
+                let (lo, hi) = (lower[NV + j] - values[j], values[j] - upper[NV + j]);
+                if ROW_SOFT[j] {
+                    soft = soft.max(lo.max(hi).max(0.0));
+                } else {
+                    let below = lo.max(0.0) / ROW_LOWER[j].abs().max(1.0);
+                    let above = hi.max(0.0) / ROW_UPPER[j].abs().max(1.0);
+                    hard = hard.max(below.max(above));
+                }
+            }
+            (hard, soft)
+        }
+
+        /// The reference's count of multiply-adds, which the controller does not keep.
+        struct Tally;
+
+        impl Tally {
+            #[inline(always)]
+            fn offsets(&mut self, _: usize) {}
+            #[inline(always)]
+            fn scan(&mut self, _: usize) {}
+            #[inline(always)]
+            fn factor(&mut self, _: usize) {}
+            #[inline(always)]
+            fn solve(&mut self, _: usize) {}
+            #[inline(always)]
+            fn step(&mut self, _: usize) {}
+            #[inline(always)]
+            fn recover(&mut self, _: usize) {}
+            #[inline(always)]
+            fn pass(&mut self) {}
+        }
+
+        #kernel
+    }
+}
+
+/// The tables section: the tolerances, the sides, the rows, and each block's data.
+fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
+    let qp = &m.p.qp;
+    let rows = &qp.rows;
+    let s = &m.structure;
+    let np = qp.N * m.p.nu;
+    let nu = m.p.nu;
+    let [lo, hi, rest] =
+        [&qp.u_min, &qp.u_max, &qp.rest_input()].map(|v| wide_table(v.iter().copied()));
+    let (z_lo, z_hi) = (
+        wide_table(s.z_min.iter().copied()),
+        wide_table(s.z_max.iter().copied()),
+    );
+    let (row_lower, row_upper) = (
+        wide_table(rows.lower.iter().copied()),
+        wide_table(rows.upper.iter().copied()),
+    );
+    let soft = rows.soft.iter();
+    let slack_weight = wide_table(rows.slack_weight.iter().copied());
+    // The rows' coefficients on the plan, sparse by rows.
+    let (mut starts, mut columns, mut values) = (vec![0], Vec::new(), Vec::new());
+    for j in 0..rows.len() {
+        for c in 0..np {
+            let v = rows.A[(j, c)];
+            if v != 0.0 {
+                columns.push(c);
+                values.push(v);
+            }
+        }
+        starts.push(columns.len());
+    }
+    let nnz = Literal::usize_unsuffixed(values.len());
+    let nstarts = Literal::usize_unsuffixed(starts.len());
+    let (starts_t, columns_t, values_t) = (
+        index_table(&starts),
+        index_table(&columns),
+        wide_table(values.iter().copied()),
+    );
+    let tol = Tolerances::F64;
+    let t = |v: f64| Num(Scalar::F64).lit(v);
+    let [primal, dual, singular, refactor, pivot, progress, infeasible] = [
+        tol.primal,
+        tol.dual,
+        tol.singular,
+        tol.refactor,
+        tol.pivot,
+        tol.progress,
+        tol.infeasible,
+    ]
+    .map(t);
+    let cycle = Literal::usize_unsuffixed(tol.cycle);
+    let zero_rows = (!m.prepared.zero_rows.is_empty()).then(|| {
+        let count = Literal::usize_unsuffixed(m.prepared.zero_rows.len());
+        let table = index_table(&m.prepared.zero_rows);
+        quote! {
+            /// Rows without coefficients on the unknowns.
+            const ZERO_ROWS: [usize; #count] = #table;
+        }
+    });
+    let mut block_tables = TokenStream::new();
+    let mut block_items = Vec::new();
+    for (b, block) in m.prepared.blocks.iter().enumerate() {
+        let name = |s: &str| Ident::new(&format!("{s}_{b}"), Span::call_site());
+        let [vars, r, sides, scale, starts, positions, values, gram, z_cols] = [
+            "VARS",
+            "R",
+            "SIDES",
+            "SCALE",
+            "STARTS",
+            "POSITIONS",
+            "VALUES",
+            "GRAM",
+            "Z_COLS",
+        ]
+        .map(name);
+        let pk = &block.packed;
+        let len = |n: usize| Literal::usize_unsuffixed(n);
+        let (l_vars, l_r, l_sides, l_starts, l_pos, l_gram, l_z) = (
+            len(block.vars.len()),
+            len(pk.r.len()),
+            len(pk.sides.len()),
+            len(pk.starts.len()),
+            len(pk.positions.len()),
+            len(pk.gram.len()),
+            len(pk.z_cols.len()),
+        );
+        let (t_vars, t_r, t_sides, t_scale, t_starts, t_pos, t_values, t_gram, t_z) = (
+            index_table(&block.vars),
+            wide_table(pk.r.iter().copied()),
+            index_table(&pk.sides),
+            wide_table(block.scale.iter().copied()),
+            index_table(&pk.starts),
+            index_table(&pk.positions),
+            wide_table(pk.values.iter().copied()),
+            wide_table(pk.gram.iter().copied()),
+            wide_table(pk.z_cols.iter().copied()),
+        );
+        let doc = format!(
+            " Block {b}: {} unknowns, {} constraints.",
+            block.n(),
+            block.rows.len()
+        );
+        block_tables.extend(quote! {
+            #[doc = #doc]
+            const #vars: [usize; #l_vars] = #t_vars;
+            const #r: [f64; #l_r] = #t_r;
+            const #sides: [usize; #l_sides] = #t_sides;
+            const #scale: [f64; #l_sides] = #t_scale;
+            const #starts: [usize; #l_starts] = #t_starts;
+            const #positions: [usize; #l_pos] = #t_pos;
+            const #values: [f64; #l_pos] = #t_values;
+            const #gram: [f64; #l_gram] = #t_gram;
+            const #z_cols: [f64; #l_z] = #t_z;
+        });
+        let warm_at = Literal::usize_unsuffixed(pk.warm_at);
+        block_items.push(quote! {
+            Block {
+                vars: &#vars,
+                r: &#r,
+                sides: &#sides,
+                scale: &#scale,
+                starts: &#starts,
+                positions: &#positions,
+                values: &#values,
+                gram: &#gram,
+                z_cols: &#z_cols,
+                warm_at: #warm_at,
+            }
+        });
+    }
+    let _ = nu;
+    quote! {
+        /// The kernel's tolerances, relative to the normalised problem (`codegen`'s
+        /// `active_set::Tolerances::F64`).
+        const TOLERANCES: Tolerances = Tolerances {
+            primal: #primal,
+            dual: #dual,
+            singular: #singular,
+            refactor: #refactor,
+            pivot: #pivot,
+            progress: #progress,
+            cycle: #cycle,
+            infeasible: #infeasible,
+        };
+        const LO: [f64; NU] = #lo;
+        const HI: [f64; NU] = #hi;
+        const REST: [f64; NU] = #rest;
+        /// The unknowns' bounds: the input box on the plan, σ ≥ 0 on the slacks.
+        const Z_LO: [f64; NV] = #z_lo;
+        const Z_HI: [f64; NV] = #z_hi;
+        /// The rows' sides before the data move them.
+        const ROW_LOWER: [f64; NG] = #row_lower;
+        const ROW_UPPER: [f64; NG] = #row_upper;
+        /// Whether each row is soft (its violation priced by a slack).
+        const ROW_SOFT: [bool; NG] = [#(#soft),*];
+        /// The soft rows' L1 weights: the slacks' linear term.
+        const SLACK_WEIGHT: [f64; NS] = #slack_weight;
+        /// The rows' coefficients on the plan, by rows: row j's are `ROW_VALUES[ROW_STARTS[j]..ROW_STARTS[j + 1]]`
+        /// at the plan's entries `ROW_COLUMNS[…]`.
+        const ROW_STARTS: [usize; #nstarts] = #starts_t;
+        const ROW_COLUMNS: [usize; #nnz] = #columns_t;
+        const ROW_VALUES: [f64; #nnz] = #values_t;
+        #zero_rows
+        #data_tables
+        /// The independent blocks.
+        const BLOCKS: [Block<'static>; NBLOCKS] = [#(#block_items),*];
+        #block_tables
+    }
+}

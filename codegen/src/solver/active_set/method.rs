@@ -1,0 +1,143 @@
+//! The dual active-set method behind [`Solver`].
+#![allow(non_snake_case)]
+
+use super::mpc::{control_step, macs_once, macs_per_iteration, prepare};
+use crate::certify::evidence::Evidence;
+use crate::certify::sampling;
+use crate::emit::sections::Sections;
+use crate::emit::tokens::Num;
+use crate::lower::problem::{Problem, Qp};
+use crate::plan::machine::{machine, Machine};
+use crate::plan::{Plan, Solver};
+use crate::solver::stepping::{StepData, Stepping};
+use mpc_spec::{Diagnostic, Diagnostics, Method, Scalar, Spec};
+use nalgebra::DVector;
+use std::sync::Arc;
+
+/// The dual active-set method (Goldfarb and Idnani's, as DAQP) on the condensed QP, in f64, with its
+/// factor, Gram matrix and blocks computed at build time.
+#[derive(Debug)]
+pub struct ActiveSet;
+
+/// The dual active-set method.
+pub static ACTIVE_SET: ActiveSet = ActiveSet;
+
+impl Solver for ActiveSet {
+    fn method(&self) -> Method {
+        Method::ActiveSet
+    }
+
+    fn title(&self) -> &'static str {
+        super::TITLE
+    }
+
+    fn name(&self, _qp: &Qp) -> &'static str {
+        super::TITLE
+    }
+
+    fn widens(&self) -> bool {
+        true
+    }
+
+    /// Scalar f64 code over tables with indices, like the interior-point method's: its figure, until the
+    /// emulated boards have measured this method's own.
+    fn cycles_per_mac(&self, machine: &Machine, _scalar: Scalar, _qp: &Qp) -> f64 {
+        machine.cycles_per_mac_ipm
+    }
+
+    /// The worst pass of the iteration (a scan of every constraint against a full working set, a change
+    /// of the factor, its solve), and the offsets and recovery of z once per solve.
+    fn macs(&self, p: &Problem, _plan: &Plan) -> (usize, usize) {
+        prepare(&p.qp).map_or((0, 0), |prepared| {
+            (macs_per_iteration(&prepared), macs_once(&prepared))
+        })
+    }
+
+    fn not_weighed(&self, spec: &Spec, _earlier_usable: bool) -> Option<String> {
+        (!machine(spec.codegen.target).f64_in_hardware).then(|| {
+            format!(
+                "computes in f64, which `target = \"{}\"` has no hardware for",
+                spec.codegen.target.name()
+            )
+        })
+    }
+
+    fn certify(&self, spec: &Spec, problem: &Problem) -> Result<Option<Evidence>, Diagnostics> {
+        let prepared = prepare(&problem.qp).ok_or_else(|| {
+            Diagnostics::from(Diagnostic::new(
+                "the dual active-set method needs a positive definite Hessian, and a block of this one is not",
+                spec.spans.get("mpc.method"),
+            ))
+        })?;
+        sampling::certify(spec, problem, &super::sampled::ActiveSet::new(prepared), 0).map(Some)
+    }
+
+    fn bound_form(&self, _rate: bool) -> String {
+        "none yet: the count is sampled (an exact certificate over the region is to come)"
+            .to_string()
+    }
+
+    fn shape_doc(&self, p: &Problem, _plan: &Plan) -> String {
+        let blocks = prepare(&p.qp).map_or(0, |prepared| prepared.blocks.len());
+        format!(
+            " horizon {}, dual active-set on the condensed QP in f64, in {blocks} independent block(s), with {} constraint rows.",
+            p.qp.N,
+            p.qp.rows.len()
+        )
+    }
+
+    /// Its tables are f64: the largest is a block's Gram matrix or Z, or FR.
+    fn largest_table(&self, p: &Problem) -> usize {
+        let fr = p.qp.N * p.nu * p.qp.N * p.qp.nz;
+        let block = prepare(&p.qp).map_or(0, |prepared| {
+            prepared
+                .blocks
+                .iter()
+                .map(|b| b.packed.gram.len().max(b.packed.z_cols.len()))
+                .max()
+                .unwrap_or(0)
+        });
+        block.max(fr) * 8
+    }
+
+    fn skeleton_writes_h(&self) -> bool {
+        false
+    }
+
+    fn projects(&self) -> bool {
+        false
+    }
+
+    fn fallback_name(&self) -> Option<&'static str> {
+        Some("dual active-set method")
+    }
+
+    fn emit(&self, p: &Problem, _plan: &Plan, num: Num) -> Sections {
+        super::emit::emit(p, num)
+    }
+
+    fn oracle_step(&self, qp: &Qp, state: &mut Stepping, data: StepData) -> DVector<f64> {
+        if state.active_set_prepared.is_none() {
+            state.active_set_prepared = prepare(qp).map(Arc::new);
+        }
+        let Some(prepared) = state.active_set_prepared.clone() else {
+            return crate::solver::ipm::held_plan(qp, data.plan);
+        };
+        let offset = qp.rows.offset(data.x0, data.d, data.last);
+        let step = control_step(
+            qp,
+            &prepared,
+            data.f,
+            &offset,
+            state.active_set_start.as_ref(),
+            data.plan,
+            qp.iterations,
+            state.relax,
+        );
+        state.relax = step.recovering();
+        state.active_set_start = step.next_start();
+        let plan = step.plan.clone();
+        state.active_set_step = Some(step);
+        plan
+    }
+}
