@@ -54,6 +54,12 @@ impl Mpc {
         self.stepping.admm_step.as_ref()
     }
 
+    /// The dual active-set method's last step (its outcome and fallback); `None` before the first solve,
+    /// after a reset, or for another method.
+    pub fn active_set_step(&self) -> Option<&crate::solver::active_set::mpc::Step> {
+        self.stepping.active_set_step.as_ref()
+    }
+
     /// The interior-point method's last step (its residuals, iterations and fallback); `None` before
     /// the first solve, after a reset, or for a first-order method.
     pub fn last_step(&self) -> Option<&Step> {

@@ -182,6 +182,20 @@ fn variants() -> Vec<(String, String)> {
         "quadcopter-admm-f32.toml: no `method = \"admm\"`"
     );
     out.push(("admm_stages_residual".to_string(), residual));
+    // The dual active-set method: every kind of row, weighted moves and a disturbance model (f64), and
+    // the quadcopter in an f32 module (the method widens), blocks and a zero-free row set.
+    out.push((
+        "active_set_rows".to_string(),
+        tests("active-set/linear.toml"),
+    ));
+    out.push((
+        "active_set_f32".to_string(),
+        tests("active-set/quadcopter-f32.toml"),
+    ));
+    out.push((
+        "active_set_blocks".to_string(),
+        tests("active-set/paper-limits.toml"),
+    ));
     out
 }
 

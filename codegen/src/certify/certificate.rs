@@ -338,6 +338,11 @@ impl Certificate {
             field("sampled.limits.gap", "SAMPLED_GAP_LIMIT", "Final duality gap, relative to max(1, |J|), above which the solve falls back.", SAMPLED, "fallback above relative duality gap", Plain, Real(e.limits.gap)),
         ];
         fields.splice(at..at, evidence);
+        // A method without run-time residual limits (the dual active-set method: a solve ends at the
+        // optimum or is not used) has none to report.
+        if e.method == mpc_spec::Method::ActiveSet {
+            fields.retain(|f| !f.json.starts_with("sampled.limits"));
+        }
         if let (Some(rho), Some(form)) = (e.rho, e.admm_form) {
             let label = format!("ADMM's ρ (tuned on the sample), {} form", form.name());
             let at = fields

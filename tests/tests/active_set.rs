@@ -1,0 +1,290 @@
+//! `method = "active_set"`: generated dual active-set controllers (`tests/specs/active-set/`: the shipped
+//! constrained specs with their method changed, the quadcopter in an f32 module as well, and the small
+//! linear plant with every kind of row, weighted moves and a disturbance model):
+//! - against the oracle (`codegen::solver::active_set::mpc::control_step`, the same kernel in f64),
+//!   warm-started runs inside the region and 1.5× beyond it: the same working sets, so the plans differ
+//!   by the rounding of the data alone (≤ 1e-9 of the span in an f64 module, 0 in most runs; an f32
+//!   module returns its plan in f32, so there within f32's ε of the span), and the same fallbacks;
+//! - every solve of a feasible QP within `accuracy` of Clarabel (an independent exact solver) on warm
+//!   closed loops inside the region, with no fallback;
+//! - the fallback: infeasible hard rows, then the relaxed plan; overflowing and non-finite data give a
+//!   finite command inside the input box and a status that says so.
+#![allow(non_snake_case)]
+
+use codegen::ipm::{violations, Fallback};
+use codegen::oracle;
+use mpc_tests::harness::*;
+use nalgebra::DVector;
+
+#[allow(dead_code)]
+#[path = "../benches/exact.rs"]
+mod exact;
+
+mpc_macros::mpc!(mod quadcopter = "specs/active-set/quadcopter.toml");
+mpc_macros::mpc!(mod quadcopter32 = "specs/active-set/quadcopter-f32.toml");
+mpc_macros::mpc!(mod hover = "specs/active-set/hover.toml");
+mpc_macros::mpc!(mod paper_limits = "specs/active-set/paper-limits.toml");
+mpc_macros::mpc!(mod paper_geofence = "specs/active-set/paper-geofence.toml");
+mpc_macros::mpc!(mod afti16 = "specs/active-set/afti16.toml");
+mpc_macros::mpc!(mod linear = "specs/active-set/linear.toml");
+
+const QUADCOPTER: &str = include_str!("../specs/active-set/quadcopter.toml");
+const QUADCOPTER32: &str = include_str!("../specs/active-set/quadcopter-f32.toml");
+const HOVER: &str = include_str!("../specs/active-set/hover.toml");
+const PAPER_LIMITS: &str = include_str!("../specs/active-set/paper-limits.toml");
+const PAPER_GEOFENCE: &str = include_str!("../specs/active-set/paper-geofence.toml");
+const AFTI16: &str = include_str!("../specs/active-set/afti16.toml");
+const LINEAR: &str = include_str!("../specs/active-set/linear.toml");
+
+/// What a run of a generated controller against the oracle and Clarabel showed.
+#[derive(Default, Debug)]
+struct Seen {
+    /// Worst |U_generated − U_oracle|∞ over the span.
+    oracle: f64,
+    /// Worst |U_generated − U*|∞ over the span (U* Clarabel's), and the worst hard-row violation.
+    exact: f64,
+    violation: f64,
+    solves: usize,
+    /// Fallbacks where the QP has a solution.
+    fallbacks: usize,
+    /// Solves whose QP has none (hard rows that cannot be met): each a reported fallback.
+    infeasible: usize,
+    /// The most changes of the working set a solve made.
+    iterations: u32,
+}
+
+/// Runs a generated module beside the oracle over `sequences` warm-started sequences of `steps` from
+/// states drawn in the region widened by `widen`, comparing with Clarabel too when `clarabel`.
+macro_rules! run {
+    ($m:ident, $text:expr, $seed:expr, $sequences:expr, $steps:expr, $widen:expr, $clarabel:expr) => {{
+        use $m as m;
+        let p = problem($text);
+        let mut rng = rng($seed);
+        let mut seen = Seen::default();
+        for _ in 0..$sequences {
+            let mut generated = m::Mpc::new();
+            let mut reference = oracle::Mpc::new(&p);
+            let mut c = draw(&p, &mut rng, $widen);
+            for _ in 0..$steps {
+                // The oracle sees the data as the module holds them (rounded to its Real).
+                let round = |v: &DVector<f64>| v.map(|x| x as m::Real as f64);
+                c.x0 = round(&c.x0);
+                c.reference = round(&c.reference);
+                let (problem, offset) = qp_of(&p, &reference, &c);
+                let u = reference.solve(&c.x0, &window(&p, &c.reference));
+                let x0: [m::Real; m::NX] = std::array::from_fn(|i| c.x0[i] as m::Real);
+                let row = std::array::from_fn(|i| c.reference[i] as m::Real);
+                let v = generated.solve(&x0, &[row; m::N]);
+                for (j, v) in v.iter().enumerate() {
+                    assert!(
+                        v.is_finite() && *v >= m::U_MIN[j] && *v <= m::U_MAX[j],
+                        "{v} outside the box"
+                    );
+                }
+                let status = *generated.solver_status();
+                seen.iterations = seen.iterations.max(status.iterations);
+                let step = reference.active_set_step().expect("an active-set step");
+                assert_eq!(
+                    status.fallback == m::Fallback::WarmStart,
+                    step.fallback == Fallback::WarmStart,
+                    "the generated and the oracle's fallback differ: {status:?}"
+                );
+                let exact_status = if $clarabel {
+                    codegen::ipm::solve(&problem, 1e-10, 200).status
+                } else {
+                    codegen::ipm::Status::Converged
+                };
+                let fell_back = status.fallback == m::Fallback::WarmStart;
+                match exact_status {
+                    codegen::ipm::Status::Converged => seen.fallbacks += usize::from(fell_back),
+                    codegen::ipm::Status::Infeasible => {
+                        let relaxed =
+                            status.fallback == m::Fallback::Relaxed && status.violation > 0.0;
+                        assert!(
+                            relaxed || fell_back && status.infeasible,
+                            "an infeasible QP solved without a word: {status:?}"
+                        );
+                        seen.infeasible += 1;
+                    }
+                    other => panic!("the exact IPM ended {other:?} at x0 = {}", c.x0),
+                }
+                let plan: Vec<f64> = generated
+                    .plan()
+                    .iter()
+                    .flatten()
+                    .map(|v| *v as f64)
+                    .collect();
+                for (i, (a, b)) in plan.iter().zip(reference.plan().iter()).enumerate() {
+                    seen.oracle = seen.oracle.max((a - b).abs() / span(&p, i));
+                }
+                let relaxed = status.fallback == m::Fallback::Relaxed;
+                if $clarabel && exact_status == codegen::ipm::Status::Converged && !relaxed {
+                    let exact = exact::clarabel(&problem);
+                    let U = DVector::from_vec(plan.clone());
+                    for i in 0..plan.len() {
+                        seen.exact = seen.exact.max((plan[i] - exact[i]).abs() / span(&p, i));
+                    }
+                    seen.violation = seen.violation.max(violations(&p.qp, &U, &offset).0);
+                }
+                seen.solves += 1;
+                c.x0 = &p.F * &c.x0 + &p.G * &u;
+            }
+        }
+        (seen, p.qp.accuracy)
+    }};
+}
+
+/// The same kernel on the same data: one plan, to the data's rounding; inside the region and beyond it.
+#[test]
+fn generated_matches_the_oracle() {
+    let cases = [
+        (
+            "quadcopter",
+            run!(quadcopter, QUADCOPTER, 1, 3, 20, 1.5, false),
+        ),
+        ("hover", run!(hover, HOVER, 2, 3, 20, 1.5, false)),
+        (
+            "paper-limits",
+            run!(paper_limits, PAPER_LIMITS, 3, 3, 20, 1.5, false),
+        ),
+        (
+            "paper-geofence",
+            run!(paper_geofence, PAPER_GEOFENCE, 4, 3, 20, 1.5, false),
+        ),
+        ("afti16", run!(afti16, AFTI16, 5, 3, 20, 1.5, false)),
+        ("linear", run!(linear, LINEAR, 6, 6, 20, 1.5, false)),
+        (
+            "quadcopter f32",
+            run!(quadcopter32, QUADCOPTER32, 7, 3, 20, 1.0, false),
+        ),
+    ];
+    for (name, (seen, _)) in cases {
+        println!("{name}: {seen:?}");
+        // An f32 module returns its plan in f32: within half an f32 ulp of the span (|u| ≤ span).
+        let tolerance = if name.ends_with("f32") {
+            f64::from(f32::EPSILON)
+        } else {
+            1e-9
+        };
+        assert!(
+            seen.oracle <= tolerance,
+            "{name}: {:e} of the span from the oracle",
+            seen.oracle
+        );
+    }
+}
+
+/// Every solve of a feasible QP inside the region within `accuracy` of Clarabel, none fallen back.
+#[test]
+fn generated_solves_meet_the_accuracy() {
+    let cases = [
+        (
+            "quadcopter",
+            run!(quadcopter, QUADCOPTER, 11, 4, 15, 1.0, true),
+        ),
+        ("hover", run!(hover, HOVER, 12, 3, 15, 1.0, true)),
+        (
+            "paper-limits",
+            run!(paper_limits, PAPER_LIMITS, 13, 3, 15, 1.0, true),
+        ),
+        (
+            "paper-geofence",
+            run!(paper_geofence, PAPER_GEOFENCE, 14, 3, 15, 1.0, true),
+        ),
+        ("afti16", run!(afti16, AFTI16, 15, 3, 15, 1.0, true)),
+        ("linear", run!(linear, LINEAR, 16, 8, 10, 1.0, true)),
+        (
+            "quadcopter f32",
+            run!(quadcopter32, QUADCOPTER32, 17, 4, 15, 1.0, true),
+        ),
+    ];
+    for (name, (seen, accuracy)) in cases {
+        println!("{name}: {seen:?}");
+        assert_eq!(
+            seen.fallbacks, 0,
+            "{name}: a solve of a feasible QP inside the region fell back"
+        );
+        assert!(
+            seen.infeasible < seen.solves / 2,
+            "{name}: {} of {} QPs infeasible: the draws no longer test the solver",
+            seen.infeasible,
+            seen.solves
+        );
+        assert!(
+            seen.exact <= accuracy && seen.violation <= accuracy,
+            "{name}: |U − U*|∞ = {:e} of the span, violation {:e}",
+            seen.exact,
+            seen.violation
+        );
+    }
+}
+
+/// Infeasible hard rows (falling below the floor), overflowing data and non-finite data: a finite
+/// command inside the box and a status that says what happened.
+#[test]
+fn the_fallback_is_bounded_and_reported() {
+    use quadcopter as m;
+    let p = problem(QUADCOPTER);
+    let inside = |u: &[m::Real; m::NU]| {
+        u.iter()
+            .enumerate()
+            .all(|(j, v)| v.is_finite() && *v >= m::U_MIN[j] && *v <= m::U_MAX[j])
+    };
+    let mut x0 = [0.0; m::NX];
+    x0[5] = -3.0;
+    x0[11] = -6.0;
+    let xref = [[0.0; m::NX]; m::N];
+    let mut generated = m::Mpc::new();
+    let mut reference = oracle::Mpc::new(&p);
+    // The first solve finds the rows infeasible and falls back; the next ones solve the relaxed QP,
+    // whose plan violates the floor (no input keeps it) and says so.
+    for k in 0..3 {
+        let u = generated.solve(&x0, &xref);
+        let v = reference.solve(
+            &DVector::from_iterator(m::NX, x0.iter().copied()),
+            &window(&p, &DVector::zeros(p.nx)),
+        );
+        let status = *generated.solver_status();
+        let expected = if k == 0 {
+            Fallback::WarmStart
+        } else {
+            Fallback::Relaxed
+        };
+        assert_eq!(reference.active_set_step().unwrap().fallback, expected);
+        if k == 0 {
+            assert_eq!(status.fallback, m::Fallback::WarmStart, "{status:?}");
+            assert!(status.infeasible, "{status:?}");
+        } else {
+            assert_eq!(status.fallback, m::Fallback::Relaxed, "{status:?}");
+            assert!(status.violation > 0.0, "{status:?}");
+        }
+        assert!(inside(&u));
+        for (a, b) in u.iter().zip(v.iter()) {
+            assert!((a - b).abs() <= 1e-9 * (p.qp.u_max[0] - p.qp.u_min[0]));
+        }
+    }
+    // A feasible state afterwards, from which the held plan meets the rows: the hard QP's plan.
+    x0 = [0.0; m::NX];
+    generated.solve(&x0, &xref);
+    assert_eq!(generated.solver_status().fallback, m::Fallback::Solved);
+    // Finite data whose products overflow: a fallback, in the box, that says so.
+    x0[6] = m::Real::MAX / 2.0;
+    x0[7] = -m::Real::MAX / 2.0;
+    let u = generated.solve(&x0, &xref);
+    let status = *generated.solver_status();
+    assert!(
+        (status.numerical_failure || status.infeasible)
+            && status.fallback == m::Fallback::WarmStart,
+        "{status:?}"
+    );
+    assert!(inside(&u));
+    // Non-finite data: the rest input, the warm start reset; the controller says why.
+    x0[3] = m::Real::NAN;
+    assert_eq!(generated.solve(&x0, &xref), m::U_REST);
+    let mut controller = m::Controller::new();
+    assert_eq!(controller.step(&x0, &xref), m::U_REST);
+    assert_eq!(controller.status().command, m::Command::InvalidState);
+    x0 = [0.0; m::NX];
+    controller.step(&x0, &xref);
+    assert_eq!(controller.status().solver.fallback, m::Fallback::Solved);
+}
