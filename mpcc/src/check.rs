@@ -225,6 +225,20 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
 /// One line per candidate of `method = "auto"`: its count, how it is certified and its cost, or why it
 /// could not be used.
 fn candidate_lines(c: &Certificate) -> Vec<(String, String)> {
+    let chosen = c.candidates.iter().find(|k| k.chosen).map(|k| k.method);
+    let previous = codegen::choice::previous_choice(&c.candidates);
+    let changed = match (chosen, previous) {
+        (Some(now), Some(before)) if now != before => Some((
+            "changed since the previous release".to_string(),
+            format!(
+                "it chose `{}`, without `{}` to weigh: the commands differ (docs/methods.md, \"Migrating\"); write `method = \"{}\"` to keep them",
+                before.name(),
+                now.name(),
+                before.name()
+            ),
+        )),
+        _ => None,
+    };
     c.candidates
         .iter()
         .map(|k| {
@@ -258,6 +272,7 @@ fn candidate_lines(c: &Certificate) -> Vec<(String, String)> {
             };
             (what, value)
         })
+        .chain(changed)
         .collect()
 }
 

@@ -950,6 +950,7 @@ fn oracle_check(
         .last_step()
         .map(|s| s.fallback)
         .or_else(|| mpc.admm_step().map(|s| s.fallback))
+        .or_else(|| mpc.active_set_step().map(|s| s.fallback))
         .expect("a constrained method's step");
     if fallback == Fallback::Solved {
         fig.oracle_solved += 1;
@@ -975,7 +976,12 @@ fn oracle_check(
                     limits.primal,
                     limits.dual
                 ),
-                _ => String::new(),
+                _ => mpc.active_set_step().map_or_else(String::new, |s| {
+                    format!(
+                        "active_set, {} changes of the working set, {:?}",
+                        s.outcome.iterations, s.outcome.status
+                    )
+                }),
             };
             errors.push(format!(
                 "{name} {what}: the oracle's plan, reported Solved, is {e:.3e} of the span from \

@@ -5,6 +5,10 @@
 //!   is `tolerance`'s a priori bound or the written one, and it is then the only candidate (the others
 //!   are certified on a region); with a region it is sampled like the others.
 //! - `ipm` takes every constraint and is always sampled on `[mpc.region]` (or on the state bounds).
+//! - `active_set` takes the same and is sampled the same way (in f64: not weighed without f64 hardware);
+//!   its cost per solve is its certified count of changes of the working set at the worst pass's cost,
+//!   plus the offsets and the recovery of z: a bound, where the interior-point method's is what it always
+//!   runs.
 //! - `admm` takes the same and is sampled the same way, in the module's scalar, at a ρ tuned on part
 //!   of that sample; its cost per solve adds its final residuals and infeasibility test.
 //!
@@ -26,7 +30,23 @@ use mpc_spec::{Diagnostics, Iterations, Method, Spec};
 /// for the quadcopter, 50 s for paper-limits in the dev profile), and on f64 hardware the interior-point
 /// method has been cheaper per solve on every shipped spec, so it is weighed only when no earlier
 /// candidate can be used ([`crate::plan::Solver::not_weighed`]).
-pub const CANDIDATES: &[Method] = &[Method::Fgm, Method::Ipm, Method::Admm];
+pub const CANDIDATES: &[Method] = &[Method::Fgm, Method::Ipm, Method::ActiveSet, Method::Admm];
+
+/// The methods the previous release weighed: [`CANDIDATES`] without `active_set`. `mpcc check` says
+/// when `auto`'s choice differs from theirs ([`previous_choice`]).
+pub const PREVIOUS_CANDIDATES: &[Method] = &[Method::Fgm, Method::Ipm, Method::Admm];
+
+/// What the previous release's `auto` chose among `candidates` (those of [`resolve`]): the cheapest
+/// usable one of [`PREVIOUS_CANDIDATES`]; `None` where none was usable. The candidates' costs are the
+/// same as the previous release's but for auto's price of the interior-point method's cold start.
+pub fn previous_choice(candidates: &[Candidate]) -> Option<Method> {
+    candidates
+        .iter()
+        .filter(|c| PREVIOUS_CANDIDATES.contains(&c.method))
+        .filter(|c| c.unavailable.is_none() && c.reaches_accuracy != Some(false))
+        .min_by(|a, b| a.cycles_per_solve.total_cmp(&b.cycles_per_solve))
+        .map(|c| c.method)
+}
 
 /// The spec with its method resolved, and the problem lowered and certified with it: `spec` itself for
 /// a written method, the cheapest candidate for `method = "auto"` (its [`Problem::candidates`] say what
