@@ -762,20 +762,15 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
 /// is allowed, with a warning from the compiler: the first-order methods and the filter still run.)
 fn check_target(raw: &Raw, target: Target, diags: &mut Diagnostics) {
     let Some(method) = &raw.method else { return };
-    let wide = Method::from_name(&method.value);
-    if matches!(wide, Some(Method::Ipm | Method::ActiveSet)) && !target.has_f64() {
+    if Method::from_name(&method.value) == Some(Method::Ipm) && !target.has_f64() {
         let name = target.name();
-        let (spelling, title) = match wide {
-            Some(Method::ActiveSet) => ("active_set", "the dual active-set method"),
-            _ => ("ipm", "the interior-point method"),
-        };
         let target_span = raw.target.as_ref().map(|t| t.span.clone());
         diags.push(
             Diagnostic::new(
-                format!("`method = \"{spelling}\"` computes in f64, which `target = \"{name}\"` has no hardware for"),
+                format!("`method = \"ipm\"` computes in f64, which `target = \"{name}\"` has no hardware for"),
                 method.span.clone(),
             )
-            .label(format!("{title} runs in f64"))
+            .label("the interior-point method runs in f64")
             .related(target_span, "a single-precision FPU: f64 runs in software, about 45× slower")
             .note("hint: the first-order methods compute in the spec's `scalar` (f32 by default): `method = \"fgm\"` solves a problem constrained by the input box alone; for state, move or row constraints, `target = \"cortex-a9\"` runs the interior-point method on its VFP"),
         );

@@ -1,7 +1,7 @@
 //! The dual active-set `Mpc`: the QP's data from the arguments, the kernel (`kernel.rs`, included as
 //! the reference runs it), the fallback, and the build-time tables: per independent block R, the
-//! normalised rows' Gram matrix, Z and the constraints' coefficients. Everything is f64 (the method
-//! widens an f32 module's arguments, as the interior-point method does).
+//! normalised rows' Gram matrix, Z and the constraints' coefficients. Everything is in the module's
+//! `Real`: f64, or f32 (the certificate then ran the f32 kernel on its sample).
 #![allow(non_snake_case)]
 
 use super::mpc::prepare;
@@ -34,21 +34,29 @@ impl Method<'_> {
     }
 }
 
-/// An f64 literal, `f64::INFINITY` / `f64::NEG_INFINITY` where infinite.
-fn wide(v: f64) -> TokenStream {
+/// A literal in `num`, `Real::INFINITY` / `Real::NEG_INFINITY` where infinite.
+fn real(num: Num, v: f64) -> TokenStream {
     if v == f64::INFINITY {
-        quote!(f64::INFINITY)
+        quote!(Real::INFINITY)
     } else if v == f64::NEG_INFINITY {
-        quote!(f64::NEG_INFINITY)
+        quote!(Real::NEG_INFINITY)
     } else {
-        Num(Scalar::F64).lit(v)
+        num.lit(v)
     }
 }
 
-/// `[v, …]` in f64.
-fn wide_table(v: impl IntoIterator<Item = f64>) -> TokenStream {
-    let v = v.into_iter().map(wide);
+/// `[v, …]` in `num`.
+fn real_table(num: Num, v: impl IntoIterator<Item = f64>) -> TokenStream {
+    let v = v.into_iter().map(|x| real(num, x));
     quote!([#(#v),*])
+}
+
+/// `e`, a `Real`, in f64 (exact).
+fn in_f64(num: Num, e: TokenStream) -> TokenStream {
+    match num.0 {
+        Scalar::F32 => quote!(f64::from(#e)),
+        Scalar::F64 => e,
+    }
 }
 
 /// `[i, …]`.
@@ -75,15 +83,15 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
         structure,
         prepared,
     };
-    let (reach_tables, reach_code) = reach(p, num, true);
-    let (coordinate_tables, coordinate_code) = coordinate_check(p, true);
+    let (reach_tables, reach_code) = reach(p, num, false);
+    let (coordinate_tables, coordinate_code) = coordinate_check(p, false);
     let Offsets {
         tables: row_tables,
         terms: row_terms,
     } = offsets(
         p,
-        Num(Scalar::F64),
-        &quote!(f64),
+        num,
+        &quote!(Real),
         "ROW",
         &quote!(NG),
         &|M| M.clone(),
@@ -162,8 +170,9 @@ fn api(
     );
     let evidence_doc = evidence_doc(m.p.qp.evidence.as_ref(), "");
     let blocks = m.prepared.blocks.len();
+    let real_name = m.num.numeric().name();
     let doc = format!(
-        " Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and\n Idnani's, as DAQP) on the condensed QP in f64, in {blocks} independent block(s), with the Cholesky\n factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve\n starts from the previous working set and stops at the optimum or after [`ITERATIONS`] changes;\n a solve that does not reach the optimum falls back to the held plan ([`Fallback::WarmStart`])."
+        " Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and\n Idnani's, as DAQP) on the condensed QP in {real_name}, in {blocks} independent block(s), with the Cholesky\n factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve\n starts from the previous working set and stops at the optimum or after [`ITERATIONS`] changes;\n a solve that does not reach the optimum falls back to the held plan ([`Fallback::WarmStart`])."
     );
     let doc: Vec<&str> = doc.split('\n').collect();
     let entry = entry(m.p);
@@ -172,7 +181,7 @@ fn api(
         status_types,
         doc: &doc,
         evidence_doc: &evidence_doc,
-        plan_scalar: quote!(f64),
+        plan_scalar: quote!(Real),
         point_fields: quote! {
             /// The last solve's working sets, block by block (CAP entries each, `warm_len` of them used):
             /// twice the constraint, plus one at its upper side.
@@ -190,11 +199,7 @@ fn api(
             work: Storage::new(),
         },
         new_doc: " A cold controller: its first solve starts from an empty working set.",
-        plan_step: quote! {
-            for (a, v) in o.iter_mut().zip(step.iter()) {
-                *a = *v as Real;
-            }
-        },
+        plan_step: quote!(o.copy_from_slice(step);),
         entry,
         checked,
     });
@@ -207,18 +212,18 @@ fn api(
         struct Storage {
             set: [usize; CAP],
             upper: [bool; CAP],
-            lambda: [f64; CAP],
-            star: [f64; CAP],
-            y: [f64; CAP],
-            scaled: [f64; CAP],
-            tmp: [f64; CAP],
-            l: [f64; CAP * CAP],
-            d: [f64; CAP],
+            lambda: [Real; CAP],
+            star: [Real; CAP],
+            y: [Real; CAP],
+            scaled: [Real; CAP],
+            tmp: [Real; CAP],
+            l: [Real; CAP * CAP],
+            d: [Real; CAP],
             active: [bool; NC_MAX],
             excluded: [bool; NC_MAX],
-            lo: [f64; NC_MAX],
-            hi: [f64; NC_MAX],
-            z_free: [f64; N_MAX],
+            lo: [Real; NC_MAX],
+            hi: [Real; NC_MAX],
+            z_free: [Real; N_MAX],
         }
 
         impl Storage {
@@ -285,18 +290,13 @@ fn checked(
         set_last,
         ..
     } = entry;
-    let (d_flush, d_wide) = if p.nd() > 0 {
-        (quote!(let d = &flushed(d);), quote!(let d = widen(d);))
-    } else {
-        (quote!(), quote!())
-    };
-    let last_wide = p
-        .keeps_last_input()
-        .then(|| quote!(let last = widen(&self.last);));
-    let wide_of_v = match m.num.0 {
-        Scalar::F32 => quote!(f64::from(*v)),
-        Scalar::F64 => quote!(*v),
-    };
+    let d_flush = (p.nd() > 0).then(|| quote!(let d = flushed(d);));
+    let last_local = p.keeps_last_input().then(|| quote!(let last = self.last;));
+    let (violation, softened) = (
+        in_f64(m.num, quote!(violation)),
+        in_f64(m.num, quote!(softened)),
+    );
+    let held_violation = in_f64(m.num, quote!(violations(&held, &lower, &upper).0));
     let zero_rows = (!m.prepared.zero_rows.is_empty()).then(|| {
         quote! {
             // A row without coefficients: its sides must hold 0, or no plan meets it.
@@ -321,15 +321,12 @@ fn checked(
                 self.reset();
                 return None;
             }
-            let x0 = widen(&flushed(x0));
+            let x0 = flushed(x0);
             #d_flush
-            #d_wide
-            #last_wide
+            #last_local
             let mut reference = [0.0; #n_reference];
             for (r, row) in reference.chunks_exact_mut(xref[0].len()).zip(xref.iter()) {
-                for (w, v) in r.iter_mut().zip(flushed(row).iter()) {
-                    *w = #wide_of_v;
-                }
+                r.copy_from_slice(&flushed(row));
             }
             #coordinate_code
             #reach_code
@@ -361,7 +358,7 @@ fn checked(
             let (hard_lower, hard_upper) = (lower, upper);
             // Recovering, the held plan violating a hard row: relaxed, each hard row widened to the
             // held plan's value, so that the QP has a plan that violates no row more than holding would.
-            let relax = self.relax && violations(&held, &lower, &upper).0 > ACCURACY;
+            let relax = self.relax && #held_violation > ACCURACY;
             if relax {
                 let values = row_values(&held);
                 for j in 0..NG {
@@ -413,8 +410,8 @@ fn checked(
                 primal_residual: 0.0,
                 dual_residual: 0.0,
                 gap: 0.0,
-                violation,
-                softened,
+                violation: #violation,
+                softened: #softened,
                 infeasible,
                 numerical_failure: (ended == Ended::NumericalFailure) | (ended == Ended::Cycling),
                 reference_beyond_region: beyond,
@@ -426,9 +423,7 @@ fn checked(
                 },
             };
             let mut first = [0.0; NU];
-            for (o, v) in first.iter_mut().zip(self.plan.iter()) {
-                *o = *v as Real;
-            }
+            first.copy_from_slice(&self.plan[..NU]);
             #set_last
             Some(first)
         }
@@ -438,18 +433,14 @@ fn checked(
 /// The kernels section: the helpers, the rows' values and violations, and the kernel (`kernel.rs`,
 /// as the reference compiles it) with a tally that counts nothing.
 fn kernels(m: &Method) -> TokenStream {
-    let wide_of_x = match m.num.0 {
-        Scalar::F32 => quote!(f64::from(*x)),
-        Scalar::F64 => quote!(*x),
-    };
+    let _ = m;
     let kernel: TokenStream = KERNEL_SOURCE
         .replace("pub(super) ", "")
-        .replace("Real", "f64")
         .parse()
         .unwrap_or_default();
     quote! {
         /// The rest plan: U_REST at every step.
-        const fn rest_plan() -> [f64; NP] {
+        const fn rest_plan() -> [Real; NP] {
             let mut out = [0.0; NP];
             let mut i = 0;
             while i < NP {
@@ -459,25 +450,15 @@ fn kernels(m: &Method) -> TokenStream {
             out
         }
 
-        /// `v` in f64.
-        #[inline(always)]
-        fn widen<const M: usize>(v: &[Real; M]) -> [f64; M] {
-            let mut out = [0.0; M];
-            for (o, x) in out.iter_mut().zip(v.iter()) {
-                *o = #wide_of_x;
-            }
-            out
-        }
-
         /// a·b.
         #[inline(always)]
-        fn dot(a: &[f64], b: &[f64]) -> f64 {
+        fn dot(a: &[Real], b: &[Real]) -> Real {
             a.iter().zip(b.iter()).map(|(x, y)| x * y).sum()
         }
 
         /// Plan entry `i` projected onto its input's bounds; NaN maps to the lower bound.
         #[inline(always)]
-        fn clamp(v: f64, i: usize) -> f64 {
+        fn clamp(v: Real, i: usize) -> Real {
             let (lo, hi) = (LO[i % NU], HI[i % NU]);
             let v = if v >= lo { v } else { lo };
             if v <= hi { v } else { hi }
@@ -485,14 +466,14 @@ fn kernels(m: &Method) -> TokenStream {
 
         /// Moves every block of `width` up by one; the last block stays.
         #[inline(always)]
-        fn shift(v: &mut [f64], width: usize) {
+        fn shift(v: &mut [Real], width: usize) {
             if width > 0 && v.len() > width {
                 v.copy_within(width.., 0);
             }
         }
 
         /// Every row's value at the plan (slacks zero), A·(plan, 0).
-        fn row_values(plan: &[f64; NP]) -> [f64; NG] {
+        fn row_values(plan: &[Real; NP]) -> [Real; NG] {
             let mut out = [0.0; NG];
             for (j, o) in out.iter_mut().enumerate() {
                 let mut s = 0.0;
@@ -506,9 +487,9 @@ fn kernels(m: &Method) -> TokenStream {
 
         /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and
         /// the largest soft-row violation in its row's units, against the sides `lower`/`upper`.
-        fn violations(plan: &[f64; NP], lower: &[f64; NC], upper: &[f64; NC]) -> (f64, f64) {
+        fn violations(plan: &[Real; NP], lower: &[Real; NC], upper: &[Real; NC]) -> (Real, Real) {
             let values = row_values(plan);
-            let (mut hard, mut soft) = (0.0_f64, 0.0_f64);
+            let (mut hard, mut soft): (Real, Real) = (0.0, 0.0);
             for j in 0..NG {
                 let (lo, hi) = (lower[NV + j] - values[j], values[j] - upper[NV + j]);
                 if ROW_SOFT[j] {
@@ -548,23 +529,23 @@ fn kernels(m: &Method) -> TokenStream {
 
 /// The tables section: the tolerances, the sides, the rows, and each block's data.
 fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
-    let qp = &m.p.qp;
+    let (qp, num) = (&m.p.qp, m.num);
     let rows = &qp.rows;
     let s = &m.structure;
     let np = qp.N * m.p.nu;
     let nu = m.p.nu;
     let [lo, hi, rest] =
-        [&qp.u_min, &qp.u_max, &qp.rest_input()].map(|v| wide_table(v.iter().copied()));
+        [&qp.u_min, &qp.u_max, &qp.rest_input()].map(|v| real_table(num, v.iter().copied()));
     let (z_lo, z_hi) = (
-        wide_table(s.z_min.iter().copied()),
-        wide_table(s.z_max.iter().copied()),
+        real_table(num, s.z_min.iter().copied()),
+        real_table(num, s.z_max.iter().copied()),
     );
     let (row_lower, row_upper) = (
-        wide_table(rows.lower.iter().copied()),
-        wide_table(rows.upper.iter().copied()),
+        real_table(num, rows.lower.iter().copied()),
+        real_table(num, rows.upper.iter().copied()),
     );
     let soft = rows.soft.iter();
-    let slack_weight = wide_table(rows.slack_weight.iter().copied());
+    let slack_weight = real_table(num, rows.slack_weight.iter().copied());
     // The rows' coefficients on the plan, sparse by rows.
     let (mut starts, mut columns, mut values) = (vec![0], Vec::new(), Vec::new());
     for j in 0..rows.len() {
@@ -582,10 +563,10 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
     let (starts_t, columns_t, values_t) = (
         index_table(&starts),
         index_table(&columns),
-        wide_table(values.iter().copied()),
+        real_table(num, values.iter().copied()),
     );
-    let tol = Tolerances::F64;
-    let t = |v: f64| Num(Scalar::F64).lit(v);
+    let tol = Tolerances::of(num.0);
+    let t = |v: f64| num.lit(v);
     let [primal, dual, singular, refactor, pivot, progress, infeasible] = [
         tol.primal,
         tol.dual,
@@ -634,14 +615,14 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
         );
         let (t_vars, t_r, t_sides, t_scale, t_starts, t_pos, t_values, t_gram, t_z) = (
             index_table(&block.vars),
-            wide_table(pk.r.iter().copied()),
+            real_table(num, pk.r.iter().copied()),
             index_table(&pk.sides),
-            wide_table(block.scale.iter().copied()),
+            real_table(num, block.scale.iter().copied()),
             index_table(&pk.starts),
             index_table(&pk.positions),
-            wide_table(pk.values.iter().copied()),
-            wide_table(pk.gram.iter().copied()),
-            wide_table(pk.z_cols.iter().copied()),
+            real_table(num, pk.values.iter().copied()),
+            real_table(num, pk.gram.iter().copied()),
+            real_table(num, pk.z_cols.iter().copied()),
         );
         let doc = format!(
             " Block {b}: {} unknowns, {} constraints.",
@@ -651,14 +632,14 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
         block_tables.extend(quote! {
             #[doc = #doc]
             const #vars: [usize; #l_vars] = #t_vars;
-            const #r: [f64; #l_r] = #t_r;
+            const #r: [Real; #l_r] = #t_r;
             const #sides: [usize; #l_sides] = #t_sides;
-            const #scale: [f64; #l_sides] = #t_scale;
+            const #scale: [Real; #l_sides] = #t_scale;
             const #starts: [usize; #l_starts] = #t_starts;
             const #positions: [usize; #l_pos] = #t_pos;
-            const #values: [f64; #l_pos] = #t_values;
-            const #gram: [f64; #l_gram] = #t_gram;
-            const #z_cols: [f64; #l_z] = #t_z;
+            const #values: [Real; #l_pos] = #t_values;
+            const #gram: [Real; #l_gram] = #t_gram;
+            const #z_cols: [Real; #l_z] = #t_z;
         });
         let warm_at = Literal::usize_unsuffixed(pk.warm_at);
         block_items.push(quote! {
@@ -679,7 +660,7 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
     let _ = nu;
     quote! {
         /// The kernel's tolerances, relative to the normalised problem (`codegen`'s
-        /// `active_set::Tolerances::F64`).
+        /// `active_set::Tolerances` for this scalar).
         const TOLERANCES: Tolerances = Tolerances {
             primal: #primal,
             dual: #dual,
@@ -690,24 +671,24 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
             cycle: #cycle,
             infeasible: #infeasible,
         };
-        const LO: [f64; NU] = #lo;
-        const HI: [f64; NU] = #hi;
-        const REST: [f64; NU] = #rest;
+        const LO: [Real; NU] = #lo;
+        const HI: [Real; NU] = #hi;
+        const REST: [Real; NU] = #rest;
         /// The unknowns' bounds: the input box on the plan, σ ≥ 0 on the slacks.
-        const Z_LO: [f64; NV] = #z_lo;
-        const Z_HI: [f64; NV] = #z_hi;
+        const Z_LO: [Real; NV] = #z_lo;
+        const Z_HI: [Real; NV] = #z_hi;
         /// The rows' sides before the data move them.
-        const ROW_LOWER: [f64; NG] = #row_lower;
-        const ROW_UPPER: [f64; NG] = #row_upper;
+        const ROW_LOWER: [Real; NG] = #row_lower;
+        const ROW_UPPER: [Real; NG] = #row_upper;
         /// Whether each row is soft (its violation priced by a slack).
         const ROW_SOFT: [bool; NG] = [#(#soft),*];
         /// The soft rows' L1 weights: the slacks' linear term.
-        const SLACK_WEIGHT: [f64; NS] = #slack_weight;
+        const SLACK_WEIGHT: [Real; NS] = #slack_weight;
         /// The rows' coefficients on the plan, by rows: row j's are `ROW_VALUES[ROW_STARTS[j]..ROW_STARTS[j + 1]]`
         /// at the plan's entries `ROW_COLUMNS[…]`.
         const ROW_STARTS: [usize; #nstarts] = #starts_t;
         const ROW_COLUMNS: [usize; #nnz] = #columns_t;
-        const ROW_VALUES: [f64; #nnz] = #values_t;
+        const ROW_VALUES: [Real; #nnz] = #values_t;
         #zero_rows
         #data_tables
         /// The independent blocks.

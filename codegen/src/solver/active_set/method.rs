@@ -14,8 +14,8 @@ use mpc_spec::{Diagnostic, Diagnostics, Method, Scalar, Spec};
 use nalgebra::DVector;
 use std::sync::Arc;
 
-/// The dual active-set method (Goldfarb and Idnani's, as DAQP) on the condensed QP, in f64, with its
-/// factor, Gram matrix and blocks computed at build time.
+/// The dual active-set method (Goldfarb and Idnani's, as DAQP) on the condensed QP, in the module's
+/// scalar, with its factor, Gram matrix and blocks computed at build time.
 #[derive(Debug)]
 pub struct ActiveSet;
 
@@ -35,14 +35,14 @@ impl Solver for ActiveSet {
         super::TITLE
     }
 
-    fn widens(&self) -> bool {
-        true
-    }
-
-    /// Scalar f64 code over tables with indices, like the interior-point method's: its figure, until the
-    /// emulated boards have measured this method's own.
-    fn cycles_per_mac(&self, machine: &Machine, _scalar: Scalar, _qp: &Qp) -> f64 {
-        machine.cycles_per_mac_ipm
+    /// Scalar code over tables with indices: in f64 the interior-point method's figure, in f32 ADMM's
+    /// (scaled by the soft-float ratio in f64 without f64 hardware), until the emulated boards have
+    /// measured this method's own.
+    fn cycles_per_mac(&self, machine: &Machine, scalar: Scalar, _qp: &Qp) -> f64 {
+        match scalar {
+            Scalar::F64 => machine.cycles_per_mac_ipm,
+            Scalar::F32 => machine.cycles_per_mac_admm,
+        }
     }
 
     /// The worst pass of the iteration (a scan of every constraint against a full working set, a change
@@ -53,10 +53,11 @@ impl Solver for ActiveSet {
         })
     }
 
+    /// In f64 without f64 hardware it would run in software floating point.
     fn not_weighed(&self, spec: &Spec, _earlier_usable: bool) -> Option<String> {
-        (!machine(spec.codegen.target).f64_in_hardware).then(|| {
+        (spec.codegen.scalar == Scalar::F64 && !machine(spec.codegen.target).f64_in_hardware).then(|| {
             format!(
-                "computes in f64, which `target = \"{}\"` has no hardware for",
+                "computes in `scalar = \"f64\"`, which `target = \"{}\"` has no hardware for (`scalar = \"f32\"` runs it in f32)",
                 spec.codegen.target.name()
             )
         })
@@ -69,7 +70,8 @@ impl Solver for ActiveSet {
                 spec.spans.get("mpc.method"),
             ))
         })?;
-        sampling::certify(spec, problem, &super::sampled::ActiveSet::new(prepared), 0).map(Some)
+        let method = super::sampled::ActiveSet::new(prepared, problem.scalar);
+        sampling::certify(spec, problem, &method, 0).map(Some)
     }
 
     fn bound_form(&self, _rate: bool) -> String {
@@ -80,13 +82,14 @@ impl Solver for ActiveSet {
     fn shape_doc(&self, p: &Problem, _plan: &Plan) -> String {
         let blocks = prepare(&p.qp).map_or(0, |prepared| prepared.blocks.len());
         format!(
-            " horizon {}, dual active-set on the condensed QP in f64, in {blocks} independent block(s), with {} constraint rows.",
+            " horizon {}, dual active-set on the condensed QP in {}, in {blocks} independent block(s), with {} constraint rows.",
             p.qp.N,
+            crate::numeric::Numeric(p.scalar).name(),
             p.qp.rows.len()
         )
     }
 
-    /// Its tables are f64: the largest is a block's Gram matrix or Z, or FR.
+    /// Its tables are `Real`: the largest is a block's Gram matrix or Z, or FR.
     fn largest_table(&self, p: &Problem) -> usize {
         let fr = p.qp.N * p.nu * p.qp.N * p.qp.nz;
         let block = prepare(&p.qp).map_or(0, |prepared| {
@@ -97,7 +100,7 @@ impl Solver for ActiveSet {
                 .max()
                 .unwrap_or(0)
         });
-        block.max(fr) * 8
+        block.max(fr) * crate::numeric::Numeric(p.scalar).bytes()
     }
 
     fn skeleton_writes_h(&self) -> bool {
@@ -133,6 +136,7 @@ impl Solver for ActiveSet {
             data.plan,
             qp.iterations,
             state.relax,
+            Scalar::F64,
         );
         state.relax = step.recovering();
         state.active_set_start = step.next_start();

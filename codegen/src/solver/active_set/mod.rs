@@ -44,11 +44,21 @@ pub(crate) mod kernel64 {
     include!("kernel.rs");
 }
 
+/// The run-time kernel in f32: what an f32 module runs (the Cortex-M4F's), and its build-time check.
+#[allow(dead_code)]
+pub(crate) mod kernel32 {
+    use super::Tally;
+    /// The kernel's scalar.
+    pub(crate) type Real = f32;
+    include!("kernel.rs");
+}
+
 /// The kernel's source, which every emitted module includes.
 pub const KERNEL_SOURCE: &str = include_str!("kernel.rs");
 
 pub use prepared::{Block, Offsets, Prepared};
 
+use mpc_spec::Scalar;
 use nalgebra::DVector;
 use std::fmt;
 
@@ -198,19 +208,44 @@ impl Tolerances {
 }
 
 impl Tolerances {
-    /// The kernel's tolerances in f64.
-    fn kernel(&self) -> kernel64::Tolerances {
-        kernel64::Tolerances {
-            primal: self.primal,
-            dual: self.dual,
-            singular: self.singular,
-            refactor: self.refactor,
-            pivot: self.pivot,
-            progress: self.progress,
-            cycle: self.cycle,
-            infeasible: self.infeasible,
+    /// The f32 values: each f64 tolerance scaled toward f32's unit roundoff (2⁻²⁴ ≈ 6e-8). A slack is
+    /// violated past 1e-5 of its side (about 170 roundoffs: the offsets are sums over a row), a pivot is
+    /// singular below 1e-5 and small below 1e-3, and the progress test is at the roundoff.
+    pub const F32: Tolerances = Tolerances {
+        primal: 1e-5,
+        dual: 1e-6,
+        singular: 1e-5,
+        refactor: 1e-4,
+        pivot: 1e-3,
+        progress: 1e-7,
+        cycle: 10,
+        infeasible: 1e-4,
+    };
+
+    /// The values for `scalar`.
+    pub fn of(scalar: Scalar) -> Tolerances {
+        match scalar {
+            Scalar::F32 => Tolerances::F32,
+            Scalar::F64 => Tolerances::F64,
         }
     }
+}
+
+/// The kernel's tolerances in its scalar.
+macro_rules! kernel_tolerances {
+    ($kernel:ident, $real:ty, $tol:expr) => {{
+        let t: &Tolerances = $tol;
+        $kernel::Tolerances {
+            primal: t.primal as $real,
+            dual: t.dual as $real,
+            singular: t.singular as $real,
+            refactor: t.refactor as $real,
+            pivot: t.pivot as $real,
+            progress: t.progress as $real,
+            cycle: t.cycle,
+            infeasible: t.infeasible as $real,
+        }
+    }};
 }
 
 impl Default for Tolerances {
@@ -282,59 +317,64 @@ impl Tally {
     }
 }
 
-/// The kernel's storage for the largest of `blocks`.
-struct Storage {
+/// The kernel's storage for the largest of `blocks`, in the kernel's scalar `T`.
+struct Storage<T> {
     cap: usize,
     set: Vec<usize>,
     upper: Vec<bool>,
-    real: [Vec<f64>; 6],
-    l: Vec<f64>,
+    real: [Vec<T>; 6],
+    l: Vec<T>,
     active: Vec<bool>,
     excluded: Vec<bool>,
-    lo: Vec<f64>,
-    hi: Vec<f64>,
-    z_free: Vec<f64>,
+    lo: Vec<T>,
+    hi: Vec<T>,
+    z_free: Vec<T>,
 }
 
-impl Storage {
-    fn for_blocks(blocks: &[Block]) -> Storage {
+impl<T: Copy + Default> Storage<T> {
+    fn for_blocks(blocks: &[Block]) -> Storage<T> {
         let n = blocks.iter().map(Block::n).max().unwrap_or(0);
         let nc = blocks.iter().map(|b| b.rows.len()).max().unwrap_or(0);
         let cap = n + 1;
+        let zero = T::default();
         Storage {
             cap,
             set: vec![0; cap],
             upper: vec![false; cap],
-            real: std::array::from_fn(|_| vec![0.0; cap]),
-            l: vec![0.0; cap * cap],
+            real: std::array::from_fn(|_| vec![zero; cap]),
+            l: vec![zero; cap * cap],
             active: vec![false; nc],
             excluded: vec![false; nc],
-            lo: vec![0.0; nc],
-            hi: vec![0.0; nc],
-            z_free: vec![0.0; n],
+            lo: vec![zero; nc],
+            hi: vec![zero; nc],
+            z_free: vec![zero; n],
         }
     }
+}
 
-    fn work(&mut self) -> kernel64::Work<'_> {
-        let [lambda, star, y, scaled, tmp, d] = &mut self.real;
-        kernel64::Work {
-            set: &mut self.set,
-            upper: &mut self.upper,
+/// The kernel's view of a [`Storage`].
+macro_rules! work {
+    ($kernel:ident, $storage:expr) => {{
+        let s = $storage;
+        let [lambda, star, y, scaled, tmp, d] = &mut s.real;
+        $kernel::Work {
+            set: &mut s.set,
+            upper: &mut s.upper,
             lambda,
             star,
             y,
             scaled,
             tmp,
-            l: &mut self.l,
+            l: &mut s.l,
             d,
-            active: &mut self.active,
-            excluded: &mut self.excluded,
-            lo: &mut self.lo,
-            hi: &mut self.hi,
-            z_free: &mut self.z_free,
-            cap: self.cap,
+            active: &mut s.active,
+            excluded: &mut s.excluded,
+            lo: &mut s.lo,
+            hi: &mut s.hi,
+            z_free: &mut s.z_free,
+            cap: s.cap,
         }
-    }
+    }};
 }
 
 /// What a solve returns.
@@ -384,14 +424,88 @@ pub fn solve(
     solve_with(prepared, offsets, start, max_iterations, &Tolerances::F64)
 }
 
-/// [`solve`] with the given tolerances: the run-time kernel (`kernel.rs`, the code the emitted module
-/// runs) in f64, with its multiply-adds counted.
+/// One solve by the kernel of module `$kernel` in its scalar `$real`: the offsets rounded to it, the
+/// blocks' tables in it (`Block::$tables`), and what it ended with, made, and z in f64.
+macro_rules! kernel_solve {
+    ($kernel:ident, $real:ty, $tables:ident, $prepared:expr, $offsets:expr, $tol:expr, $warm:expr, $warm_len:expr, $max:expr, $tally:expr, $outcome:expr) => {{
+        let prepared: &Prepared = $prepared;
+        let offsets: &Offsets = $offsets;
+        let outcome: &mut Outcome = &mut $outcome;
+        let blocks: Vec<$kernel::Block> = prepared.blocks.iter().map(Block::$tables).collect();
+        let mut storage = Storage::<$real>::for_blocks(&prepared.blocks);
+        let mut work = work!($kernel, &mut storage);
+        let round = |v: &[f64]| -> Vec<$real> { v.iter().map(|x| *x as $real).collect() };
+        let (f, lower, upper) = (
+            round(&offsets.f),
+            round(&offsets.lower),
+            round(&offsets.upper),
+        );
+        let mut z: Vec<$real> = vec![<$real>::NAN; prepared.n];
+        let (ended, iterations) = $kernel::solve(
+            &blocks,
+            &f,
+            &lower,
+            &upper,
+            &mut work,
+            &mut $warm,
+            &mut $warm_len,
+            $max,
+            &kernel_tolerances!($kernel, $real, $tol),
+            &mut $tally,
+            &mut z,
+            |b, w, k, changes| {
+                let block = &prepared.blocks[b];
+                outcome.block_iterations[b] = changes;
+                for i in 0..k {
+                    let c = w.set[i];
+                    let side = if w.upper[i] { Side::Upper } else { Side::Lower };
+                    let sign = if w.upper[i] { 1.0 } else { -1.0 };
+                    outcome.working_set.0.push(Active {
+                        row: block.rows[c],
+                        side,
+                    });
+                    outcome
+                        .multipliers
+                        .push(sign * f64::from(w.lambda[i]) / block.scale[c]);
+                }
+            },
+        );
+        let ended = match ended {
+            $kernel::Ended::Solved => Status::Solved,
+            $kernel::Ended::IterationLimit => Status::IterationLimit,
+            $kernel::Ended::Cycling => Status::Cycling,
+            $kernel::Ended::Infeasible => Status::Infeasible,
+            $kernel::Ended::NumericalFailure => Status::NumericalFailure,
+        };
+        (
+            ended,
+            iterations,
+            z.iter().map(|v| f64::from(*v)).collect::<Vec<f64>>(),
+        )
+    }};
+}
+
+/// [`solve`] with the given tolerances, in f64: the run-time kernel (`kernel.rs`, the code the emitted
+/// module runs), with its multiply-adds counted.
 pub fn solve_with(
     prepared: &Prepared,
     offsets: &Offsets,
     start: Option<&WorkingSet>,
     max_iterations: usize,
     tol: &Tolerances,
+) -> Outcome {
+    solve_in(prepared, offsets, start, max_iterations, tol, Scalar::F64)
+}
+
+/// [`solve_with`] by the kernel in `scalar`: f32 rounds the offsets and the tables to f32 and runs the
+/// f32 kernel, as an f32 module does.
+pub fn solve_in(
+    prepared: &Prepared,
+    offsets: &Offsets,
+    start: Option<&WorkingSet>,
+    max_iterations: usize,
+    tol: &Tolerances,
+    scalar: Scalar,
 ) -> Outcome {
     let nblocks = prepared.blocks.len();
     let (n, m) = (prepared.n, prepared.m);
@@ -434,50 +548,36 @@ pub fn solve_with(
             }
         }
     }
-    let kernel_blocks: Vec<kernel64::Block> = prepared.blocks.iter().map(Block::kernel).collect();
-    let mut storage = Storage::for_blocks(&prepared.blocks);
-    let mut work = storage.work();
     let mut tally = Tally::default();
-    let mut z = vec![f64::NAN; n];
-    let (ended, iterations) = {
-        let outcome = &mut outcome;
-        kernel64::solve(
-            &kernel_blocks,
-            &offsets.f,
-            &offsets.lower,
-            &offsets.upper,
-            &mut work,
-            &mut warm,
-            &mut warm_len,
+    let (ended, iterations, z) = match scalar {
+        Scalar::F64 => kernel_solve!(
+            kernel64,
+            f64,
+            kernel,
+            prepared,
+            offsets,
+            tol,
+            warm,
+            warm_len,
             max_iterations,
-            &tol.kernel(),
-            &mut tally,
-            &mut z,
-            |b, w, k, changes| {
-                let block = &prepared.blocks[b];
-                outcome.block_iterations[b] = changes;
-                for i in 0..k {
-                    let c = w.set[i];
-                    let side = if w.upper[i] { Side::Upper } else { Side::Lower };
-                    let sign = if w.upper[i] { 1.0 } else { -1.0 };
-                    outcome.working_set.0.push(Active {
-                        row: block.rows[c],
-                        side,
-                    });
-                    outcome
-                        .multipliers
-                        .push(sign * w.lambda[i] / block.scale[c]);
-                }
-            },
-        )
+            tally,
+            outcome
+        ),
+        Scalar::F32 => kernel_solve!(
+            kernel32,
+            f32,
+            kernel32,
+            prepared,
+            offsets,
+            tol,
+            warm,
+            warm_len,
+            max_iterations,
+            tally,
+            outcome
+        ),
     };
-    outcome.status = match ended {
-        kernel64::Ended::Solved => Status::Solved,
-        kernel64::Ended::IterationLimit => Status::IterationLimit,
-        kernel64::Ended::Cycling => Status::Cycling,
-        kernel64::Ended::Infeasible => Status::Infeasible,
-        kernel64::Ended::NumericalFailure => Status::NumericalFailure,
-    };
+    outcome.status = ended;
     outcome.z = DVector::from_vec(z);
     outcome.iterations = iterations;
     outcome.macs = tally.macs;

@@ -11,10 +11,11 @@
 //! prints both).
 #![allow(non_snake_case)]
 
-use super::{solve, Outcome, Prepared, Status as Ended, WorkingSet};
+use super::{solve_in, Outcome, Prepared, Status as Ended, Tolerances, WorkingSet};
 use crate::lower::problem::Qp;
 use crate::solver::constrained::Fallback;
 use crate::solver::ipm::{held_plan, mpc_qp, relaxed, violations};
+use mpc_spec::Scalar;
 use nalgebra::DVector;
 
 /// The method's build-time data of `qp`: the QP's constant structure prepared (its f and sides do not
@@ -51,7 +52,8 @@ impl Step {
 }
 
 /// One control step: at most `count` changes of the working set from `start` (cold where `None` or
-/// where the step relaxes), then the plan, or the held plan where the solve did not end at the optimum.
+/// where the step relaxes) by the kernel in `scalar` (f32 as an f32 module runs it), then the plan, or
+/// the held plan where the solve did not end at the optimum.
 #[allow(clippy::too_many_arguments)]
 pub fn control_step(
     qp: &Qp,
@@ -62,6 +64,7 @@ pub fn control_step(
     previous_plan: &DVector<f64>,
     count: usize,
     recovering: bool,
+    scalar: Scalar,
 ) -> Step {
     let held = held_plan(qp, previous_plan);
     let relax = recovering && violations(qp, &held, offset).0 > qp.accuracy;
@@ -71,7 +74,14 @@ pub fn control_step(
     }
     let start = if relax { None } else { start };
     let outcome = match prepared.offsets(&problem) {
-        Ok(offsets) => solve(prepared, &offsets, start, count),
+        Ok(offsets) => solve_in(
+            prepared,
+            &offsets,
+            start,
+            count,
+            &Tolerances::of(scalar),
+            scalar,
+        ),
         Err(_) => failed(problem.n()),
     };
     let n = f.len();

@@ -66,6 +66,8 @@ pub struct Packed {
     pub z_cols: Vec<f64>,
     /// Where the block's warm start begins in the warm-start storage.
     pub warm_at: usize,
+    /// The real tables rounded to f32, for the f32 kernel: R, the scales, the values, G and Z.
+    pub f32: [Vec<f32>; 5],
 }
 
 impl Block {
@@ -87,6 +89,24 @@ impl Block {
             values: &p.values,
             gram: &p.gram,
             z_cols: &p.z_cols,
+            warm_at: p.warm_at,
+        }
+    }
+
+    /// The block as the f32 kernel reads it.
+    pub(super) fn kernel32(&self) -> super::kernel32::Block<'_> {
+        let p = &self.packed;
+        let [r, scale, values, gram, z_cols] = &p.f32;
+        super::kernel32::Block {
+            vars: &self.vars,
+            r,
+            sides: &p.sides,
+            scale,
+            starts: &p.starts,
+            positions: &p.positions,
+            values,
+            gram,
+            z_cols,
             warm_at: p.warm_at,
         }
     }
@@ -388,6 +408,7 @@ fn block(
             .map(|(p, c)| Z[(p, c)])
             .collect(),
         warm_at: 0,
+        f32: Default::default(),
     };
     for (row, coefficients) in &rows {
         packed.sides.push(match *row {
@@ -400,6 +421,14 @@ fn block(
         }
         packed.starts.push(packed.positions.len());
     }
+    let round = |v: &[f64]| v.iter().map(|x| *x as f32).collect::<Vec<f32>>();
+    packed.f32 = [
+        round(&packed.r),
+        round(&scale),
+        round(&packed.values),
+        round(&packed.gram),
+        round(&packed.z_cols),
+    ];
     let (rows, coefficients) = rows.into_iter().unzip();
     Ok(Block {
         vars,

@@ -3,24 +3,27 @@
 //! dual one, which the controller does not use (it falls back), so it counts as failed.
 
 use super::mpc::{control_step, macs_per_iteration};
-use super::{solve, Prepared, Status, WorkingSet};
+use super::{solve_in, Prepared, Status, Tolerances, WorkingSet};
 use crate::certify::sampling::{plain_iterate, Iterate, Sampled, Stepped};
 use crate::lower::problem::Qp;
 use crate::solver::constrained::InequalityQp;
+use mpc_spec::Scalar;
 use nalgebra::DVector;
 
 /// Changes of the working set a case is first run for, and at most.
 pub const PROBE: (usize, usize) = (64, 2048);
 
-/// The dual active-set method of `qp`, prepared once for the sample.
+/// The dual active-set method of `qp`, prepared once for the sample, in the module's scalar: an f32
+/// module's kernel runs in f32 here, so its solutions are checked against the f64 exact ones.
 pub struct ActiveSet {
     prepared: Prepared,
+    scalar: Scalar,
 }
 
 impl ActiveSet {
-    /// The method on `prepared`, the QP's structure.
-    pub fn new(prepared: Prepared) -> Self {
-        ActiveSet { prepared }
+    /// The method on `prepared`, the QP's structure, run in `scalar`.
+    pub fn new(prepared: Prepared, scalar: Scalar) -> Self {
+        ActiveSet { prepared, scalar }
     }
 }
 
@@ -55,7 +58,14 @@ impl Sampled for ActiveSet {
         let Ok(offsets) = self.prepared.offsets(problem) else {
             return vec![failed()];
         };
-        let out = solve(&self.prepared, &offsets, start.as_ref(), iterations);
+        let out = solve_in(
+            &self.prepared,
+            &offsets,
+            start.as_ref(),
+            iterations,
+            &Tolerances::of(self.scalar),
+            self.scalar,
+        );
         let reached = if out.status == Status::Solved {
             out.iterations
         } else {
@@ -90,6 +100,7 @@ impl Sampled for ActiveSet {
             previous_plan,
             count,
             false,
+            self.scalar,
         );
         let iterate = if step.outcome.status == Status::Solved {
             plain_iterate(step.outcome.z.clone())
