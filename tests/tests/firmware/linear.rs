@@ -1,5 +1,5 @@
 //! The firmware's linear mode (issue 18.4): OSQP's quadcopter on the Cortex-M4F
-//! (firmware-template/specs/quadcopter-m4f.toml: `auto` picks ADMM in f32 there), its own linear model
+//! (firmware-template/specs/quadcopter-m4f.toml: ADMM in f32, written), its own linear model
 //! flown in closed loop under its state-feedback controller (firmware-template/src/linear.rs), and the
 //! same loop on the host with the same generated module.
 
