@@ -73,7 +73,22 @@ fn main() {
         println!("cargo::rerun-if-changed={spec}");
         let text = fs::read_to_string(root.join(spec)).expect("a shipped spec");
         let copy = out.join(format!("{name}-active_set.toml"));
-        fs::write(&copy, active_set_spec(&text)).expect("writing the active-set spec");
+        // The method is certified on `[mpc.region]`; `paper` (FGM) has none, so its copy takes
+        // paper-limits' (the same model and input box).
+        let region = if text.contains("[mpc.region]") {
+            None
+        } else {
+            let limits = fs::read_to_string(root.join("../specs/paper-limits.toml"))
+                .expect("specs/paper-limits.toml");
+            println!("cargo::rerun-if-changed=../specs/paper-limits.toml");
+            Some(table(&limits, "[mpc.region]"))
+        };
+        let mut written = active_set_spec(&text);
+        if let Some(region) = region {
+            written.push_str("\n# peers/build.rs: specs/paper-limits.toml's region.\n");
+            written.push_str(&region);
+        }
+        fs::write(&copy, written).expect("writing the active-set spec");
         let copy = copy.to_str().expect("a UTF-8 OUT_DIR").to_owned();
         problem(&mut code, name, module, spec, &copy, solvers, &dump);
         names.push(module);
@@ -202,6 +217,22 @@ fn active_set_spec(text: &str) -> String {
         }
         out.push_str(line);
         out.push('\n');
+    }
+    out
+}
+
+/// The table `header` of a spec's text, to the next table.
+fn table(text: &str, header: &str) -> String {
+    let mut out = String::new();
+    let mut inside = false;
+    for line in text.lines() {
+        if line.trim_start().starts_with('[') {
+            inside = line.trim_start().starts_with(header);
+        }
+        if inside {
+            out.push_str(line);
+            out.push('\n');
+        }
     }
     out
 }
