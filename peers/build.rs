@@ -259,7 +259,10 @@ fn problem(
         let _ = writeln!(code, "    crate::ours!(ours, ctrl, fixed);");
     }
     if solvers.active_set {
-        let _ = writeln!(code, "    mpc_macros::mpc!(pub mod ctrl_as = {active_set:?});");
+        let _ = writeln!(
+            code,
+            "    mpc_macros::mpc!(pub mod ctrl_as = {active_set:?});"
+        );
         let _ = writeln!(
             code,
             "    crate::ours!(active_set, ctrl_as, status);\n    pub const ACTIVE_SET_SPEC: &str = include_str!({active_set:?});"

@@ -31,8 +31,8 @@ fn main() {
             );
         }
     }
-    println!("| problem | multiply-adds per solve (median / max) | changes (median / max) | fallbacks | \\|U − U*\\|∞ / span (max) | worst measured solve: instructions / its multiply-adds | instructions per multiply-add at the worst solve | median over solves of instructions / multiply-adds |");
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("| problem | multiply-adds per solve (median / max) | changes (median / max) | fallbacks | \\|U − U*\\|∞ / span (max) | worst measured solve: instructions / its multiply-adds | instructions per multiply-add at the worst solve | median over solves of instructions / multiply-adds | least-squares fit of instructions |");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for name in ["paper", "paper-limits", "quadcopter", "hover"] {
         let spec = std::fs::read_to_string(format!("{}/{name}-active_set.toml", env!("OUT_DIR")))
             .expect("peers/build.rs writes the spec");
@@ -56,7 +56,8 @@ fn main() {
             .map(|k| DVector::from_column_slice(&reference[k * nz..(k + 1) * nz]))
             .collect();
         let mut mpc = oracle::Mpc::new(&p);
-        let (mut macs, mut changes, mut fallbacks, mut error) = (Vec::new(), Vec::new(), 0, 0.0_f64);
+        let (mut macs, mut changes, mut fallbacks, mut error) =
+            (Vec::new(), Vec::new(), 0, 0.0_f64);
         for s in dump["steps"].as_array().expect("steps") {
             let x0 = DVector::from_vec(f(&s["x0"]));
             mpc.solve(&x0, &window);
@@ -77,21 +78,40 @@ fn main() {
         };
         let mut ch = changes.clone();
         ch.sort_unstable();
-        let (worst, ratio, median_ratio) = match measured.get(name) {
+        let (worst, ratio, median_ratio, fit) = match measured.get(name) {
             Some(m) if m.len() == macs.len() => {
+                // Least squares: instructions = a + b·multiply-adds over the solves (b the marginal
+                // instructions per multiply-add, a what the tally does not see).
+                let n = m.len() as f64;
+                let (mx, my) = (
+                    macs.iter().sum::<u64>() as f64 / n,
+                    m.iter().sum::<u64>() as f64 / n,
+                );
+                let sxy: f64 = macs
+                    .iter()
+                    .zip(m)
+                    .map(|(&c, &i)| (c as f64 - mx) * (i as f64 - my))
+                    .sum();
+                let sxx: f64 = macs.iter().map(|&c| (c as f64 - mx).powi(2)).sum();
+                let b = sxy / sxx;
                 let k = (0..m.len()).max_by_key(|&k| m[k]).expect("solves");
-                let mut r: Vec<f64> = m.iter().zip(&macs).map(|(&i, &c)| i as f64 / c.max(1) as f64).collect();
+                let mut r: Vec<f64> = m
+                    .iter()
+                    .zip(&macs)
+                    .map(|(&i, &c)| i as f64 / c.max(1) as f64)
+                    .collect();
                 r.sort_by(|a, b| a.total_cmp(b));
                 (
                     format!("{} / {} (solve {k})", m[k], macs[k]),
                     format!("{:.2}", m[k] as f64 / macs[k].max(1) as f64),
                     format!("{:.2}", r[r.len() / 2]),
+                    format!("{:.0} + {b:.2} × multiply-adds", my - b * mx),
                 )
             }
-            _ => ("not measured".into(), "".into(), "".into()),
+            _ => ("not measured".into(), "".into(), "".into(), "".into()),
         };
         println!(
-            "| {name} | {} / {} | {} / {} | {fallbacks} | {error:.1e} | {worst} | {ratio} | {median_ratio} |",
+            "| {name} | {} / {} | {} / {} | {fallbacks} | {error:.1e} | {worst} | {ratio} | {median_ratio} | {fit} |",
             med(&macs),
             macs.iter().max().expect("solves"),
             ch[ch.len() / 2],
