@@ -66,9 +66,9 @@ fn main() {
             changes.push(step.outcome.iterations);
             fallbacks += usize::from(step.fallback != codegen::ipm::Fallback::Solved);
             let z = f(&s["z_star"]);
-            for i in 0..np {
+            for (i, zi) in z.iter().enumerate().take(np) {
                 let span = p.qp.u_max[i % p.nu] - p.qp.u_min[i % p.nu];
-                error = error.max((mpc.plan()[i] - z[i]).abs() / span);
+                error = error.max((mpc.plan()[i] - zi).abs() / span);
             }
         }
         let med = |v: &[u64]| {
