@@ -1,11 +1,15 @@
 #!/usr/bin/env bash
 # The peers replay under QEMU, and the code and data each solver adds to the image.
 #
-#   peers/firmware/run.sh [--board zynq|netduinoplus2] [--solver ours|daqp] [--sizes] [PROBLEM ...]
+#   peers/firmware/run.sh [--board zynq|netduinoplus2] [--solver ours|daqp|active_set] [--sizes] [PROBLEM ...]
 #
 # PROBLEMs: paper paper-limits quadcopter hover (default: all). Zynq runs them in one image; the
 # STM32F405 one image per problem (its 1 MiB of flash holds one problem's dump). Each run prints
 # the firmware's RESULT lines (also appended to target/peers-<board>.results) and a table.
+# Solvers: ours (the spec's own method: the IPM, the FGM for paper), active_set (the same spec with
+# method = "active_set", peers/build.rs), daqp; all three by default; --solver a,b builds those alone.
+# The generated solvers' per-solve instructions go to target/peers-<board>.solves (SOLVES lines, this
+# run's only) for peers/examples/macs.rs.
 # --solver builds the image with that solver alone (hover's image with both does not fit the
 # STM32F405's flash: run it once per solver). --sizes also builds each problem with the generated
 # solver alone, DAQP alone and neither, and
@@ -66,18 +70,20 @@ else
     groups=("${problems[@]}")
 fi
 status=0
+: > "target/peers-$board.solves"
 for g in "${groups[@]}"; do
     build "$g" "${solver[@]}"
     out="$(run)" || status=$?
-    echo "$out"
+    grep -v '^SOLVES' <<<"$out" || true
     grep '^RESULT' <<<"$out" >> "$results" || true
+    grep '^SOLVES' <<<"$out" >> "target/peers-$board.solves" || true
     lines+="$(grep '^RESULT' <<<"$out" || true)"$'\n'
 done
 python3 "$here/table.py" <<<"$lines"
 
 if [[ $sizes == 1 ]]; then
     for p in "${problems[@]}"; do
-        for variant in none ours daqp; do
+        for variant in none ours active_set daqp; do
             if [[ $variant == none ]]; then build "$p" --no-default-features
             else build "$p" --no-default-features --features "$variant"; fi
             echo "SIZE $board $p $variant $(arm-none-eabi-size -A "$elf" | awk '$1 ~ /^\.(text|rodata|data|bss)$/ {printf "%s=%s ", substr($1,2), $2}')"

@@ -15,9 +15,9 @@ def results(lines):
             continue
         q = lambda k: " / ".join(f"{r[k + '_' + s]:,}" for s in ("min", "median", "p99", "max"))
         e = lambda k: f"{r[k] * 1e-15:.1e}"
-        solver = "generated" if r["solver"] == "generated" else "DAQP"
+        solver = {"generated": "generated", "active_set": "generated active set"}.get(r["solver"], "DAQP")
         print(f"| {r['board']} | {r['problem']} | {solver} | {q('instructions')} | {r['form_instructions_max']:,} | "
-              f"{q('iterations') if solver == 'DAQP' else 'fixed'} | {e('error_median_fp')} / {e('error_max_fp')} | "
+              f"{q('iterations') if solver != 'generated' else 'fixed'} | {e('error_median_fp')} / {e('error_max_fp')} | "
               f"{r['solve_stack_bytes']:,}{' (overflowed)' if r['solve_stack_overflowed'] else ''} | {r['state_bytes']:,} | {r['not_optimal']} |")
 
 
@@ -34,11 +34,11 @@ def sizes(lines):
     for (board, problem), v in rows.items():
         if "none" not in v:
             continue
-        for variant in ("ours", "daqp"):
+        for variant in ("ours", "active_set", "daqp"):
             if variant not in v:
                 continue
             d = {k: v[variant].get(k, 0) - v["none"].get(k, 0) for k in ("text", "rodata", "data", "bss")}
-            name = "generated" if variant == "ours" else "DAQP"
+            name = {"ours": "generated", "active_set": "generated active set"}.get(variant, "DAQP")
             print(f"| {board} | {problem} | {name} | {d['text']:,} | {d['rodata']:,} | {d['data'] + d['bss']:,} |")
 
 

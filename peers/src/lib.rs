@@ -101,9 +101,10 @@ pub struct Outcome {
     /// Ticks of forming the QP's data per solve (DAQP: f and the rows' bounds from the state; 0 for
     /// ours, whose solve forms its own); included in `ticks`.
     pub form_ticks: [u64; MAX_STEPS],
-    /// Iterations per solve (DAQP's active-set iterations; 0 for ours: fixed).
+    /// Iterations per solve (DAQP's active-set iterations; the generated active set's changes of the
+    /// working set; 0 for the other generated solvers: fixed).
     pub iterations: [u32; MAX_STEPS],
-    /// Solves that did not end optimal (DAQP's exit flag ≤ 0).
+    /// Solves that did not end optimal (DAQP's exit flag ≤ 0; the generated active set's fallbacks).
     pub failures: usize,
     /// Steps recorded.
     pub count: usize,
@@ -213,30 +214,56 @@ pub fn plan_error(plan: impl Iterator<Item = f64>, z_star: &[f64]) -> f64 {
     e
 }
 
-/// The replay of the generated controller of one problem module: `pub fn ours(timing, outcome)`.
-/// Each step solves from the dumped state with the constant reference window, warm-started from the
-/// previous solve as in flight (the controller's own warm start: shifted plan, or the interior-point
-/// method's shifted iterate). The state's conversion to the controller's scalar is outside the timed
-/// span, as in the firmware template.
+/// The replay of a generated controller of one problem module: `ours!(ours, ctrl, fixed)` defines
+/// `pub fn ours(timing, outcome)` over the module `ctrl`; `status` instead of `fixed` also records
+/// each solve's `SolverStatus` (the changes of the working set as iterations; a solve whose plan is
+/// not its own, `Fallback` other than `Solved`, counted as not optimal). Each step solves from the
+/// dumped state with the constant reference window, warm-started from the previous solve as in flight
+/// (the controller's own warm start: shifted plan, the interior-point method's shifted iterate, or the
+/// active set's previous working set). The state's conversion to the controller's scalar is outside
+/// the timed span, as in the firmware template.
 #[macro_export]
 macro_rules! ours {
-    () => {
+    (@record $mpc:ident, $ctrl:ident, fixed) => {
+        (0u32, true)
+    };
+    (@record $mpc:ident, $ctrl:ident, status) => {{
+        let status = *$mpc.solver_status();
+        (
+            status.iterations,
+            status.fallback == $ctrl::Fallback::Solved,
+        )
+    }};
+    ($name:ident, $ctrl:ident, $record:ident) => {
         /// Replays the steps through the generated controller.
         // `Real` is f32 or f64 by spec: the casts are conversions for one and no-ops for the other.
         #[allow(clippy::unnecessary_cast)]
-        pub fn ours<T: $crate::Timing>(timing: &mut T, out: &mut $crate::Outcome) {
-            use ctrl::Real;
-            const _: () = assert!(ctrl::NX == NZ, "the window is of states");
-            let mut mpc = ctrl::Mpc::new();
-            out.state_bytes = core::mem::size_of::<ctrl::Mpc>();
-            let mut xref = [[0.0 as Real; ctrl::NX]; ctrl::N];
+        pub fn $name<T: $crate::Timing>(timing: &mut T, out: &mut $crate::Outcome) {
+            use $ctrl::Real;
+            const _: () = assert!($ctrl::NX == NZ, "the window is of states");
+
+            /// One solve in a frame of its own, below the stack pointer at which the probe paints:
+            /// inlined into the replay, the solve's locals would sit in the replay's frame, above it,
+            /// uncounted.
+            #[inline(never)]
+            fn solve_once(
+                mpc: &mut $ctrl::Mpc,
+                x0: &[$ctrl::Real; $ctrl::NX],
+                xref: &[[$ctrl::Real; $ctrl::NX]; $ctrl::N],
+            ) {
+                core::hint::black_box(mpc.solve(x0, xref));
+            }
+
+            let mut mpc = $ctrl::Mpc::new();
+            out.state_bytes = core::mem::size_of::<$ctrl::Mpc>();
+            let mut xref = [[0.0 as Real; $ctrl::NX]; $ctrl::N];
             for (k, row) in xref.iter_mut().enumerate() {
                 for (j, v) in row.iter_mut().enumerate() {
                     *v = REFERENCE[k * NZ + j] as Real;
                 }
             }
             for s in 0..STEPS {
-                let x0: [Real; ctrl::NX] = core::array::from_fn(|j| X0[s][j] as Real);
+                let x0: [Real; $ctrl::NX] = core::array::from_fn(|j| X0[s][j] as Real);
                 let ticks = timing.time(&mut || {
                     solve_once(
                         &mut mpc,
@@ -249,19 +276,9 @@ macro_rules! ours {
                     plan.iter().flat_map(|u| u.iter().map(|&v| v as f64)),
                     &Z_STAR[s][..N * NU],
                 );
-                out.add(ticks, 0, error, 0, true);
+                let (iterations, ok) = $crate::ours!(@record mpc, $ctrl, $record);
+                out.add(ticks, 0, error, iterations, ok);
             }
-        }
-
-        /// One solve in a frame of its own, below the stack pointer at which the probe paints: inlined
-        /// into the replay, the solve's locals would sit in the replay's frame, above it, uncounted.
-        #[inline(never)]
-        fn solve_once(
-            mpc: &mut ctrl::Mpc,
-            x0: &[ctrl::Real; ctrl::NX],
-            xref: &[[ctrl::Real; ctrl::NX]; ctrl::N],
-        ) {
-            core::hint::black_box(mpc.solve(x0, xref));
         }
     };
 }

@@ -140,14 +140,16 @@ fn result(
     serial.str("}\n");
 }
 
-/// The generated solver on one problem (`replay` is the problem's `ours`), in a frame of its own.
-#[cfg(feature = "ours")]
+/// A generated solver on one problem (`replay` is the problem's `ours` or `active_set`, reported as
+/// `solver`), in a frame of its own, with a `SOLVES` line of its instructions and iterations per solve.
+#[cfg(any(feature = "ours", feature = "active_set"))]
 #[inline(never)]
 fn run_ours(
     serial: &mut board::Serial,
     timer: &board::Timer,
     calib: (u64, u64),
     name: &str,
+    solver: &str,
     replay: impl FnOnce(&mut Probe<'_>, &mut Outcome),
 ) {
     let mut probe = Probe {
@@ -156,7 +158,32 @@ fn run_ours(
     };
     let mut o = Outcome::new();
     replay(&mut probe, &mut o);
-    result(serial, name, "generated", &o, &probe.stack, 0, calib);
+    result(serial, name, solver, &o, &probe.stack, 0, calib);
+    solves(serial, name, solver, &o, calib);
+}
+
+/// One `SOLVES` line: each solve's instructions and iterations, in order (for the instructions per
+/// multiply-add of `peers/examples/macs.rs`).
+#[cfg(any(feature = "ours", feature = "active_set"))]
+fn solves(serial: &mut board::Serial, problem: &str, solver: &str, o: &Outcome, calib: (u64, u64)) {
+    let instructions = |ticks: u64| (ticks * calib.0 + calib.1 / 2) / calib.1.max(1);
+    serial.str("SOLVES {\"problem\":\"").str(problem);
+    serial.str("\",\"solver\":\"").str(solver);
+    serial.str("\",\"instructions\":[");
+    for (k, &t) in o.ticks[..o.count].iter().enumerate() {
+        if k > 0 {
+            serial.str(",");
+        }
+        serial.u64(instructions(t));
+    }
+    serial.str("],\"iterations\":[");
+    for (k, &i) in o.iterations[..o.count].iter().enumerate() {
+        if k > 0 {
+            serial.str(",");
+        }
+        serial.u64(u64::from(i));
+    }
+    serial.str("]}\n");
 }
 
 /// The replay without a solver (`baseline`), in every image whatever its features, so that
@@ -220,7 +247,9 @@ extern "C" fn main() -> ! {
     peers::for_each_problem!(p => {
         run_baseline(&mut serial, &timer, calib, p::NAME, |t, o| p::baseline(t, o));
         #[cfg(feature = "ours")]
-        run_ours(&mut serial, &timer, calib, p::NAME, |t, o| p::ours(t, o));
+        run_ours(&mut serial, &timer, calib, p::NAME, "generated", |t, o| p::ours(t, o));
+        #[cfg(feature = "active_set")]
+        run_ours(&mut serial, &timer, calib, p::NAME, "active_set", |t, o| p::active_set(t, o));
         #[cfg(feature = "daqp")]
         {
             status = status.max(run_daqp(&mut serial, &timer, calib, &p::data()));

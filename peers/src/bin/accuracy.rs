@@ -1,4 +1,5 @@
-//! Host replay of every dumped problem through DAQP and the generated solver: DAQP's iterations per
+//! Host replay of every dumped problem through DAQP and the generated solvers (the spec's own method and
+//! the active set): DAQP's iterations per
 //! solve and each side's |U − U*|∞ against the exact solution (`mpcc dump-qp`'s z*), as a table.
 //! Exits 1 if a DAQP solve did not end optimal.
 //!
@@ -41,9 +42,18 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|");
     let mut failed = false;
     for_each_problem!(p => {
-        let mut ours = Outcome::new();
-        p::ours(&mut Clock, &mut ours);
-        row(p::NAME, "generated", &ours);
+        #[cfg(feature = "ours")]
+        {
+            let mut ours = Outcome::new();
+            p::ours(&mut Clock, &mut ours);
+            row(p::NAME, "generated", &ours);
+        }
+        #[cfg(feature = "active_set")]
+        {
+            let mut ours = Outcome::new();
+            p::active_set(&mut Clock, &mut ours);
+            row(p::NAME, "generated active set", &ours);
+        }
         let mut daqp = Outcome::new();
         if replay_daqp(&p::data(), &mut Clock, &mut daqp).is_none() {
             println!("| {} | DAQP | setup failed | | | | | |", p::NAME);
