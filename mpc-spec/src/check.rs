@@ -242,10 +242,17 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
     }
     // A state-sized `qf` with outputs is a terminal weight on x_N (a Riccati solution, say); an
     // output-sized one (also when nz = nx) weighs z_N like `q`.
+    // `qf = "lqr"`: the compiler solves the Riccati equation (codegen's lowering); Q stands in here.
+    let qf_lqr = raw.qf.as_ref().is_some_and(|m| m.value.is_none());
+    let qf_written = raw.qf.as_ref().and_then(|m| {
+        m.value.clone().map(|value| Located {
+            value,
+            span: m.span.clone(),
+        })
+    });
     let qf_on_state = raw.outputs.is_some()
         && nz != nx
-        && raw
-            .qf
+        && qf_written
             .as_ref()
             .is_some_and(|m| m.value.to_square(nx).is_ok() && m.value.to_square(nz).is_err());
     let qf = match (&raw.qf, &raw.qf_scale) {
@@ -260,8 +267,9 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
             );
             None
         }
-        (Some(_), None) if qf_on_state => square(diags, "mpc.qf", raw.qf.as_ref(), nx, "nx"),
-        (Some(_), None) => square(diags, "mpc.qf", raw.qf.as_ref(), z_dim, z_name),
+        (Some(_), None) if qf_lqr => q.clone(),
+        (Some(_), None) if qf_on_state => square(diags, "mpc.qf", qf_written.as_ref(), nx, "nx"),
+        (Some(_), None) => square(diags, "mpc.qf", qf_written.as_ref(), z_dim, z_name),
         (None, Some(scale)) => q.as_ref().map(|q| q.scaled(scale.value)),
         (None, None) => q.clone(),
     };
@@ -361,6 +369,7 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
         r_du: r_du?,
         qf: qf?,
         qf_on_state,
+        qf_lqr,
         u_min: u_min?,
         u_max: u_max?,
         constraints: constraints?,
