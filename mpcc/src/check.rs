@@ -171,10 +171,13 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             structure_lines(choice),
         ));
     }
-    sections.push((
-        "emission of the gradient (cost model; force with [codegen] emission)",
-        emission_lines(c),
-    ));
+    // Only the first-order methods run the gradient form: a constrained method ignores it.
+    if g.plan.algorithm().is_some() {
+        sections.push((
+            "emission of the gradient (cost model; force with [codegen] emission)",
+            emission_lines(c),
+        ));
+    }
     sections.push((
         "target (estimated cycles; [codegen] target)",
         target_lines(&g.step),

@@ -356,8 +356,8 @@ impl Hessian<'_> {
 /// `qf = "lqr"`: the terminal weight on x_N, the stabilizing solution of the discrete algebraic Riccati
 /// equation of the plant (F, G) with the stage weights Q (on the state, C_zᵀWC_z with outputs) and R.
 /// With move suppression (`r_du`) the stage cost is that of the plant augmented with the last input,
-/// ξ = (x, u₋₁), input Δu: ξ⁺ = [[F, G], [0, I]] ξ + [G; I] Δu, cost xᵀQx + (u₋₁ + Δu)ᵀR(u₋₁ + Δu)
-/// + ΔuᵀR_du Δu, that is Q_ξ = blkdiag(Q, R), cross term [0; R] and input weight R + R_du; its solution
+/// ξ = (x, u₋₁), input Δu: ξ⁺ = [[F, G], [0, I]] ξ + [G; I] Δu, cost xᵀQx + (u₋₁ + Δu)ᵀR(u₋₁ + Δu) +
+/// ΔuᵀR_du Δu, that is Q_ξ = blkdiag(Q, R), cross term [0; R] and input weight R + R_du; its solution
 /// P_ξ is the infinite-horizon cost of that problem, and the terminal weight is its state block P_xx
 /// (the reduction: the cost-to-go of x_N with the last input's terms dropped, which the condensed QP,
 /// whose terminal term weighs x_N alone, can hold).
