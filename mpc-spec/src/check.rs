@@ -34,6 +34,7 @@ pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
             scalar,
             emission,
             target,
+            clock_hz: raw.clock_hz.as_ref().map(|c| c.value),
         },
         spans: Spans(raw.spans),
     })
@@ -768,6 +769,16 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
 /// would run every operation of its factorisations in software floating point. (An f64 `scalar` there
 /// is allowed, with a warning from the compiler: the first-order methods and the filter still run.)
 fn check_target(raw: &Raw, target: Target, diags: &mut Diagnostics) {
+    if let (Some(clock), Target::Host) = (&raw.clock_hz, target) {
+        diags.push(
+            Diagnostic::new(
+                "`clock_hz` needs a `target`: the host has no fixed clock to time a step against",
+                clock.span.clone(),
+            )
+            .label("a clock for no target")
+            .note("hint: write `target = \"cortex-a9\"` or `target = \"cortex-m4f\"` in `[codegen]` with it (their clocks default to 667 MHz and 168 MHz), or remove `clock_hz`"),
+        );
+    }
     let Some(method) = &raw.method else { return };
     if Method::from_name(&method.value) == Some(Method::Ipm) && !target.has_f64() {
         let name = target.name();

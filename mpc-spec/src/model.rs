@@ -485,6 +485,10 @@ pub struct Codegen {
     pub emission: Emission,
     /// The machine the controller runs on.
     pub target: Target,
+    /// Its clock in Hz (`clock_hz`, positive and finite), for the period check; `None`: the target's
+    /// default (`codegen::target`: 667 MHz for the Cortex-A9, 168 MHz for the Cortex-M4F). Only with a
+    /// target other than the host, which has no cycle model to time.
+    pub clock_hz: Option<f64>,
 }
 
 spelled! {

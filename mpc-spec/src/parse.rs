@@ -118,6 +118,7 @@ pub struct Raw {
     pub scalar: Option<Located<String>>,
     pub emission: Option<Located<String>>,
     pub target: Option<Located<String>>,
+    pub clock_hz: Option<Located<f64>>,
 
     pub spans: BTreeMap<String, Span>,
     /// Every table and key written, readable or not (`"kalman"`, `"kalman.sigma_a"`), so that a value
@@ -352,6 +353,9 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.target = t
             .get("target")
             .and_then(|v| p.choice(v, "codegen.target", keys::TARGETS));
+        raw.clock_hz = t
+            .get("clock_hz")
+            .and_then(|v| p.positive(v, "codegen.clock_hz"));
     }
     raw.spans = p.spans;
     raw.present = p.present;

@@ -332,7 +332,9 @@ fn target_lines(step: &codegen::target::StepCost) -> Vec<(String, String)> {
         (Some(cycles), Some(load)) => (
             format!(
                 "{:.3e} cycles, of which the solver {:.3e} ({solver}, {} cycles each)",
-                step.cycles, step.solver_cycles, step.solver_cycles_per_mac
+                step.cycles,
+                step.solver_cycles,
+                codegen::target::significant(step.solver_cycles_per_mac, 3)
             ),
             format!(
                 "{} ms = {:.3e} cycles at {clock}: the step takes {:.1} %",
