@@ -138,7 +138,7 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
         .qp
         .evidence
         .as_ref()
-        .and_then(|e| evidence::thin(spec, e))
+        .and_then(|e| evidence::thin(spec, e).or_else(|| evidence::infeasible_share(spec, e)))
     {
         warnings.push(thin);
     }

@@ -227,3 +227,46 @@ pub fn array<const R: usize, const C: usize>(M: &DMatrix<f64>) -> [[f64; C]; R] 
     );
     core::array::from_fn(|i| core::array::from_fn(|j| M[(i, j)]))
 }
+
+/// The stabilizing solution P of the discrete algebraic Riccati equation with a cross term S,
+/// P = AᵀPA − (AᵀPB + S)(R + BᵀPB)⁻¹(BᵀPA + Sᵀ) + Q, for the cost Σ xᵀQx + 2xᵀSu + uᵀRu; R positive
+/// definite. The cross term is removed by the change of input u = v − R⁻¹Sᵀx (Ā = A − BR⁻¹Sᵀ,
+/// Q̄ = Q − SR⁻¹Sᵀ), and the plain equation in (Ā, B, Q̄, R) is solved by the structure-preserving
+/// doubling algorithm (Chu, Fan, Lin and Wang, 2004): A₀ = Ā, G₀ = BR⁻¹Bᵀ, H₀ = Q̄, and
+/// W = I + GₖHₖ, Aₖ₊₁ = AₖW⁻¹Aₖ, Gₖ₊₁ = Gₖ + AₖW⁻¹GₖAₖᵀ, Hₖ₊₁ = Hₖ + AₖᵀHₖW⁻¹Aₖ, where Hₖ is the
+/// Riccati recursion's value after 2ᵏ steps and converges quadratically to P. `None` when R is not
+/// positive definite, W is singular, or Hₖ does not settle within 100 doublings (a plant that is not
+/// stabilizable, or Q̄ that does not detect an unstable mode).
+pub fn dare(
+    A: &DMatrix<f64>,
+    B: &DMatrix<f64>,
+    Q: &DMatrix<f64>,
+    R: &DMatrix<f64>,
+    S: &DMatrix<f64>,
+) -> Option<DMatrix<f64>> {
+    let n = A.nrows();
+    let R_inv = R.clone().cholesky()?.inverse();
+    let mut Ak = A - B * &R_inv * S.transpose();
+    let mut G = symmetrize(&(B * &R_inv * B.transpose()));
+    let mut H = symmetrize(&(Q - S * &R_inv * S.transpose()));
+    let I = DMatrix::<f64>::identity(n, n);
+    for _ in 0..100 {
+        let W = (&I + &G * &H).lu();
+        let W_inv_A = W.solve(&Ak)?;
+        let W_inv_G = W.solve(&G)?;
+        let next_H = symmetrize(&(&H + Ak.transpose() * &H * &W_inv_A));
+        let next_G = symmetrize(&(&G + &Ak * W_inv_G * Ak.transpose()));
+        let next_A = &Ak * W_inv_A;
+        if !next_H.iter().chain(next_A.iter()).all(|v| v.is_finite()) {
+            return None;
+        }
+        let change = (&next_H - &H).amax();
+        H = next_H;
+        G = next_G;
+        Ak = next_A;
+        if change <= 1e-14 * H.amax() {
+            return Some(H);
+        }
+    }
+    None
+}

@@ -190,3 +190,57 @@ fn a_sample_above_the_build_budget_is_refused() {
     );
     assert_eq!(&text[d.span.clone().unwrap()], "region");
 }
+
+/// More than a quarter of the region's draws infeasible is a warning naming the region's corners to
+/// shrink; a quarter or fewer is not. The pendulum on a cart with |θ| ≤ 0.2 from angular rates up to 12
+/// rad/s (18 of 66 cases infeasible) and up to 9 rad/s (16 of 66, under a quarter).
+#[test]
+fn a_region_mostly_infeasible_warns_at_its_corners() {
+    let pendulum = include_str!("../../tests/specs/pendulum-lqr.toml");
+    let region = |rate: &str| {
+        let src = pendulum
+            .replace(
+                "x_min = [-0.5, -0.2, -0.05, -0.2]",
+                &format!("x_min = [-0.5, -1, -0.19, -{rate}]"),
+            )
+            .replace(
+                "x_max = [0.5, 0.2, 0.05, 0.2]",
+                &format!("x_max = [0.5, 1, 0.19, {rate}]"),
+            );
+        assert_ne!(src, pendulum);
+        let spec = mpc_spec::load(&src).unwrap();
+        let g = codegen::generate(&spec, &codegen::Opt::default()).unwrap();
+        let e = g.problem.qp.evidence.clone().unwrap();
+        let warning = g
+            .warnings
+            .iter()
+            .find(|d| d.message.contains("are infeasible"))
+            .map(|d| {
+                (
+                    d.message.clone(),
+                    src[d.span.clone().unwrap()].to_string(),
+                    d.note.clone(),
+                )
+            });
+        (
+            e.infeasible_cases,
+            e.cold_cases + e.infeasible_cases,
+            warning,
+        )
+    };
+    let (infeasible, drawn, warning) = region("12");
+    assert!(4 * infeasible > drawn, "{infeasible} of {drawn}");
+    let (message, at, note) = warning.expect("a warning");
+    assert!(
+        message.starts_with(&format!("{infeasible} of the {drawn} cold cases")),
+        "{message}"
+    );
+    assert_eq!(at, "[0.5, 1, 0.19, 12]");
+    assert!(note.unwrap().contains("`[mpc.region]`'s `x_min`/`x_max`"));
+    let (infeasible, drawn, warning) = region("9");
+    assert!(
+        infeasible > 0 && 4 * infeasible <= drawn,
+        "{infeasible} of {drawn}"
+    );
+    assert_eq!(warning, None);
+}

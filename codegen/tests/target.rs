@@ -192,3 +192,62 @@ fn f64_without_f64_hardware_is_a_warning() {
         assert!(g.warnings.is_empty(), "{:?}", g.warnings);
     }
 }
+
+/// `[codegen] clock_hz` replaces the target's default clock in the period check.
+#[test]
+fn the_clock_key_sets_the_period() {
+    let src = with_codegen(PAPER, "target = \"cortex-m4f\"\nclock_hz = 84e6");
+    let g = generate_from_source(&src, &Opt::default()).unwrap();
+    assert_eq!(g.step.period_cycles, Some(84e6 * 0.0128));
+    assert_eq!(g.step.machine.clock_hz, Some(84e6));
+    // The step 20 times too long at 168 MHz fits at 10 GHz, and the refusal names the written clock.
+    let fast = with_codegen(&too_slow(), "clock_hz = 10e9");
+    assert!(generate_from_source(&fast, &Opt::default()).is_ok());
+    let slow = with_codegen(&too_slow(), "clock_hz = 100e6");
+    let diags = generate_from_source(&slow, &Opt::default()).unwrap_err();
+    let d = diags.iter().next().unwrap();
+    assert!(d.message.contains("at 100 MHz"), "{}", d.message);
+}
+
+/// The refusal of an f64 step on the Cortex-M4F names `scalar = "f32"` with the cycles the f32 build
+/// has (checked by building it), and prints the cycles per multiply-add to three significant digits.
+#[test]
+fn the_period_refusal_prices_f32() {
+    let src = with_codegen(F64_N10, "target = \"cortex-m4f\"");
+    let src = with_line(&src, "iterations", "400");
+    let diags = generate_from_source(&src, &Opt::default()).unwrap_err();
+    let d = diags.iter().next().unwrap();
+    let note = d.note.clone().unwrap();
+    let f32 = with_line(&src, "scalar", "\"f32\"");
+    let g = generate_from_source(&f32, &Opt::default()).unwrap();
+    let cycles = target::significant(g.step.cycles, 3);
+    let share = target::significant(100.0 * g.step.load().unwrap(), 3);
+    assert!(
+        note.starts_with(&format!(
+            "hint: `scalar = \"f32\"` in `[codegen]` (about {cycles} cycles, {share} % of the period: fits); or "
+        )),
+        "{note}"
+    );
+    assert!(
+        d.related[1]
+            .1
+            .starts_with("about 163 cycles per multiply-add"),
+        "{:?}",
+        d.related
+    );
+    // An f32 spec has no such line.
+    let diags = generate_from_source(&too_slow(), &Opt::default()).unwrap_err();
+    let note = diags.iter().next().unwrap().note.clone().unwrap();
+    assert!(!note.contains("scalar"), "{note}");
+}
+
+#[test]
+fn figures_are_rounded_to_significant_digits() {
+    assert_eq!(target::significant(232.857_142_857_142_86, 3), "233");
+    assert_eq!(target::significant(2.8, 3), "2.8");
+    assert_eq!(target::significant(3.0, 3), "3");
+    assert_eq!(target::significant(0.012_345_6, 3), "0.0123");
+    assert_eq!(target::significant(1_234_567.0, 3), "1.23e6");
+    assert_eq!(target::significant(99_950.0, 3), "100000");
+    assert_eq!(target::significant(12_345.0, 3), "12300");
+}

@@ -5691,11 +5691,11 @@ pub mod afti16 {
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 4808;
         /// Bytes of `Mpc`.
-        pub const BYTES_STATE_MPC: usize = 176;
+        pub const BYTES_STATE_MPC: usize = 1384;
         /// Bytes of `Kalman`.
         pub const BYTES_STATE_KALMAN: usize = 88;
         /// Bytes of `Controller`, all the state carried between cycles.
-        pub const BYTES_STATE: usize = 328;
+        pub const BYTES_STATE: usize = 1592;
         /// Multiply-adds of the filter's update and predict, unrolled in the code.
         pub const MACS_FILTER: usize = 40;
         /// The a priori bound J(U_k) − J* ≤ C·ρᵏ·(J(U_0) − J*): (C, ρ); `None` for a step above 1/L.

@@ -14096,11 +14096,11 @@ pub mod paper_limits {
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 2304;
         /// Bytes of `Mpc`.
-        pub const BYTES_STATE_MPC: usize = 480;
+        pub const BYTES_STATE_MPC: usize = 4000;
         /// Bytes of `Kalman`.
         pub const BYTES_STATE_KALMAN: usize = 392;
         /// Bytes of `Controller`, all the state carried between cycles.
-        pub const BYTES_STATE: usize = 952;
+        pub const BYTES_STATE: usize = 4528;
         /// Multiply-adds of the filter's update and predict, unrolled in the code.
         pub const MACS_FILTER: usize = 171;
         /// The a priori bound J(U_k) − J* ≤ C·ρᵏ·(J(U_0) − J*): (C, ρ); `None` for a step above 1/L.

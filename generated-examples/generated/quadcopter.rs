@@ -18809,11 +18809,11 @@ pub mod quadcopter {
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 13336;
         /// Bytes of `Mpc`.
-        pub const BYTES_STATE_MPC: usize = 320;
+        pub const BYTES_STATE_MPC: usize = 2784;
         /// Bytes of `Kalman`.
         pub const BYTES_STATE_KALMAN: usize = 0;
         /// Bytes of `Controller`, all the state carried between cycles.
-        pub const BYTES_STATE: usize = 328;
+        pub const BYTES_STATE: usize = 2848;
         /// Multiply-adds of the filter's update and predict, unrolled in the code.
         pub const MACS_FILTER: usize = 0;
         /// The a priori bound J(U_k) − J* ≤ C·ρᵏ·(J(U_0) − J*): (C, ρ); `None` for a step above 1/L.

@@ -11,3 +11,26 @@ mpc_macros::mpc!(pub mod paper_geofence = "../specs/paper-geofence.toml");
 mpc_macros::mpc!(pub mod afti16 = "../specs/afti16.toml");
 
 pub mod geofence;
+
+/// `report::BYTES_STATE*` (the compiler's layout model, known before rustc runs) equal `size_of` of the
+/// types on whatever target this crate is built for: checked by the compiler, so a build for the
+/// Cortex-A9 or the Cortex-M4F (the firmware's) fails if they differ there.
+macro_rules! state_sizes {
+    ($($m:ident),*) => {$(
+        const _: () = {
+            use $m::{report, Controller, Kalman, Mpc};
+            assert!(core::mem::size_of::<Mpc>() == report::BYTES_STATE_MPC);
+            assert!(core::mem::size_of::<Kalman>() == report::BYTES_STATE_KALMAN);
+            assert!(core::mem::size_of::<Controller>() == report::BYTES_STATE);
+        };
+    )*};
+}
+
+state_sizes!(
+    paper,
+    paper_faithful,
+    paper_initial,
+    paper_offset_free,
+    paper_geofence,
+    afti16
+);

@@ -34,6 +34,7 @@ pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
             scalar,
             emission,
             target,
+            clock_hz: raw.clock_hz.as_ref().map(|c| c.value),
         },
         spans: Spans(raw.spans),
     })
@@ -242,10 +243,17 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
     }
     // A state-sized `qf` with outputs is a terminal weight on x_N (a Riccati solution, say); an
     // output-sized one (also when nz = nx) weighs z_N like `q`.
+    // `qf = "lqr"`: the compiler solves the Riccati equation (codegen's lowering); Q stands in here.
+    let qf_lqr = raw.qf.as_ref().is_some_and(|m| m.value.is_none());
+    let qf_written = raw.qf.as_ref().and_then(|m| {
+        m.value.clone().map(|value| Located {
+            value,
+            span: m.span.clone(),
+        })
+    });
     let qf_on_state = raw.outputs.is_some()
         && nz != nx
-        && raw
-            .qf
+        && qf_written
             .as_ref()
             .is_some_and(|m| m.value.to_square(nx).is_ok() && m.value.to_square(nz).is_err());
     let qf = match (&raw.qf, &raw.qf_scale) {
@@ -260,8 +268,9 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
             );
             None
         }
-        (Some(_), None) if qf_on_state => square(diags, "mpc.qf", raw.qf.as_ref(), nx, "nx"),
-        (Some(_), None) => square(diags, "mpc.qf", raw.qf.as_ref(), z_dim, z_name),
+        (Some(_), None) if qf_lqr => q.clone(),
+        (Some(_), None) if qf_on_state => square(diags, "mpc.qf", qf_written.as_ref(), nx, "nx"),
+        (Some(_), None) => square(diags, "mpc.qf", qf_written.as_ref(), z_dim, z_name),
         (None, Some(scale)) => q.as_ref().map(|q| q.scaled(scale.value)),
         (None, None) => q.clone(),
     };
@@ -361,6 +370,7 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
         r_du: r_du?,
         qf: qf?,
         qf_on_state,
+        qf_lqr,
         u_min: u_min?,
         u_max: u_max?,
         constraints: constraints?,
@@ -761,6 +771,16 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
 /// would run every operation of its factorisations in software floating point. (An f64 `scalar` there
 /// is allowed, with a warning from the compiler: the first-order methods and the filter still run.)
 fn check_target(raw: &Raw, target: Target, diags: &mut Diagnostics) {
+    if let (Some(clock), Target::Host) = (&raw.clock_hz, target) {
+        diags.push(
+            Diagnostic::new(
+                "`clock_hz` needs a `target`: the host has no fixed clock to time a step against",
+                clock.span.clone(),
+            )
+            .label("a clock for no target")
+            .note("hint: write `target = \"cortex-a9\"` or `target = \"cortex-m4f\"` in `[codegen]` with it (their clocks default to 667 MHz and 168 MHz), or remove `clock_hz`"),
+        );
+    }
     let Some(method) = &raw.method else { return };
     if Method::from_name(&method.value) == Some(Method::Ipm) && !target.has_f64() {
         let name = target.name();

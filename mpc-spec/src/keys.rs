@@ -71,7 +71,7 @@ pub const KALMAN_KEYS: &[&str] = &[
     "reacquire_after",
 ];
 /// Keys of `[codegen]`.
-pub const CODEGEN_KEYS: &[&str] = &["scalar", "emission", "target"];
+pub const CODEGEN_KEYS: &[&str] = &["scalar", "emission", "target", "clock_hz"];
 
 /// Values of `[model] type`.
 pub const MODEL_TYPES: &[&str] = &["double_integrator", "linear"];

@@ -365,6 +365,11 @@ pub struct Mpc {
     /// Whether `qf` weighs the state x_N (nx × nx, e.g. a Riccati solution) rather than the outputs: only
     /// with `outputs`, for a `qf` of nx × nx when nz ≠ nx.
     pub qf_on_state: bool,
+    /// `qf = "lqr"`: the terminal weight is the solution P of the plant's discrete algebraic Riccati
+    /// equation (with `r_du`, the state block of that of the plant augmented with u₋₁), on the state
+    /// x_N. The compiler solves it when it lowers the QP (`codegen::linalg::dare`); [`Mpc::qf`] then
+    /// holds the stage weight `q` and is not read.
+    pub qf_lqr: bool,
     /// Lower input bound per input.
     pub u_min: Vec<f64>,
     /// Upper input bound per input.
@@ -484,6 +489,10 @@ pub struct Codegen {
     pub emission: Emission,
     /// The machine the controller runs on.
     pub target: Target,
+    /// Its clock in Hz (`clock_hz`, positive and finite), for the period check; `None`: the target's
+    /// default (`codegen::target`: 667 MHz for the Cortex-A9, 168 MHz for the Cortex-M4F). Only with a
+    /// target other than the host, which has no cycle model to time.
+    pub clock_hz: Option<f64>,
 }
 
 spelled! {

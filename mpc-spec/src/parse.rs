@@ -75,7 +75,8 @@ pub struct Raw {
     pub admm_form: Option<Located<String>>,
     pub q: Option<Located<MatrixInput>>,
     pub r: Option<Located<MatrixInput>>,
-    pub qf: Option<Located<MatrixInput>>,
+    /// `None` inside for `"lqr"`.
+    pub qf: Option<Located<Option<MatrixInput>>>,
     pub qf_scale: Option<Located<f64>>,
     pub outputs: Option<Located<Matrix>>,
     pub r_du: Option<Located<MatrixInput>>,
@@ -117,6 +118,7 @@ pub struct Raw {
     pub scalar: Option<Located<String>>,
     pub emission: Option<Located<String>>,
     pub target: Option<Located<String>>,
+    pub clock_hz: Option<Located<f64>>,
 
     pub spans: BTreeMap<String, Span>,
     /// Every table and key written, readable or not (`"kalman"`, `"kalman.sigma_a"`), so that a value
@@ -239,7 +241,15 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.r = p
             .required(t, "mpc", "r", &span)
             .and_then(|v| p.matrix_input(v, "mpc.r", false));
-        raw.qf = t.get("qf").and_then(|v| p.matrix_input(v, "mpc.qf", false));
+        raw.qf = t.get("qf").and_then(|v| {
+            p.word_or(
+                v,
+                "mpc.qf",
+                "lqr",
+                "hint: write \"lqr\" for the solution of the discrete algebraic Riccati equation, or a number, a list (a diagonal) or a list of lists (a matrix)",
+                |p, v| p.matrix_input(v, "mpc.qf", false),
+            )
+        });
         raw.qf_scale = t
             .get("qf_scale")
             .and_then(|v| p.non_negative(v, "mpc.qf_scale"));
@@ -343,6 +353,9 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.target = t
             .get("target")
             .and_then(|v| p.choice(v, "codegen.target", keys::TARGETS));
+        raw.clock_hz = t
+            .get("clock_hz")
+            .and_then(|v| p.positive(v, "codegen.clock_hz"));
     }
     raw.spans = p.spans;
     raw.present = p.present;

@@ -380,3 +380,29 @@ fn time_is_spelled_and_belongs_to_linear_models() {
     assert_eq!(d.message, "unknown key `tiem` in `[model]`");
     assert_eq!(d.note.as_deref(), Some("hint: did you mean `time`?"));
 }
+
+/// `qf = "lqr"` is read as the Riccati terminal weight; any other word is an error at the value naming
+/// "lqr" in its hint.
+#[test]
+fn qf_takes_the_word_lqr() {
+    let spec = load(&edited("qf_scale = 50", "qf = \"lqr\"")).unwrap();
+    assert!(spec.mpc.qf_lqr);
+    assert!(!spec.mpc.qf_on_state);
+    assert!(!load(PAPER).unwrap().mpc.qf_lqr);
+    let src = edited("qf_scale = 50", "qf = \"lqe\"");
+    let diags = load(&src).expect_err("an unknown word");
+    let d = &diags.0[0];
+    assert_eq!(d.message, "unknown value \"lqe\" for `mpc.qf`");
+    assert_eq!(&src[d.span.clone().unwrap()], "\"lqe\"");
+    assert!(
+        d.note.as_deref().unwrap().contains("\"lqr\""),
+        "{:?}",
+        d.note
+    );
+    // With `qf_scale` it is the same conflict as a written matrix.
+    let both = edited("qf_scale = 50", "qf = \"lqr\"\nqf_scale = 50");
+    assert_eq!(
+        errors(&both)[0].0,
+        "`qf` and `qf_scale` cannot both be given"
+    );
+}

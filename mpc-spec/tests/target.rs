@@ -115,3 +115,43 @@ fn the_interior_point_method_needs_f64_in_hardware() {
     ))
     .unwrap();
 }
+
+/// `clock_hz`: the target's clock, positive and finite, only with a target.
+#[test]
+fn the_clock_is_a_positive_number_with_a_target() {
+    assert_eq!(load(PAPER).unwrap().codegen.clock_hz, None);
+    let src = with_codegen(PAPER, "target = \"cortex-m4f\"\nclock_hz = 84e6");
+    assert_eq!(load(&src).unwrap().codegen.clock_hz, Some(84e6));
+    for (bad, message) in [
+        ("0", "`codegen.clock_hz` must be positive, found 0"),
+        (
+            "-1e6",
+            "`codegen.clock_hz` must be positive, found -1000000",
+        ),
+        ("inf", "`codegen.clock_hz` must be a finite number"),
+        (
+            "\"fast\"",
+            "`codegen.clock_hz` must be a number, found string",
+        ),
+    ] {
+        let src = with_codegen(PAPER, &format!("target = \"cortex-a9\"\nclock_hz = {bad}"));
+        let diags = load(&src).unwrap_err();
+        let d = diags.iter().next().unwrap();
+        assert_eq!(d.message, message);
+        assert_eq!(d.line_col(&src).unwrap().0, line_of(&src, "clock_hz = "));
+    }
+    let src = with_codegen(PAPER, "clock_hz = 1e9");
+    let diags = load(&src).unwrap_err();
+    let d = diags.iter().next().unwrap();
+    assert!(
+        d.message.starts_with("`clock_hz` needs a `target`"),
+        "{}",
+        d.message
+    );
+    assert_eq!(d.line_col(&src).unwrap().0, line_of(&src, "clock_hz = "));
+    assert!(d
+        .note
+        .as_deref()
+        .unwrap()
+        .contains("target = \"cortex-m4f\""));
+}

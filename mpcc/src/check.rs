@@ -171,10 +171,13 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             structure_lines(choice),
         ));
     }
-    sections.push((
-        "emission of the gradient (cost model; force with [codegen] emission)",
-        emission_lines(c),
-    ));
+    // Only the first-order methods run the gradient form: a constrained method ignores it.
+    if g.plan.algorithm().is_some() {
+        sections.push((
+            "emission of the gradient (cost model; force with [codegen] emission)",
+            emission_lines(c),
+        ));
+    }
     sections.push((
         "target (estimated cycles; [codegen] target)",
         target_lines(&g.step),
@@ -344,7 +347,9 @@ fn target_lines(step: &codegen::target::StepCost) -> Vec<(String, String)> {
         (Some(cycles), Some(load)) => (
             format!(
                 "{:.3e} cycles, of which the solver {:.3e} ({solver}, {} cycles each)",
-                step.cycles, step.solver_cycles, step.solver_cycles_per_mac
+                step.cycles,
+                step.solver_cycles,
+                codegen::target::significant(step.solver_cycles_per_mac, 3)
             ),
             format!(
                 "{} ms = {:.3e} cycles at {clock}: the step takes {:.1} %",

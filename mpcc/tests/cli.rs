@@ -247,6 +247,29 @@ fn check_names_admm_s_rho_and_form() {
     assert!(v["sampled"].is_null() || v["sampled"]["admm_form"].is_null());
 }
 
+/// `mpcc check` prints the sections of the chosen method only: the gradient's emission for a first-order
+/// method, the normal system for the interior-point method, the x-update for ADMM.
+#[test]
+fn check_prints_only_the_chosen_method_s_sections() {
+    let sections = [
+        "emission of the gradient",
+        "normal system of the interior-point method",
+        "x-update of ADMM",
+    ];
+    for (spec, own) in [
+        ("specs/paper.toml", 0),
+        ("tests/specs/linear-riccati.toml", 1),
+        ("tests/specs/linear-admm-f64.toml", 2),
+    ] {
+        let o = mpcc(&["check", spec]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = stdout(&o);
+        for (i, title) in sections.iter().enumerate() {
+            assert_eq!(text.contains(title), i == own, "{spec}: {title}\n{text}");
+        }
+    }
+}
+
 #[test]
 fn check_reports_the_disturbance_time_constant_of_an_offset_free_spec() {
     let o = mpcc(&["check", "specs/paper-offset-free.toml", "--json"]);

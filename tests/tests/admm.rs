@@ -369,3 +369,24 @@ fn the_controller_recovers_from_outside_its_bounds() {
         );
     }
 }
+
+/// `report::BYTES_STATE*`, the compiler's layout model, against `size_of` of the types on the host.
+#[test]
+fn state_bytes_are_the_types_sizes() {
+    macro_rules! sizes {
+        ($($m:ident $(+ $kalman:ident)?),*) => {$({
+            use $m::{report, Controller, Mpc};
+            assert_eq!(core::mem::size_of::<Mpc>(), report::BYTES_STATE_MPC, "{} Mpc", stringify!($m));
+            assert_eq!(core::mem::size_of::<Controller>(), report::BYTES_STATE, "{} Controller", stringify!($m));
+            $(assert_eq!(core::mem::size_of::<$m::$kalman>(), report::BYTES_STATE_KALMAN, stringify!($m));)?
+        })*};
+    }
+    sizes!(
+        quadcopter64,
+        quadcopter32,
+        linear64 + Kalman,
+        linear32 + Kalman,
+        residual64 + Kalman,
+        residual32 + Kalman
+    );
+}

@@ -490,3 +490,24 @@ fn the_controller_recovers_from_outside_its_bounds_and_approaches_a_far_referenc
         "speed {slowest} … {fastest} m/s"
     );
 }
+
+/// `report::BYTES_STATE*`, the compiler's layout model, against `size_of` of the types on the host.
+#[test]
+fn state_bytes_are_the_types_sizes() {
+    macro_rules! sizes {
+        ($($m:ident $(+ $kalman:ident)?),*) => {$({
+            use $m::{report, Controller, Mpc};
+            assert_eq!(core::mem::size_of::<Mpc>(), report::BYTES_STATE_MPC, "{} Mpc", stringify!($m));
+            assert_eq!(core::mem::size_of::<Controller>(), report::BYTES_STATE, "{} Controller", stringify!($m));
+            $(assert_eq!(core::mem::size_of::<$m::$kalman>(), report::BYTES_STATE_KALMAN, stringify!($m));)?
+        })*};
+    }
+    sizes!(
+        quadcopter,
+        hover,
+        paper_limits + Kalman,
+        linear_riccati,
+        linear_riccati_soft,
+        truncated
+    );
+}

@@ -28,6 +28,33 @@ fn state_bytes_are_the_types_sizes() {
     );
 }
 
+/// `Mpc` and `Controller` (and `Kalman`, where there is a filter) against `report::BYTES_STATE*`, in
+/// modules declared in the test file itself.
+macro_rules! state_sizes_of {
+    ($($m:ident $(+ $kalman:ident)?),*) => {$({
+        use $m::{report, Controller, Mpc};
+        assert_eq!(core::mem::size_of::<Mpc>(), report::BYTES_STATE_MPC, "{} Mpc", stringify!($m));
+        assert_eq!(core::mem::size_of::<Controller>(), report::BYTES_STATE, "{} Controller", stringify!($m));
+        $(assert_eq!(core::mem::size_of::<$m::$kalman>(), report::BYTES_STATE_KALMAN, stringify!($m));)?
+    })*};
+}
+
+// The interior-point method without a filter, with the moves weighted (the last input kept), in f64; and
+// with a filter in a module whose `Real` is f32.
+// One input: the emitted `% NU` is `% 1`, which clippy's `modulo_one` denies (an emitter lint for NU = 1).
+#[allow(clippy::modulo_one)]
+mod single_input {
+    mpc_macros::mpc!(pub mod pendulum = "specs/pendulum-lqr.toml");
+}
+use single_input::pendulum;
+mpc_macros::mpc!(mod limits_f32 = "specs/paper-limits-f32.toml");
+
+#[test]
+fn state_bytes_are_the_types_sizes_for_the_interior_point_method() {
+    state_sizes_of!(pendulum, limits_f32 + Kalman);
+    assert_eq!(pendulum::report::BYTES_STATE_KALMAN, 0);
+}
+
 #[test]
 fn report_constants_are_the_certificate() {
     let (spec, p) = (paper::spec(), paper::problem());

@@ -861,7 +861,6 @@ fn emitted_terms(p: &Problem, plan: &Plan, r: &Resources) -> (usize, usize) {
 fn resources(p: &Problem, plan: &Plan) -> Resources {
     let num = Numeric(p.scalar);
     let qp = &p.qp;
-    let plan_entries = qp.N * plan.plan_lanes(p);
     // ADMM's final residuals and infeasibility test; the interior-point method's cold start, which the
     // emitted method computes on every solve (its control flow does not depend on the data).
     let (per_iteration, once_per_solve) = plan.solver.macs(p, plan);
@@ -872,13 +871,9 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
     let real = (size, size);
     let array = |n: usize, (s, a): (usize, usize)| (n * s, a);
     let flag = (1, 1);
-    // The plan, and the last input when the moves are weighted.
-    let last_input = if p.has_moves() {
-        array(p.nu, real)
-    } else {
-        (0, 1)
-    };
-    let mpc = layout(&[array(plan_entries, real), last_input]);
+    // The method's fields: the plan, its warm start, the last input, its status.
+    let fields = plan.solver.state_fields(p, plan);
+    let mpc = layout(&fields.mpc);
     let filter = p.filter.as_ref().map(|f| filter_resources(p, f, num));
     let (macs_filter, filter_constants, kalman) = filter.map_or((0, 0, (0, 1)), |f| f);
     // `Status`: the filter's (inside the `Kalman`, copied), the command's verdict, a flag per input; the
@@ -886,10 +881,19 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
     let controller = match &p.filter {
         Some(f) => {
             let filter_status = filter_status_layout(f, size);
-            let status = layout(&[filter_status, flag, array(p.nu, flag)]);
+            let status = layout(
+                &[
+                    &[filter_status, flag, array(p.nu, flag)],
+                    &fields.status[..],
+                ]
+                .concat(),
+            );
             layout(&[kalman, mpc, array(p.nx, real), status])
         }
-        None => layout(&[mpc, layout(&[flag, array(p.nu, flag)])]),
+        None => layout(&[
+            mpc,
+            layout(&[&[flag, array(p.nu, flag)], &fields.status[..]].concat()),
+        ]),
     };
     Resources {
         macs_per_iteration: per_iteration,
@@ -1016,8 +1020,4 @@ fn filter_resources(p: &Problem, f: &Filter, num: Numeric) -> (usize, usize, (us
 /// The size and alignment of a Rust struct (the default representation) with fields of these sizes and
 /// alignments: the compiler orders fields so that none needs padding before it (every size is a multiple
 /// of its alignment), so the size is the sum rounded up to the largest alignment.
-fn layout(fields: &[(usize, usize)]) -> (usize, usize) {
-    let align = fields.iter().map(|f| f.1).max().unwrap_or(1);
-    let sum: usize = fields.iter().map(|f| f.0).sum();
-    (sum.div_ceil(align) * align, align)
-}
+use crate::plan::layout;

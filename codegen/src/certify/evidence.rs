@@ -159,3 +159,39 @@ pub fn thin(spec: &mpc_spec::Spec, e: &Evidence) -> Option<mpc_spec::Diagnostic>
         .note("hint: draw `[mpc.region]` where the hard rows admit a plan (its `x_min`/`x_max`), or make the rows soft (`soft`, `x_soft`); a count certified on a few cases says little about the rest"),
     )
 }
+
+/// A warning when more than a quarter of the draws of `[mpc.region]` are infeasible (and the evidence
+/// is not [`thin`], which warns on its own): the certificate then rests on the part of the region the
+/// hard rows admit, and the region is larger than the feasible set. It names the region's state corners,
+/// `[mpc.region] x_min`/`x_max`, to shrink (where they are written; else the table, or the state bounds
+/// the default region comes from).
+pub fn infeasible_share(spec: &mpc_spec::Spec, e: &Evidence) -> Option<mpc_spec::Diagnostic> {
+    let drawn = e.cold_cases + e.infeasible_cases;
+    if 4 * e.infeasible_cases <= drawn {
+        return None;
+    }
+    let at = [
+        "mpc.region.x_max",
+        "mpc.region.x_min",
+        "mpc.region",
+        "mpc.x_max",
+        "mpc.x_min",
+        "mpc.constraint",
+        "mpc",
+    ]
+    .iter()
+    .find_map(|k| spec.spans.get(k));
+    Some(
+        mpc_spec::Diagnostic::new(
+            format!(
+                "{} of the {drawn} cold cases drawn from `[mpc.region]` are infeasible ({:.0} %, more than a quarter): the certificate rests on the other {}",
+                e.infeasible_cases,
+                100.0 * e.infeasible_cases as f64 / drawn as f64,
+                e.cold_cases
+            ),
+            at,
+        )
+        .label("the hard constraints admit no plan from part of this region")
+        .note("hint: shrink `[mpc.region]`'s `x_min`/`x_max` (and `reference_min`/`reference_max`) to the states the controller must start from, which the hard rows admit; or make the rows soft (`soft`, `x_soft`)"),
+    )
+}

@@ -115,6 +115,16 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
     if !diags.is_empty() {
         return Err(diags.sorted());
     }
+    let (Qf, Qfr) = if m.qf_lqr {
+        let P = riccati_terminal(spec, &F, &G, &Q, &R, &R_du)?;
+        let Qfr = match &Cz {
+            Some(Cz) => &P * pseudo_inverse(Cz),
+            None => P.clone(),
+        };
+        (P, Qfr)
+    } else {
+        (Qf, Qfr)
+    };
     let condensed = condense(&F, &G, &Q, &R, &Qf, N);
     let Fr = condensed.reference_map(&Qr, &Qfr);
     let (H, Fu) = condensed.with_moves(&R_du);
@@ -343,6 +353,56 @@ impl Hessian<'_> {
     }
 }
 
+/// `qf = "lqr"`: the terminal weight on x_N, the stabilizing solution of the discrete algebraic Riccati
+/// equation of the plant (F, G) with the stage weights Q (on the state, C_zᵀWC_z with outputs) and R.
+/// With move suppression (`r_du`) the stage cost is that of the plant augmented with the last input,
+/// ξ = (x, u₋₁), input Δu: ξ⁺ = [[F, G], [0, I]] ξ + [G; I] Δu, cost xᵀQx + (u₋₁ + Δu)ᵀR(u₋₁ + Δu) +
+/// ΔuᵀR_du Δu, that is Q_ξ = blkdiag(Q, R), cross term [0; R] and input weight R + R_du; its solution
+/// P_ξ is the infinite-horizon cost of that problem, and the terminal weight is its state block P_xx
+/// (the reduction: the cost-to-go of x_N with the last input's terms dropped, which the condensed QP,
+/// whose terminal term weighs x_N alone, can hold).
+pub fn riccati_terminal(
+    spec: &Spec,
+    F: &DMatrix<f64>,
+    G: &DMatrix<f64>,
+    Q: &DMatrix<f64>,
+    R: &DMatrix<f64>,
+    R_du: &DMatrix<f64>,
+) -> Result<DMatrix<f64>, Diagnostics> {
+    let (nx, nu) = (F.nrows(), G.ncols());
+    let P = if spec.mpc.r_du.is_some() {
+        let n = nx + nu;
+        let mut A = DMatrix::zeros(n, n);
+        A.view_mut((0, 0), (nx, nx)).copy_from(F);
+        A.view_mut((0, nx), (nx, nu)).copy_from(G);
+        A.view_mut((nx, nx), (nu, nu))
+            .copy_from(&DMatrix::identity(nu, nu));
+        let mut B = DMatrix::zeros(n, nu);
+        B.view_mut((0, 0), (nx, nu)).copy_from(G);
+        B.view_mut((nx, 0), (nu, nu))
+            .copy_from(&DMatrix::identity(nu, nu));
+        let mut Qa = DMatrix::zeros(n, n);
+        Qa.view_mut((0, 0), (nx, nx)).copy_from(Q);
+        Qa.view_mut((nx, nx), (nu, nu)).copy_from(R);
+        let mut S = DMatrix::zeros(n, nu);
+        S.view_mut((nx, 0), (nu, nu)).copy_from(R);
+        crate::linalg::dare(&A, &B, &Qa, &(R + R_du), &S)
+            .map(|P| symmetrize(&P.view((0, 0), (nx, nx)).into_owned()))
+    } else {
+        crate::linalg::dare(F, G, Q, R, &DMatrix::zeros(nx, nu))
+    };
+    P.filter(|P| P.iter().all(|v| v.is_finite()))
+        .ok_or_else(|| {
+            Diagnostic::new(
+                "`qf = \"lqr\"`: the discrete algebraic Riccati equation has no stabilizing solution for this plant and these weights",
+                spec.spans.get("mpc.qf"),
+            )
+            .label("the Riccati equation is solved here")
+            .note("hint: every unstable mode must be reachable by the inputs and seen by `q` (through `outputs`); or write `qf` as a number, a list or a matrix")
+            .into()
+        })
+}
+
 /// The weights in the state space, from the spec's output weights.
 struct Weights {
     Cz: Option<DMatrix<f64>>,
@@ -406,7 +466,7 @@ impl Weights {
         let m = &spec.mpc;
         check_definite(diags, &symmetric(&m.q), false, "`mpc.q`", span("mpc.q"));
         // Qf = k·Q or Q is definite exactly when Q is: check it only when it is written.
-        if span("mpc.qf").is_some() {
+        if span("mpc.qf").is_some() && !m.qf_lqr {
             check_definite(diags, &symmetric(&m.qf), false, "`mpc.qf`", span("mpc.qf"));
         }
         check_definite(diags, &self.R, m.r_du.is_none(), "`mpc.r`", span("mpc.r"));

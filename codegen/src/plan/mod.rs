@@ -76,6 +76,26 @@ impl Plan {
     }
 }
 
+/// The fields of the emitted state types that depend on the method, each (size, alignment) in bytes:
+/// every field is an array of f32, f64, u32 or bool, or a struct or one-byte enum of them, so a struct's
+/// size is the sum of its fields' rounded up to its largest alignment (no field needs padding before it
+/// once the fields are ordered by alignment, as `repr(Rust)` orders them), on the host, the Cortex-A9
+/// and the Cortex-M4F alike (f64 is 8-aligned on all three; no field is a `usize`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StateFields {
+    /// `Mpc`'s fields.
+    pub mpc: Vec<(usize, usize)>,
+    /// What the method adds to `Status` (the constrained methods' `SolverStatus`).
+    pub status: Vec<(usize, usize)>,
+}
+
+/// The (size, alignment) of a struct of `fields` under the rule of [`StateFields`].
+pub fn layout(fields: &[(usize, usize)]) -> (usize, usize) {
+    let align = fields.iter().map(|f| f.1).max().unwrap_or(1);
+    let sum: usize = fields.iter().map(|f| f.0).sum();
+    (sum.div_ceil(align) * align, align)
+}
+
 /// A QP method: everything the phases would otherwise decide by matching on the spec's `method`, from its
 /// name and cost to its certificate, its emission and its oracle step. One implementation per method
 /// folder of [`crate::solver`]; [`of`] resolves a [`Method`] to it.
@@ -170,6 +190,22 @@ pub trait Solver: Debug + Sync {
     /// The solver's name in the controller's docs where a solve can fall back; `None` where it cannot.
     fn fallback_name(&self) -> Option<&'static str> {
         None
+    }
+
+    /// The fields of its emitted `Mpc`, and those it adds to `Status`, as (size, alignment) in bytes: the
+    /// layout model behind `report::BYTES_STATE*` ([`StateFields`]). The default is a first-order
+    /// method's: the plan (one entry per plan lane of the gradient form) and, where the moves are
+    /// weighted, the last input.
+    fn state_fields(&self, p: &Problem, plan: &Plan) -> StateFields {
+        let size = crate::numeric::Numeric(p.scalar).bytes();
+        let mut mpc = vec![(p.qp.N * plan.plan_lanes(p) * size, size)];
+        if p.has_moves() {
+            mpc.push((p.nu * size, size));
+        }
+        StateFields {
+            mpc,
+            status: Vec::new(),
+        }
     }
 
     /// `Mpc`: its type, kernels and tables.

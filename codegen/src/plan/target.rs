@@ -79,19 +79,31 @@ pub struct StepCost {
     pub dt: f64,
     /// The cycles in one sampling period at the nominal clock; `None` on the host.
     pub period_cycles: Option<f64>,
+    /// The estimated cycles of the same step with `scalar = "f32"`, where the module's scalar is f64 and
+    /// the solver would then compute in f32 (not the interior-point method, which computes in f64
+    /// whatever the scalar): the same multiply-adds at f32's cycles per multiply-add.
+    pub f32_cycles: Option<f64>,
 }
 
 impl StepCost {
     /// The cost of one control step of `p`, lowered from `spec`, whose resources are
     /// `r` (`certificate::predicted`).
     pub fn of(spec: &Spec, p: &Problem, r: &Resources) -> Self {
-        let machine = *machine(spec.codegen.target);
+        let mut machine = *machine(spec.codegen.target);
+        if let Some(hz) = spec.codegen.clock_hz {
+            machine.clock_hz = Some(hz);
+        }
         let solver = super::of(p.qp.method);
         let solver_scalar = solver.scalar(p.scalar);
         let solver_macs = p.qp.iterations * r.macs_per_iteration + r.macs_once_per_solve;
         let other_macs = r.macs_per_cycle.saturating_sub(solver_macs);
         let solver_cycles_per_mac = solver.cycles_per_mac(&machine, p.scalar, &p.qp);
         let solver_cycles = solver_macs as f64 * solver_cycles_per_mac;
+        let f32_cycles = (p.scalar == Scalar::F64 && solver.scalar(Scalar::F32) == Scalar::F32)
+            .then(|| {
+                solver_macs as f64 * solver.cycles_per_mac(&machine, Scalar::F32, &p.qp)
+                    + machine.cycles(other_macs, Scalar::F32)
+            });
         StepCost {
             machine,
             solver: solver.name(&p.qp),
@@ -106,12 +118,43 @@ impl StepCost {
             cycles: solver_cycles + machine.cycles(other_macs, p.scalar),
             dt: p.dt,
             period_cycles: machine.period_cycles(p.dt),
+            f32_cycles,
         }
     }
 
     /// The share of the sampling period the step takes; `None` on the host.
     pub fn load(&self) -> Option<f64> {
         self.period_cycles.map(|period| self.cycles / period)
+    }
+}
+
+/// `x` rounded to `digits` significant digits, written without an exponent where it has at most six
+/// integer digits (trailing zeros after the point dropped): `significant(232.857142, 3)` is "233",
+/// `significant(0.0123456, 3)` is "0.0123", `significant(12345.0, 3)` is "12300"; beyond, in scientific
+/// notation ("1.23e7").
+pub fn significant(x: f64, digits: usize) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let digits = digits.max(1);
+    let magnitude = x.abs().log10().floor() as i32;
+    if !(-6..6).contains(&magnitude) {
+        return format!("{:.*e}", digits - 1, x);
+    }
+    let decimals = (digits as i32 - 1 - magnitude).max(0) as usize;
+    // Integer digits beyond `digits` are rounded too (99950 → 100000).
+    let excess = magnitude + 1 - digits as i32;
+    let x = if excess > 0 {
+        let unit = 10f64.powi(excess);
+        (x / unit).round() * unit
+    } else {
+        x
+    };
+    let text = format!("{x:.decimals$}");
+    if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        text
     }
 }
 
@@ -158,16 +201,35 @@ pub fn check_period(spec: &Spec, cost: &StepCost) -> Result<(), Diagnostic> {
         span("codegen.target"),
         format!(
             "about {} cycles per multiply-add of the solver in {} here",
-            cost.solver_cycles_per_mac,
+            significant(cost.solver_cycles_per_mac, 3),
             cost.solver_scalar.name()
         ),
     )
     .note(format!(
-        "hint: fewer iterations or a shorter horizon, a longer `dt`, or a faster target; the estimate is {} multiply-adds of the solver and {} of the filter and gradient map, at the cycles per multiply-add measured on the emulated {} (`codegen::target`)",
+        "hint: {}fewer iterations or a shorter horizon, a longer `dt`, or a faster target; the estimate is {} multiply-adds of the solver and {} of the filter and gradient map, at the cycles per multiply-add measured on the emulated {} (`codegen::target`)",
+        cheaper(cost),
         cost.solver_macs,
         cost.other_macs,
         m.target.name()
     )))
+}
+
+/// The cheaper changes the compiler prices itself, each with its estimated cycles against the period:
+/// `scalar = "f32"` where the module is f64 and the solver would follow it.
+fn cheaper(cost: &StepCost) -> String {
+    let (Some(f32_cycles), Some(period)) = (cost.f32_cycles, cost.period_cycles) else {
+        return String::new();
+    };
+    let fits = if f32_cycles <= period {
+        "fits"
+    } else {
+        "still over"
+    };
+    format!(
+        "`scalar = \"f32\"` in `[codegen]` (about {} cycles, {} % of the period: {fits}); or ",
+        significant(f32_cycles, 3),
+        significant(100.0 * f32_cycles / period, 3)
+    )
 }
 
 /// Findings about the target that do not stop the build: an f64 `scalar` on a target without f64 in

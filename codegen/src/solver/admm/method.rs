@@ -29,6 +29,19 @@ impl Solver for Admm {
         Method::Admm
     }
 
+    fn state_fields(&self, p: &Problem, _plan: &Plan) -> crate::plan::StateFields {
+        // x [Real; NV], z and y [Real; NC], NC = NV + the rows; the plan in `Real`.
+        let qp = &p.qp;
+        let real = crate::numeric::Numeric(p.scalar).bytes();
+        let nv = qp.N * p.nu + qp.rows.slacks();
+        let nc = nv + qp.rows.len();
+        crate::solver::constrained::state_fields(
+            p,
+            real,
+            &[(nv * real, real), (2 * nc * real, real)],
+        )
+    }
+
     fn title(&self) -> &'static str {
         super::TITLE
     }

@@ -123,3 +123,28 @@ pub enum Fallback {
     /// ([`crate::solver::ipm::relaxed`]). The next solve starts cold.
     Relaxed,
 }
+
+/// The state fields of a constrained method's `Mpc` (see [`crate::plan::StateFields`]): the plan of
+/// `plan_size`-byte entries, the method's warm-start `point`, the flags `warm` and `relax`, the last input
+/// where it is kept, and `SolverStatus`, which `Status` holds too.
+pub fn state_fields(
+    p: &crate::lower::problem::Problem,
+    plan_size: usize,
+    point: &[(usize, usize)],
+) -> crate::plan::StateFields {
+    let real = crate::numeric::Numeric(p.scalar).bytes();
+    let flag = (1, 1);
+    // `SolverStatus`: iterations (u32), five f64 figures, four flags and `Fallback` (one byte).
+    let solver_status = crate::plan::layout(&[(4, 4), (5 * 8, 8), (4, 1), flag]);
+    let mut mpc = vec![(p.qp.N * p.nu * plan_size, plan_size)];
+    mpc.extend_from_slice(point);
+    mpc.extend([flag, flag]);
+    if p.keeps_last_input() {
+        mpc.push((p.nu * real, real));
+    }
+    mpc.push(solver_status);
+    crate::plan::StateFields {
+        mpc,
+        status: vec![solver_status],
+    }
+}

@@ -27,6 +27,17 @@ impl Solver for InteriorPoint {
         Method::Ipm
     }
 
+    fn state_fields(&self, p: &Problem, _plan: &Plan) -> crate::plan::StateFields {
+        // z [f64; NV], s and λ [f64; NSIDES]: the sides of the box and of the rows that are finite.
+        let qp = &p.qp;
+        let np = qp.N * p.nu;
+        let structure =
+            super::condensed::mpc_qp(qp, &DVector::zeros(np), &DVector::zeros(qp.rows.len()));
+        let sides = super::condensed::Layout::of(&structure);
+        let (nv, nsides) = (np + qp.rows.slacks(), sides.boxed.len() + sides.rows.len());
+        crate::solver::constrained::state_fields(p, 8, &[(nv * 8, 8), (2 * nsides * 8, 8)])
+    }
+
     fn title(&self) -> &'static str {
         super::TITLE
     }
