@@ -64,8 +64,9 @@ fn try_main() -> Result<()> {
                         .and_then(|s| c_target::default_triple(s.codegen.target))
                         .map(String::from),
                 };
-                let header = c_target::write(&dir, &generated, &loaded.shown, triple.as_deref())
-                    .map_err(|why| Error::CTarget(dir.clone(), why))?;
+                let header =
+                    codegen::c_api::write_crate(&dir, &generated, &loaded.shown, triple.as_deref())
+                        .map_err(|why| Error::CTarget(dir.clone(), why))?;
                 return print(&format!("{}\n", header.display()));
             }
             let text = generated.pretty();

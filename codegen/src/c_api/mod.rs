@@ -6,10 +6,12 @@
 //! `FilterStatus` have, so a field added to the emitter appears in C without an edit here.
 
 mod header;
+mod krate;
 mod model;
 mod wrapper;
 
 pub use header::header;
+pub use krate::write_crate;
 pub use model::{CType, Field, Model, Prim, Struct};
 pub use wrapper::lib_rs;
 
