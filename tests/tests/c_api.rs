@@ -92,28 +92,47 @@ fn build(spec: &str, name: &str) -> Built {
     b
 }
 
+/// The language a program of `tests/c/` is compiled as.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Lang {
+    /// `cc -std=c11`.
+    C,
+    /// `c++ -x c++ -std=c++17`: the header's C++ branch (`extern "C"`, `alignas`, `static_assert`).
+    Cpp,
+}
+
 /// Compiles and links a C program with `cc` in strict C11 (the header's static asserts run here).
 fn cc(exe: &Path, source: &str, includes: &[&Path], defines: &[String], libs: &[&Path]) {
-    let mut cmd = Command::new(std::env::var_os("CC").unwrap_or_else(|| "cc".into()));
-    cmd.args([
-        "-std=c11",
-        "-O2",
-        "-Wall",
-        "-Wextra",
-        "-Werror",
-        "-pedantic",
-        "-o",
-    ])
-    .arg(exe)
-    .arg(root().join("tests").join("c").join(source));
+    compile(Lang::C, exe, source, includes, defines, libs);
+}
+
+/// Compiles and links a program of `tests/c/` as `lang`, warnings as errors.
+fn compile(
+    lang: Lang,
+    exe: &Path,
+    source: &str,
+    includes: &[&Path],
+    defines: &[String],
+    libs: &[&Path],
+) {
+    let (var, default, std) = match lang {
+        Lang::C => ("CC", "cc", &["-std=c11"][..]),
+        Lang::Cpp => ("CXX", "c++", &["-x", "c++", "-std=c++17"][..]),
+    };
+    let mut cmd = Command::new(std::env::var_os(var).unwrap_or_else(|| default.into()));
+    cmd.args(std)
+        .args(["-O2", "-Wall", "-Wextra", "-Werror", "-pedantic", "-o"])
+        .arg(exe)
+        .arg(root().join("tests").join("c").join(source));
     for i in includes {
         cmd.arg("-I").arg(i);
     }
-    cmd.args(defines).args(libs);
-    let out = cmd.output().expect("cc runs");
+    // `-x none`: the libraries that follow are not C++ source.
+    cmd.args(defines).args(["-x", "none"]).args(libs);
+    let out = cmd.output().expect("the C compiler runs");
     assert!(
         out.status.success(),
-        "cc {source} failed:\n{}",
+        "{default} ({lang:?}) {source} failed:\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
 }
@@ -326,12 +345,20 @@ fn state_feedback_admm_f32_replays_bit_for_bit() {
     );
 }
 
+/// In C, and as C++ (the header's C++ branch).
 #[test]
 fn two_controllers_link_into_one_program() {
+    for lang in [Lang::C, Lang::Cpp] {
+        two_controllers(lang);
+    }
+}
+
+fn two_controllers(lang: Lang) {
     let paper_c = build("specs/paper.toml", "paper");
     let quad_c = build("specs/quadcopter.toml", "quadcopter");
-    let exe = work().join("two-controllers");
-    cc(
+    let exe = work().join(format!("two-controllers-{lang:?}"));
+    compile(
+        lang,
         &exe,
         "two_controllers.c",
         &[&paper_c.dir, &quad_c.dir],
