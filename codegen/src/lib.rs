@@ -1,6 +1,8 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
+#[cfg(feature = "c-api")]
+pub mod c_api;
 pub mod certify;
 pub mod emit;
 pub mod input;

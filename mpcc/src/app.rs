@@ -36,6 +36,14 @@ pub(crate) enum Command {
         /// never the SPEC itself.
         #[arg(short, long, value_name = "FILE")]
         output: Option<PathBuf>,
+        /// Write a crate that builds the controller as a C static library, and its header NAME.h, into
+        /// DIR instead of printing the module (docs/c-api.md).
+        #[arg(long = "c", value_name = "DIR", conflicts_with = "output")]
+        c: Option<PathBuf>,
+        /// The rustc target triple of the C static library; by default the spec's `[codegen] target`
+        /// (cortex-m4f: thumbv7em-none-eabihf, cortex-a9: armv7a-none-eabihf, host: the host).
+        #[arg(long, value_name = "TRIPLE", requires = "c")]
+        target: Option<String>,
     },
     /// Write the condensed QP of a spec and a closed loop's states as JSON, for other solvers (format
     /// `mpcc-qp/1`, peers/README.md)

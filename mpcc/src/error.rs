@@ -21,6 +21,8 @@ pub(crate) enum Error {
     Write(PathBuf, io::Error),
     /// Standard output could not be written.
     Stdout(io::Error),
+    /// `emit --c DIR` could not write the C crate (the message says why).
+    CTarget(PathBuf, String),
     /// `dump-qp` was given states or a reference it cannot use (the message says which).
     Dump(String),
     /// The spec has mistakes: `rendered` is every diagnostic drawn against the source by
@@ -46,6 +48,9 @@ impl Display for Error {
             Error::Write(path, _) => write!(f, "cannot write `{}`", path.display()),
             Error::Stdout(_) => f.write_str("cannot write to standard output"),
             Error::Dump(why) => write!(f, "cannot dump the QP: {why}"),
+            Error::CTarget(dir, why) => {
+                write!(f, "cannot write the C crate `{}`: {why}", dir.display())
+            }
             Error::Spec { path, count, .. } => write!(
                 f,
                 "invalid controller spec `{}`: {count} error{}",
@@ -61,7 +66,9 @@ impl StdError for Error {
         match self {
             Error::Read(_, e) | Error::ReadStdin(e) => Some(e),
             Error::Write(_, e) | Error::Stdout(e) => Some(e),
-            Error::SameFile { .. } | Error::Spec { .. } | Error::Dump(_) => None,
+            Error::SameFile { .. } | Error::Spec { .. } | Error::Dump(_) | Error::CTarget(..) => {
+                None
+            }
         }
     }
 }

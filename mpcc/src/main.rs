@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 mod app;
+mod c_target;
 mod check;
 mod dump;
 mod emit;
@@ -38,7 +39,12 @@ fn try_main() -> Result<()> {
             };
             print(&text)
         }
-        Command::Emit { spec, output } => {
+        Command::Emit {
+            spec,
+            output,
+            c,
+            target,
+        } => {
             let loaded = Loaded::read(&spec)?;
             if let Some(output) = &output {
                 if !input::is_stdin(&spec) && emit::same_file(&spec, output) {
@@ -50,6 +56,19 @@ fn try_main() -> Result<()> {
             }
             let generated = loaded.generate(&emit::module_name(&spec))?;
             loaded.print_warnings(&generated.warnings);
+            if let Some(dir) = c {
+                let triple = match target {
+                    Some(t) => (t != "host").then_some(t),
+                    None => mpc_spec::load(&loaded.source)
+                        .ok()
+                        .and_then(|s| c_target::default_triple(s.codegen.target))
+                        .map(String::from),
+                };
+                let header =
+                    codegen::c_api::write_crate(&dir, &generated, &loaded.shown, triple.as_deref())
+                        .map_err(|why| Error::CTarget(dir.clone(), why))?;
+                return print(&format!("{}\n", header.display()));
+            }
             let text = generated.pretty();
             match output {
                 None => print(&text),

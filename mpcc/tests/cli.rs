@@ -89,8 +89,10 @@ Arguments:
   <SPEC>  The TOML controller spec: a regular file of at most 1 MiB, or `-` for standard input; the module is named after its file stem (`controller` for `-`)
 
 Options:
-  -o, --output <FILE>  Write the module to FILE instead of printing it: a regular file only if its content changed, never the SPEC itself
-  -h, --help           Print help
+  -o, --output <FILE>    Write the module to FILE instead of printing it: a regular file only if its content changed, never the SPEC itself
+      --c <DIR>          Write a crate that builds the controller as a C static library, and its header NAME.h, into DIR instead of printing the module (docs/c-api.md)
+      --target <TRIPLE>  The rustc target triple of the C static library; by default the spec's `[codegen] target` (cortex-m4f: thumbv7em-none-eabihf, cortex-a9: armv7a-none-eabihf, host: the host)
+  -h, --help             Print help
 "
     );
 }
@@ -711,4 +713,79 @@ fn check_json_reports_the_discrete_model() {
     assert_eq!(a[0][3], 0.0128);
     assert_eq!(b[3][0], 0.0128);
     assert_eq!(matrix(&v["model"]["q"]).len(), 6);
+}
+
+/// `emit --c DIR`: the crate's files, the header's exact size (the one the crate asserts), the target of a
+/// cross build in `.cargo/config.toml`, removed again for the host; `--target` alone and an unwritable
+/// DIR are errors that say what is wrong. Building and calling the library: `mpc-tests`' `c_api.rs`.
+#[test]
+fn emit_c_writes_the_crate_and_header() {
+    let dir = workspace().join("target").join("mpcc-cli-c").join("paper");
+    let _ = std::fs::remove_dir_all(&dir);
+    let d = dir.to_str().unwrap();
+    let o = mpcc(&[
+        "emit",
+        "specs/paper.toml",
+        "--c",
+        d,
+        "--target",
+        "thumbv7em-none-eabihf",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o).trim(), dir.join("paper.h").to_str().unwrap());
+    let header = std::fs::read_to_string(dir.join("paper.h")).unwrap();
+    let lib = std::fs::read_to_string(dir.join("src/lib.rs")).unwrap();
+    let size = header
+        .lines()
+        .find_map(|l| l.strip_prefix("#define PAPER_CONTROLLER_SIZE "))
+        .expect("the header states the controller's size");
+    assert!(size.parse::<usize>().unwrap() > 0);
+    assert!(
+        lib.contains(&format!("size_of::<Controller>() == {size}")),
+        "lib.rs asserts another size than the header's {size}"
+    );
+    for name in [
+        "paper_init",
+        "paper_step",
+        "paper_status",
+        "paper_plan",
+        "paper_reset",
+    ] {
+        assert!(
+            header.contains(&format!(" {name}(")),
+            "the header lacks {name}"
+        );
+        assert!(lib.contains(&format!("fn {name}(")), "lib.rs lacks {name}");
+    }
+    let cargo_toml = std::fs::read_to_string(dir.join("Cargo.toml")).unwrap();
+    assert!(cargo_toml.contains("crate-type = [\"staticlib\"]"));
+    let config = std::fs::read_to_string(dir.join(".cargo/config.toml")).unwrap();
+    assert!(
+        config.contains("target = \"thumbv7em-none-eabihf\""),
+        "{config}"
+    );
+    assert!(dir.join("src/controller.rs").is_file());
+
+    // paper.toml's target is the host: no config is left to cross-build.
+    let o = mpcc(&["emit", "specs/paper.toml", "--c", d]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!dir.join(".cargo/config.toml").exists());
+
+    let o = mpcc(&[
+        "emit",
+        "specs/paper.toml",
+        "--target",
+        "thumbv7em-none-eabihf",
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--c <DIR>"), "{}", stderr(&o));
+
+    let file = dir.join("Cargo.toml");
+    let o = mpcc(&["emit", "specs/paper.toml", "--c", file.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains(&format!("cannot write the C crate `{}`", file.display())),
+        "{}",
+        stderr(&o)
+    );
 }
