@@ -289,3 +289,24 @@ fn the_fallback_is_bounded_and_reported() {
     controller.step(&x0, &xref);
     assert_eq!(controller.status().solver.fallback, m::Fallback::Solved);
 }
+
+/// `report::BYTES_STATE*`, the compiler's layout model, against `size_of` of the types on the host.
+#[test]
+fn the_reported_sizes_are_the_types_sizes() {
+    macro_rules! sizes {
+        ($($m:ident),*) => {$({
+            use $m::*;
+            assert_eq!(core::mem::size_of::<Mpc>(), report::BYTES_STATE_MPC, "{} Mpc", stringify!($m));
+            assert_eq!(core::mem::size_of::<Controller>(), report::BYTES_STATE, "{} Controller", stringify!($m));
+        })*};
+    }
+    sizes!(
+        quadcopter,
+        quadcopter32,
+        hover,
+        paper_limits,
+        paper_geofence,
+        afti16,
+        linear
+    );
+}

@@ -103,6 +103,43 @@ impl Solver for ActiveSet {
         block.max(fr) * crate::numeric::Numeric(p.scalar).bytes()
     }
 
+    /// The warm start (the blocks' working sets and their lengths) and the kernel's `Storage`, a struct of
+    /// its own: the working set, its multipliers and factor (CAP = the largest block's unknowns + 1),
+    /// and per constraint of the largest block its marks and scaled sides.
+    fn state_fields(&self, p: &Problem, _plan: &Plan) -> crate::plan::StateFields {
+        let real = crate::numeric::Numeric(p.scalar).bytes();
+        let word = std::mem::size_of::<usize>();
+        let Some(prepared) = prepare(&p.qp) else {
+            return crate::solver::constrained::state_fields(p, real, &[]);
+        };
+        let n_max = prepared.blocks.iter().map(|b| b.n()).max().unwrap_or(0);
+        let nc_max = prepared
+            .blocks
+            .iter()
+            .map(|b| b.rows.len())
+            .max()
+            .unwrap_or(0);
+        let cap = n_max + 1;
+        let storage = crate::plan::layout(&[
+            (cap * word, word),
+            (cap, 1),
+            (6 * cap * real, real),
+            (cap * cap * real, real),
+            (2 * nc_max, 1),
+            (2 * nc_max * real, real),
+            (n_max * real, real),
+        ]);
+        crate::solver::constrained::state_fields(
+            p,
+            real,
+            &[
+                (prepared.warm_len() * word, word),
+                (prepared.blocks.len() * word, word),
+                storage,
+            ],
+        )
+    }
+
     fn skeleton_writes_h(&self) -> bool {
         false
     }
