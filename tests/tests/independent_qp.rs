@@ -1088,6 +1088,14 @@ fn shipped() -> Vec<PathBuf> {
     constrained_specs()
         .into_iter()
         .filter(|p| !p.parent().is_some_and(|d| d.ends_with("mixed")))
+        // `qf = "lqr"` is a terminal weight this file does not form on its own: codegen/tests/terminal.rs
+        // checks it against the Riccati recursion, and the lowered QP against a spec with it written in.
+        .filter(|p| {
+            let text = std::fs::read_to_string(p).unwrap_or_default();
+            !text
+                .lines()
+                .any(|l| l.trim_start().starts_with("qf = \"lqr\""))
+        })
         .collect()
 }
 

@@ -292,10 +292,12 @@ fn checked(
     } = entry;
     let d_flush = (p.nd() > 0).then(|| quote!(let d = flushed(d);));
     let last_local = p.keeps_last_input().then(|| quote!(let last = self.last;));
-    let (violation, softened) = (
-        in_f64(m.num, quote!(violation)),
-        in_f64(m.num, quote!(softened)),
-    );
+    // Shorthand fields in f64 (clippy's `redundant_field_names`), widened in f32.
+    let field = |name: TokenStream| match m.num.0 {
+        Scalar::F32 => quote!(#name: f64::from(#name)),
+        Scalar::F64 => name,
+    };
+    let (violation, softened) = (field(quote!(violation)), field(quote!(softened)));
     let held_violation = in_f64(m.num, quote!(violations(&held, &lower, &upper).0));
     let zero_rows = (!m.prepared.zero_rows.is_empty()).then(|| {
         quote! {
@@ -410,8 +412,8 @@ fn checked(
                 primal_residual: 0.0,
                 dual_residual: 0.0,
                 gap: 0.0,
-                violation: #violation,
-                softened: #softened,
+                #violation,
+                #softened,
                 infeasible,
                 numerical_failure: (ended == Ended::NumericalFailure) | (ended == Ended::Cycling),
                 reference_beyond_region: beyond,

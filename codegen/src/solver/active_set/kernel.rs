@@ -111,7 +111,7 @@ pub(super) struct Block<'a> {
     /// The block's variables, indices into z.
     pub(super) vars: &'a [usize],
     /// The upper-triangular Cholesky factor R of the block of H (H_bb = Rᵀ·R), packed by rows: row i
-    /// holds R[i][i..n].
+    /// holds `R[i][i..n]`.
     pub(super) r: &'a [Real],
     /// Per constraint, its index into the QP's sides: a bound on variable j is j, row r of A is n + r.
     pub(super) sides: &'a [usize],
@@ -143,14 +143,14 @@ impl Block<'_> {
         self.sides.len()
     }
 
-    /// G[i][j].
+    /// `G[i][j]`.
     #[inline(always)]
     fn g(&self, i: usize, j: usize) -> Real {
         let (a, b) = if i >= j { (i, j) } else { (j, i) };
         at(self.gram, a * (a + 1) / 2 + b)
     }
 
-    /// R[i][j], j ≥ i.
+    /// `R[i][j]`, j ≥ i.
     #[inline(always)]
     fn r(&self, i: usize, j: usize) -> Real {
         let n = self.n();
@@ -176,7 +176,7 @@ pub(super) struct Work<'a> {
     pub(super) scaled: &'a mut [Real],
     /// Scratch of the working set's length.
     pub(super) tmp: &'a mut [Real],
-    /// L by rows, row i at i·cap holding L[i][0..i].
+    /// L by rows, row i at i·cap holding `L[i][0..i]`.
     pub(super) l: &'a mut [Real],
     /// The pivots D.
     pub(super) d: &'a mut [Real],
@@ -221,7 +221,7 @@ impl Run<'_, '_, '_> {
         }
     }
 
-    /// L[i][j].
+    /// `L[i][j]`.
     #[inline(always)]
     fn l(&self, i: usize, j: usize) -> Real {
         at(self.w.l, i * self.w.cap + j)

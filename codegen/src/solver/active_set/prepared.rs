@@ -50,7 +50,7 @@ pub struct Block {
 /// A block's tables as the run-time kernel reads them (and the emitted module holds them).
 #[derive(Clone, Debug)]
 pub struct Packed {
-    /// R packed by rows: row i holds R[i][i..n].
+    /// R packed by rows: row i holds `R[i][i..n]`.
     pub r: Vec<f64>,
     /// Per constraint, its index into the QP's sides: a bound on variable j is j, row r is n + r.
     pub sides: Vec<usize>,
