@@ -10,13 +10,12 @@ use crate::emit::sections::Sections;
 use crate::emit::tokens::Num;
 use crate::lower::problem::Problem;
 use crate::solver::constrained::emit::{
-    coordinate_check, entry, evidence_doc, mpc_type, offsets, reach, status_types, Entry, MpcParts,
-    Offsets,
+    coordinate_check, entry, evidence_doc, mpc_type, reach, status_types, Entry, MpcParts,
 };
 use crate::solver::constrained::InequalityQp;
 use crate::solver::ipm::mpc_qp;
 use mpc_spec::Scalar;
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::quote;
 
@@ -65,6 +64,122 @@ fn index_table(v: &[usize]) -> TokenStream {
     quote!([#(#v),*])
 }
 
+/// Where θ = (x0, the reference window, u₋₁, d) holds each part: x0 at 0, the others at these.
+struct Theta {
+    reference: usize,
+    last: Option<usize>,
+    d: Option<usize>,
+    len: usize,
+}
+
+impl Theta {
+    fn of(p: &Problem) -> Theta {
+        let reference = p.nx;
+        let mut len = reference + p.qp.N * p.qp.nz;
+        let last = p.keeps_last_input().then(|| {
+            len += p.nu;
+            len - p.nu
+        });
+        let d = (p.nd() > 0).then(|| {
+            len += p.nd();
+            len - p.nd()
+        });
+        Theta {
+            reference,
+            last,
+            d,
+            len,
+        }
+    }
+
+    /// `parts` placed at θ's columns: (x0's, the reference's, u₋₁'s, d's), each `rows` high.
+    fn matrix(&self, rows: usize, parts: [Option<&DMatrix<f64>>; 4]) -> DMatrix<f64> {
+        let mut out = DMatrix::zeros(rows, self.len);
+        let at = [Some(0), Some(self.reference), self.last, self.d];
+        for (part, at) in parts.iter().zip(at) {
+            if let (Some(m), Some(at)) = (part, at) {
+                let cols = m.ncols().min(self.len - at);
+                out.view_mut((0, at), (rows, cols))
+                    .copy_from(&m.view((0, 0), (rows, cols)));
+            }
+        }
+        out
+    }
+}
+
+/// θ's length (x0, the reference window, u₋₁ and d where the QP depends on them).
+pub(super) fn theta_len(p: &Problem) -> usize {
+    Theta::of(p).len
+}
+
+/// Zeros between two nonzeros of a row that one run bridges rather than start another: a run costs
+/// a few instructions more than a multiply-add.
+const GAP: usize = 2;
+
+/// A matrix's rows as runs of consecutive columns without structural zeros (gaps of up to [`GAP`]
+/// bridged): per row the end of its runs, per run its first column and length, and the runs' values.
+struct Runs {
+    starts: Vec<usize>,
+    cols: Vec<usize>,
+    lens: Vec<usize>,
+    values: Vec<f64>,
+}
+
+impl Runs {
+    fn of(m: &DMatrix<f64>) -> Runs {
+        let mut r = Runs {
+            starts: vec![0],
+            cols: Vec::new(),
+            lens: Vec::new(),
+            values: Vec::new(),
+        };
+        for i in 0..m.nrows() {
+            let nonzero: Vec<usize> = (0..m.ncols()).filter(|&j| m[(i, j)] != 0.0).collect();
+            let mut k = 0;
+            while k < nonzero.len() {
+                let first = nonzero[k];
+                let mut last = first;
+                while k + 1 < nonzero.len() && nonzero[k + 1] - last <= GAP + 1 {
+                    k += 1;
+                    last = nonzero[k];
+                }
+                r.cols.push(first);
+                r.lens.push(last - first + 1);
+                r.values.extend((first..=last).map(|j| m[(i, j)]));
+                k += 1;
+            }
+            r.starts.push(r.cols.len());
+        }
+        r
+    }
+
+    /// The largest index the tables hold.
+    fn largest(&self) -> usize {
+        let end = self.cols.iter().zip(&self.lens).map(|(c, l)| c + l);
+        self.starts.iter().copied().chain(end).max().unwrap_or(0)
+    }
+
+    /// `const NAME: Sparse = …`.
+    fn emit(&self, num: Num, name: &str, doc: &str) -> TokenStream {
+        let name = Ident::new(name, Span::call_site());
+        let ix = |v: &[usize]| {
+            let v = v.iter().map(|i| Literal::usize_unsuffixed(*i));
+            quote!(&[#(#v),*])
+        };
+        let (starts, cols, lens) = (ix(&self.starts), ix(&self.cols), ix(&self.lens));
+        let values = self.values.iter().map(|v| num.lit(*v));
+        quote! {
+            #[doc = #doc]
+            const #name: Sparse = Sparse {
+                starts: #starts,
+                cols: #cols,
+                lens: #lens,
+                values: &[#(#values),*],
+            };
+        }
+    }
+}
+
 /// The dual active-set `Mpc`, its kernel and its tables.
 pub fn emit(p: &Problem, num: Num) -> Sections {
     let qp = &p.qp;
@@ -85,27 +200,11 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     };
     let (reach_tables, reach_code) = reach(p, num, false);
     let (coordinate_tables, coordinate_code) = coordinate_check(p, false);
-    let Offsets {
-        tables: row_tables,
-        terms: row_terms,
-    } = offsets(
-        p,
-        num,
-        &quote!(Real),
-        "ROW",
-        &quote!(NG),
-        &|M| M.clone(),
-        [
-            " The rows' dependence on the state: their offset gains ROW_X·x0.",
-            " The rows' dependence on the disturbance estimate: their offset gains ROW_D·d.",
-            " The rows' dependence on the last input (the first move): their offset gains ROW_U·u₋₁.",
-        ],
-    );
     Sections {
         constants: constants(&m),
-        api: api(&m, &row_terms, &reach_code, &coordinate_code),
+        api: api(&m, &reach_code, &coordinate_code),
         kernels: kernels(&m),
-        tables: tables(&m, quote!(#reach_tables #coordinate_tables #row_tables)),
+        tables: tables(&m, quote!(#reach_tables #coordinate_tables)),
     }
 }
 
@@ -128,6 +227,7 @@ fn constants(m: &Method) -> TokenStream {
     ]
     .map(lit);
     let accuracy = Num(Scalar::F64).lit(qp.accuracy);
+    let ntheta = lit(Theta::of(m.p).len);
     quote! {
         /// Entries of the plan, N·NU.
         pub const NP: usize = N * NU;
@@ -151,16 +251,13 @@ fn constants(m: &Method) -> TokenStream {
         pub const NWARM: usize = #nwarm;
         /// `[mpc] accuracy`: the plan within ACCURACY·(U_MAX − U_MIN) of the exact solution.
         pub const ACCURACY: f64 = #accuracy;
+        /// θ's length: x0, the reference window, then u₋₁ and d where the QP depends on them.
+        const NTHETA: usize = #ntheta;
     }
 }
 
 /// The api section: `SolverStatus`, `Fallback`, the kernel's storage and the `Mpc` struct.
-fn api(
-    m: &Method,
-    row_terms: &[TokenStream],
-    reach_code: &TokenStream,
-    coordinate_code: &TokenStream,
-) -> TokenStream {
+fn api(m: &Method, reach_code: &TokenStream, coordinate_code: &TokenStream) -> TokenStream {
     let status_types = status_types(
         "dual active-set method",
         &[
@@ -176,7 +273,7 @@ fn api(
     );
     let doc: Vec<&str> = doc.split('\n').collect();
     let entry = entry(m.p);
-    let checked = checked(m, &entry, row_terms, reach_code, coordinate_code);
+    let checked = checked(m, &entry, reach_code, coordinate_code);
     let mpc = mpc_type(MpcParts {
         status_types,
         doc: &doc,
@@ -192,11 +289,14 @@ fn api(
             warm: bool,
             /// The kernel's storage, kept here rather than on the stack.
             work: Storage,
+            /// The solve's data, likewise.
+            data: Data,
         },
         point_init: quote! {
             warm_set: [0; NWARM],
             warm_len: [0; NBLOCKS],
             work: Storage::new(),
+            data: Data::new(),
         },
         new_doc: " A cold controller: its first solve starts from an empty working set.",
         plan_step: quote!(o.copy_from_slice(step);),
@@ -219,6 +319,7 @@ fn api(
             tmp: [Real; CAP],
             l: [Real; CAP * CAP],
             d: [Real; CAP],
+            mu: [Real; NC_MAX],
             active: [bool; NC_MAX],
             excluded: [bool; NC_MAX],
             lo: [Real; NC_MAX],
@@ -239,6 +340,7 @@ fn api(
                     tmp: [0.0; CAP],
                     l: [0.0; CAP * CAP],
                     d: [0.0; CAP],
+                    mu: [0.0; NC_MAX],
                     active: [false; NC_MAX],
                     excluded: [false; NC_MAX],
                     lo: [0.0; NC_MAX],
@@ -259,12 +361,42 @@ fn api(
                     tmp: &mut self.tmp,
                     l: &mut self.l,
                     d: &mut self.d,
+                    mu: &mut self.mu,
                     active: &mut self.active,
                     excluded: &mut self.excluded,
                     lo: &mut self.lo,
                     hi: &mut self.hi,
                     z_free: &mut self.z_free,
                     cap: CAP,
+                }
+            }
+        }
+
+        /// A solve's data: θ, the QP's linear term and sides, the rows' offsets, z and the held plan.
+        #[derive(Clone, Debug, PartialEq)]
+        struct Data {
+            /// θ = (x0, the reference window, u₋₁, d): what f and the rows' sides are affine in.
+            theta: [Real; NTHETA],
+            f: [Real; NV],
+            lower: [Real; NC],
+            upper: [Real; NC],
+            /// The rows' offsets ROW_THETA·θ (their sides before any widening are ROW_* − offset).
+            offset: [Real; NG],
+            z: [Real; NV],
+            held: [Real; NP],
+        }
+
+        impl Data {
+            /// Zeroed data.
+            const fn new() -> Self {
+                Data {
+                    theta: [0.0; NTHETA],
+                    f: [0.0; NV],
+                    lower: [0.0; NC],
+                    upper: [0.0; NC],
+                    offset: [0.0; NG],
+                    z: [0.0; NV],
+                    held: [0.0; NP],
                 }
             }
         }
@@ -276,20 +408,36 @@ fn api(
 fn checked(
     m: &Method,
     entry: &Entry,
-    row_terms: &[TokenStream],
     reach_code: &TokenStream,
     coordinate_code: &TokenStream,
 ) -> TokenStream {
     let p = m.p;
     let row = crate::solver::first_order::form::reference_row(p);
-    let n_reference = Literal::usize_unsuffixed(p.qp.N * p.qp.nz);
     let Entry {
         d_param,
         d_finite,
-        f_terms,
         set_last,
         ..
     } = entry;
+    let theta = Theta::of(p);
+    let (r_at, r_end) = (
+        Literal::usize_unsuffixed(theta.reference),
+        Literal::usize_unsuffixed(theta.reference + p.qp.N * p.qp.nz),
+    );
+    let last_theta = theta.last.map(|at| {
+        let (at, end) = (
+            Literal::usize_unsuffixed(at),
+            Literal::usize_unsuffixed(at + p.nu),
+        );
+        quote!(theta[#at..#end].copy_from_slice(&last);)
+    });
+    let d_theta = theta.d.map(|at| {
+        let (at, end) = (
+            Literal::usize_unsuffixed(at),
+            Literal::usize_unsuffixed(at + p.nd()),
+        );
+        quote!(theta[#at..#end].copy_from_slice(&d);)
+    });
     let d_flush = (p.nd() > 0).then(|| quote!(let d = flushed(d);));
     let last_local = p.keeps_last_input().then(|| quote!(let last = self.last;));
     // Shorthand fields in f64 (clippy's `redundant_field_names`), widened in f32.
@@ -298,13 +446,13 @@ fn checked(
         Scalar::F64 => name,
     };
     let (violation, softened) = (field(quote!(violation)), field(quote!(softened)));
-    let held_violation = in_f64(m.num, quote!(violations(&held, &lower, &upper).0));
+    let held_violation = in_f64(m.num, quote!(violations(held, offset).0));
     let zero_rows = (!m.prepared.zero_rows.is_empty()).then(|| {
         quote! {
             // A row without coefficients: its sides must hold 0, or no plan meets it.
             let mut empty = false;
             for j in ZERO_ROWS {
-                empty |= !((at(&lower, NV + j) <= 0.0) & (0.0 <= at(&upper, NV + j)));
+                empty |= !((at(lower, NV + j) <= 0.0) & (0.0 <= at(upper, NV + j)));
             }
         }
     });
@@ -326,71 +474,70 @@ fn checked(
             let x0 = flushed(x0);
             #d_flush
             #last_local
-            let mut reference = [0.0; #n_reference];
+            let Data { theta, f, lower, upper, offset, z, held } = &mut self.data;
+            theta[..NX].copy_from_slice(&x0);
+            let reference = &mut theta[#r_at..#r_end];
             for (r, row) in reference.chunks_exact_mut(xref[0].len()).zip(xref.iter()) {
                 r.copy_from_slice(&flushed(row));
             }
             #coordinate_code
             #reach_code
-            // f = Fx·x0 − Fr·Xref (+ Fu·u₋₁ + Fd·d) for the plan, the penalties' weights for the slacks.
-            let mut f = [0.0; NV];
-            for (i, fi) in f.iter_mut().enumerate().take(NP) {
-                *fi = dot(&FX[i], &x0) - dot(&FR[i], &reference) #f_terms;
-            }
-            for (fi, w) in f.iter_mut().skip(NP).zip(SLACK_WEIGHT.iter()) {
-                *fi = *w;
-            }
+            #last_theta
+            #d_theta
+            // f = F_θ·θ (Fx·x0 − Fr·Xref + Fu·u₋₁ + Fd·d, their nonzeros) for the plan, the penalties'
+            // weights for the slacks.
+            F_THETA.times(theta, &mut f[..NP]);
+            f[NP..].copy_from_slice(&SLACK_WEIGHT);
             // The sides: the unknowns' bounds (constant), then the rows' moved by the data.
-            let (mut lower, mut upper) = ([0.0; NC], [0.0; NC]);
             lower[..NV].copy_from_slice(&Z_LO);
             upper[..NV].copy_from_slice(&Z_HI);
-            for j in 0..NG {
-                let offset = #(#row_terms)+*;
-                lower[NV + j] = ROW_LOWER[j] - offset;
-                upper[NV + j] = ROW_UPPER[j] - offset;
+            ROW_THETA.times(theta, offset);
+            let rows = lower[NV..].iter_mut().zip(upper[NV..].iter_mut());
+            let sides = ROW_LOWER.iter().zip(ROW_UPPER.iter()).zip(offset.iter());
+            for ((lo, hi), ((row_lo, row_hi), o)) in rows.zip(sides) {
+                *lo = *row_lo - *o;
+                *hi = *row_hi - *o;
             }
             // The held plan: the fallback, and what a relaxed solve widens the hard rows to.
-            let mut held = self.plan;
-            shift(&mut held, NU);
+            *held = self.plan;
+            shift(held, NU);
             held[NP - NU..].copy_from_slice(&REST);
             for (i, p) in held.iter_mut().enumerate() {
                 *p = clamp(*p, i);
             }
-            // The sides without the widening: what the status's violation is measured on.
-            let (hard_lower, hard_upper) = (lower, upper);
             // Recovering, the held plan violating a hard row: relaxed, each hard row widened to the
             // held plan's value, so that the QP has a plan that violates no row more than holding would.
             let relax = self.relax && #held_violation > ACCURACY;
             if relax {
-                let values = row_values(&held);
-                for j in 0..NG {
-                    if !ROW_SOFT[j] {
-                        let a = values[j];
-                        lower[NV + j] = if a < lower[NV + j] { a } else { lower[NV + j] };
-                        upper[NV + j] = if a > upper[NV + j] { a } else { upper[NV + j] };
+                let mut rows = lower[NV..].iter_mut().zip(upper[NV..].iter_mut()).zip(ROW_SOFT.iter());
+                ROW_A.each_row(held, |a| {
+                    if let Some(((lo, hi), soft)) = rows.next() {
+                        if !*soft {
+                            *lo = if a < *lo { a } else { *lo };
+                            *hi = if a > *hi { a } else { *hi };
+                        }
                     }
-                }
+                });
             }
             // A cold start after `new`, `reset`, a fallback or a relaxed solve.
             if !self.warm | relax {
                 self.warm_len = [0; NBLOCKS];
             }
             #zero_rows
-            let mut z = [0.0; NV];
             let mut work = self.work.work();
             #empty_check {
                 solve(
                     &BLOCKS,
-                    &f,
-                    &lower,
-                    &upper,
+                    f,
+                    lower,
+                    upper,
                     &mut work,
                     &mut self.warm_set,
                     &mut self.warm_len,
                     ITERATIONS,
                     &TOLERANCES,
                     &mut Tally,
-                    &mut z,
+                    z,
                     |_, _, _, _| {},
                 )
             } #empty_end
@@ -400,10 +547,10 @@ fn checked(
                     *p = clamp(*v, i);
                 }
             } else {
-                self.plan = held;
+                self.plan = *held;
             }
             self.warm = trusted & !relax;
-            let (violation, softened) = violations(&self.plan, &hard_lower, &hard_upper);
+            let (violation, softened) = violations(&self.plan, offset);
             let infeasible = ended == Ended::Infeasible;
             // Recovering after a solve found the hard rows infeasible, or made a relaxed plan.
             self.relax = infeasible | (trusted & relax);
@@ -452,12 +599,6 @@ fn kernels(m: &Method) -> TokenStream {
             out
         }
 
-        /// a·b.
-        #[inline(always)]
-        fn dot(a: &[Real], b: &[Real]) -> Real {
-            a.iter().zip(b.iter()).map(|(x, y)| x * y).sum()
-        }
-
         /// Plan entry `i` projected onto its input's bounds; NaN maps to the lower bound.
         #[inline(always)]
         fn clamp(v: Real, i: usize) -> Real {
@@ -474,34 +615,70 @@ fn kernels(m: &Method) -> TokenStream {
             }
         }
 
-        /// Every row's value at the plan (slacks zero), A·(plan, 0).
-        fn row_values(plan: &[Real; NP]) -> [Real; NG] {
-            let mut out = [0.0; NG];
-            for (j, o) in out.iter_mut().enumerate() {
-                let mut s = 0.0;
-                for e in at_index(&ROW_STARTS, j)..at_index(&ROW_STARTS, j + 1) {
-                    s += at(&ROW_VALUES, e) * at(plan, at_index(&ROW_COLUMNS, e));
+        /// A sparse matrix by rows, each row a list of runs of consecutive columns: row j's runs are
+        /// `cols[starts[j]..starts[j + 1]]` (their first columns) with `lens[…]`, their values one after
+        /// the other in `values`.
+        struct Sparse {
+            starts: &'static [Ix],
+            cols: &'static [Ix],
+            lens: &'static [Ix],
+            values: &'static [Real],
+        }
+
+        impl Sparse {
+            /// Each row's product with `x`, in the rows' order.
+            #[inline(always)]
+            fn each_row(&self, x: &[Real], mut each: impl FnMut(Real)) {
+                let (mut run, mut next) = (0, 0);
+                for end in self.starts.iter().skip(1) {
+                    let end = *end as usize;
+                    let mut s = 0.0;
+                    if let (Some(cols), Some(lens)) = (self.cols.get(run..end), self.lens.get(run..end)) {
+                        for (c, l) in cols.iter().zip(lens) {
+                            let (c, l) = (*c as usize, *l as usize);
+                            if let (Some(v), Some(x)) = (self.values.get(next..next + l), x.get(c..c + l)) {
+                                for (a, b) in v.iter().zip(x) {
+                                    s += *a * *b;
+                                }
+                            }
+                            next += l;
+                        }
+                    }
+                    run = end;
+                    each(s);
                 }
-                *o = s;
             }
-            out
+
+            /// `out` = the product with `x`, row by row.
+            #[inline(always)]
+            fn times(&self, x: &[Real], out: &mut [Real]) {
+                let mut out = out.iter_mut();
+                self.each_row(x, |v| {
+                    if let Some(o) = out.next() {
+                        *o = v;
+                    }
+                });
+            }
         }
 
         /// The largest hard-row violation of the plan (slacks zero) relative to max(1, |bound|), and
-        /// the largest soft-row violation in its row's units, against the sides `lower`/`upper`.
-        fn violations(plan: &[Real; NP], lower: &[Real; NC], upper: &[Real; NC]) -> (Real, Real) {
-            let values = row_values(plan);
+        /// the largest soft-row violation in its row's units, against the rows' sides before any
+        /// widening, ROW_LOWER/ROW_UPPER − `offset`.
+        fn violations(plan: &[Real; NP], offset: &[Real; NG]) -> (Real, Real) {
             let (mut hard, mut soft): (Real, Real) = (0.0, 0.0);
-            for j in 0..NG {
-                let (lo, hi) = (lower[NV + j] - values[j], values[j] - upper[NV + j]);
-                if ROW_SOFT[j] {
-                    soft = soft.max(lo.max(hi).max(0.0));
-                } else {
-                    let below = lo.max(0.0) / ROW_LOWER[j].abs().max(1.0);
-                    let above = hi.max(0.0) / ROW_UPPER[j].abs().max(1.0);
-                    hard = hard.max(below.max(above));
+            let mut rows = ROW_LOWER.iter().zip(ROW_UPPER.iter()).zip(ROW_SOFT.iter().zip(offset.iter()));
+            ROW_A.each_row(plan, |value| {
+                if let Some(((row_lo, row_hi), (is_soft, o))) = rows.next() {
+                    let (lo, hi) = ((*row_lo - *o) - value, value - (*row_hi - *o));
+                    if *is_soft {
+                        soft = soft.max(lo.max(hi).max(0.0));
+                    } else {
+                        let below = lo.max(0.0) / row_lo.abs().max(1.0);
+                        let above = hi.max(0.0) / row_hi.abs().max(1.0);
+                        hard = hard.max(below.max(above));
+                    }
                 }
-            }
+            });
             (hard, soft)
         }
 
@@ -548,25 +725,46 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
     );
     let soft = rows.soft.iter();
     let slack_weight = real_table(num, rows.slack_weight.iter().copied());
-    // The rows' coefficients on the plan, sparse by rows.
-    let (mut starts, mut columns, mut values) = (vec![0], Vec::new(), Vec::new());
-    for j in 0..rows.len() {
-        for c in 0..np {
-            let v = rows.A[(j, c)];
-            if v != 0.0 {
-                columns.push(c);
-                values.push(v);
-            }
-        }
-        starts.push(columns.len());
-    }
-    let nnz = Literal::usize_unsuffixed(values.len());
-    let nstarts = Literal::usize_unsuffixed(starts.len());
-    let (starts_t, columns_t, values_t) = (
-        index_table(&starts),
-        index_table(&columns),
-        real_table(num, values.iter().copied()),
-    );
+    // f = F_θ·θ and the rows' offsets ROW_θ·θ, and the rows' coefficients on the plan, as runs.
+    let p = m.p;
+    let theta = Theta::of(p);
+    let minus_fr = -&qp.Fr;
+    let fd = qp.Fd.columns(0, p.nd()).into_owned();
+    let wd = rows.Wd.columns(0, p.nd()).into_owned();
+    let f_theta =
+        Runs::of(&theta.matrix(np, [Some(&qp.Fx), Some(&minus_fr), Some(&qp.Fu), Some(&fd)]));
+    let row_theta = Runs::of(&theta.matrix(
+        rows.len(),
+        [Some(&rows.Wx), None, Some(&rows.Wu), Some(&wd)],
+    ));
+    let row_a = Runs::of(&rows.A.columns(0, np).into_owned());
+    let largest = [&f_theta, &row_theta, &row_a]
+        .iter()
+        .map(|r| r.largest())
+        .max()
+        .unwrap_or(0);
+    let ix = if largest <= usize::from(u16::MAX) {
+        quote!(u16)
+    } else {
+        quote!(u32)
+    };
+    let sparse_tables = [
+        f_theta.emit(
+            num,
+            "F_THETA",
+            " f's dependence on θ, F_θ = (Fx, −Fr, Fu, Fd), without its structural zeros.",
+        ),
+        row_theta.emit(
+            num,
+            "ROW_THETA",
+            " The rows' offsets' dependence on θ, (Wx, 0, Wu, Wd), without their structural zeros.",
+        ),
+        row_a.emit(
+            num,
+            "ROW_A",
+            " The rows' coefficients on the plan, without their structural zeros.",
+        ),
+    ];
     let tol = Tolerances::of(num.0);
     let t = |v: f64| num.lit(v);
     let [primal, dual, singular, refactor, pivot, progress, infeasible] = [
@@ -686,11 +884,9 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
         const ROW_SOFT: [bool; NG] = [#(#soft),*];
         /// The soft rows' L1 weights: the slacks' linear term.
         const SLACK_WEIGHT: [Real; NS] = #slack_weight;
-        /// The rows' coefficients on the plan, by rows: row j's are `ROW_VALUES[ROW_STARTS[j]..ROW_STARTS[j + 1]]`
-        /// at the plan's entries `ROW_COLUMNS[…]`.
-        const ROW_STARTS: [usize; #nstarts] = #starts_t;
-        const ROW_COLUMNS: [usize; #nnz] = #columns_t;
-        const ROW_VALUES: [Real; #nnz] = #values_t;
+        /// The index type of the sparse tables.
+        type Ix = #ix;
+        #(#sparse_tables)*
         #zero_rows
         #data_tables
         /// The independent blocks.

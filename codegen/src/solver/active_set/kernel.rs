@@ -180,6 +180,8 @@ pub(super) struct Work<'a> {
     pub(super) l: &'a mut [Real],
     /// The pivots D.
     pub(super) d: &'a mut [Real],
+    /// Per constraint, its slack −G_{c,W}·λ (the scan's scratch).
+    pub(super) mu: &'a mut [Real],
     /// Per constraint, whether it is in the working set.
     pub(super) active: &'a mut [bool],
     /// Per constraint, whether it was set aside as dependent within round-off.
@@ -228,22 +230,42 @@ impl Run<'_, '_, '_> {
     }
 
     /// Appends the factor's row for constraint `c` (its Gram entries with the set looked up, one forward
-    /// substitution) and returns its pivot.
+    /// substitution along L's rows) and returns its pivot.
     fn ldl_push(&mut self, c: usize) -> Real {
         let (k, cap) = (self.k, self.w.cap);
-        for i in 0..k {
-            let mut s = self.b.g(at_index(self.w.set, i), c);
-            for j in 0..i {
-                s -= self.l(i, j) * at(self.w.l, k * cap + j);
+        let b = self.b;
+        let (before, after) = match self.w.l.split_at_mut_checked(k * cap) {
+            Some(parts) => parts,
+            None => return Real::NAN,
+        };
+        let (Some(row), Some(set), Some(d)) = (
+            after.get_mut(..k),
+            self.w.set.get(..k),
+            self.w.d.get(..k),
+        ) else {
+            return Real::NAN;
+        };
+        for (i, wi) in set.iter().enumerate() {
+            let Some((done, cur)) = row.split_at_mut_checked(i) else {
+                break;
+            };
+            let Some(ri) = cur.first_mut() else {
+                break;
+            };
+            let mut s = b.g(*wi, c);
+            if let Some(li) = before.get(i * cap..i * cap + i) {
+                for (a, x) in li.iter().zip(done.iter()) {
+                    s -= *a * *x;
+                }
             }
-            put(self.w.l, k * cap + i, s);
+            *ri = s;
         }
         self.tally.factor(k * k.saturating_sub(1) / 2);
-        let mut pivot = self.b.g(c, c);
-        for i in 0..k {
-            let t = at(self.w.l, k * cap + i);
-            let r = t / at(self.w.d, i);
-            put(self.w.l, k * cap + i, r);
+        let mut pivot = b.g(c, c);
+        for (ri, di) in row.iter_mut().zip(d) {
+            let t = *ri;
+            let r = t / *di;
+            *ri = r;
             pivot -= t * r;
         }
         self.tally.factor(2 * k);
@@ -404,24 +426,32 @@ impl Run<'_, '_, '_> {
     /// Solves L·D·Lᵀ·x = b into `star` (b = −d_W, the cached rows reused from `from`), or, with
     /// `refining`, b = `tmp` with nothing cached.
     fn ldl_solve(&mut self, from: usize, refining: bool) {
-        let k = self.k;
+        let (k, cap) = (self.k, self.w.cap);
         for i in from.min(k)..k {
             let mut s = if refining {
                 at(self.w.tmp, i)
             } else {
                 -self.side(i)
             };
-            for j in 0..i {
-                s -= self.l(i, j) * at(self.w.y, j);
+            if let (Some(li), Some(y)) = (
+                self.w.l.get(i * cap..i * cap + i),
+                self.w.y.get(..i),
+            ) {
+                for (a, x) in li.iter().zip(y) {
+                    s -= *a * *x;
+                }
             }
             put(self.w.y, i, s);
             put(self.w.scaled, i, s / at(self.w.d, i));
             self.tally.solve(i + 1);
         }
+        // Lᵀ by columns of L: entry (j, i) at j·cap + i.
         for i in (0..k).rev() {
             let mut s = at(self.w.scaled, i);
-            for j in i + 1..k {
-                s -= self.l(j, i) * at(self.w.star, j);
+            let later = self.w.star.get(i + 1..k).unwrap_or(&[]);
+            let column = self.w.l.get((i + 1) * cap + i..).unwrap_or(&[]);
+            for (a, x) in column.iter().step_by(cap.max(1)).zip(later) {
+                s -= *a * *x;
             }
             put(self.w.star, i, s);
         }
@@ -500,21 +530,49 @@ impl Run<'_, '_, '_> {
         self.remove(i);
     }
 
-    /// The most violated inactive side: (constraint, upper, violation).
+    /// The most violated inactive side: (constraint, upper, violation). The slacks μ = −G_{:,W}·λ
+    /// are summed a working entry at a time along G's packed storage (row w up to the diagonal, then
+    /// down column w), in the working set's order.
     fn scan(&mut self) -> Option<(usize, bool, Real)> {
-        let k = self.k;
+        let (k, nc, gram) = (self.k, self.b.nc(), self.b.gram);
+        let mu = match self.w.mu.get_mut(..nc) {
+            Some(mu) => mu,
+            None => return None,
+        };
+        for m in mu.iter_mut() {
+            *m = 0.0;
+        }
+        let set = self.w.set.get(..k).unwrap_or(&[]);
+        for (wi, lambda) in set.iter().zip(self.w.lambda.iter()) {
+            let (wi, lambda) = (*wi, *lambda);
+            let base = wi * (wi + 1) / 2;
+            let Some((head, tail)) = mu.split_at_mut_checked(wi) else {
+                continue;
+            };
+            if let Some(row) = gram.get(base..base + head.len()) {
+                for (m, g) in head.iter_mut().zip(row) {
+                    *m -= *g * lambda;
+                }
+            }
+            // Column wi from the diagonal down: G[c][wi] at c·(c + 1)/2 + wi.
+            let mut index = base + wi;
+            for (c, m) in tail.iter_mut().enumerate() {
+                if let Some(g) = gram.get(index) {
+                    *m -= *g * lambda;
+                }
+                index += wi + c + 1;
+            }
+        }
         let mut best: Option<(usize, bool, Real)> = None;
         let mut scanned = 0;
-        for c in 0..self.b.nc() {
-            if at_flag(self.w.active, c) || at_flag(self.w.excluded, c) {
+        let marks = self.w.active.iter().zip(self.w.excluded.iter());
+        let sides = self.w.lo.iter().zip(self.w.hi.iter());
+        for (c, ((mu, (active, excluded)), (lo, hi))) in mu.iter().zip(marks).zip(sides).enumerate() {
+            if *active | *excluded {
                 continue;
             }
             scanned += 1;
-            let mut mu = 0.0;
-            for i in 0..k {
-                mu -= self.b.g(at_index(self.w.set, i), c) * at(self.w.lambda, i);
-            }
-            let (lo, hi) = (at(self.w.lo, c), at(self.w.hi, c));
+            let (mu, lo, hi) = (*mu, *lo, *hi);
             for (upper, violation, side) in [(true, mu - hi, hi), (false, lo - mu, lo)] {
                 let worse = match best {
                     None => true,
@@ -562,8 +620,9 @@ impl Run<'_, '_, '_> {
 }
 
 /// The block's offsets for the QP's linear term `f` and sides `lower`/`upper` (indexed as the block's
-/// `sides`): z_free = −H_bb⁻¹·f_b (Rᵀ·y = −f_b, R·z = y), then per constraint the scaled sides
-/// (side − aᵀz_free) / s.
+/// `sides`): z_free = −H_bb⁻¹·f_b (Rᵀ·y = −f_b, R·z = y, both along R's packed rows), then per
+/// constraint the scaled sides (side − aᵀz_free) / s. False where the tables and the storage disagree
+/// in size (not reached: both are sized from the same blocks).
 pub(super) fn offsets(
     b: &Block,
     f: &[Real],
@@ -571,35 +630,75 @@ pub(super) fn offsets(
     upper: &[Real],
     w: &mut Work,
     tally: &mut Tally,
-) {
+) -> bool {
     let n = b.n();
-    for i in 0..n {
-        let mut s = -at(f, at_index(b.vars, i));
-        for k in 0..i {
-            s -= b.r(k, i) * at(w.z_free, k);
-        }
-        put(w.z_free, i, s / b.r(i, i));
+    let Some(z) = w.z_free.get_mut(..n) else {
+        return false;
+    };
+    let Some(r) = b.r.get(..n * (n + 1) / 2) else {
+        return false;
+    };
+    for (zi, v) in z.iter_mut().zip(b.vars) {
+        *zi = -at(f, *v);
     }
-    for i in (0..n).rev() {
-        let mut s = at(w.z_free, i);
-        for k in i + 1..n {
-            s -= b.r(i, k) * at(w.z_free, k);
+    // Rᵀ·y = −f_b by columns of Rᵀ (R's rows): y_i, then its terms taken from the later entries, in
+    // the order a row-by-row substitution takes them.
+    let mut rest = r;
+    let mut zs: &mut [Real] = z;
+    while let Some((zi, later)) = zs.split_first_mut() {
+        let Some((row, tail)) = rest.split_at_checked(later.len() + 1) else {
+            return false;
+        };
+        let Some((rii, ri)) = row.split_first() else {
+            return false;
+        };
+        let y = *zi / *rii;
+        *zi = y;
+        for (zk, rk) in later.iter_mut().zip(ri) {
+            *zk -= *rk * y;
         }
-        put(w.z_free, i, s / b.r(i, i));
+        rest = tail;
+        zs = later;
+    }
+    // R·z = y by rows, from the last.
+    let mut rest = r;
+    for i in (0..n).rev() {
+        let Some((head, row)) = rest.split_at_checked(rest.len().saturating_sub(n - i)) else {
+            return false;
+        };
+        let (Some((rii, ri)), Some((zi, later))) =
+            (row.split_first(), z.get_mut(i..).and_then(|t| t.split_first_mut()))
+        else {
+            return false;
+        };
+        let mut s = *zi;
+        for (rk, zk) in ri.iter().zip(later.iter()) {
+            s -= *rk * *zk;
+        }
+        *zi = s / *rii;
+        rest = head;
     }
     tally.offsets(n * (n + 1));
-    for c in 0..b.nc() {
-        let (start, end) = (at_index(b.starts, c), at_index(b.starts, c + 1));
+    let z: &[Real] = z;
+    let ends = b.starts.get(1..).unwrap_or(&[]);
+    let sides = b.sides.iter().zip(b.scale).zip(ends);
+    let mut start = at_index(b.starts, 0);
+    for ((lo, hi), ((side, s), end)) in w.lo.iter_mut().zip(w.hi.iter_mut()).zip(sides) {
+        let (Some(positions), Some(values)) =
+            (b.positions.get(start..*end), b.values.get(start..*end))
+        else {
+            return false;
+        };
         let mut a = 0.0;
-        for e in start..end {
-            a += at(b.values, e) * at(w.z_free, at_index(b.positions, e));
+        for (p, v) in positions.iter().zip(values) {
+            a += *v * at(z, *p);
         }
-        let side = at_index(b.sides, c);
-        let s = at(b.scale, c);
-        put(w.lo, c, (at(lower, side) - a) / s);
-        put(w.hi, c, (at(upper, side) - a) / s);
-        tally.offsets(end.saturating_sub(start) + 2);
+        *lo = (at(lower, *side) - a) / *s;
+        *hi = (at(upper, *side) - a) / *s;
+        tally.offsets(values.len() + 2);
+        start = *end;
     }
+    true
 }
 
 /// Solves one block's least-distance problem, its offsets formed ([`offsets`]), from the warm start
@@ -818,7 +917,11 @@ pub(super) fn solve(
     let mut ended = Ended::Solved;
     let mut iterations = 0;
     for (index, b) in blocks.iter().enumerate() {
-        offsets(b, f, lower, upper, w, tally);
+        if !offsets(b, f, lower, upper, w, tally) {
+            ended = Ended::NumericalFailure;
+            put(warm_len, index, 0);
+            continue;
+        }
         let start = match warm.get(b.warm_at..) {
             Some(s) => s,
             None => &[],
@@ -838,14 +941,18 @@ pub(super) fn solve(
         if block_ended.severity() > ended.severity() {
             ended = block_ended;
         }
-        // z_b = z_free − Z_W·λ.
+        // z_b = z_free − Z_W·λ, a column of Z at a time (in the working set's order), in z_free.
         let n = b.n();
-        for p in 0..n {
-            let mut v = at(w.z_free, p);
-            for i in 0..k {
-                v -= at(w.lambda, i) * at(b.z_cols, at_index(w.set, i) * n + p);
+        let z_b = w.z_free.get_mut(..n).unwrap_or(&mut []);
+        for (c, lambda) in w.set.iter().zip(w.lambda.iter()).take(k) {
+            if let Some(column) = b.z_cols.get(c * n..c * n + n) {
+                for (v, zc) in z_b.iter_mut().zip(column) {
+                    *v -= *lambda * *zc;
+                }
             }
-            put(z, at_index(b.vars, p), v);
+        }
+        for (v, p) in z_b.iter().zip(b.vars) {
+            put(z, *p, *v);
         }
         tally.recover(n * k);
         for i in 0..k {

@@ -103,9 +103,9 @@ impl Solver for ActiveSet {
         block.max(fr) * crate::numeric::Numeric(p.scalar).bytes()
     }
 
-    /// The warm start (the blocks' working sets and their lengths) and the kernel's `Storage`, a struct of
-    /// its own: the working set, its multipliers and factor (CAP = the largest block's unknowns + 1),
-    /// and per constraint of the largest block its marks and scaled sides.
+    /// The warm start (the blocks' working sets and their lengths), the kernel's `Storage`, a struct of
+    /// its own (the working set, its multipliers and factor, CAP = the largest block's unknowns + 1, and
+    /// per constraint of the largest block its marks, slack and scaled sides), and the solve's `Data`.
     fn state_fields(&self, p: &Problem, _plan: &Plan) -> crate::plan::StateFields {
         let real = crate::numeric::Numeric(p.scalar).bytes();
         let word = std::mem::size_of::<usize>();
@@ -126,9 +126,14 @@ impl Solver for ActiveSet {
             (6 * cap * real, real),
             (cap * cap * real, real),
             (2 * nc_max, 1),
-            (2 * nc_max * real, real),
+            (3 * nc_max * real, real),
             (n_max * real, real),
         ]);
+        // `Data`: θ, f, the sides, the rows' offsets, z and the held plan.
+        let (np, ng) = (p.qp.N * p.nu, p.qp.rows.len());
+        let nv = np + p.qp.rows.slacks();
+        let reals = super::emit::theta_len(p) + nv + 2 * (nv + ng) + ng + nv + np;
+        let data = (reals * real, real);
         crate::solver::constrained::state_fields(
             p,
             real,
@@ -136,6 +141,7 @@ impl Solver for ActiveSet {
                 (prepared.warm_len() * word, word),
                 (prepared.blocks.len() * word, word),
                 storage,
+                data,
             ],
         )
     }
