@@ -535,10 +535,7 @@ impl Run<'_, '_, '_> {
     /// down column w), in the working set's order.
     fn scan(&mut self) -> Option<(usize, bool, Real)> {
         let (k, nc, gram) = (self.k, self.b.nc(), self.b.gram);
-        let mu = match self.w.mu.get_mut(..nc) {
-            Some(mu) => mu,
-            None => return None,
-        };
+        let mu = self.w.mu.get_mut(..nc)?;
         for m in mu.iter_mut() {
             *m = 0.0;
         }
