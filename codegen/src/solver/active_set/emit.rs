@@ -468,7 +468,13 @@ fn checked(
         /// The solve, with `None` (and a reset warm start) for a non-finite argument.
         fn checked(&mut self, x0: &[Real; NX], #d_param xref: &[[Real; #row]; N]) -> Option<[Real; NU]> {
             if !(all_finite(x0) #d_finite && xref.iter().all(|r| all_finite(r))) {
-                self.reset();
+                // Out of line: `reset` builds a whole `Mpc`, which would otherwise sit in this frame.
+                #[cold]
+                #[inline(never)]
+                fn refused(mpc: &mut Mpc) {
+                    mpc.reset();
+                }
+                refused(self);
                 return None;
             }
             let x0 = flushed(x0);
