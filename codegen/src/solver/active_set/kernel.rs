@@ -149,13 +149,6 @@ impl Block<'_> {
         let (a, b) = if i >= j { (i, j) } else { (j, i) };
         at(self.gram, a * (a + 1) / 2 + b)
     }
-
-    /// `R[i][j]`, j ≥ i.
-    #[inline(always)]
-    fn r(&self, i: usize, j: usize) -> Real {
-        let n = self.n();
-        at(self.r, i * n - i * i.saturating_sub(1) / 2 - i + j)
-    }
 }
 
 /// The run-time storage of a block's solve, owned by the caller and sized for the largest block: the
