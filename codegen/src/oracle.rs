@@ -17,7 +17,7 @@ use nalgebra::{DMatrix, DVector};
 #[derive(Clone, Debug)]
 pub struct Mpc {
     qp: Qp,
-    /// The last plan U (N·nu), stacked by step.
+    /// The last plan V (Nc·nu: the free inputs), stacked by step.
     plan: DVector<f64>,
     /// u₋₁, the last input returned (or set): what the first move Δu₀ is measured from.
     last: DVector<f64>,
@@ -85,8 +85,13 @@ impl Mpc {
         &self.qp
     }
 
-    /// The last plan, N·nu entries stacked by step.
-    pub fn plan(&self) -> &DVector<f64> {
+    /// The last plan, N·nu entries stacked by step (the held inputs of a control horizon expanded).
+    pub fn plan(&self) -> DVector<f64> {
+        self.qp.expand(&self.plan)
+    }
+
+    /// The last plan of the QP's variables: the Nc free inputs (N·nu entries without a control horizon).
+    pub fn free_plan(&self) -> &DVector<f64> {
         &self.plan
     }
 

@@ -348,8 +348,11 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
         Some(alpha) => Step::Fixed(alpha),
         None => Step::Auto,
     };
+    let horizon = raw.horizon.as_ref()?.value;
+    let control_horizon = check_control_horizon(raw, horizon, diags)?;
     Some(Mpc {
-        horizon: raw.horizon.as_ref()?.value,
+        horizon,
+        control_horizon,
         iterations: match raw.iterations.as_ref()?.value {
             Some(n) => Iterations::Fixed(n),
             None => Iterations::Auto,
@@ -1160,4 +1163,26 @@ fn expect_shape(
         .label("wrong shape"),
     );
     false
+}
+
+/// `control_horizon` (Nc): at most the prediction horizon; N when absent.
+fn check_control_horizon(raw: &Raw, horizon: usize, diags: &mut Diagnostics) -> Option<usize> {
+    let Some(nc) = &raw.control_horizon else {
+        return Some(horizon);
+    };
+    if nc.value > horizon {
+        diags.push(
+            Diagnostic::new(
+                format!(
+                    "`mpc.control_horizon` = {} is longer than the prediction horizon `mpc.horizon` = {horizon}",
+                    nc.value
+                ),
+                nc.span.clone(),
+            )
+            .label(format!("must be between 1 and {horizon}"))
+            .note("hint: the control horizon counts the free inputs u_0 … u_{Nc−1} of the N predicted steps; leave it out for Nc = N"),
+        );
+        return None;
+    }
+    Some(nc.value)
 }

@@ -17,6 +17,7 @@ pub const MODEL_KEYS: &[&str] = &["type", "axes", "dt", "time", "a", "b", "c"];
 /// Keys of `[mpc]`.
 pub const MPC_KEYS: &[&str] = &[
     "horizon",
+    "control_horizon",
     "iterations",
     "tolerance",
     "strict",

@@ -332,6 +332,9 @@ pub enum Step {
 pub struct Mpc {
     /// Prediction horizon N.
     pub horizon: usize,
+    /// Control horizon Nc ≤ N (`control_horizon`; N when absent): the inputs u_0 … u_{Nc−1} are free and
+    /// u_k = u_{Nc−1} for k ≥ Nc, so the QP has Nc·nu decision variables.
+    pub control_horizon: usize,
     /// Solver iterations per control step.
     pub iterations: Iterations,
     /// The suboptimality the iterations must guarantee, relative to the initial gap:

@@ -65,6 +65,7 @@ pub struct Raw {
 
     pub mpc_span: Span,
     pub horizon: Option<Located<usize>>,
+    pub control_horizon: Option<Located<usize>>,
     /// `None` inside for `"auto"`.
     pub iterations: Option<Located<Option<usize>>>,
     pub tolerance: Option<Located<f64>>,
@@ -213,6 +214,15 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
             p.count_at_most(
                 v,
                 "mpc.horizon",
+                1,
+                crate::MAX_HORIZON as i64,
+                HORIZON_LIMIT,
+            )
+        });
+        raw.control_horizon = t.get("control_horizon").and_then(|v| {
+            p.count_at_most(
+                v,
+                "mpc.control_horizon",
                 1,
                 crate::MAX_HORIZON as i64,
                 HORIZON_LIMIT,

@@ -196,6 +196,9 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
         "{shown}: {method}, horizon {}, {} iterations, nx = {}, nu = {}, ny = {}",
         p.qp.N, c.iterations, p.nx, p.nu, p.ny
     );
+    if p.qp.blocked() {
+        let _ = write!(out, ", control horizon {}", p.qp.Nc);
+    }
     if p.qp.Cz.is_some() {
         let _ = write!(out, ", nz = {} tracked outputs", p.qp.nz);
     }

@@ -113,7 +113,7 @@ fn meets_the_accuracy(name: &str, text: &str) {
         let error = (0..plan.len())
             .map(|i| (plan[i] - exact[i]).abs() / span(&p, i))
             .fold(0.0, f64::max);
-        let (violation, _) = violations(qp, plan, offset);
+        let (violation, _) = violations(qp, &plan, offset);
         assert!(
             error <= accuracy && violation <= accuracy,
             "{name} {what}: |U − U*|∞ = {error:e} of the span, violation {violation:e}"

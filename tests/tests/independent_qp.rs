@@ -954,7 +954,7 @@ fn oracle_check(
         .expect("a constrained method's step");
     if fallback == Fallback::Solved {
         fig.oracle_solved += 1;
-        let e = plan_error(mpc.plan(), star, ind);
+        let e = plan_error(&mpc.plan(), star, ind);
         fig.oracle = fig.oracle.max(e);
         if e > accuracy {
             let limits = p.qp.ipm_limits();

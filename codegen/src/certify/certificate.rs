@@ -774,7 +774,7 @@ fn lqr_system(p: &Problem) -> LqrSystem {
 fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
     let qp = &p.qp;
     let (nx, nu) = (p.nx, p.nu);
-    let nz = qp.N * nu;
+    let nz = qp.Nc * nu;
     let moves = if p.has_moves() { nu } else { 0 };
     // f = Fx·x + Fu·u₋₁ at zero reference: the gain on (x, u₋₁).
     let mut Fxu = DMatrix::zeros(nz, nx + moves);
@@ -835,7 +835,7 @@ fn mpc_loop(p: &Problem, plan: &Plan) -> MpcLoop {
 fn emitted_terms(p: &Problem, plan: &Plan, r: &Resources) -> (usize, usize) {
     let qp = &p.qp;
     let (nx, nu, ny, na) = (p.nx, p.nu, p.ny, p.nx + p.nd());
-    let nz = qp.N * nu;
+    let nz = qp.Nc * nu;
     let form_tables = plan.estimate().table_bytes / Numeric(p.scalar).bytes();
     let tables = nz * (nz + nx + qp.N * nx + p.nd())
         + nx * (nx + nu)

@@ -204,10 +204,11 @@ pub fn injections(p: &Problem, emission: Emission) -> Injections {
 
     // The maps to u₀: M from the estimate (x, d), Mr from the stacked references (also the predicted
     // states' map in the sweeps), Mf from f.
-    let mut Fxd = DMatrix::zeros(N * nu, na);
-    Fxd.view_mut((0, 0), (N * nu, nx)).copy_from(&qp.Fx);
+    let nv = qp.Nc * nu;
+    let mut Fxd = DMatrix::zeros(nv, na);
+    Fxd.view_mut((0, 0), (nv, nx)).copy_from(&qp.Fx);
     if nd > 0 {
-        Fxd.view_mut((0, nx), (N * nu, nd)).copy_from(&qp.Fd);
+        Fxd.view_mut((0, nx), (nv, nd)).copy_from(&qp.Fd);
     }
     let M = first_rows_of_solve(&qp.H, &Fxd, nu);
     let Mr = first_rows_of_solve(&qp.H, &qp.Fr, nu);
@@ -215,7 +216,7 @@ pub fn injections(p: &Problem, emission: Emission) -> Injections {
     let reference = Mr.abs() * &s_ref;
     let gradient = match emission {
         Emission::Unrolled => {
-            let Mf = first_rows_of_solve(&qp.H, &DMatrix::identity(N * nu, N * nu), nu);
+            let Mf = first_rows_of_solve(&qp.H, &DMatrix::identity(nv, nv), nu);
             Mf.abs() * (qp.Fx.abs() * &s + qp.Fr.abs() * &s_ref)
         }
         _ => {

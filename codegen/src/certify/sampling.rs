@@ -809,7 +809,7 @@ fn at(run: &[Iterate], count: usize) -> &Iterate {
 /// |U − U*|∞ / span (worst input) and the worst hard-row violation of an iterate.
 fn accuracy_of(qp: &Qp, r: &Iterate, exact: &IpmResult, offset: &DVector<f64>) -> (f64, f64) {
     let nu = qp.u_min.len();
-    let n = qp.N * nu;
+    let n = qp.Nc * nu;
     if r.z.len() < n || r.failed {
         return (f64::INFINITY, f64::INFINITY);
     }

@@ -170,15 +170,41 @@ pub fn module(
     }
 }
 
+/// The number of blocks of the emitted plan: `N`, or `CONTROL_HORIZON` under a control horizon.
+pub fn plan_steps(p: &Problem) -> TokenStream {
+    if p.qp.blocked() {
+        quote!(CONTROL_HORIZON)
+    } else {
+        quote!(N)
+    }
+}
+
+/// The plan's N steps from the iterator `blocks` over its blocks: under a control horizon the last
+/// block, `last`, repeated for the held steps. What every method's `Mpc::plan` expands.
+pub fn held_steps(p: &Problem, blocks: TokenStream, last: TokenStream) -> TokenStream {
+    if p.qp.blocked() {
+        quote!(#blocks.chain(core::iter::repeat(#last)))
+    } else {
+        blocks
+    }
+}
+
 /// The module's items without the `mod` wrapper.
 pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     let qp = &p.qp;
     let real = num.ty();
     let (nx, nu, ny, n, iterations) = (p.nx, p.nu, p.ny, qp.N, qp.iterations);
     let [nx, nu, ny, n, iterations] = [nx, nu, ny, n, iterations].map(Literal::usize_unsuffixed);
-    let nz = Literal::usize_unsuffixed(qp.N * p.nu);
+    let nz = Literal::usize_unsuffixed(qp.Nc * p.nu);
     let nr = Literal::usize_unsuffixed(qp.N * qp.nz);
     let dt = num.lit(p.dt);
+    let control_horizon = qp.blocked().then(|| {
+        let nc = Literal::usize_unsuffixed(qp.Nc);
+        quote! {
+            /// Control horizon Nc: the plan holds the free inputs u_0 … u_{Nc−1}; u_k = u_{Nc−1} for k ≥ Nc.
+            pub const CONTROL_HORIZON: usize = #nc;
+        }
+    });
     let u_min = num.vector(qp.u_min.iter().copied());
     let u_max = num.vector(qp.u_max.iter().copied());
     let u_rest = num.vector(qp.rest_input().iter().copied());
@@ -325,6 +351,7 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
         pub const NY: usize = #ny;
         /// Prediction horizon.
         pub const N: usize = #n;
+        #control_horizon
         /// Solver iterations per control step.
         pub const ITERATIONS: usize = #iterations;
         /// Sampling time, s.

@@ -128,7 +128,23 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
     let condensed = condense(&F, &G, &Q, &R, &Qf, N);
     let Fr = condensed.reference_map(&Qr, &Qfr);
     let (H, Fu) = condensed.with_moves(&R_du);
-    let (Sx, Su, Fx) = (condensed.Sx, condensed.Su, condensed.Fx);
+    let (Sx, Su_full, Fx) = (condensed.Sx, condensed.Su, condensed.Fx);
+    // A control horizon substitutes U = T·V (T the blocking matrix) into every term: the QP's variables
+    // are the Nc free inputs.
+    let Nc = m.control_horizon;
+    let T = blocking(N, Nc, nu);
+    let Tt = T.transpose();
+    let (H, Fu, Fx, Fr, Su) = if Nc < N {
+        (
+            symmetrize(&(&Tt * &H * &T)),
+            &Tt * Fu,
+            &Tt * Fx,
+            &Tt * Fr,
+            &Su_full * &T,
+        )
+    } else {
+        (H, Fu, Fx, Fr, Su_full.clone())
+    };
     // H out of range (or not finite) is the weights' doing: named before its eigenvalues, which it defeats.
     let hessian = Hessian {
         Su: &Su,
@@ -155,9 +171,18 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
         return Err(diags.sorted());
     }
     let nd = filter.as_ref().map_or(0, |f| f.nd);
-    let Fd = &H * DMatrix::from_fn(N * nu, nd, |i, j| if i % nu == j { 1.0 } else { 0.0 })
+    let Fd = &H * DMatrix::from_fn(Nc * nu, nd, |i, j| if i % nu == j { 1.0 } else { 0.0 })
         + Fu.columns(0, nd);
-    let rows = crate::lower::constraints::lower(&m.constraints, &Sx, &Su, nu);
+    // The rows are lowered on U and keep their N slots; their coefficients on U become ones on V.
+    let mut rows = crate::lower::constraints::lower(&m.constraints, &Sx, &Su_full, nu);
+    if Nc < N {
+        let slacks = rows.A.columns(N * nu, rows.slacks()).into_owned();
+        let mut A = DMatrix::zeros(rows.len(), Nc * nu + slacks.ncols());
+        A.columns_mut(0, Nc * nu)
+            .copy_from(&(rows.A.columns(0, N * nu) * &T));
+        A.columns_mut(Nc * nu, slacks.ncols()).copy_from(&slacks);
+        rows.A = A;
+    }
     let bound = |v: &[f64], i: usize, absent: f64| v.get(i).copied().unwrap_or(absent);
     let x_bounds = (
         (0..nx)
@@ -170,6 +195,7 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
     let qp = Qp {
         x_bounds,
         N,
+        Nc,
         iterations,
         tolerance: m.tolerance,
         method: m.method,
@@ -200,7 +226,7 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
     };
     check_ranges(spec, &qp, filter.as_ref(), &F, &G)?;
     // The lane sweeps know the state weights only: outputs and moves take the scalar ones.
-    let model_lanes = (qp.Cz.is_none() && m.r_du.is_none())
+    let model_lanes = (qp.Cz.is_none() && m.r_du.is_none() && Nc == N)
         .then(|| model_lanes(&F, &G, &qp.Q, &qp.Qf, &qp.R))
         .flatten();
     Ok(Problem {
@@ -529,6 +555,19 @@ impl Condensed {
         let Fu = -(D.transpose() * R_blk.columns(0, nu)) * 2.0;
         (H, Fu)
     }
+}
+
+/// The blocking matrix T of a control horizon Nc ≤ N ((N·nu) × (Nc·nu)): U = T·V holds u_k = v_{min(k, Nc−1)}
+/// (the identity for Nc = N).
+pub fn blocking(N: usize, Nc: usize, nu: usize) -> DMatrix<f64> {
+    DMatrix::from_fn(N * nu, Nc * nu, |i, j| {
+        let k = (i / nu).min(Nc.saturating_sub(1));
+        if k * nu + i % nu == j {
+            1.0
+        } else {
+            0.0
+        }
+    })
 }
 
 /// N blocks on the diagonal: `stage` N − 1 times, then `last`.

@@ -28,6 +28,10 @@ pub struct Reach {
 pub struct Qp {
     /// Prediction horizon N.
     pub N: usize,
+    /// Control horizon Nc ≤ N (`[mpc] control_horizon`, N when absent): the QP's variables are the plan
+    /// V of the Nc free inputs (Nc·nu), and U = T·V ([`crate::lower::blocking`]) holds u_k = v_{Nc−1} for
+    /// k ≥ Nc. Every matrix below that acts on the plan (H, Fx, Fr, Fu, Fd, Su, the rows' A) is on V.
+    pub Nc: usize,
     /// Solver iterations per control step (resolved from `"auto"`).
     pub iterations: usize,
     /// The suboptimality the iterations must guarantee, if the spec gives one.
@@ -54,7 +58,7 @@ pub struct Qp {
     pub Qfr: DMatrix<f64>,
     /// Sx = [F; F²; …; Fᴺ], (N·nx) × nx, eq. 12.
     pub Sx: DMatrix<f64>,
-    /// Su, (N·nx) × (N·nu), eq. 13.
+    /// Su, (N·nx) × (N·nu), eq. 13 (times T: (N·nx) × (Nc·nu)).
     pub Su: DMatrix<f64>,
     /// H = 2(Suᵀ Q_blk Su + R_blk), (N·nu) × (N·nu), eq. 9.
     pub H: DMatrix<f64>,
@@ -177,13 +181,28 @@ impl Qp {
         beyond
     }
 
-    /// The rest plan: [`Qp::rest_input`] at every step (a cold start, and what warm starts append).
+    /// The rest plan: [`Qp::rest_input`] at every free step (a cold start, and what warm starts append);
+    /// Nc·nu entries.
     pub fn rest_plan(&self) -> DVector<f64> {
         let rest = self.rest_input();
         DVector::from_iterator(
-            self.N * rest.len(),
-            (0..self.N).flat_map(|_| rest.iter().copied()),
+            self.Nc * rest.len(),
+            (0..self.Nc).flat_map(|_| rest.iter().copied()),
         )
+    }
+
+    /// Whether a control horizon shorter than the prediction horizon holds the last inputs.
+    pub fn blocked(&self) -> bool {
+        self.Nc < self.N
+    }
+
+    /// The plan of the QP's variables V (Nc·nu) expanded to the N steps U = T·V: each held step repeats
+    /// the last free input.
+    pub fn expand(&self, V: &DVector<f64>) -> DVector<f64> {
+        let nu = self.u_min.len();
+        DVector::from_fn(self.N * nu, |i, _| {
+            V[(i / nu).min(self.Nc - 1) * nu + i % nu]
+        })
     }
 
     /// What the algorithm runs with.

@@ -198,7 +198,7 @@ pub trait Solver: Debug + Sync {
     /// weighted, the last input.
     fn state_fields(&self, p: &Problem, plan: &Plan) -> StateFields {
         let size = crate::numeric::Numeric(p.scalar).bytes();
-        let mut mpc = vec![(p.qp.N * plan.plan_lanes(p) * size, size)];
+        let mut mpc = vec![(p.qp.Nc * plan.plan_lanes(p) * size, size)];
         if p.has_moves() {
             mpc.push((p.nu * size, size));
         }

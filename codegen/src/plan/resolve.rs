@@ -35,6 +35,17 @@ pub fn plan(spec: &Spec, p: &Problem) -> Result<Plan, Diagnostics> {
         Emission::Auto => cost::choose(&estimates),
         forced => forced,
     };
+    if let (Emission::Lanes | Emission::MatrixFree, Some(why)) =
+        (emission, form::per_step_refusal(p))
+    {
+        return Err(Diagnostic::new(
+            format!("`emission = \"{}\"` is not built under a control horizon", emission.name()),
+            spec.spans.get("codegen.emission"),
+        )
+        .label(why)
+        .note("hint: write `emission = \"table\"`, `\"unrolled\"` or `\"auto\"`, or leave out `mpc.control_horizon`")
+        .into());
+    }
     let form = match (emission, H_axis) {
         (Emission::Lanes, Ok(H_axis)) => Form::Lanes(Lanes { H_axis }),
         (Emission::Lanes, Err(e)) => {

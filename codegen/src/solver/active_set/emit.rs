@@ -29,7 +29,7 @@ struct Method<'a> {
 
 impl Method<'_> {
     fn nv(&self) -> usize {
-        self.p.qp.N * self.p.nu + self.p.qp.rows.slacks()
+        self.p.qp.Nc * self.p.nu + self.p.qp.rows.slacks()
     }
 }
 
@@ -183,7 +183,7 @@ impl Runs {
 /// The dual active-set `Mpc`, its kernel and its tables.
 pub fn emit(p: &Problem, num: Num) -> Sections {
     let qp = &p.qp;
-    let np = qp.N * p.nu;
+    let np = qp.Nc * p.nu;
     let structure = mpc_qp(qp, &DVector::zeros(np), &DVector::zeros(qp.rows.len()));
     let prepared = prepare(qp).unwrap_or_else(|| Prepared {
         n: 0,
@@ -210,6 +210,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
 
 /// The constants section: the dimensions of the QP, the blocks and the kernel's storage.
 fn constants(m: &Method) -> TokenStream {
+    let plan_steps = crate::emit::plan_steps(m.p);
     let qp = &m.p.qp;
     let blocks = &m.prepared.blocks;
     let (nv, ns, ng) = (m.nv(), qp.rows.slacks(), qp.rows.len());
@@ -230,7 +231,7 @@ fn constants(m: &Method) -> TokenStream {
     let ntheta = lit(Theta::of(m.p).len);
     quote! {
         /// Entries of the plan, N·NU.
-        pub const NP: usize = N * NU;
+        pub const NP: usize = #plan_steps * NU;
         /// The QP's unknowns z: the plan, then one slack per soft constraint component.
         pub const NV: usize = #nv;
         /// Slacks of the soft constraints.
@@ -300,6 +301,7 @@ fn api(m: &Method, reach_code: &TokenStream, coordinate_code: &TokenStream) -> T
         },
         new_doc: " A cold controller: its first solve starts from an empty working set.",
         plan_step: quote!(o.copy_from_slice(step);),
+        held: crate::solver::constrained::emit::held(m.p),
         entry,
         checked,
     });
@@ -717,7 +719,7 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
     let (qp, num) = (&m.p.qp, m.num);
     let rows = &qp.rows;
     let s = &m.structure;
-    let np = qp.N * m.p.nu;
+    let np = qp.Nc * m.p.nu;
     let nu = m.p.nu;
     let [lo, hi, rest] =
         [&qp.u_min, &qp.u_max, &qp.rest_input()].map(|v| real_table(num, v.iter().copied()));

@@ -91,7 +91,7 @@ impl Solver for ActiveSet {
 
     /// Its tables are `Real`: the largest is a block's Gram matrix or Z, or FR.
     fn largest_table(&self, p: &Problem) -> usize {
-        let fr = p.qp.N * p.nu * p.qp.N * p.qp.nz;
+        let fr = p.qp.Nc * p.nu * p.qp.N * p.qp.nz;
         let block = prepare(&p.qp).map_or(0, |prepared| {
             prepared
                 .blocks

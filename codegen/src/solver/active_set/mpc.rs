@@ -21,7 +21,7 @@ use nalgebra::DVector;
 /// The method's build-time data of `qp`: the QP's constant structure prepared (its f and sides do not
 /// matter). `None` where a block of H is not positive definite, which lowering rules out.
 pub fn prepare(qp: &Qp) -> Option<Prepared> {
-    let n = qp.N * qp.u_min.len();
+    let n = qp.Nc * qp.u_min.len();
     let structure = mpc_qp(qp, &DVector::zeros(n), &DVector::zeros(qp.rows.len()));
     Prepared::new(&structure).ok()
 }

@@ -57,7 +57,7 @@ struct Admm<'a> {
 impl Admm<'_> {
     /// ADMM's unknowns x: the plan, then the slacks.
     fn nv(&self) -> usize {
-        self.p.qp.N * self.p.nu + self.p.qp.rows.slacks()
+        self.p.qp.Nc * self.p.nu + self.p.qp.rows.slacks()
     }
 }
 
@@ -66,7 +66,7 @@ pub fn emit(p: &Problem, num: Num, write_out_budget: usize) -> Sections {
     let (reach_tables, reach_code) = reach(p, num, false);
     let (coordinate_tables, coordinate_code) = coordinate_check(p, false);
     let qp = &p.qp;
-    let np = qp.N * p.nu;
+    let np = qp.Nc * p.nu;
     let tuning = admm::tuning(qp);
     let m = Admm {
         p,
@@ -136,6 +136,7 @@ fn row_offsets(m: &Admm) -> Offsets {
 
 /// The constants section: ADMM's dimensions, its accuracy, ρ and the limits of a trusted plan.
 fn constants(m: &Admm) -> TokenStream {
+    let plan_steps = crate::emit::plan_steps(m.p);
     let qp = &m.p.qp;
     let (nv, ns, ng) = (m.nv(), qp.rows.slacks(), qp.rows.len());
     let nc = nv + ng;
@@ -153,7 +154,7 @@ fn constants(m: &Admm) -> TokenStream {
     let rho_lit = wide.lit(rho);
     quote! {
         /// Entries of the plan, N·NU.
-        pub const NP: usize = N * NU;
+        pub const NP: usize = #plan_steps * NU;
         /// ADMM's unknowns x: the plan, then one slack per soft constraint component.
         pub const NV: usize = #nv_lit;
         /// Slacks of the soft constraints.
@@ -223,6 +224,7 @@ fn api(
         },
         new_doc: " A cold controller: its first solve starts from x = 0, z = Π(0), y = 0.",
         plan_step: quote!(o.copy_from_slice(step);),
+        held: crate::solver::constrained::emit::held(m.p),
         entry,
         checked,
     })

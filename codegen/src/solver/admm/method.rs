@@ -33,7 +33,7 @@ impl Solver for Admm {
         // x [Real; NV], z and y [Real; NC], NC = NV + the rows; the plan in `Real`.
         let qp = &p.qp;
         let real = crate::numeric::Numeric(p.scalar).bytes();
-        let nv = qp.N * p.nu + qp.rows.slacks();
+        let nv = qp.Nc * p.nu + qp.rows.slacks();
         let nc = nv + qp.rows.len();
         crate::solver::constrained::state_fields(
             p,
@@ -156,7 +156,7 @@ impl Solver for Admm {
 
     /// Its tables are `Real`: the largest is H (NV × NV) or FR.
     fn largest_table(&self, p: &Problem) -> usize {
-        let nv = p.qp.N * p.nu + p.qp.rows.slacks();
+        let nv = p.qp.Nc * p.nu + p.qp.rows.slacks();
         nv * nv.max(p.qp.N * p.qp.nz) * Numeric(p.scalar).bytes()
     }
 

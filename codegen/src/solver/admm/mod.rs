@@ -815,7 +815,7 @@ pub fn mpc_residual_macs(qp: &Qp) -> usize {
 
 /// The MPC's QP with zero data (its structure).
 fn zero_data(qp: &Qp) -> InequalityQp {
-    let n = qp.N * qp.u_min.len();
+    let n = qp.Nc * qp.u_min.len();
     ipm::mpc_qp(qp, &DVector::zeros(n), &DVector::zeros(qp.rows.len()))
 }
 
@@ -847,7 +847,7 @@ pub fn shifted_start(qp: &Qp, previous: &Step) -> Start {
 /// (x, z, y) shifted by one slot ([`shifted_start`]).
 pub fn shift(qp: &Qp, x: &DVector<f64>, z: &DVector<f64>, y: &DVector<f64>) -> Start {
     let nu = qp.u_min.len();
-    let n = qp.N * nu;
+    let n = qp.Nc * nu;
     let nv = n + qp.rows.slacks();
     let per_slot = qp.rows.per_slot;
     let rest = qp.rest_input();

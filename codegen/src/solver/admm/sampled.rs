@@ -174,7 +174,7 @@ pub fn tune_admm(spec: &Spec, p: &Problem) -> Result<(f64, f64), Diagnostics> {
     let qp = &p.qp;
     let sample = draw_sample(spec, p, &region);
     let nu = qp.u_min.len();
-    let span = DVector::from_fn(qp.N * nu, |i, _| qp.u_max[i % nu] - qp.u_min[i % nu]);
+    let span = DVector::from_fn(qp.Nc * nu, |i, _| qp.u_max[i % nu] - qp.u_min[i % nu]);
     // Priced before it runs: an exact solve per tuning case, and the coarse grid's nine trials at
     // least the first probe on each, an iteration at the direct form's count and the simulation's
     // dense products and accuracy check.

@@ -309,6 +309,15 @@ pub fn offsets(
     Offsets { tables, terms }
 }
 
+/// The plan's N steps over `self.plan` (NP entries): [`crate::emit::held_steps`] of its blocks.
+pub fn held(p: &crate::lower::problem::Problem) -> TokenStream {
+    crate::emit::held_steps(
+        p,
+        quote!(self.plan.chunks_exact(NU)),
+        quote!(&self.plan[NP - NU..]),
+    )
+}
+
 /// What a constrained method's `Mpc` holds besides the fields every method's has, for [`mpc_type`].
 pub struct MpcParts<'a> {
     /// `SolverStatus` and `Fallback` ([`status_types`]).
@@ -327,6 +336,8 @@ pub struct MpcParts<'a> {
     pub new_doc: &'a str,
     /// The body of `plan()`'s loop over one step: `o` the output's step, `step` the plan's.
     pub plan_step: TokenStream,
+    /// The plan's N steps ([`crate::emit::held_steps`] of `self.plan.chunks_exact(NU)`).
+    pub held: TokenStream,
     /// The entry points ([`entry`]) and `checked`, the method's solve.
     pub entry: Entry,
     /// `Mpc::checked`.
@@ -345,6 +356,7 @@ pub fn mpc_type(parts: MpcParts) -> TokenStream {
         point_init,
         new_doc,
         plan_step,
+        held,
         entry,
         checked,
     } = parts;
@@ -411,7 +423,7 @@ pub fn mpc_type(parts: MpcParts) -> TokenStream {
             /// The plan of the last solve, one input per predicted step.
             pub fn plan(&self) -> [[Real; NU]; N] {
                 let mut out = [[0.0; NU]; N];
-                for (o, step) in out.iter_mut().zip(self.plan.chunks_exact(NU)) {
+                for (o, step) in out.iter_mut().zip(#held) {
                     #plan_step
                 }
                 out

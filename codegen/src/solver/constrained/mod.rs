@@ -47,7 +47,7 @@ impl InequalityQp {
     /// Today's condensed QP: ½UᵀHU + fᵀU over the input box repeated for the N steps, no rows.
     pub fn from_box(qp: &Qp, f: &DVector<f64>) -> Self {
         let nu = qp.u_min.len();
-        let n = qp.N * nu;
+        let n = qp.Nc * nu;
         InequalityQp {
             H: qp.H.clone(),
             f: f.clone(),
@@ -136,7 +136,7 @@ pub fn state_fields(
     let flag = (1, 1);
     // `SolverStatus`: iterations (u32), five f64 figures, four flags and `Fallback` (one byte).
     let solver_status = crate::plan::layout(&[(4, 4), (5 * 8, 8), (4, 1), flag]);
-    let mut mpc = vec![(p.qp.N * p.nu * plan_size, plan_size)];
+    let mut mpc = vec![(p.qp.Nc * p.nu * plan_size, plan_size)];
     mpc.extend_from_slice(point);
     mpc.extend([flag, flag]);
     if p.keeps_last_input() {

@@ -14,7 +14,13 @@ use quote::quote;
 /// The `Mpc` type, its kernels and its tables.
 pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Sections {
     let qp = &p.qp;
-    let (nu, N) = (p.nu, qp.N);
+    let (nu, Nc) = (p.nu, qp.Nc);
+    let steps = crate::emit::plan_steps(p);
+    let held = crate::emit::held_steps(
+        p,
+        quote!(self.plan.iter()),
+        quote!(&self.plan[CONTROL_HORIZON - 1]),
+    );
     let nd = p.nd();
     let form = plan.form.gradient();
     let lanes = form.plan_lanes(p);
@@ -31,7 +37,7 @@ pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Se
     let tables = form.tables(p, num);
     let prepare = form.prepare(p);
     // Warm start: the previous plan shifted by one block, the rest input appended (Algorithm 1, line 8).
-    let shifted = (1..N).map(|k| {
+    let shifted = (1..Nc).map(|k| {
         let k = Literal::usize_unsuffixed(k);
         quote!(self.plan[#k])
     });
@@ -149,8 +155,8 @@ pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Se
             pub const EMISSION: &str = #emission;
             #[doc = #lanes_doc]
             pub const LANES: usize = #lanes_lit;
-            /// A plan: one row of LANES per predicted step.
-            type Plan = [[Real; LANES]; N];
+            /// A plan: one row of LANES per predicted step (per free step under a control horizon).
+            type Plan = [[Real; LANES]; #steps];
         },
         api: quote! {
             /// Fixed-iteration, warm-started MPC over the condensed QP (paper Section 2.4, Algorithm 1).
@@ -163,7 +169,7 @@ pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Se
             impl Mpc {
                 #[doc = #new_doc]
                 pub const fn new() -> Self {
-                    Mpc { plan: [REST; N], #last_init }
+                    Mpc { plan: [REST; #steps], #last_init }
                 }
 
                 #solve_fns
@@ -171,7 +177,7 @@ pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Se
                 /// The plan of the last solve, one input per predicted step.
                 pub fn plan(&self) -> [[Real; NU]; N] {
                     let mut out = [[0.0; NU]; N];
-                    for (o, step) in out.iter_mut().zip(self.plan.iter()) {
+                    for (o, step) in out.iter_mut().zip(#held) {
                         *o = inputs(step);
                     }
                     out

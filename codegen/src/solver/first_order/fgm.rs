@@ -118,10 +118,10 @@ impl Algorithm for Fgm {
         quote!(y)
     }
 
-    fn iterations(&self, gradient_call: &TokenStream) -> TokenStream {
+    fn iterations(&self, gradient_call: &TokenStream, steps: &TokenStream) -> TokenStream {
         quote! {
             let mut y = u;
-            let mut g: Plan = [[0.0; LANES]; N];
+            let mut g: Plan = [[0.0; LANES]; #steps];
             for _ in 0..ITERATIONS {
                 #gradient_call;
                 fast_gradient_step(&mut u, &mut y, &g);

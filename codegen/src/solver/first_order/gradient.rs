@@ -106,10 +106,10 @@ impl Algorithm for Gradient {
         quote!(u)
     }
 
-    fn iterations(&self, gradient_call: &TokenStream) -> TokenStream {
+    fn iterations(&self, gradient_call: &TokenStream, steps: &TokenStream) -> TokenStream {
         quote! {
             // Every kernel works in place: no plan is copied inside the loop.
-            let mut g: Plan = [[0.0; LANES]; N];
+            let mut g: Plan = [[0.0; LANES]; #steps];
             for _ in 0..ITERATIONS {
                 #gradient_call;
                 gradient_step(&mut u, &g);

@@ -50,7 +50,7 @@ impl Solver for FirstOrder {
     }
 
     fn macs(&self, p: &Problem, plan: &Plan) -> (usize, usize) {
-        let plan_entries = p.qp.N * plan.plan_lanes(p);
+        let plan_entries = p.qp.Nc * plan.plan_lanes(p);
         (plan.estimate().macs + self.0.update_macs(plan_entries), 0)
     }
 
@@ -90,7 +90,7 @@ impl Solver for FirstOrder {
     }
 
     fn largest_table(&self, p: &Problem) -> usize {
-        let (nz, nr, na) = (p.qp.N * p.nu, p.qp.N * p.qp.nz.max(p.nx), p.nx + p.nd());
+        let (nz, nr, na) = (p.qp.Nc * p.nu, p.qp.N * p.qp.nz.max(p.nx), p.nx + p.nd());
         nz.max(na) * nz.max(nr).max(na) * Numeric(p.scalar).bytes()
     }
 

@@ -159,7 +159,8 @@ pub trait Algorithm: Debug + Sync {
 
     /// The solver loop around a separate gradient: its state, then `ITERATIONS` of `gradient_call` and
     /// the step. Starts from the warm start `u` and leaves the plan in `u`.
-    fn iterations(&self, gradient_call: &TokenStream) -> TokenStream;
+    /// `steps` names the plan's length ([`crate::emit::plan_steps`]).
+    fn iterations(&self, gradient_call: &TokenStream, steps: &TokenStream) -> TokenStream;
 
     /// The step after a separate gradient `g`, in place over the plan.
     fn step_kernel(&self) -> TokenStream;

@@ -28,7 +28,7 @@ pub(crate) fn mpc_structure(qp: &Qp) -> (Layout, Sparsity) {
 
 /// The MPC's QP with zero data: its structure, which is all the counts need.
 pub(super) fn structure_of(qp: &Qp) -> InequalityQp {
-    let n = qp.N * qp.u_min.len();
+    let n = qp.Nc * qp.u_min.len();
     mpc_qp(qp, &DVector::zeros(n), &DVector::zeros(qp.rows.len()))
 }
 

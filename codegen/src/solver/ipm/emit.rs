@@ -57,7 +57,7 @@ pub fn emit(p: &Problem, num: Num) -> Sections {
     let (reach_tables, reach_code) = reach(p, num, true);
     let (coordinate_tables, coordinate_code) = coordinate_check(p, true);
     let qp = &p.qp;
-    let np = qp.N * p.nu;
+    let np = qp.Nc * p.nu;
     let structure = mpc_qp(qp, &DVector::zeros(np), &DVector::zeros(qp.rows.len()));
     let layout = Layout::of(&structure);
     let nv = np + qp.rows.slacks();
@@ -117,6 +117,7 @@ fn side_offsets(m: &Method) -> Offsets {
 
 /// The constants section: the method's dimensions, its accuracy and the limits of a trusted plan.
 fn constants(m: &Method) -> TokenStream {
+    let plan_steps = crate::emit::plan_steps(m.p);
     let qp = &m.p.qp;
     let wide = m.wide;
     let lit = Literal::usize_unsuffixed;
@@ -136,7 +137,7 @@ fn constants(m: &Method) -> TokenStream {
     let accuracy = wide.lit(qp.accuracy);
     quote! {
         /// Entries of the plan, N·NU.
-        pub const NP: usize = N * NU;
+        pub const NP: usize = #plan_steps * NU;
         /// The interior-point method's unknowns: the plan, then one slack per soft constraint component.
         pub const NV: usize = #nv_lit;
         /// Slacks of the soft constraints.
@@ -203,6 +204,7 @@ fn api(
             lambda: [1.0; NSIDES],
         },
         new_doc: " A cold controller: its first solve starts from the method's cold start.",
+        held: crate::solver::constrained::emit::held(m.p),
         plan_step: quote! {
             for (a, v) in o.iter_mut().zip(step.iter()) {
                 *a = *v as Real;

@@ -30,7 +30,7 @@ impl Solver for InteriorPoint {
     fn state_fields(&self, p: &Problem, _plan: &Plan) -> crate::plan::StateFields {
         // z [f64; NV], s and λ [f64; NSIDES]: the sides of the box and of the rows that are finite.
         let qp = &p.qp;
-        let np = qp.N * p.nu;
+        let np = qp.Nc * p.nu;
         let structure =
             super::condensed::mpc_qp(qp, &DVector::zeros(np), &DVector::zeros(qp.rows.len()));
         let sides = super::condensed::Layout::of(&structure);
@@ -102,7 +102,7 @@ impl Solver for InteriorPoint {
 
     /// Its tables are f64: the largest is H (NV × NV) or FR.
     fn largest_table(&self, p: &Problem) -> usize {
-        let nv = p.qp.N * p.nu + p.qp.rows.slacks();
+        let nv = p.qp.Nc * p.nu + p.qp.rows.slacks();
         nv * nv.max(p.qp.N * p.qp.nz) * 8
     }
 

@@ -673,7 +673,7 @@ pub fn shifted_start(qp: &Qp, previous: &Step) -> Start {
         return Start::Cold;
     }
     let nu = qp.u_min.len();
-    let n = qp.N * nu;
+    let n = qp.Nc * nu;
     let ns = qp.rows.slacks();
     let sides_per_slot = (r.s.len() - 2 * n - ns) / qp.N;
     let shift = |v: &DVector<f64>| -> DVector<f64> {

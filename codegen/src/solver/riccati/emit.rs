@@ -52,7 +52,7 @@ fn emit(qp: &crate::lower::problem::Qp, stages: &Stages) -> Sections {
     let lit = Literal::usize_unsuffixed;
     let structure = mpc_qp(
         qp,
-        &DVector::zeros(qp.N * qp.u_min.len()),
+        &DVector::zeros(qp.Nc * qp.u_min.len()),
         &DVector::zeros(qp.rows.len()),
     );
     let nonzeros = |M: &DMatrix<f64>| -> Vec<(Literal, Literal, TokenStream)> {

@@ -82,7 +82,10 @@ pub trait GradientForm {
 
     /// The solver loop: the algorithm's, around this form's gradient.
     fn iterations(&self, p: &Problem, algorithm: &dyn Algorithm) -> TokenStream {
-        algorithm.iterations(&self.gradient_call(p, algorithm))
+        algorithm.iterations(
+            &self.gradient_call(p, algorithm),
+            &crate::emit::plan_steps(p),
+        )
     }
 
     /// Whether the emitted code has NEON kernels (under `cfg(mpc_neon)`): by default, where the sweeps
@@ -119,12 +122,31 @@ pub trait GradientForm {
 
 /// Every form's estimate, in the order of [`Emission`]; `H_axis` when H = H_axis ⊗ I.
 pub fn estimates(p: &Problem, H_axis: Option<&DMatrix<f64>>) -> Vec<Estimate> {
-    vec![
+    let mut estimates = vec![
         unrolled::estimate(p),
         table::estimate(p),
         lanes::estimate(p, H_axis),
         matrix_free::estimate(p),
-    ]
+    ];
+    if let Some(why) = per_step_refusal(p) {
+        for e in estimates.iter_mut() {
+            if matches!(e.emission, Emission::Lanes | Emission::MatrixFree) {
+                e.unavailable = Some(why.clone());
+            }
+        }
+    }
+    estimates
+}
+
+/// Why the forms that run over the N steps one input each (`lanes`, `matrix_free`) are not built: a
+/// control horizon, whose plan holds fewer blocks than steps. `None` where they are.
+pub fn per_step_refusal(p: &Problem) -> Option<String> {
+    p.qp.blocked().then(|| {
+        format!(
+            "`control_horizon` = {} < N = {}: the plan holds fewer inputs than the steps",
+            p.qp.Nc, p.qp.N
+        )
+    })
 }
 
 /// Lanes of the `lanes` form: the input's components padded to a power of two, so that three axes fill

@@ -18,7 +18,7 @@ pub struct Table;
 
 /// nz² multiply-adds in vectors of four, one loop, H as a table.
 pub fn estimate(p: &Problem) -> Estimate {
-    let nz = p.qp.N * p.nu;
+    let nz = p.qp.Nc * p.nu;
     Estimate {
         emission: Emission::Table,
         unavailable: None,
@@ -35,8 +35,9 @@ impl GradientForm for Table {
     }
 
     fn kernels(&self, p: &Problem, _algorithm: &dyn Algorithm, num: Num) -> TokenStream {
-        let sweep = matrix_free::emit(p, num, self.plan_lanes(p));
-        let nz = p.qp.N * p.nu;
+        // Under a control horizon f comes from the tables FX, FR (FU, FD): the sweeps run over N steps.
+        let sweep = (!p.qp.blocked()).then(|| matrix_free::emit(p, num, self.plan_lanes(p)));
+        let nz = p.qp.Nc * p.nu;
         let doc = format!(" ∇J(y) = H·y + f (eq. 11), a loop over the {nz}×{nz} table H.");
         quote! {
             #[doc = #doc]
@@ -55,11 +56,44 @@ impl GradientForm for Table {
     }
 
     fn prepare(&self, p: &Problem) -> TokenStream {
-        matrix_free::linear_term(p)
+        if p.qp.blocked() {
+            tabulated_linear_term(p)
+        } else {
+            matrix_free::linear_term(p)
+        }
     }
 
     fn gradient_call(&self, _p: &Problem, algorithm: &dyn Algorithm) -> TokenStream {
         let point = algorithm.point();
         quote!(gradient(&#point, &f, &mut g))
+    }
+}
+
+/// f = FX·x0 − FR·Xref (+ FU·u₋₁ + FD·d) as loops over the module's tables: the table form's f under a
+/// control horizon, where the sweeps (over the N steps) do not give the gradient on the free inputs.
+fn tabulated_linear_term(p: &Problem) -> TokenStream {
+    let last = p.has_moves().then(|| {
+        quote! {
+            for (f_i, fu) in f.as_flattened_mut().iter_mut().zip(FU.iter()) {
+                *f_i += dot(fu, last);
+            }
+        }
+    });
+    let d = (p.nd() > 0).then(|| {
+        quote! {
+            for (f_i, fd) in f.as_flattened_mut().iter_mut().zip(FD.iter()) {
+                *f_i += dot(fd, d);
+            }
+        }
+    });
+    quote! {
+        let dot = |a: &[Real], b: &[Real]| -> Real { a.iter().zip(b.iter()).map(|(x, y)| *x * *y).sum() };
+        let mut f: Plan = [[0.0; LANES]; CONTROL_HORIZON];
+        let stacked = xref.as_flattened();
+        for (f_i, (fx, fr)) in f.as_flattened_mut().iter_mut().zip(FX.iter().zip(FR.iter())) {
+            *f_i = dot(fx, x0) - dot(fr, stacked);
+        }
+        #last
+        #d
     }
 }

@@ -38,7 +38,8 @@ impl GradientForm for Unrolled {
     fn kernels(&self, p: &Problem, _algorithm: &dyn Algorithm, num: Num) -> TokenStream {
         let qp = &p.qp;
         let (nx, nu, N, nd) = (p.nx, p.nu, qp.N, p.nd());
-        let nz = N * nu;
+        // One row per variable of the QP: the Nc free inputs; the references span the N steps.
+        let nz = qp.Nc * nu;
         let (x0, xref, y, f, d) = (quote!(x0), quote!(xref), quote!(y), quote!(f), quote!(d));
         let last = quote!(last);
         let (nr, moves) = (qp.nz, if p.has_moves() { nu } else { 0 });

@@ -1,0 +1,27 @@
+// `emission = "matrix_free"` runs over the N steps one input each: not built under a control horizon.
+mpc_macros::mpc!(mod controller {
+    r#"
+    [model]
+    type = "double_integrator"
+    axes = 1
+    dt = 0.1
+
+    [mpc]
+    horizon = 10
+    control_horizon = 3
+    iterations = 20
+    q = [1, 0.1]
+    r = [0.1]
+    u_min = [-1]
+    u_max = [1]
+
+    [kalman]
+    sigma_a = 0.5
+    sigma_meas = 0.2
+
+    [codegen]
+    emission = "matrix_free"
+    "#
+});
+
+fn main() {}

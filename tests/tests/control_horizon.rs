@@ -1,0 +1,247 @@
+//! `[mpc] control_horizon` (Nc < N): the inputs u_0 … u_{Nc−1} are free, u_k = u_{Nc−1} after.
+//! - The lowered QP is the full-horizon QP with U = T·V substituted, T formed here from the definition
+//!   (H = TᵀHT, the linear maps Tᵀ·, Su·T, the rows' coefficients on U times T, their data unchanged), on
+//!   specs with every kind of row, weighted moves, `qf = "lqr"`, outputs and a disturbance model.
+//! - The oracle's plan is the optimum of the full-horizon QP with the held steps as equality rows
+//!   u_k − u_{Nc−1} = 0, solved by Clarabel (independent of the substitution).
+//! - Generated controllers (active set, interior point, FGM with f from the tables and unrolled) against
+//!   the oracle on warm-started closed loops: the same plan, N steps from `plan()`, the held steps equal.
+#![allow(non_snake_case)]
+// The active-set module's `i % NU` for the pendulum's single input (NU = 1).
+#![allow(clippy::modulo_one)]
+
+use codegen::ipm::InequalityQp;
+use codegen::oracle;
+use mpc_tests::harness::*;
+use nalgebra::{DMatrix, DVector};
+
+#[allow(dead_code)]
+#[path = "../benches/exact.rs"]
+mod exact;
+
+mpc_macros::mpc!(mod pendulum = "../specs/pendulum.toml");
+mpc_macros::mpc!(mod linear_active_set = "specs/control-horizon/linear-active-set.toml");
+mpc_macros::mpc!(mod linear_ipm = "specs/control-horizon/linear-ipm.toml");
+mpc_macros::mpc!(mod pendulum_fgm = "specs/control-horizon/pendulum-fgm.toml");
+mpc_macros::mpc!(mod offset_free = "specs/control-horizon/offset-free-unrolled.toml");
+
+const PENDULUM: &str = include_str!("../../specs/pendulum.toml");
+const LINEAR_ACTIVE_SET: &str = include_str!("../specs/control-horizon/linear-active-set.toml");
+const LINEAR_IPM: &str = include_str!("../specs/control-horizon/linear-ipm.toml");
+const PENDULUM_FGM: &str = include_str!("../specs/control-horizon/pendulum-fgm.toml");
+const OFFSET_FREE: &str = include_str!("../specs/control-horizon/offset-free-unrolled.toml");
+
+/// The spec without its `control_horizon` line: the full-horizon problem.
+fn full(text: &str) -> String {
+    text.lines()
+        .filter(|l| !l.trim_start().starts_with("control_horizon"))
+        .map(|l| format!("{l}\n"))
+        .collect()
+}
+
+/// The blocking matrix by its definition: row block k of U is column block min(k, Nc − 1) of V.
+fn blocking(N: usize, Nc: usize, nu: usize) -> DMatrix<f64> {
+    let mut T = DMatrix::zeros(N * nu, Nc * nu);
+    for k in 0..N {
+        for i in 0..nu {
+            T[(k * nu + i, k.min(Nc - 1) * nu + i)] = 1.0;
+        }
+    }
+    T
+}
+
+fn uncertified(text: &str) -> codegen::Problem {
+    codegen::lower::uncertified(&mpc_spec::load(text).expect("valid spec")).expect("lowerable")
+}
+
+fn assert_close(what: &str, a: &DMatrix<f64>, b: &DMatrix<f64>) {
+    assert_eq!(a.shape(), b.shape(), "{what}: shapes");
+    let scale = b.amax().max(1.0);
+    let d = (a - b).amax();
+    assert!(
+        d <= 1e-10 * scale,
+        "{what}: differs by {d:e} (scale {scale:e})"
+    );
+}
+
+#[test]
+fn lowered_qp_is_the_full_qp_substituted() {
+    for (name, text) in [
+        ("linear", LINEAR_ACTIVE_SET),
+        ("pendulum", PENDULUM),
+        ("offset-free", OFFSET_FREE),
+    ] {
+        let (b, f) = (uncertified(text), uncertified(&full(text)));
+        let (qb, qf) = (&b.qp, &f.qp);
+        assert!(qb.Nc < qb.N && qf.Nc == qf.N, "{name}: a control horizon");
+        let T = blocking(qf.N, qb.Nc, f.nu);
+        let Tt = T.transpose();
+        assert_close(&format!("{name} H"), &qb.H, &(&Tt * &qf.H * &T));
+        assert_close(&format!("{name} Fx"), &qb.Fx, &(&Tt * &qf.Fx));
+        assert_close(&format!("{name} Fr"), &qb.Fr, &(&Tt * &qf.Fr));
+        assert_close(&format!("{name} Fu"), &qb.Fu, &(&Tt * &qf.Fu));
+        assert_close(&format!("{name} Fd"), &qb.Fd, &(&Tt * &qf.Fd));
+        assert_close(&format!("{name} Su"), &qb.Su, &(&qf.Su * &T));
+        let n = qf.N * f.nu;
+        let ns = qf.rows.slacks();
+        let (Ab, Af) = (&qb.rows.A, &qf.rows.A);
+        assert_close(
+            &format!("{name} rows on the plan"),
+            &Ab.columns(0, qb.Nc * f.nu).into_owned(),
+            &(Af.columns(0, n) * &T),
+        );
+        assert_close(
+            &format!("{name} rows on the slacks"),
+            &Ab.columns(qb.Nc * f.nu, ns).into_owned(),
+            &Af.columns(n, ns).into_owned(),
+        );
+        assert_eq!(qb.rows.lower, qf.rows.lower, "{name}: lower");
+        assert_eq!(qb.rows.upper, qf.rows.upper, "{name}: upper");
+        assert_close(&format!("{name} Wx"), &qb.rows.Wx, &qf.rows.Wx);
+        assert_close(&format!("{name} Wu"), &qb.rows.Wu, &qf.rows.Wu);
+        assert_close(&format!("{name} Wd"), &qb.rows.Wd, &qf.rows.Wd);
+    }
+}
+
+/// The full-horizon QP of `full_p` at `c` with the held steps as equality rows u_k − u_{Nc−1} = 0.
+fn held_by_rows(full_p: &codegen::Problem, Nc: usize, c: &Drawn) -> InequalityQp {
+    let reference = oracle::Mpc::new(full_p);
+    let (mut qp, _) = qp_of(full_p, &reference, c);
+    let nu = full_p.nu;
+    let N = full_p.qp.N;
+    let extra = (N - Nc) * nu;
+    let (m, nz) = qp.A.shape();
+    let mut A = DMatrix::zeros(m + extra, nz);
+    A.rows_mut(0, m).copy_from(&qp.A);
+    for k in Nc..N {
+        for i in 0..nu {
+            let r = m + (k - Nc) * nu + i;
+            A[(r, k * nu + i)] = 1.0;
+            A[(r, (Nc - 1) * nu + i)] = -1.0;
+        }
+    }
+    qp.A = A;
+    qp.lower = qp.lower.clone().insert_rows(m, extra, 0.0);
+    qp.upper = qp.upper.clone().insert_rows(m, extra, 0.0);
+    qp
+}
+
+#[test]
+fn oracle_plan_is_the_held_optimum() {
+    for (name, text, seed) in [("pendulum", PENDULUM, 1), ("linear", LINEAR_IPM, 2)] {
+        let p = problem(text);
+        let full_p = uncertified(&full(text));
+        let mut rng = rng(seed);
+        let mut worst: f64 = 0.0;
+        for _ in 0..10 {
+            let c = draw(&p, &mut rng, 1.0);
+            let mut mpc = oracle::Mpc::new(&p);
+            mpc.solve(&c.x0, &window(&p, &c.reference));
+            let qp = held_by_rows(&full_p, p.qp.Nc, &c);
+            if codegen::ipm::solve(&qp, 1e-10, 200).status != codegen::ipm::Status::Converged {
+                continue;
+            }
+            let exact = exact::clarabel(&qp);
+            let plan = mpc.plan();
+            assert_eq!(plan.len(), p.qp.N * p.nu, "{name}: plan() has N steps");
+            for i in 0..plan.len() {
+                worst = worst.max((plan[i] - exact[i]).abs() / span(&p, i));
+            }
+        }
+        println!("{name}: worst |U − U*|∞ / span {worst:e}");
+        assert!(
+            worst <= p.qp.accuracy,
+            "{name}: {worst:e} of the span from the held optimum"
+        );
+    }
+}
+
+/// A generated module beside the oracle over warm-started sequences: the worst plan difference over the
+/// span, after checking that `plan()` holds its last free input.
+macro_rules! run {
+    ($m:ident, $text:expr, $seed:expr, $sequences:expr, $steps:expr, $draw:expr) => {{
+        use $m as m;
+        let p = problem($text);
+        let mut rng = rng($seed);
+        let mut worst: f64 = 0.0;
+        for _ in 0..$sequences {
+            let mut generated = m::Mpc::new();
+            let mut reference = oracle::Mpc::new(&p);
+            let (mut x0, r): (DVector<f64>, DVector<f64>) = $draw(&p, &mut rng);
+            for _ in 0..$steps {
+                let window = window(&p, &r);
+                let u = reference.solve(&x0, &window);
+                let x: [m::Real; m::NX] = std::array::from_fn(|i| x0[i] as m::Real);
+                let row = std::array::from_fn(|i| r[i] as m::Real);
+                let v = generated.solve(&x, &[row; m::N]);
+                for (j, v) in v.iter().enumerate() {
+                    assert!(v.is_finite() && *v >= m::U_MIN[j] && *v <= m::U_MAX[j]);
+                }
+                let plan = generated.plan();
+                assert_eq!(m::CONTROL_HORIZON, p.qp.Nc);
+                for k in m::CONTROL_HORIZON..m::N {
+                    assert_eq!(plan[k], plan[m::CONTROL_HORIZON - 1], "step {k} is held");
+                }
+                let flat: Vec<f64> = plan.iter().flatten().map(|v| *v as f64).collect();
+                for (i, (a, b)) in flat.iter().zip(reference.plan().iter()).enumerate() {
+                    worst = worst.max((a - b).abs() / span(&p, i));
+                }
+                x0 = &p.F * &x0 + &p.G * &u;
+            }
+        }
+        worst
+    }};
+}
+
+/// A state and reference in the certificate's region.
+fn in_region(
+    p: &codegen::Problem,
+    rng: &mut rand_chacha::ChaCha8Rng,
+) -> (DVector<f64>, DVector<f64>) {
+    let c = draw(p, rng, 1.0);
+    (c.x0, c.reference)
+}
+
+/// A state near rest and a reference of the tracked outputs (state components without outputs).
+fn near_rest(
+    p: &codegen::Problem,
+    rng: &mut rand_chacha::ChaCha8Rng,
+) -> (DVector<f64>, DVector<f64>) {
+    (
+        random_vector(rng, p.nx, 0.2),
+        random_vector(rng, p.qp.nz, 1.0),
+    )
+}
+
+#[test]
+fn generated_matches_the_oracle() {
+    let cases = [
+        (
+            "pendulum (active set)",
+            run!(pendulum, PENDULUM, 1, 3, 30, in_region),
+        ),
+        (
+            "linear (active set)",
+            run!(linear_active_set, LINEAR_ACTIVE_SET, 2, 3, 20, in_region),
+        ),
+        (
+            "linear (ipm)",
+            run!(linear_ipm, LINEAR_IPM, 3, 3, 20, in_region),
+        ),
+        (
+            "pendulum (fgm, table)",
+            run!(pendulum_fgm, PENDULUM_FGM, 4, 3, 30, near_rest),
+        ),
+        (
+            "offset-free (fgm, unrolled)",
+            run!(offset_free, OFFSET_FREE, 5, 3, 30, near_rest),
+        ),
+    ];
+    for (name, worst) in cases {
+        println!("{name}: worst |U_generated − U_oracle|∞ / span {worst:e}");
+        assert!(
+            worst <= 1e-9,
+            "{name}: {worst:e} of the span from the oracle"
+        );
+    }
+}
