@@ -83,7 +83,7 @@ pub fn header_hpp(model: &Model, origin: &str) -> String {
         ctor_doc.replace("NAME", name),
         comma(ctor_call),
         comma(reset_call),
-        mlen = format!("{up}_{mlen}"),
+        mlen = format_args!("{up}_{mlen}"),
     );
     if model.estimate {
         let _ = writeln!(
