@@ -12,7 +12,8 @@
 # --cycles N flies the first N control cycles of the reference flight instead of all 8671 (built in:
 # FIRMWARE_CYCLES). --linear flies the spec's own linear model under its state-feedback controller
 # instead of the drone (the `linear` feature, firmware-template/src/linear.rs: from rest to state 2 = 1,
-# 100 cycles unless --cycles); it is on by itself when SPEC's model is `type = "linear"`.
+# 100 cycles unless --cycles); it is on by itself when SPEC's model is `type = "linear"`. For a SPEC
+# with a [kalman] (e.g. specs/paper.toml with --linear) the controller measures C x through its filter.
 # --elf-out copies the built ELF to PATH. One invocation at a time builds (a lock file in the
 # template's target/), since all share the template's build directory and spec-override file.
 # Missing tools (qemu-system-arm, nightly's rust-src) are installed when possible.
@@ -20,7 +21,7 @@
 # Environment: FIRMWARE_TIMEOUT (seconds for the emulated run, default 600).
 set -euo pipefail
 
-usage() { sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; }
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 template="$root/firmware-template"
@@ -88,6 +89,8 @@ fi
 if [ "$linear" = 1 ]; then
     [ -n "$spec" ] || { echo "firmware.sh: --linear needs a SPEC with a linear model" >&2; exit 2; }
     features=(--features spec-override,linear)
+    # Behind a filter the controller measures C x (firmware-template/src/linear.rs).
+    grep -Eq '^[[:space:]]*\[kalman\]' "$spec" && features=(--features spec-override,linear-filter)
 fi
 
 cd "$template"

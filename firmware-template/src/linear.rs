@@ -5,6 +5,9 @@
 //! The plant is `flight_sim::LinearPlant` with the generated module's `F` and `G` (the spec's model
 //! as the controller predicts it, its constants rounded once to `Real`), integrated in f64; the
 //! controller measures the state exactly (the spec has no `[kalman]`: `Controller::step(&x, &xref)`).
+//! With the `linear-filter` feature (scripts/firmware.sh sets it for a spec with a `[kalman]`, such as
+//! `specs/paper.toml`) the controller measures the output `C x` of the module's `C` instead, through its
+//! filter started at rest (`Controller::new(x0)`, `step(&z, &xref)`).
 //! The loop is `flight_sim::fly_linear`, which the host test flies with the same generated module.
 //! The scenario is OSQP's MPC example: from rest (x = 0) to the constant reference with state 2 at 1
 //! (the quadcopter's yaw ψ = 1 rad) and every other state at 0, without noise.
@@ -28,6 +31,11 @@ use crate::{ctrl, out_of_line, parse_cycles, stack, timed_loop, CALIB_ITERS, SEE
 
 const NX: usize = ctrl::NX;
 const NU: usize = ctrl::NU;
+/// What the controller measures: the state under state feedback, the output `C x` behind a filter.
+#[cfg(not(feature = "linear-filter"))]
+const NY: usize = NX;
+#[cfg(feature = "linear-filter")]
+const NY: usize = ctrl::NY;
 
 /// Control cycles flown: `FIRMWARE_CYCLES` when set at build time (`scripts/firmware.sh --cycles N`),
 /// else 100 (10 s of the quadcopter at its 0.1 s period: the yaw step settles within it).
@@ -68,12 +76,12 @@ struct Counts {
     saturated: u64,
 }
 
-impl LinearController<NU, NX, NX> for Timed<'_> {
-    fn step<R: LinearReference<NX>>(&mut self, k: usize, x: &[f64; NX], r: &R) -> [f64; NU] {
+impl LinearController<NU, NY, NX> for Timed<'_> {
+    fn step<R: LinearReference<NX>>(&mut self, k: usize, x: &[f64; NY], r: &R) -> [f64; NU] {
         // The reference window and the conversion to the controller's scalar stay outside the
         // timed span, as in the paper's loop.
         let xref = r.window::<ctrl::Real, { ctrl::N }>(k, dt());
-        let x: [ctrl::Real; NX] = cast(x);
+        let x: [ctrl::Real; NY] = cast(x);
         let painted = self.stack.paint();
         let t0 = self.timer.now();
         let controller = &mut self.controller;
@@ -95,18 +103,46 @@ fn dt() -> f64 {
     cast::<ctrl::Real, f64, 1>(&[ctrl::DT])[0]
 }
 
-/// The model the controller predicts with, in f64: F, G, and the state measured exactly (C = I).
-fn plant() -> LinearPlant<NX, NU, NX> {
+/// The model the controller predicts with, in f64: F, G, and what the controller measures.
+fn plant() -> LinearPlant<NX, NU, NY> {
+    LinearPlant::new(
+        ctrl::F.map(|row| cast(&row)),
+        ctrl::G.map(|row| cast(&row)),
+        measured(),
+        START,
+    )
+}
+
+/// The identity, NX × NX: the reference is the state.
+fn identity() -> [[f64; NX]; NX] {
     let mut c = [[0.0; NX]; NX];
     for (i, row) in c.iter_mut().enumerate() {
         row[i] = 1.0;
     }
-    LinearPlant::new(
-        ctrl::F.map(|row| cast(&row)),
-        ctrl::G.map(|row| cast(&row)),
-        c,
-        START,
-    )
+    c
+}
+
+/// The state measured exactly (C = I).
+#[cfg(not(feature = "linear-filter"))]
+fn measured() -> [[f64; NX]; NY] {
+    identity()
+}
+
+/// The filter's measurement model, the module's `C`.
+#[cfg(feature = "linear-filter")]
+fn measured() -> [[f64; NX]; NY] {
+    ctrl::C.map(|row| cast(&row))
+}
+
+/// A new controller: state feedback needs no start; a filter starts from the plant's state.
+#[cfg(not(feature = "linear-filter"))]
+fn controller() -> ctrl::Controller {
+    ctrl::Controller::new()
+}
+
+#[cfg(feature = "linear-filter")]
+fn controller() -> ctrl::Controller {
+    ctrl::Controller::new(cast(&START))
 }
 
 /// A command's scalars as the raw bits of the controller's `Real` (f32 or f64, in a u64). The
@@ -127,7 +163,7 @@ pub fn run() -> ! {
     let timer = board::Timer::start();
     let calib_ticks = timed_loop(&timer, CALIB_ITERS);
     let mut timed = Timed {
-        controller: ctrl::Controller::new(),
+        controller: controller(),
         timer: &timer,
         ticks: Ticks::new(),
         stack: stack::CycleProbe::new(),
@@ -139,7 +175,11 @@ pub fn run() -> ! {
         .str(board::CPU)
         .str(")\nspec ")
         .str(SPEC_PATH)
-        .str(": linear model, state feedback, ")
+        .str(if cfg!(feature = "linear-filter") {
+            ": linear model, filter, "
+        } else {
+            ": linear model, state feedback, "
+        })
         .str(SCALAR)
         .str(", horizon ")
         .u64(ctrl::N as u64)
@@ -152,7 +192,7 @@ pub fn run() -> ! {
         .str(" cycles from rest to state 2 = 1\n");
 
     let mut plant = plant();
-    let identity = plant.c;
+    let identity = identity();
     let scenario = LinearScenario {
         seed: SEED,
         cycles: CYCLES,

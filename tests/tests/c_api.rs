@@ -5,7 +5,9 @@
 //!   measurements and changing references; the measurements and references are recorded and replayed by
 //!   the C program `tests/c/replay.c` through the C API. The commands, status codes and final plan agree
 //!   bit for bit, on `specs/paper.toml` (f32, a filter), `specs/quadcopter.toml` (constrained, f64,
-//!   state feedback) and `tests/specs/quadcopter-admm-f32.toml` (state feedback, ADMM, f32).
+//!   state feedback) and `tests/specs/quadcopter-admm-f32.toml` (state feedback, ADMM, f32). The C++
+//!   program `tests/c/replay.cpp` replays the same through `NAME.hpp` (its class and `std::array`
+//!   overloads) with the same result.
 //! - `tests/c/two_controllers.c` links two controllers into one program.
 //! - The header lists every public field of `Status`, `SolverStatus` and `FilterStatus`, read here from
 //!   the emitted module independently of `codegen::c_api`.
@@ -253,23 +255,9 @@ macro_rules! fly {
     }};
 }
 
-/// Builds `replay.c` against the controller `name` of `spec` and checks it returns `flight`'s output
-/// bit for bit.
-fn replay(spec: &str, name: &str, measured: &str, takes_x0: bool, flight: Flight) {
-    let Built { dir, lib, .. } = build(spec, name);
-    let up = name.to_uppercase();
-    let exe = work().join(format!("replay-{name}"));
-    let defines = [
-        format!("-DCTL={name}"),
-        format!("-DHEADER=\"{name}.h\""),
-        format!("-DNX={up}_NX"),
-        format!("-DNU={up}_NU"),
-        format!("-DN={up}_N"),
-        format!("-DNM={up}_{measured}"),
-        format!("-DTAKES_X0={}", i32::from(takes_x0)),
-    ];
-    cc(&exe, "replay.c", &[&dir], &defines, &[&lib]);
-    let mut child = Command::new(&exe)
+/// Runs the replay program `exe` on `flight`'s recording and checks it prints the Rust output bit for bit.
+fn check_replay(exe: &Path, name: &str, lang: &str, flight: &Flight) {
+    let mut child = Command::new(exe)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -288,7 +276,7 @@ fn replay(spec: &str, name: &str, measured: &str, takes_x0: bool, flight: Flight
         .expect("stdin takes the recording");
     assert!(
         out.status.success(),
-        "replay-{name} failed ({}): {}",
+        "{lang} replay of {name} failed ({}): {}",
         out.status,
         String::from_utf8_lossy(&out.stderr)
     );
@@ -297,15 +285,49 @@ fn replay(spec: &str, name: &str, measured: &str, takes_x0: bool, flight: Flight
     assert_eq!(
         lines.len(),
         flight.expected.len(),
-        "replay-{name} printed {} lines for {CYCLES} cycles and a plan",
+        "{lang} replay of {name} printed {} lines for {CYCLES} cycles and a plan",
         lines.len()
     );
     for (k, (c, rust)) in lines.iter().zip(&flight.expected).enumerate() {
         assert_eq!(
             *c, rust,
-            "{name}: C and Rust differ at line {k} (cycle {k}, or the plan)"
+            "{name}: {lang} and Rust differ at line {k} (cycle {k}, or the plan)"
         );
     }
+}
+
+/// Builds `replay.c`, and `replay.cpp` over the C++ header, against the controller `name` of `spec` and
+/// checks both return `flight`'s output bit for bit.
+fn replay(spec: &str, name: &str, measured: &str, takes_x0: bool, flight: Flight) {
+    let Built { dir, lib, .. } = build(spec, name);
+    let up = name.to_uppercase();
+    let exe = work().join(format!("replay-{name}"));
+    let defines = [
+        format!("-DCTL={name}"),
+        format!("-DHEADER=\"{name}.h\""),
+        format!("-DNX={up}_NX"),
+        format!("-DNU={up}_NU"),
+        format!("-DN={up}_N"),
+        format!("-DNM={up}_{measured}"),
+        format!("-DTAKES_X0={}", i32::from(takes_x0)),
+    ];
+    cc(&exe, "replay.c", &[&dir], &defines, &[&lib]);
+    check_replay(&exe, name, "C", &flight);
+    // The same through the C++ header's class and std::array overloads.
+    let exe = work().join(format!("replay-cpp-{name}"));
+    let measured_ty = if measured == "NY" {
+        "Measurement"
+    } else {
+        "State"
+    };
+    let defines = [
+        format!("-DCTL={name}"),
+        format!("-DHEADER=\"{name}.hpp\""),
+        format!("-DTAKES_X0={}", i32::from(takes_x0)),
+        format!("-DMEASURED={measured_ty}"),
+    ];
+    compile(Lang::Cpp, &exe, "replay.cpp", &[&dir], &defines, &[&lib]);
+    check_replay(&exe, name, "C++", &flight);
     // The comparison means something only if the flight moved the controller.
     assert!(
         flight.largest_command > 1e-3,

@@ -104,6 +104,17 @@ fn build_and_fly(board: Board, spec: Option<&str>, name: &str, cycles: Option<us
 
 /// Builds the firmware for `board` with `spec` baked in and returns a copy of its ELF.
 fn build(board: Board, spec: Option<&str>, name: &str, cycles: Option<usize>) -> PathBuf {
+    build_with(board, spec, name, cycles, &[])
+}
+
+/// [`build`] with more options of scripts/firmware.sh (`--linear`).
+fn build_with(
+    board: Board,
+    spec: Option<&str>,
+    name: &str,
+    cycles: Option<usize>,
+    options: &[&str],
+) -> PathBuf {
     let _guard = FIRMWARE.lock().unwrap_or_else(|e| e.into_inner());
     let root = root();
     let elf =
@@ -116,6 +127,7 @@ fn build(board: Board, spec: Option<&str>, name: &str, cycles: Option<usize>) ->
         .args(["--board", board.arg, "--build-only", "--elf-out"])
         .arg(&elf)
         .args(cycles.map(|n| format!("--cycles={n}")))
+        .args(options)
         .args(spec.map(|s| root.join(s)));
     let out = clean_env(&mut build)
         .output()
@@ -705,3 +717,7 @@ fn paper_limits_firmware_links_no_panicking_code() {
 /// The linear mode: OSQP's quadcopter flown on its own model on the Cortex-M4F (issue 18.4).
 #[path = "firmware/linear.rs"]
 mod linear;
+
+/// The C firmware: the linear mode in C over the C API, linked with arm-none-eabi-gcc (issue 35.2).
+#[path = "firmware/c.rs"]
+mod c;

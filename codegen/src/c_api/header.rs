@@ -131,6 +131,32 @@ pub fn header(model: &Model, layout: Layout, origin: &str) -> String {
     }
     let _ = writeln!(
         o,
+        "#define {up}_HAS_FILTER {} /* 1: a filter estimates the state (init and reset take x0, step the \
+         measurement z); 0: state feedback (step takes the state x) */",
+        i32::from(model.takes_x0)
+    );
+    if let Some(v) = model.consts.get("ITERATIONS") {
+        let _ = writeln!(
+            o,
+            "#define {up}_ITERATIONS {v} /* solver iterations a cycle */"
+        );
+    }
+    for (c, what) in [
+        (
+            "MACS_PER_ITERATION",
+            "multiply-adds of one solver iteration",
+        ),
+        ("MACS_PER_CYCLE", "multiply-adds of one control cycle"),
+    ] {
+        if let Some(v) = model.report.get(c) {
+            let _ = writeln!(
+                o,
+                "#define {up}_{c} {v} /* {what} (the compiler's count) */"
+            );
+        }
+    }
+    let _ = writeln!(
+        o,
         "\n/* The scalar of every array: the spec's [codegen] scalar. */\ntypedef {real} {name}_real_t;\n"
     );
 
@@ -235,6 +261,32 @@ pub fn header(model: &Model, layout: Layout, origin: &str) -> String {
             o,
             "/*\n * The state estimate the last command was computed from: {up}_NX values in the state's units.\n \
              * Returns 0, or {up}_ERROR_POINTER.\n */\nint32_t {name}_estimate(const {ctl} *ctl, {real} out[{up}_NX]);\n"
+        );
+    }
+    if model.fell_back {
+        let _ = writeln!(
+            o,
+            "/*\n * Whether the last command came from the solver's fallback (the Rust Status::fell_back):\n \
+             * {name}_status's solver field says why.\n * Returns 1 or 0, or {up}_ERROR_POINTER.\n */\n\
+             int32_t {name}_fell_back(const {ctl} *ctl);\n"
+        );
+    }
+    if model.has_matrix("F", "NX", "NX") && model.has_matrix("G", "NX", "NU") {
+        let _ = writeln!(
+            o,
+            "/*\n * The model the controller predicts with, the spec's in {real}: x(k+1) = F x(k) + G u(k) over \
+             one period.\n * f: receives F, {up}_NX rows of {up}_NX; g: receives G, {up}_NX rows of {up}_NU. \
+             For simulating the plant\n *   in a test or a hardware-in-the-loop rig; the controller does not need it.\n \
+             * Returns 0, or {up}_ERROR_POINTER.\n */\n\
+             int32_t {name}_model({real} f[{up}_NX][{up}_NX], {real} g[{up}_NX][{up}_NU]);\n"
+        );
+    }
+    if model.takes_x0 && model.has_matrix("C", "NY", "NX") {
+        let _ = writeln!(
+            o,
+            "/*\n * The measurement model of the filter, z = C x: c receives C, {up}_NY rows of {up}_NX.\n \
+             * Returns 0, or {up}_ERROR_POINTER.\n */\n\
+             int32_t {name}_measurement_model({real} c[{up}_NY][{up}_NX]);\n"
         );
     }
     let _ = writeln!(o, "#ifdef __cplusplus\n}}\n#endif\n\n#endif /* {up}_H */");

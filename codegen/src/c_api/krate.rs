@@ -1,9 +1,9 @@
 //! The C crate on disk: `Cargo.toml` (its own `[workspace]`, `panic = "abort"`, LTO), `src/controller.rs`
-//! (the emitted module), `src/lib.rs` ([`lib_rs`]), `NAME.h` ([`header`]) and, for a cross target,
-//! `.cargo/config.toml` naming it, so that `cargo build --release` in the directory writes
+//! (the emitted module), `src/lib.rs` ([`lib_rs`]), `NAME.h` ([`header`]), `NAME.hpp` ([`header_hpp`])
+//! and, for a cross target, `.cargo/config.toml` naming it, so that `cargo build --release` in the directory writes
 //! `libNAME.a` under `target/[TRIPLE/]release/`.
 
-use super::{header, lib_rs, Layout, Model};
+use super::{header, header_hpp, lib_rs, Layout, Model};
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -39,6 +39,7 @@ pub fn write_crate(
             dir.join(format!("{name}.h")),
             header(&model, layout, origin),
         ),
+        (dir.join(format!("{name}.hpp")), header_hpp(&model, origin)),
     ];
     for (path, text) in &files {
         write_file_if_changed(path, text).map_err(|e| io(path, e))?;

@@ -154,6 +154,13 @@ pub struct Model {
     pub set_last_input: bool,
     /// Whether `Controller::estimate` exists.
     pub estimate: bool,
+    /// Whether `Status::fell_back` exists.
+    pub fell_back: bool,
+    /// The model matrices the module defines as `pub const NAME: [[Real; COLS]; ROWS]`, of those
+    /// the C API hands out (`F`, `G`, and `C` behind a filter): name, rows and columns constants.
+    pub matrices: Vec<(String, String, String)>,
+    /// The `usize` constants of the module's `report` submodule (`MACS_PER_CYCLE`, ...), by name.
+    pub report: BTreeMap<String, usize>,
     /// The status structs, each after the structs its fields use; `Status` is last.
     pub structs: Vec<Struct>,
     /// The enums the status structs use.
@@ -178,11 +185,36 @@ impl Model {
         let mut structs = BTreeMap::new();
         let mut enums = BTreeMap::new();
         let mut controller_fns = Vec::new();
+        let mut fell_back = false;
+        let mut matrices = Vec::new();
+        let mut report = BTreeMap::new();
         for item in items {
             match item {
                 Item::Const(c) if is_usize(&c.ty) => {
                     if let Some(v) = eval(&c.expr, &consts) {
                         consts.insert(c.ident.to_string(), v);
+                    }
+                }
+                Item::Const(c) if MATRICES.contains(&c.ident.to_string().as_str()) => {
+                    if let Some((rows, cols)) = real_matrix(&c.ty) {
+                        matrices.push((c.ident.to_string(), rows, cols));
+                    }
+                }
+                Item::Impl(i) if type_ident(&i.self_ty).as_deref() == Some("Status") => {
+                    fell_back |= i
+                        .items
+                        .iter()
+                        .any(|item| matches!(item, ImplItem::Fn(f) if f.sig.ident == "fell_back"));
+                }
+                Item::Mod(m) if m.ident == "report" => {
+                    for item in m.content.iter().flat_map(|(_, items)| items) {
+                        if let Item::Const(c) = item {
+                            if is_usize(&c.ty) {
+                                if let Some(v) = eval(&c.expr, &report) {
+                                    report.insert(c.ident.to_string(), v);
+                                }
+                            }
+                        }
                     }
                 }
                 Item::Type(t) if t.ident == "Real" => {
@@ -244,6 +276,9 @@ impl Model {
             measured,
             set_last_input: sig("set_last_input").is_some(),
             estimate: sig("estimate").is_some(),
+            fell_back,
+            matrices,
+            report,
             structs: Vec::new(),
             enums: Vec::new(),
         };
@@ -375,6 +410,13 @@ impl Model {
         Ok(())
     }
 
+    /// Whether the module defines the matrix `name` as `[[Real; cols]; rows]`.
+    pub fn has_matrix(&self, name: &str, rows: &str, cols: &str) -> bool {
+        self.matrices
+            .iter()
+            .any(|(n, r, c)| n == name && r == rows && c == cols)
+    }
+
     /// The value of the `usize` constant `name`.
     pub fn dim(&self, name: &str) -> usize {
         self.consts.get(name).copied().unwrap_or(0)
@@ -416,6 +458,25 @@ impl Model {
         }
         (size.next_multiple_of(align), align)
     }
+}
+
+/// The model matrices the C API hands out, when the module defines them over `Real` and its dimension
+/// constants: the dynamics `F` (NX × NX), `G` (NX × NU), and the measurement `C` (NY × NX) of a filter.
+const MATRICES: [&str; 3] = ["F", "G", "C"];
+
+/// `[[Real; COLS]; ROWS]` spelled with two constants: their names.
+fn real_matrix(ty: &Type) -> Option<(String, String)> {
+    let Type::Array(outer) = ty else { return None };
+    let Type::Array(inner) = &*outer.elem else {
+        return None;
+    };
+    let ident = |e: &Expr| match e {
+        Expr::Path(p) => p.path.get_ident().map(|i| i.to_string()),
+        _ => None,
+    };
+    (type_ident(&inner.elem).as_deref() == Some("Real"))
+        .then(|| Some((ident(&outer.len)?, ident(&inner.len)?)))
+        .flatten()
 }
 
 fn is_usize(ty: &Type) -> bool {

@@ -164,6 +164,33 @@ pub fn lib_rs(model: &Model, layout: Layout, origin: &str) -> String {
              \x20   unsafe {{ out.write(*(*ctl).estimate()) }};\n    0\n}}\n"
         );
     }
+    if model.fell_back {
+        let _ = writeln!(
+            o,
+            "/// `{name}_fell_back` of the header.\n#[no_mangle]\npub unsafe extern \"C\" fn {name}_fell_back(ctl: *const Controller) -> i32 {{\n\
+             \x20   if !usable(ctl) {{\n        return ERROR_POINTER;\n    }}\n\
+             \x20   // SAFETY: checked above; the caller initialised *ctl.\n\
+             \x20   i32::from(unsafe {{ (*ctl).status().fell_back() }})\n}}\n"
+        );
+    }
+    if model.has_matrix("F", "NX", "NX") && model.has_matrix("G", "NX", "NU") {
+        let _ = writeln!(
+            o,
+            "/// `{name}_model` of the header.\n#[no_mangle]\npub unsafe extern \"C\" fn {name}_model(f: *mut [[Real; NX]; NX], g: *mut [[Real; NU]; NX]) -> i32 {{\n\
+             \x20   if !usable(f) || !usable(g) {{\n        return ERROR_POINTER;\n    }}\n\
+             \x20   // SAFETY: checked above; the caller passes arrays of the header's shapes.\n\
+             \x20   unsafe {{\n        f.write(m::F);\n        g.write(m::G);\n    }}\n    0\n}}\n"
+        );
+    }
+    if model.takes_x0 && model.has_matrix("C", "NY", "NX") {
+        let _ = writeln!(
+            o,
+            "/// `{name}_measurement_model` of the header.\n#[no_mangle]\npub unsafe extern \"C\" fn {name}_measurement_model(c: *mut [[Real; NX]; m::NY]) -> i32 {{\n\
+             \x20   if !usable(c) {{\n        return ERROR_POINTER;\n    }}\n\
+             \x20   // SAFETY: checked above; the caller passes an array of the header's shape.\n\
+             \x20   unsafe {{ c.write(m::C) }};\n    0\n}}\n"
+        );
+    }
     o.push_str(
         "// No panic is reachable from the functions above; were one reached, it stops here rather than\n\
          // unwinding into C.\n#[panic_handler]\nfn panic(_: &core::panic::PanicInfo) -> ! {\n    loop {}\n}\n",
