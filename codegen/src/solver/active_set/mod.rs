@@ -27,6 +27,7 @@
 use super::constrained::InequalityQp;
 
 pub mod emit;
+pub mod exact;
 pub mod method;
 pub mod mpc;
 pub mod prepared;

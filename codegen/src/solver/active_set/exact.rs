@@ -1,0 +1,985 @@
+//! The exact iteration count of the dual active-set method's **cold** start over `[mpc.region]`
+//! (issue "Exact complexity certification"), after Arnström and Axehill's unifying framework
+//! (ASCertain.jl's `dualQPCert`) and Cimini and Bemporad's certification of the dual method.
+//!
+//! **The parameter.** θ = (x₀, the reference r held constant over the window, u₋₁ where the spec keeps
+//! it, the disturbance d): x₀ and r over the region's box, u₋₁ over the input box, d over the box the
+//! sample draws it from ([`Parameters`]). Each block's scaled sides lo, hi are affine in θ; a block is
+//! partitioned over the parameters its sides depend on, normalised to ξ ∈ [−1, 1]^p.
+//!
+//! **The iteration, run on affine functions.** On a region with a fixed working set W, the multipliers
+//! λ(ξ) and λ*(ξ) = −G_WW⁻¹·d_W(ξ) are affine. After the kernel adds a side p with λ_p = 0, the residual
+//! G_WW·λ + d_W is nonzero in p's row alone, and stays so through the partial steps and removals that
+//! follow (a removed side has λ = 0; a singular step moves along G's null space): so λ* − λ = σ(ξ)·c
+//! with c = ±G_WW⁻¹·e_p constant and σ affine, and the step to the first blocking multiplier is
+//! λ ← λ + t_i·c with t_i = −λ_i/c_i affine. Every decision of the kernel is then the sign of an
+//! affine function, and the region is split at each one:
+//! - **the add rule** (`scan`): the most violated side over the inactive constraints, upper before
+//!   lower, the first of equals; side i wins on {viol_i ≥ 0, viol_i ≥ viol_j for all j};
+//! - **the removal** (`blocking`): the first multiplier to reach zero, i on {λ*_i wrong,
+//!   t_i ≤ t_j for every j whose sign can go wrong}; none on {no λ* wrong}: the full step;
+//! - **the singular add** (a dependent side): the null direction is constant, the blocking ratios
+//!   affine; no blocking ends the region as infeasible;
+//! - **the pivots** (singular marks, `pivot_last`'s reordering) depend on W alone, not on ξ: they are
+//!   taken from a fresh L·D·Lᵀ of G_WW in the kernel's order (the kernel's are updated by rank one;
+//!   the two differ by round-off).
+//!
+//! **Degeneracy and round-off.** The partition is the exact-arithmetic iteration with the kernel's
+//! tolerances on the slacks and multipliers taken as zero: on the boundaries of the regions (measure
+//! zero) and within the tolerances of them (the kernel's primal tolerance 1e-11·(1 + |d|), dual 1e-12)
+//! the kernel may take the other branch. Ties between two affine functions that agree identically
+//! (duplicate rows, multipliers both zero) follow the kernel's rule: the earlier index wins. Regions
+//! whose Chebyshev ball has a radius below [`MIN_RADIUS`] in ξ are pruned as boundary: the count holds
+//! on the region up to these slivers. Neither the cycling guard nor the refactorisation and refinement
+//! at the optimum (no-ops in exact arithmetic) is modelled.
+//!
+//! **The LP.** Emptiness is decided by the Chebyshev ball, max r s.t. aᵢ·ξ + ‖aᵢ‖·r ≤ bᵢ, with Clarabel
+//! (already a dependency, well kept, and robust on the degenerate LPs the splits produce); each
+//! region's bounding box (2p more LPs) then drops the rows it makes redundant and pre-screens the next
+//! split's candidates without an LP.
+//!
+//! **What it covers.** Cold starts (an empty working set) with a constant reference window. The emitted
+//! controller warm-starts from the previous working set; this count does not bound those solves.
+#![allow(non_snake_case)]
+
+use super::{Offsets, Prepared, Tolerances};
+use crate::certify::evidence::Region;
+use crate::lower::problem::Problem;
+use crate::solver::ipm::mpc_qp;
+use nalgebra::{DMatrix, DVector};
+use std::time::Instant;
+
+/// Regions whose Chebyshev ball in ξ ∈ [−1, 1]^p is smaller than this are boundary slivers, pruned.
+pub const MIN_RADIUS: f64 = 1e-7;
+/// A piece's changes of the working set past this end its partition as incomplete (the kernel's own
+/// cap is far lower; this guards against a modelling error looping).
+pub const MAX_DEPTH: usize = 2048;
+
+/// An affine function of ξ: its p coefficients, then the constant.
+type Aff = Vec<f64>;
+
+/// The parameter θ and its box.
+#[derive(Clone, Debug)]
+pub struct Parameters {
+    /// What each entry is: `x0[i]`, `r[i]`, `u_prev[i]`, `d[i]`.
+    pub names: Vec<String>,
+    /// Lower corner.
+    pub lo: Vec<f64>,
+    /// Upper corner.
+    pub hi: Vec<f64>,
+    nx: usize,
+    nz: usize,
+    nlast: usize,
+    nd: usize,
+}
+
+impl Parameters {
+    /// θ = (x₀, r, u₋₁ where kept, d) over the region's states and references, the input box and the
+    /// disturbance's box [−u_max, −u_min] (the sample's).
+    pub fn of(p: &Problem, region: &Region) -> Parameters {
+        let qp = &p.qp;
+        let (nx, nz, nd) = (p.nx, qp.nz, p.nd());
+        let nlast = if p.keeps_last_input() { p.nu } else { 0 };
+        let mut names = Vec::new();
+        let (mut lo, mut hi) = (Vec::new(), Vec::new());
+        for i in 0..nx {
+            names.push(format!("x0[{i}]"));
+            lo.push(region.x_min[i]);
+            hi.push(region.x_max[i]);
+        }
+        for i in 0..nz {
+            names.push(format!("r[{i}]"));
+            lo.push(region.reference_min[i]);
+            hi.push(region.reference_max[i]);
+        }
+        for i in 0..nlast {
+            names.push(format!("u_prev[{i}]"));
+            lo.push(qp.u_min[i]);
+            hi.push(qp.u_max[i]);
+        }
+        for i in 0..nd {
+            names.push(format!("d[{i}]"));
+            lo.push(-qp.u_max[i]);
+            hi.push(-qp.u_min[i]);
+        }
+        Parameters {
+            names,
+            lo,
+            hi,
+            nx,
+            nz,
+            nlast,
+            nd,
+        }
+    }
+
+    /// The dimension of θ.
+    pub fn len(&self) -> usize {
+        self.lo.len()
+    }
+
+    /// Whether θ is empty.
+    pub fn is_empty(&self) -> bool {
+        self.lo.is_empty()
+    }
+
+    /// The box's centre.
+    pub fn centre(&self) -> Vec<f64> {
+        self.lo
+            .iter()
+            .zip(&self.hi)
+            .map(|(a, b)| 0.5 * (a + b))
+            .collect()
+    }
+
+    /// The state, reference, last input and disturbance of θ.
+    pub fn split(&self, theta: &[f64]) -> [DVector<f64>; 4] {
+        let mut at = 0;
+        let mut take = |k: usize| {
+            let v = DVector::from_column_slice(&theta[at..at + k]);
+            at += k;
+            v
+        };
+        let x0 = take(self.nx);
+        let r = take(self.nz);
+        let last = take(self.nlast);
+        let d = take(self.nd);
+        [x0, r, last, d]
+    }
+
+    /// The MPC's QP at θ (the reference constant over the window), as the sampled certificate forms it.
+    pub fn qp(&self, p: &Problem, theta: &[f64]) -> crate::solver::constrained::InequalityQp {
+        let qp = &p.qp;
+        let [x0, r, last, d] = self.split(theta);
+        let last = if self.nlast == 0 {
+            qp.rest_input()
+        } else {
+            last
+        };
+        let (N, nz) = (qp.N, qp.nz);
+        let Xref = DVector::from_fn(N * nz, |i, _| r[i % nz]);
+        let mut f = &qp.Fx * &x0 - &qp.Fr * Xref + &qp.Fu * &last;
+        if self.nd > 0 {
+            f += qp.Fd.columns(0, self.nd) * &d;
+        }
+        let offset = qp.rows.offset(&x0, &d, &last);
+        mpc_qp(qp, &f, &offset)
+    }
+
+    /// θ of the normalised ξ of `parameters` (the others at the centre).
+    pub fn theta(&self, parameters: &[usize], xi: &[f64]) -> Vec<f64> {
+        let mut t = self.centre();
+        for (k, &j) in parameters.iter().enumerate() {
+            t[j] += 0.5 * (self.hi[j] - self.lo[j]) * xi[k];
+        }
+        t
+    }
+}
+
+/// One final region of a block's partition: its sequence of working sets is fixed.
+#[derive(Clone, Debug)]
+pub struct Piece {
+    /// Changes of the working set (additions and removals) the cold solve makes.
+    pub iterations: usize,
+    /// Whether it ends at the optimum (else the dual is unbounded there: infeasible).
+    pub solved: bool,
+    /// The Chebyshev centre, in ξ.
+    pub centre: Vec<f64>,
+    /// The Chebyshev radius, in ξ.
+    pub radius: f64,
+}
+
+/// The partition of one block.
+#[derive(Clone, Debug)]
+pub struct BlockCount {
+    /// The parameters its sides depend on (indices into θ).
+    pub parameters: Vec<usize>,
+    /// The final regions (in the order they were found).
+    pub pieces: Vec<Piece>,
+    /// The most changes of the working set over the region.
+    pub worst: usize,
+    /// θ at the worst region's Chebyshev centre.
+    pub witness: Vec<f64>,
+    /// Regions that end infeasible.
+    pub infeasible: usize,
+    /// LPs solved.
+    pub lps: usize,
+    /// LPs Clarabel did not solve: their regions were dropped as empty (0 on the shipped specs).
+    pub lp_failures: usize,
+    /// Seconds taken.
+    pub seconds: f64,
+    /// False when the work budget ran out (or a piece exceeded [`MAX_DEPTH`]): `worst` is then over
+    /// the regions done only.
+    pub complete: bool,
+}
+
+/// The exact cold-start count of a QP's blocks.
+#[derive(Clone, Debug)]
+pub struct ExactCount {
+    /// θ.
+    pub parameters: Parameters,
+    /// Per block.
+    pub blocks: Vec<BlockCount>,
+    /// Changes of the working set over all blocks, the count the kernel caps: the sum of the blocks'
+    /// maxima (exact when no two blocks share a parameter, an upper bound otherwise).
+    pub worst: usize,
+    /// Whether no two blocks share a parameter (then `worst` is attained at `witness`).
+    pub disjoint: bool,
+    /// θ with each block's parameters at its worst region's centre.
+    pub witness: Vec<f64>,
+    /// Final regions over all blocks.
+    pub regions: usize,
+    /// Seconds taken.
+    pub seconds: f64,
+    /// Whether every block completed.
+    pub complete: bool,
+}
+
+/// Per constraint of a block, its scaled lower and upper sides at fixed offsets, as the kernel's
+/// `offsets` forms them (z_free = −H_bb⁻¹·f_b, then (side − aᵀz_free)/s).
+fn scaled_sides(prepared: &Prepared, offsets: &Offsets, b: usize) -> (Vec<f64>, Vec<f64>) {
+    let block = &prepared.blocks[b];
+    let n = block.n();
+    let f = DVector::from_fn(n, |i, _| -offsets.f[block.vars[i]]);
+    let y = block
+        .R
+        .transpose()
+        .solve_lower_triangular(&f)
+        .unwrap_or_else(|| DVector::zeros(n));
+    let z = block
+        .R
+        .solve_upper_triangular(&y)
+        .unwrap_or_else(|| DVector::zeros(n));
+    let mut lo = Vec::with_capacity(block.rows.len());
+    let mut hi = Vec::with_capacity(block.rows.len());
+    for (c, coefficients) in block.coefficients.iter().enumerate() {
+        let a: f64 = coefficients.iter().map(|&(p, v)| v * z[p]).sum();
+        let side = block.packed.sides[c];
+        let s = block.scale[c];
+        lo.push((offsets.lower[side] - a) / s);
+        hi.push((offsets.upper[side] - a) / s);
+    }
+    (lo, hi)
+}
+
+/// What limits the partition's work.
+#[derive(Clone, Copy, Debug)]
+pub struct Limits {
+    /// LPs per block at most.
+    pub lps: usize,
+}
+
+/// The exact cold-start count of every block of `prepared` (the MPC's QP of `p`) over `region`.
+pub fn exact_count(
+    p: &Problem,
+    prepared: &Prepared,
+    region: &Region,
+    limits: Limits,
+) -> ExactCount {
+    let start = Instant::now();
+    let parameters = Parameters::of(p, region);
+    let np = parameters.len();
+    let offsets_at = |theta: &[f64]| prepared.offsets(&parameters.qp(p, theta)).ok();
+    let centre = parameters.centre();
+    let base = offsets_at(&centre);
+    let unit: Vec<Option<Offsets>> = (0..np)
+        .map(|j| {
+            let mut t = centre.clone();
+            t[j] = parameters.hi[j];
+            offsets_at(&t)
+        })
+        .collect();
+    let mut blocks = Vec::new();
+    for b in 0..prepared.blocks.len() {
+        let (Some(base), true) = (&base, unit.iter().all(Option::is_some)) else {
+            blocks.push(BlockCount {
+                parameters: Vec::new(),
+                pieces: Vec::new(),
+                worst: 0,
+                witness: centre.clone(),
+                infeasible: 0,
+                lps: 0,
+                lp_failures: 0,
+                seconds: 0.0,
+                complete: false,
+            });
+            continue;
+        };
+        let (lo0, hi0) = scaled_sides(prepared, base, b);
+        let columns: Vec<(Vec<f64>, Vec<f64>)> = unit
+            .iter()
+            .map(|o| {
+                let (lo, hi) = scaled_sides(prepared, o.as_ref().unwrap_or(base), b);
+                (
+                    lo.iter().zip(&lo0).map(|(a, c)| a - c).collect(),
+                    hi.iter().zip(&hi0).map(|(a, c)| a - c).collect(),
+                )
+            })
+            .collect();
+        // The block's parameters: those moving a finite side by more than round-off.
+        let scale = lo0
+            .iter()
+            .chain(&hi0)
+            .filter(|v| v.is_finite())
+            .fold(1.0f64, |m, v| m.max(v.abs()));
+        let used: Vec<usize> = (0..np)
+            .filter(|&j| {
+                let (dl, dh) = &columns[j];
+                dl.iter()
+                    .zip(&lo0)
+                    .chain(dh.iter().zip(&hi0))
+                    .any(|(d, c)| c.is_finite() && d.abs() > 1e-12 * scale)
+            })
+            .collect();
+        let aff = |base: &[f64], which: fn(&(Vec<f64>, Vec<f64>)) -> &Vec<f64>| {
+            base.iter()
+                .enumerate()
+                .map(|(c, v0)| {
+                    v0.is_finite().then(|| {
+                        let mut a: Aff = used.iter().map(|&j| which(&columns[j])[c]).collect();
+                        a.push(*v0);
+                        a
+                    })
+                })
+                .collect::<Vec<Option<Aff>>>()
+        };
+        let lo = aff(&lo0, |c| &c.0);
+        let hi = aff(&hi0, |c| &c.1);
+        let mut count = partition(prepared, b, lo, hi, used.len(), limits);
+        count.witness = parameters.theta(&used, &count.witness);
+        count.parameters = used;
+        blocks.push(count);
+    }
+    let mut witness = centre.clone();
+    let mut seen = vec![false; np];
+    let mut disjoint = true;
+    for b in &blocks {
+        for &j in &b.parameters {
+            disjoint &= !seen[j];
+            seen[j] = true;
+            witness[j] = b.witness[j];
+        }
+    }
+    ExactCount {
+        worst: blocks.iter().map(|b| b.worst).sum(),
+        regions: blocks.iter().map(|b| b.pieces.len()).sum(),
+        complete: blocks.iter().all(|b| b.complete),
+        parameters,
+        blocks,
+        disjoint,
+        witness,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+/// A polyhedron {ξ : aᵢ·ξ ≤ bᵢ} inside the box [−1, 1]^p, with a point and a bounding box.
+#[derive(Clone, Debug)]
+struct Polyhedron {
+    rows: Vec<(Vec<f64>, f64)>,
+    centre: Vec<f64>,
+    radius: f64,
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+}
+
+/// Where a state of the symbolic iteration stands in the kernel's loop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Phase {
+    /// The top of the loop: λ* (or the singular direction) and the blocking test.
+    Top,
+    /// After a full step: the scan.
+    Scan,
+}
+
+/// One region of the symbolic iteration with its working set and affine multipliers.
+#[derive(Clone, Debug)]
+struct State {
+    region: Polyhedron,
+    /// (constraint, at its upper side), in the factor's order.
+    set: Vec<(usize, bool)>,
+    lambda: Vec<Aff>,
+    /// The side added last, whose full step is pending.
+    pending: Option<usize>,
+    singular: bool,
+    iterations: usize,
+    phase: Phase,
+    /// Final: solved without another change.
+    done: bool,
+}
+
+/// The symbolic iteration on one block.
+struct Certifier<'a> {
+    G: &'a DMatrix<f64>,
+    n: usize,
+    lo: Vec<Option<Aff>>,
+    hi: Vec<Option<Aff>>,
+    p: usize,
+    tol: Tolerances,
+    lps: usize,
+    /// LPs Clarabel did not solve (their regions are dropped as empty).
+    failures: usize,
+}
+
+/// a + s·b.
+fn axpy(a: &[f64], s: f64, b: &[f64]) -> Aff {
+    a.iter().zip(b).map(|(x, y)| x + s * y).collect()
+}
+
+/// a − b.
+fn sub(a: &[f64], b: &[f64]) -> Aff {
+    axpy(a, -1.0, b)
+}
+
+/// s·a.
+fn scale(a: &[f64], s: f64) -> Aff {
+    a.iter().map(|x| s * x).collect()
+}
+
+/// Whether `h` (a difference of `x` and `y`) is zero up to round-off in x and y.
+fn identical(h: &[f64], x: &[f64], y: &[f64]) -> bool {
+    let size = x.iter().chain(y).fold(1.0f64, |m, v| m.max(v.abs()));
+    h.iter().all(|v| v.abs() <= 1e-9 * size)
+}
+
+/// The rows {h ≤ 0} that make `x_i` win over every `x_j` in an argmax (`max = true`) or argmin, the
+/// first index winning ties; `None` when an identical earlier entry always wins.
+fn winner_rows(values: &[Aff], i: usize, max: bool) -> Option<Vec<Aff>> {
+    let mut rows = Vec::new();
+    for (j, v) in values.iter().enumerate() {
+        if j == i {
+            continue;
+        }
+        // h = x_j − x_i ≤ 0 for a max, x_i − x_j ≤ 0 for a min.
+        let h = if max {
+            sub(v, &values[i])
+        } else {
+            sub(&values[i], v)
+        };
+        if identical(&h, v, &values[i]) {
+            if j < i {
+                return None;
+            }
+            continue;
+        }
+        rows.push(h);
+    }
+    Some(rows)
+}
+
+impl Certifier<'_> {
+    /// Maximises cᵀx over {A·x ≤ b} with Clarabel: the maximiser, or `None` when it has none.
+    fn lp(&mut self, c: &[f64], rows: &[(Vec<f64>, f64)]) -> Option<Vec<f64>> {
+        use clarabel::algebra::CscMatrix;
+        use clarabel::solver::{
+            DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+        };
+        self.lps += 1;
+        let (n, m) = (c.len(), rows.len());
+        let (mut colptr, mut rowval, mut nzval) = (vec![0], Vec::new(), Vec::new());
+        for j in 0..n {
+            for (i, (a, _)) in rows.iter().enumerate() {
+                if a[j] != 0.0 {
+                    rowval.push(i);
+                    nzval.push(a[j]);
+                }
+            }
+            colptr.push(rowval.len());
+        }
+        let A = CscMatrix::new(m, n, colptr, rowval, nzval);
+        let P = CscMatrix::zeros((n, n));
+        let q: Vec<f64> = c.iter().map(|v| -v).collect();
+        let b: Vec<f64> = rows.iter().map(|r| r.1).collect();
+        let settings = DefaultSettings {
+            verbose: false,
+            presolve_enable: false,
+            ..DefaultSettings::default()
+        };
+        let mut solver = DefaultSolver::new(
+            &P,
+            &q,
+            &A,
+            &b,
+            &[SupportedConeT::NonnegativeConeT(m)],
+            settings,
+        )
+        .ok()?;
+        solver.solve();
+        match solver.solution.status {
+            SolverStatus::Solved | SolverStatus::AlmostSolved => Some(solver.solution.x.clone()),
+            _ => {
+                self.failures += 1;
+                None
+            }
+        }
+    }
+
+    /// The region `parent` ∩ {h ≤ 0 for each h of `cuts`}, with its Chebyshev ball and bounding box;
+    /// `None` when it is empty or a sliver.
+    fn cut(&mut self, parent: &Polyhedron, cuts: &[Aff]) -> Option<Polyhedron> {
+        let p = self.p;
+        let mut rows = parent.rows.clone();
+        let mut added = false;
+        for h in cuts {
+            let (a, b) = (&h[..p], -h[p]);
+            let norm = a.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let size = h.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+            if norm <= 1e-12 * size {
+                if b < -1e-12 * size {
+                    return None;
+                }
+                continue;
+            }
+            // Its extremes over the parent's bounding box.
+            let (mut most, mut least) = (0.0, 0.0);
+            for j in 0..p {
+                let (x, y) = (a[j] * parent.lo[j], a[j] * parent.hi[j]);
+                most += x.max(y);
+                least += x.min(y);
+            }
+            if most <= b {
+                continue;
+            }
+            if least > b + 1e-9 * norm {
+                return None;
+            }
+            rows.push((a.iter().map(|v| v / norm).collect(), b / norm));
+            added = true;
+        }
+        if !added {
+            return Some(parent.clone());
+        }
+        // The parent's bounding box holds the region: its faces are rows of every LP (the rows it
+        // made redundant were dropped).
+        let mut bounded = rows.clone();
+        for j in 0..p {
+            let mut a = vec![0.0; p];
+            a[j] = 1.0;
+            bounded.push((a.clone(), parent.hi[j]));
+            a[j] = -1.0;
+            bounded.push((a, -parent.lo[j]));
+        }
+        // The Chebyshev ball: max r s.t. a·ξ + r ≤ b (rows of unit norm).
+        let ball: Vec<(Vec<f64>, f64)> = bounded
+            .iter()
+            .map(|(a, b)| {
+                let mut a = a.clone();
+                a.push(1.0);
+                (a, *b)
+            })
+            .chain(std::iter::once((
+                {
+                    let mut a = vec![0.0; p];
+                    a.push(1.0);
+                    a
+                },
+                1.0,
+            )))
+            .collect();
+        let mut objective = vec![0.0; p];
+        objective.push(1.0);
+        let x = self.lp(&objective, &ball)?;
+        let radius = x[p];
+        if !(radius >= MIN_RADIUS) {
+            return None;
+        }
+        let centre = x[..p].to_vec();
+        // The bounding box, then the rows it makes redundant dropped.
+        let (mut lo, mut hi) = (parent.lo.clone(), parent.hi.clone());
+        for j in 0..p {
+            for sign in [1.0, -1.0] {
+                let mut c = vec![0.0; p];
+                c[j] = sign;
+                if let Some(x) = self.lp(&c, &bounded) {
+                    if sign > 0.0 {
+                        hi[j] = hi[j].min(x[j] + 1e-9);
+                    } else {
+                        lo[j] = lo[j].max(x[j] - 1e-9);
+                    }
+                }
+            }
+        }
+        rows.retain(|(a, b)| {
+            let most: f64 = (0..p).map(|j| (a[j] * lo[j]).max(a[j] * hi[j])).sum();
+            most > *b
+        });
+        Some(Polyhedron {
+            rows,
+            centre,
+            radius,
+            lo,
+            hi,
+        })
+    }
+
+    /// The side of working entry (c, upper).
+    fn side(&self, c: usize, upper: bool) -> Aff {
+        let s = if upper { &self.hi[c] } else { &self.lo[c] };
+        s.clone().unwrap_or_else(|| vec![0.0; self.p + 1])
+    }
+
+    /// The pivots D of the L·D·Lᵀ of G_WW in the set's order.
+    fn pivots(&self, set: &[(usize, bool)]) -> Vec<f64> {
+        let k = set.len();
+        let mut L = DMatrix::<f64>::zeros(k, k);
+        let mut d = vec![0.0; k];
+        for i in 0..k {
+            for j in 0..=i {
+                let mut s = self.G[(set[i].0, set[j].0)];
+                for q in 0..j {
+                    s -= L[(i, q)] * L[(j, q)] * d[q];
+                }
+                if j == i {
+                    d[i] = s;
+                } else {
+                    L[(i, j)] = if d[j] > 0.0 { s / d[j] } else { 0.0 };
+                }
+            }
+        }
+        d
+    }
+
+    /// The kernel's `push`: appends (c, upper) with multiplier `lambda`; singular when its pivot is
+    /// below the tolerance or the set has more sides than variables.
+    fn push(&self, s: &mut State, c: usize, upper: bool, lambda: Aff) {
+        if s.set.len() > self.n {
+            s.singular = true;
+            return;
+        }
+        s.set.push((c, upper));
+        s.lambda.push(lambda);
+        let pivot = *self.pivots(&s.set).last().unwrap_or(&1.0);
+        if pivot.is_nan() || pivot < self.tol.singular || s.set.len() > self.n {
+            s.singular = true;
+        }
+    }
+
+    /// The kernel's `pivot_last`.
+    fn pivot_last(&self, s: &mut State) {
+        let k = s.set.len();
+        if k < 2 {
+            return;
+        }
+        let d = self.pivots(&s.set);
+        let r = k - 2;
+        if d[r] < self.tol.pivot && d[r] < d[k - 1] {
+            let (c, upper) = s.set.remove(r);
+            let lambda = s.lambda.remove(r);
+            self.push(s, c, upper, lambda);
+        }
+    }
+
+    /// The kernel's `remove`.
+    fn remove(&self, s: &mut State, i: usize) {
+        s.set.remove(i);
+        s.lambda.remove(i);
+        s.singular = false;
+        let last = self.pivots(&s.set).last().copied().unwrap_or(1.0);
+        if last.is_nan() || last < self.tol.singular {
+            s.singular = true;
+        } else {
+            self.pivot_last(s);
+        }
+    }
+
+    /// G_WW⁻¹ of a nonsingular set.
+    fn inverse(&self, set: &[(usize, bool)]) -> DMatrix<f64> {
+        let k = set.len();
+        let Gw = DMatrix::from_fn(k, k, |i, j| self.G[(set[i].0, set[j].0)]);
+        Gw.clone()
+            .cholesky()
+            .map(|c| c.inverse())
+            .or_else(|| Gw.try_inverse())
+            .unwrap_or_else(|| DMatrix::zeros(k, k))
+    }
+
+    /// One decision of the kernel on `s`: its children, or `Err((solved))` when `s` is final.
+    fn advance(&mut self, s: State) -> Result<Vec<State>, bool> {
+        let p = self.p;
+        let k = s.set.len();
+        if s.singular {
+            // The null direction (−G'⁻¹·g, 1), flipped at a lower side.
+            let last = k - 1;
+            let head = &s.set[..last];
+            let inv = self.inverse(head);
+            let g = DVector::from_fn(last, |i, _| self.G[(head[i].0, s.set[last].0)]);
+            let x = -(&inv * g);
+            let sign = if s.set[last].1 { 1.0 } else { -1.0 };
+            let dir: Vec<f64> = (0..k)
+                .map(|i| sign * if i < last { x[i] } else { 1.0 })
+                .collect();
+            let eligible: Vec<usize> = (0..k)
+                .filter(|&j| {
+                    if s.set[j].1 {
+                        dir[j] < -self.tol.dual
+                    } else {
+                        dir[j] > self.tol.dual
+                    }
+                })
+                .collect();
+            if eligible.is_empty() {
+                return Err(false);
+            }
+            let t: Vec<Aff> = eligible
+                .iter()
+                .map(|&j| scale(&s.lambda[j], -1.0 / dir[j]))
+                .collect();
+            let mut children = Vec::new();
+            for (e, &i) in eligible.iter().enumerate() {
+                let Some(cuts) = winner_rows(&t, e, false) else {
+                    continue;
+                };
+                let Some(region) = self.cut(&s.region, &cuts) else {
+                    continue;
+                };
+                let mut c = s.clone();
+                c.region = region;
+                for j in 0..k {
+                    c.lambda[j] = axpy(&c.lambda[j], dir[j], &t[e]);
+                }
+                c.lambda[i] = vec![0.0; p + 1];
+                self.remove(&mut c, i);
+                c.iterations += 1;
+                c.phase = Phase::Top;
+                children.push(c);
+            }
+            return Ok(children);
+        }
+        if s.phase == Phase::Top {
+            let Some(pending) = s.pending else {
+                let mut c = s;
+                c.phase = Phase::Scan;
+                return Ok(vec![c]);
+            };
+            let inv = self.inverse(&s.set);
+            let at = s.set.iter().position(|e| e.0 == pending).unwrap_or(k - 1);
+            let sign = if s.set[at].1 { 1.0 } else { -1.0 };
+            let dir: Vec<f64> = (0..k).map(|j| sign * inv[(j, at)]).collect();
+            let sides: Vec<Aff> = s.set.iter().map(|&(c, u)| self.side(c, u)).collect();
+            let star: Vec<Aff> = (0..k)
+                .map(|i| {
+                    let mut a = vec![0.0; p + 1];
+                    for (j, side) in sides.iter().enumerate() {
+                        a = axpy(&a, -inv[(i, j)], side);
+                    }
+                    a
+                })
+                .collect();
+            let eligible: Vec<usize> = (0..k)
+                .filter(|&j| {
+                    j != at
+                        && if s.set[j].1 {
+                            dir[j] < -1e-13
+                        } else {
+                            dir[j] > 1e-13
+                        }
+                })
+                .collect();
+            // wrong_j > 0: λ*_j has the wrong sign.
+            let wrong: Vec<Aff> = eligible
+                .iter()
+                .map(|&j| scale(&star[j], if s.set[j].1 { -1.0 } else { 1.0 }))
+                .collect();
+            let t: Vec<Aff> = eligible
+                .iter()
+                .map(|&j| scale(&s.lambda[j], -1.0 / dir[j]))
+                .collect();
+            let mut children = Vec::new();
+            // The full step: no multiplier goes wrong.
+            if let Some(region) = self.cut(&s.region, &wrong) {
+                let mut c = s.clone();
+                c.region = region;
+                c.lambda = star.clone();
+                c.pending = None;
+                c.phase = Phase::Scan;
+                children.push(c);
+            }
+            for (e, &i) in eligible.iter().enumerate() {
+                let size = wrong[e].iter().fold(1.0f64, |m, v| m.max(v.abs()));
+                if wrong[e][..p].iter().all(|v| v.abs() <= 1e-9 * size) && wrong[e][p] <= 0.0 {
+                    continue;
+                }
+                let Some(mut cuts) = winner_rows(&t, e, false) else {
+                    continue;
+                };
+                cuts.push(scale(&wrong[e], -1.0));
+                let Some(region) = self.cut(&s.region, &cuts) else {
+                    continue;
+                };
+                let mut c = s.clone();
+                c.region = region;
+                for j in 0..k {
+                    c.lambda[j] = axpy(&c.lambda[j], dir[j], &t[e]);
+                }
+                c.lambda[i] = vec![0.0; p + 1];
+                self.remove(&mut c, i);
+                c.iterations += 1;
+                c.phase = Phase::Top;
+                children.push(c);
+            }
+            return Ok(children);
+        }
+        // The scan: the most violated inactive side.
+        let nc = self.lo.len();
+        let mut candidates: Vec<(usize, bool)> = Vec::new();
+        let mut violations: Vec<Aff> = Vec::new();
+        for c in 0..nc {
+            if s.set.iter().any(|e| e.0 == c) {
+                continue;
+            }
+            let mut mu = vec![0.0; p + 1];
+            for (i, &(w, _)) in s.set.iter().enumerate() {
+                mu = axpy(&mu, -self.G[(w, c)], &s.lambda[i]);
+            }
+            for upper in [true, false] {
+                let side = if upper { &self.hi[c] } else { &self.lo[c] };
+                let Some(side) = side else {
+                    continue;
+                };
+                let v = if upper {
+                    sub(&mu, side)
+                } else {
+                    sub(side, &mu)
+                };
+                // Never positive over the bounding box: never added here.
+                let most: f64 = (0..p)
+                    .map(|j| (v[j] * s.region.lo[j]).max(v[j] * s.region.hi[j]))
+                    .sum::<f64>()
+                    + v[p];
+                let size = v
+                    .iter()
+                    .chain(side.iter())
+                    .fold(1.0f64, |m, x| m.max(x.abs()));
+                if most <= 1e-12 * size {
+                    continue;
+                }
+                candidates.push((c, upper));
+                violations.push(v);
+            }
+        }
+        let mut children = Vec::new();
+        let none: Vec<Aff> = violations.clone();
+        let solved = self.cut(&s.region, &none);
+        for (e, &(c, upper)) in candidates.iter().enumerate() {
+            let Some(mut cuts) = winner_rows(&violations, e, true) else {
+                continue;
+            };
+            cuts.push(scale(&violations[e], -1.0));
+            let Some(region) = self.cut(&s.region, &cuts) else {
+                continue;
+            };
+            let mut child = s.clone();
+            child.region = region;
+            self.push(&mut child, c, upper, vec![0.0; p + 1]);
+            if !child.singular {
+                self.pivot_last(&mut child);
+            }
+            child.pending = Some(c);
+            child.iterations += 1;
+            child.phase = Phase::Top;
+            children.push(child);
+        }
+        match solved {
+            Some(_) if children.is_empty() => Err(true),
+            Some(region) => {
+                // The solved part: a final region of its own.
+                let mut done = s;
+                done.region = region;
+                done.done = true;
+                children.push(done);
+                Ok(children)
+            }
+            None => Ok(children),
+        }
+    }
+}
+
+/// The partition of block `b` of `prepared` with the given affine sides in p parameters.
+fn partition(
+    prepared: &Prepared,
+    b: usize,
+    lo: Vec<Option<Aff>>,
+    hi: Vec<Option<Aff>>,
+    p: usize,
+    limits: Limits,
+) -> BlockCount {
+    let start = Instant::now();
+    let block = &prepared.blocks[b];
+    let mut cert = Certifier {
+        G: &block.G,
+        n: block.n(),
+        lo,
+        hi,
+        p,
+        tol: Tolerances::F64,
+        lps: 0,
+        failures: 0,
+    };
+    let mut rows = Vec::new();
+    for j in 0..p {
+        for sign in [1.0, -1.0] {
+            let mut a = vec![0.0; p];
+            a[j] = sign;
+            rows.push((a, 1.0));
+        }
+    }
+    let root = State {
+        region: Polyhedron {
+            rows,
+            centre: vec![0.0; p],
+            radius: 1.0,
+            lo: vec![-1.0; p],
+            hi: vec![1.0; p],
+        },
+        set: Vec::new(),
+        lambda: Vec::new(),
+        pending: None,
+        singular: false,
+        iterations: 0,
+        phase: Phase::Top,
+        done: false,
+    };
+    let mut stack = vec![root];
+    let mut pieces = Vec::new();
+    let mut complete = true;
+    let mut infeasible = 0;
+    while let Some(s) = stack.pop() {
+        if cert.lps > limits.lps || s.iterations > MAX_DEPTH {
+            complete = false;
+            break;
+        }
+        if s.done {
+            pieces.push(Piece {
+                iterations: s.iterations,
+                solved: true,
+                centre: s.region.centre.clone(),
+                radius: s.region.radius,
+            });
+            continue;
+        }
+        let (iterations, centre, radius) = (s.iterations, s.region.centre.clone(), s.region.radius);
+        match cert.advance(s) {
+            Ok(children) => stack.extend(children),
+            Err(solved) => {
+                infeasible += usize::from(!solved);
+                pieces.push(Piece {
+                    iterations,
+                    solved,
+                    centre,
+                    radius,
+                });
+            }
+        }
+    }
+    let worst = pieces.iter().max_by_key(|q| q.iterations);
+    BlockCount {
+        parameters: Vec::new(),
+        worst: worst.map_or(0, |q| q.iterations),
+        witness: worst.map_or(vec![0.0; p], |q| q.centre.clone()),
+        pieces,
+        infeasible,
+        lps: cert.lps,
+        lp_failures: cert.failures,
+        seconds: start.elapsed().as_secs_f64(),
+        complete,
+    }
+}
