@@ -40,7 +40,7 @@ pub mod paper_faithful {
     pub const EMISSION: &str = "lanes";
     /// Entries per plan step: the NU inputs padded to 4 SIMD lanes; the padding stays zero.
     pub const LANES: usize = 4;
-    /// A plan: one row of LANES per predicted step.
+    /// A plan: one row of LANES per predicted step (per free step under a control horizon).
     type Plan = [[Real; LANES]; N];
     /// The χ² gate on the normalized innovation squared eᵀS⁻¹e ([kalman] gate): a consistent filter's reading exceeds it with probability 1.0e-6 (NY = 3 degrees of freedom).
     pub const GATE: Real = 30.66485f32;

@@ -7,8 +7,6 @@
 //! - Generated controllers (active set, interior point, FGM with f from the tables and unrolled) against
 //!   the oracle on warm-started closed loops: the same plan, N steps from `plan()`, the held steps equal.
 #![allow(non_snake_case)]
-// The active-set module's `i % NU` for the pendulum's single input (NU = 1).
-#![allow(clippy::modulo_one)]
 
 use codegen::ipm::InequalityQp;
 use codegen::oracle;

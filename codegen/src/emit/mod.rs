@@ -189,6 +189,16 @@ pub fn held_steps(p: &Problem, blocks: TokenStream, last: TokenStream) -> TokenS
     }
 }
 
+/// The input that plan entry `i` drives: `i % NU`, or `0` for a single input (clippy's
+/// `modulo_one` would flag `i % 1` in the generated module).
+pub fn input_of(p: &Problem) -> TokenStream {
+    if p.nu == 1 {
+        quote!(0)
+    } else {
+        quote!(i % NU)
+    }
+}
+
 /// The module's items without the `mod` wrapper.
 pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     let qp = &p.qp;

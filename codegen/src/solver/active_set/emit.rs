@@ -590,7 +590,7 @@ fn checked(
 /// The kernels section: the helpers, the rows' values and violations, and the kernel (`kernel.rs`,
 /// as the reference compiles it) with a tally that counts nothing.
 fn kernels(m: &Method) -> TokenStream {
-    let _ = m;
+    let input = crate::emit::input_of(m.p);
     let kernel: TokenStream = KERNEL_SOURCE
         .replace("pub(super) ", "")
         .parse()
@@ -601,7 +601,7 @@ fn kernels(m: &Method) -> TokenStream {
             let mut out = [0.0; NP];
             let mut i = 0;
             while i < NP {
-                out[i] = REST[i % NU];
+                out[i] = REST[#input];
                 i += 1;
             }
             out
@@ -610,7 +610,7 @@ fn kernels(m: &Method) -> TokenStream {
         /// Plan entry `i` projected onto its input's bounds; NaN maps to the lower bound.
         #[inline(always)]
         fn clamp(v: Real, i: usize) -> Real {
-            let (lo, hi) = (LO[i % NU], HI[i % NU]);
+            let (lo, hi) = (LO[#input], HI[#input]);
             let v = if v >= lo { v } else { lo };
             if v <= hi { v } else { hi }
         }

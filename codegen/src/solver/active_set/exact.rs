@@ -57,6 +57,8 @@ pub const MAX_DEPTH: usize = 2048;
 
 /// An affine function of ξ: its p coefficients, then the constant.
 type Aff = Vec<f64>;
+/// Picks the lower- or upper-bound half of a parameter column.
+type ColumnPick = fn(&(Vec<f64>, Vec<f64>)) -> &Vec<f64>;
 
 /// The parameter θ and its box.
 #[derive(Clone, Debug)]
@@ -331,7 +333,7 @@ pub fn exact_count(
                     .any(|(d, c)| c.is_finite() && d.abs() > 1e-12 * scale)
             })
             .collect();
-        let aff = |base: &[f64], which: fn(&(Vec<f64>, Vec<f64>)) -> &Vec<f64>| {
+        let aff = |base: &[f64], which: ColumnPick| {
             base.iter()
                 .enumerate()
                 .map(|(c, v0)| {
@@ -531,8 +533,8 @@ impl Certifier<'_> {
             }
             // Its extremes over the parent's bounding box.
             let (mut most, mut least) = (0.0, 0.0);
-            for j in 0..p {
-                let (x, y) = (a[j] * parent.lo[j], a[j] * parent.hi[j]);
+            for ((aj, lo), hi) in a.iter().zip(&parent.lo).zip(&parent.hi).take(p) {
+                let (x, y) = (aj * lo, aj * hi);
                 most += x.max(y);
                 least += x.min(y);
             }
@@ -579,7 +581,7 @@ impl Certifier<'_> {
         objective.push(1.0);
         let x = self.lp(&objective, &ball)?;
         let radius = x[p];
-        if !(radius >= MIN_RADIUS) {
+        if radius.is_nan() || radius < MIN_RADIUS {
             return None;
         }
         let centre = x[..p].to_vec();
@@ -733,8 +735,8 @@ impl Certifier<'_> {
                 };
                 let mut c = s.clone();
                 c.region = region;
-                for j in 0..k {
-                    c.lambda[j] = axpy(&c.lambda[j], dir[j], &t[e]);
+                for (l, d) in c.lambda.iter_mut().zip(&dir).take(k) {
+                    *l = axpy(l, *d, &t[e]);
                 }
                 c.lambda[i] = vec![0.0; p + 1];
                 self.remove(&mut c, i);
@@ -807,8 +809,8 @@ impl Certifier<'_> {
                 };
                 let mut c = s.clone();
                 c.region = region;
-                for j in 0..k {
-                    c.lambda[j] = axpy(&c.lambda[j], dir[j], &t[e]);
+                for (l, d) in c.lambda.iter_mut().zip(&dir).take(k) {
+                    *l = axpy(l, *d, &t[e]);
                 }
                 c.lambda[i] = vec![0.0; p + 1];
                 self.remove(&mut c, i);

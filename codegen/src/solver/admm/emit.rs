@@ -240,6 +240,7 @@ fn checked(
     coordinate_code: &TokenStream,
 ) -> TokenStream {
     let p = m.p;
+    let input = crate::emit::input_of(p);
     let row = crate::solver::first_order::form::reference_row(p);
     let nr = Literal::usize_unsuffixed(p.qp.N * p.qp.nz);
     let Entry {
@@ -289,7 +290,7 @@ fn checked(
             shift(&mut held, NU);
             held[NP - NU..].copy_from_slice(&U_REST);
             for (i, p) in held.iter_mut().enumerate() {
-                *p = project(*p, U_MIN[i % NU], U_MAX[i % NU]);
+                *p = project(*p, U_MIN[#input], U_MAX[#input]);
             }
             // The bounds without the widening: what the status's violation is measured on.
             let (hard_lower, hard_upper) = (lower, upper);
@@ -337,7 +338,7 @@ fn checked(
             let trusted = !numerical_failure && !infeasible && primal <= PRIMAL_LIMIT && dual <= DUAL_LIMIT && gap <= GAP_LIMIT;
             if trusted {
                 for (i, (p, v)) in self.plan.iter_mut().zip(x.iter()).enumerate() {
-                    *p = project(*v, U_MIN[i % NU], U_MAX[i % NU]);
+                    *p = project(*v, U_MIN[#input], U_MAX[#input]);
                 }
                 self.x = x;
                 self.z = z;
@@ -377,7 +378,7 @@ fn checked(
 /// The kernels section: the helpers, the operator's products and solve, an iteration, and the
 /// residuals and tests that judge its result.
 fn solver_kernels(m: &Admm, operator: &TokenStream) -> TokenStream {
-    let helpers = helpers(m.num);
+    let helpers = helpers(m.num, crate::emit::input_of(m.p));
     let iterate = iterate(m);
     let measures = measures(m.num);
     quote! {
@@ -393,7 +394,7 @@ fn solver_kernels(m: &Admm, operator: &TokenStream) -> TokenStream {
 
 /// The helpers the kernels share: the rest plan, the dot product, the projection, the shift and the
 /// largest magnitude.
-fn helpers(num: Num) -> TokenStream {
+fn helpers(num: Num, input: TokenStream) -> TokenStream {
     let wide_of_abs = in_f64(num, quote!(x.abs()));
     quote! {
         /// The rest plan: U_REST at every step.
@@ -401,7 +402,7 @@ fn helpers(num: Num) -> TokenStream {
             let mut out = [0.0; NP];
             let mut i = 0;
             while i < NP {
-                out[i] = U_REST[i % NU];
+                out[i] = U_REST[#input];
                 i += 1;
             }
             out
