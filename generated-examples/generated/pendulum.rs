@@ -798,7 +798,7 @@ pub mod pendulum {
     }
     /// Plan entry `i` projected onto its input's bounds; NaN maps to the lower bound.
     #[inline(always)]
-    fn clamp(v: Real, i: usize) -> Real {
+    fn clamp(v: Real, _i: usize) -> Real {
         let (lo, hi) = (LO[0], HI[0]);
         let v = if v >= lo { v } else { lo };
         if v <= hi { v } else { hi }

@@ -199,6 +199,16 @@ pub fn input_of(p: &Problem) -> TokenStream {
     }
 }
 
+/// The name of a helper's plan-entry parameter that [`input_of`] reads: `_i` when a single input
+/// leaves it unread (rustc's `unused_variables` in the generated module).
+pub fn entry_param(p: &Problem) -> TokenStream {
+    if p.nu == 1 {
+        quote!(_i)
+    } else {
+        quote!(i)
+    }
+}
+
 /// The module's items without the `mod` wrapper.
 pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     let qp = &p.qp;

@@ -590,7 +590,7 @@ fn checked(
 /// The kernels section: the helpers, the rows' values and violations, and the kernel (`kernel.rs`,
 /// as the reference compiles it) with a tally that counts nothing.
 fn kernels(m: &Method) -> TokenStream {
-    let input = crate::emit::input_of(m.p);
+    let (input, entry) = (crate::emit::input_of(m.p), crate::emit::entry_param(m.p));
     let kernel: TokenStream = KERNEL_SOURCE
         .replace("pub(super) ", "")
         .parse()
@@ -609,7 +609,7 @@ fn kernels(m: &Method) -> TokenStream {
 
         /// Plan entry `i` projected onto its input's bounds; NaN maps to the lower bound.
         #[inline(always)]
-        fn clamp(v: Real, i: usize) -> Real {
+        fn clamp(v: Real, #entry: usize) -> Real {
             let (lo, hi) = (LO[#input], HI[#input]);
             let v = if v >= lo { v } else { lo };
             if v <= hi { v } else { hi }

@@ -240,7 +240,7 @@ fn checked(
     coordinate_code: &TokenStream,
 ) -> TokenStream {
     let p = m.p;
-    let input = crate::emit::input_of(p);
+    let (input, index) = (crate::emit::input_of(p), crate::emit::entry_param(p));
     let row = crate::solver::first_order::form::reference_row(p);
     let nr = Literal::usize_unsuffixed(p.qp.N * p.qp.nz);
     let Entry {
@@ -289,7 +289,7 @@ fn checked(
             let mut held = self.plan;
             shift(&mut held, NU);
             held[NP - NU..].copy_from_slice(&U_REST);
-            for (i, p) in held.iter_mut().enumerate() {
+            for (#index, p) in held.iter_mut().enumerate() {
                 *p = project(*p, U_MIN[#input], U_MAX[#input]);
             }
             // The bounds without the widening: what the status's violation is measured on.
@@ -337,7 +337,7 @@ fn checked(
             let infeasible = ITERATIONS > 0 && !numerical_failure && infeasible(&lower, &upper, &dy);
             let trusted = !numerical_failure && !infeasible && primal <= PRIMAL_LIMIT && dual <= DUAL_LIMIT && gap <= GAP_LIMIT;
             if trusted {
-                for (i, (p, v)) in self.plan.iter_mut().zip(x.iter()).enumerate() {
+                for (#index, (p, v)) in self.plan.iter_mut().zip(x.iter()).enumerate() {
                     *p = project(*v, U_MIN[#input], U_MAX[#input]);
                 }
                 self.x = x;

@@ -366,7 +366,11 @@ fn checked(
 fn kernels(m: &Method) -> TokenStream {
     let written = &m.written;
     let (g_mul, g_tmul, h_mul) = (written.g_mul(), written.g_tmul(), written.h_mul(m.h_method));
-    let helpers = helpers(m.num, crate::emit::input_of(m.p));
+    let helpers = helpers(
+        m.num,
+        crate::emit::input_of(m.p),
+        crate::emit::entry_param(m.p),
+    );
     let newton_step = newton_step();
     let interior_point = interior_point();
     quote! {
@@ -386,7 +390,7 @@ fn kernels(m: &Method) -> TokenStream {
 
 /// The helpers the kernels share: the rest plan, f64 of `Real`, the index checks, the projection,
 /// the violations, the iteration's types and the branch-free selects.
-fn helpers(num: Num, input: TokenStream) -> TokenStream {
+fn helpers(num: Num, input: TokenStream, entry: TokenStream) -> TokenStream {
     // Real to f64: exact for f32, nothing to do for f64.
     let wide_of_x = match num.0 {
         Scalar::F32 => quote!(f64::from(*x)),
@@ -422,7 +426,7 @@ fn helpers(num: Num, input: TokenStream) -> TokenStream {
 
         /// Plan entry `i` projected onto its input's bounds; NaN maps to the lower bound.
         #[inline(always)]
-        fn clamp(v: f64, i: usize) -> f64 {
+        fn clamp(v: f64, #entry: usize) -> f64 {
             let (lo, hi) = (LO[#input], HI[#input]);
             smaller(hi, larger(lo, v))
         }
