@@ -44,7 +44,7 @@ fn setup(src: &str) -> (codegen::Problem, Prepared, ExactCount) {
     let p = codegen::lower(&spec).unwrap();
     let region = codegen::sampling::resolve_region(&spec, &p, "test").unwrap();
     let prepared = prepare(&p.qp).unwrap();
-    let count = exact_count(&p, &prepared, &region, Limits { lps: 2_000_000 });
+    let count = exact_count(&p, &prepared, &region, Limits { lps: 2_000_000, dimension: 64 });
     (p, prepared, count)
 }
 
@@ -194,4 +194,77 @@ fn paper_limits_per_axis() {
         7,
         300,
     );
+}
+
+/// The build carries the exact count (`[mpc.region] certificate = "exact"`, the default): the
+/// certificate's count is the partition's, the cold cap is at least it, and a warm solve that runs out
+/// restarts cold within that cap and ends at the optimum, in `warm + cold` changes at most.
+#[test]
+fn the_build_carries_the_exact_count_and_a_warm_solve_restarts_cold() {
+    use codegen::solver::active_set::mpc::{control_step, Caps};
+    use codegen::solver::active_set::Status;
+    let (p, prepared, count) = setup(SMALL);
+    let exact = p
+        .qp
+        .evidence
+        .as_ref()
+        .and_then(|e| e.exact.clone())
+        .expect("the exact count in the certificate");
+    assert!(exact.complete, "{:?}", exact.note);
+    assert_eq!(exact.cold_worst, count.worst);
+    assert_eq!(exact.regions, count.regions);
+    let caps = Caps::of(&p.qp);
+    assert_eq!(caps.warm, p.qp.iterations);
+    assert_eq!(caps.cold, p.qp.iterations.max(count.worst));
+    let spec = mpc_spec::load(SMALL).unwrap();
+    let plan = codegen::plan(&spec, &p).unwrap();
+    let c = codegen::certify(&p, &plan);
+    assert_eq!(c.cold_iterations, Some(caps.cold));
+    assert_eq!(c.exact.as_ref(), Some(&exact));
+
+    // "sampled": no partition, and the cold cap is the sample's.
+    let sampled = SMALL.replace("[mpc.region]\n", "[mpc.region]\ncertificate = \"sampled\"\n");
+    let q = codegen::lower(&mpc_spec::load(&sampled).unwrap()).unwrap();
+    assert!(q.qp.evidence.as_ref().unwrap().exact.is_none());
+    assert_eq!(Caps::of(&q.qp).cold, q.qp.iterations);
+
+    // A warm start from the optimum at one corner of the region, solved at the opposite one with one
+    // change allowed: the warm solve runs out, the cold restart ends at the optimum.
+    let par = &count.parameters;
+    let at = |theta: &[f64]| {
+        let qp = par.qp(&p, theta);
+        let offsets = prepared.offsets(&qp).unwrap();
+        (qp, offsets)
+    };
+    let (_, far) = at(&par.hi);
+    let start = codegen::solver::active_set::solve(&prepared, &far, None, 100_000).working_set;
+    let (f, offset) = par.data(&p, &par.lo);
+    let plan = nalgebra::DVector::zeros(f.len());
+    let tight = Caps::with(1, count.worst);
+    let step = control_step(
+        &p.qp,
+        &prepared,
+        &f,
+        &offset,
+        Some(&start),
+        &plan,
+        tight,
+        false,
+        mpc_spec::Scalar::F64,
+    );
+    let cold = control_step(
+        &p.qp,
+        &prepared,
+        &f,
+        &offset,
+        None,
+        &plan,
+        tight,
+        false,
+        mpc_spec::Scalar::F64,
+    );
+    assert_eq!(step.outcome.status, Status::Solved);
+    assert!(step.outcome.iterations > cold.outcome.iterations, "the warm solve ran out first");
+    assert!(step.outcome.iterations <= tight.per_step());
+    assert_eq!(step.plan, cold.plan);
 }

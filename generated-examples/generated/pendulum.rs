@@ -36,6 +36,8 @@ pub mod pendulum {
     pub const U_REST: [Real; NU] = [0f64];
     /// Tracked outputs z = C_z·x (`[mpc] outputs`): the reference window has NZ columns.
     pub const NZ: usize = 2;
+    /// Changes of the working set a cold solve may make: [`ITERATIONS`], the sampled count (block 0 depends on 6 parameters, above the 3 the exact count partitions (codegen::budget::EXACT_DIMENSION)). A warm solve that runs out restarts cold, so a step makes at most ITERATIONS + COLD_ITERATIONS = 16 changes.
+    pub const COLD_ITERATIONS: usize = 8;
     /// Entries of the plan, N·NU.
     pub const NP: usize = CONTROL_HORIZON * NU;
     /// The QP's unknowns z: the plan, then one slack per soft constraint component.
@@ -181,8 +183,8 @@ pub mod pendulum {
     /// What the dual active-set method's last solve did ([`Mpc::solver_status`]).
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct SolverStatus {
-        /// Changes of the working set (sides added or removed) over all blocks: at most
-        /// [`ITERATIONS`], the certified count with its margin. A solve that needs more falls back.
+        /// Changes of the working set (sides added or removed) over all blocks, of the warm solve and
+        /// of its cold restart: at most [`ITERATIONS`] + [`COLD_ITERATIONS`]. A solve that needs more falls back.
         pub iterations: u32,
         /// ‖G z + s − h‖∞ relative to the data's scale, at the end.
         pub primal_residual: f64,
@@ -233,8 +235,9 @@ pub mod pendulum {
     /// Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and
     /// Idnani's, as DAQP) on the condensed QP in f64, in 1 independent block(s), with the Cholesky
     /// factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve
-    /// starts from the previous working set and stops at the optimum or after [`ITERATIONS`] changes;
-    /// a solve that does not reach the optimum falls back to the held plan ([`Fallback::WarmStart`]).
+    /// starts from the previous working set and stops at the optimum or after [`ITERATIONS`] changes,
+    /// then restarts cold with at most [`COLD_ITERATIONS`]; a solve that does not reach the optimum
+    /// falls back to the held plan ([`Fallback::WarmStart`]).
     /// Certified by sampling, not proved: 66 cold cases (16 corners) and 200 warm closed-loop steps of `[mpc.region]` needed at most 6 (cold) and 5 (warm) iterations to reach `accuracy`; `report::SAMPLED_*` has the rest.
     #[derive(Clone, Debug, PartialEq)]
     pub struct Mpc {
@@ -385,12 +388,14 @@ pub mod pendulum {
                         },
                     );
             }
-            if !self.warm | relax {
+            let warm = self.warm & !relax;
+            if !warm {
                 self.warm_len = [0; NBLOCKS];
             }
             let mut work = self.work.work();
             let (ended, iterations) = {
-                solve(
+                let cap = if warm { ITERATIONS } else { COLD_ITERATIONS };
+                let (ended, iterations) = solve(
                     &BLOCKS,
                     f,
                     lower,
@@ -398,12 +403,33 @@ pub mod pendulum {
                     &mut work,
                     &mut self.warm_set,
                     &mut self.warm_len,
-                    ITERATIONS,
+                    cap,
                     &TOLERANCES,
                     &mut Tally,
                     z,
                     |_, _, _, _| {},
-                )
+                );
+                if warm & ((ended == Ended::IterationLimit) | (ended == Ended::Cycling))
+                {
+                    self.warm_len = [0; NBLOCKS];
+                    let (ended, cold) = solve(
+                        &BLOCKS,
+                        f,
+                        lower,
+                        upper,
+                        &mut work,
+                        &mut self.warm_set,
+                        &mut self.warm_len,
+                        COLD_ITERATIONS,
+                        &TOLERANCES,
+                        &mut Tally,
+                        z,
+                        |_, _, _, _| {},
+                    );
+                    (ended, iterations + cold)
+                } else {
+                    (ended, iterations)
+                }
             };
             let trusted = ended == Ended::Solved;
             if trusted {
@@ -3047,6 +3073,16 @@ pub mod pendulum {
         pub const SAMPLED_WORST_ERROR: f64 = 0.00000000799617137477518f64;
         /// The worst hard-row violation (relative) over the sample at ITERATIONS.
         pub const SAMPLED_WORST_VIOLATION: f64 = 0.00000000000000011102230246251565f64;
+        /// Changes of the working set a cold solve makes at most over `[mpc.region]`, for a constant reference window: exact (absent when the partition did not complete).
+        pub const EXACT_COLD_WORST: Option<usize> = None;
+        /// Regions of the parameter box, each with one sequence of working sets (those done, when the partition did not complete).
+        pub const EXACT_REGIONS: Option<usize> = Some(0);
+        /// Regions where the hard rows admit no plan.
+        pub const EXACT_INFEASIBLE_REGIONS: Option<usize> = Some(0);
+        /// The dimension of the parameter: x0, the constant reference, u₋₁ where kept, d.
+        pub const EXACT_PARAMETERS: Option<usize> = Some(7);
+        /// A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).
+        pub const COLD_ITERATIONS: Option<usize> = Some(8);
         /// ρ(F − G·K_LQR).
         pub const LQR_SPECTRAL_RADIUS: f64 = 0.9727310035373776f64;
         /// λmin of P solving (F − GK)ᵀP(F − GK) − P = −I.

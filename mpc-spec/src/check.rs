@@ -689,6 +689,20 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
             .note("hint: remove `admm_form`, or write `method = \"admm\"` (or `\"auto\"`, which weighs ADMM with it)"),
         );
     }
+    if let Some(certificate) = raw
+        .certificate
+        .as_ref()
+        .filter(|c| method != Method::ActiveSet && c.value == Certificate::Exact.name())
+    {
+        diags.push(
+            Diagnostic::new(
+                format!("`method = \"{name}\"` has no exact certificate: only `method = \"active_set\"` has one"),
+                certificate.span.clone(),
+            )
+            .label("asks for the exact iteration count over the region")
+            .note(format!("hint: write `certificate = \"sampled\"` (what `{name}` is certified by), or `method = \"active_set\"`")),
+        );
+    }
     if method.box_only() {
         let solver = if requested == Method::Auto {
             let key = if raw.tolerance.is_some() {
@@ -1138,6 +1152,11 @@ fn check_region(
         samples: count(&raw.samples),
         sequences: count(&raw.sequences),
         steps: count(&raw.steps),
+        certificate: raw
+            .certificate
+            .as_ref()
+            .and_then(|c| Certificate::from_name(&c.value))
+            .unwrap_or_default(),
     })
 }
 

@@ -57,6 +57,7 @@ pub const REGION_KEYS: &[&str] = &[
     "samples",
     "sequences",
     "steps",
+    "certificate",
 ];
 /// Keys of `[kalman]`.
 pub const KALMAN_KEYS: &[&str] = &[
@@ -82,6 +83,8 @@ pub const TIMES: &[&str] = crate::TimeDomain::NAMES;
 pub const METHODS: &[&str] = crate::Method::NAMES;
 /// Spellings of `[mpc] admm_form`: `auto` (the certificate's choice) or an [`crate::AdmmForm`].
 pub const ADMM_FORMS: &[&str] = &["auto", "direct", "residual"];
+/// Values of `[mpc.region] certificate`.
+pub const CERTIFICATES: &[&str] = crate::Certificate::NAMES;
 /// Values of `[kalman] filter`.
 pub const FILTERS: &[&str] = crate::FilterKind::NAMES;
 /// Values of `[codegen] scalar`.

@@ -298,6 +298,20 @@ pub struct RowGroup {
     pub soft: Option<f64>,
 }
 
+spelled! {
+    /// How the iteration count over `[mpc.region]` is certified, `[mpc.region] certificate`.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+    pub enum Certificate {
+        /// The dual active-set method's exact count over the region (a partition of the parameter box,
+        /// constant reference windows), falling back to the sample where the build's budget runs out;
+        /// the sampled certificate for the other methods, which have no exact count.
+        #[default]
+        Exact = "exact",
+        /// The sample only: corners, seeded draws and closed-loop sequences.
+        Sampled = "sampled",
+    }
+}
+
 /// `[mpc.region]`: where the compiler samples states, references (and the last input, the disturbance)
 /// to certify an interior-point method empirically. Absent entries default from the state bounds.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -316,6 +330,8 @@ pub struct Region {
     pub sequences: Option<usize>,
     /// Steps per closed-loop sequence; `None`: the default.
     pub steps: Option<usize>,
+    /// `certificate`: exact (the default, where the method has an exact count) or sampled.
+    pub certificate: Certificate,
 }
 
 /// The solver's step size, `[mpc] step`.

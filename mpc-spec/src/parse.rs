@@ -101,6 +101,7 @@ pub struct Raw {
     pub samples: Option<Located<usize>>,
     pub sequences: Option<Located<usize>>,
     pub steps: Option<Located<usize>>,
+    pub certificate: Option<Located<String>>,
 
     pub kalman_span: Span,
     pub sigma_a: Option<Located<f64>>,
@@ -311,6 +312,9 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
             raw.steps = r
                 .get("steps")
                 .and_then(|v| p.count_at_most(v, "mpc.region.steps", 1, 1000, STEPS_LIMIT));
+            raw.certificate = r
+                .get("certificate")
+                .and_then(|v| p.choice(v, "mpc.region.certificate", keys::CERTIFICATES));
         }
     }
     // `[kalman]` is optional: without it the controller takes the measured state.

@@ -486,11 +486,45 @@ fn the_region_is_read() {
             samples: Some(200),
             sequences: Some(4),
             steps: Some(50),
+            certificate: Certificate::Exact,
         }
     );
     let spec = load(&ipm("\n[mpc.region]\nsamples = 0\n")).unwrap();
     assert_eq!(spec.mpc.region.samples, Some(0));
     assert!(spec.mpc.region.x_min.is_empty());
+}
+
+#[test]
+fn the_certificate_is_exact_by_default_and_only_the_active_set_s() {
+    let active_set = |extra: &str| with_method("method = \"active_set\"\n", extra);
+    let region = |line: &str| format!("x_min = [-1, -1]\n\n[mpc.region]\n{line}");
+    let certificate = |src: &str| load(src).unwrap().mpc.region.certificate;
+    assert_eq!(certificate(&active_set(&region(""))), Certificate::Exact);
+    assert_eq!(
+        certificate(&active_set(&region("certificate = \"sampled\"\n"))),
+        Certificate::Sampled
+    );
+    assert_eq!(
+        certificate(&active_set(&region("certificate = \"exact\"\n"))),
+        Certificate::Exact
+    );
+    // The sample is every method's: any method takes "sampled".
+    assert_eq!(
+        certificate(&ipm(&region("certificate = \"sampled\"\n"))),
+        Certificate::Sampled
+    );
+    // "exact" written for a method without an exact count: at the value, with the way out.
+    let (msg, at, note) = only_error(&ipm(&region("certificate = \"exact\"\n")));
+    assert_eq!(
+        msg,
+        "`method = \"ipm\"` has no exact certificate: only `method = \"active_set\"` has one"
+    );
+    assert_eq!(at, "\"exact\"");
+    assert!(note.unwrap().contains("`certificate = \"sampled\"`"));
+    // A misspelling: the closest value.
+    let (msg, _, note) = only_error(&active_set(&region("certificate = \"exakt\"\n")));
+    assert_eq!(msg, "unknown value \"exakt\" for `mpc.region.certificate`");
+    assert!(note.unwrap().contains("did you mean `exact`?"));
 }
 
 #[test]

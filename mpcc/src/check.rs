@@ -67,6 +67,38 @@ impl Model {
     }
 }
 
+/// The exact count's lines beyond its numbers: what it covers, per block its parameters and worst, the
+/// witness, and why it fell back.
+fn exact_lines(x: &codegen::evidence::Exact, lines: &mut Vec<(String, String)>) {
+    let status = if x.complete {
+        "complete: proved for every x0 in the region, constant reference in its box, u₋₁ and d in theirs".to_string()
+    } else {
+        format!(
+            "incomplete, the count is the sample's: {}",
+            x.note.as_deref().unwrap_or("the budget ran out")
+        )
+    };
+    lines.insert(0, ("partition".to_string(), status));
+    for (b, (names, worst)) in x.block_parameters.iter().zip(&x.block_worst).enumerate() {
+        lines.push((
+            format!("block {b}: parameters, worst"),
+            format!("{} ({}), {worst}", names.join(", "), names.len()),
+        ));
+    }
+    if x.complete {
+        let witness: Vec<String> = x
+            .witness
+            .iter()
+            .map(|(name, v)| format!("{name} = {v:.4}"))
+            .collect();
+        lines.push(("witness (every block at its worst)".to_string(), witness.join(", ")));
+    }
+    lines.push((
+        "a reference window varying over the horizon".to_string(),
+        "covered by the sample only".to_string(),
+    ));
+}
+
 /// The certificate as JSON, pretty-printed, with a final newline.
 pub(crate) fn json(shown: &str, g: &Generated) -> String {
     let p = &g.problem;
@@ -102,7 +134,7 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             field.value,
             Value::MaybeReal(None) | Value::MaybeCount(None)
         );
-        if field.shown == Shown::IfPresent && absent {
+        if matches!(field.shown, Shown::IfPresent | Shown::Seconds) && absent {
             continue;
         }
         if sections
@@ -129,7 +161,9 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
                 format!("{tol:e}{source}")
             }
             (Shown::Bytes, Value::Real(bytes)) => codegen::budget::size(bytes),
-            (Shown::Seconds, Value::Real(seconds)) => format!("{seconds:.1} s"),
+            (Shown::Seconds, Value::Real(seconds) | Value::MaybeReal(Some(seconds))) => {
+                format!("{seconds:.1} s")
+            }
             (Shown::Range, Value::Real(x)) => {
                 format!("for |{}| ≤ {x:.1e}", c.coordinate_range.names())
             }
@@ -149,6 +183,14 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
         .find(|(title, _)| *title == codegen::certificate::section::BOUND)
     {
         lines.insert(0, ("gap Δ_k = J(U_k) − J*".to_string(), form));
+    }
+    if let Some(x) = &c.exact {
+        if let Some((_, lines)) = sections
+            .iter_mut()
+            .find(|(title, _)| *title == codegen::certificate::section::EXACT)
+        {
+            exact_lines(x, lines);
+        }
     }
     if !c.candidates.is_empty() {
         sections.insert(

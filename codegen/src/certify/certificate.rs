@@ -135,6 +135,12 @@ pub struct Certificate {
     /// The sampled evidence of `[mpc.region]` ([`crate::certify::sampling`]): always for the interior-point
     /// method, for a first-order method when the spec has a region (its a priori bound stays beside it).
     pub sampled: Option<crate::certify::evidence::Evidence>,
+    /// The dual active-set method's exact cold count over `[mpc.region]` ([`crate::solver::active_set::exact`]),
+    /// where `[mpc.region] certificate = "exact"` (the default): for constant reference windows.
+    pub exact: Option<crate::certify::evidence::Exact>,
+    /// Changes of the working set one control step of the dual active-set method makes at most: a warm
+    /// solve of `iterations` that runs out, then a cold restart of `cold_iterations`.
+    pub cold_iterations: Option<usize>,
     /// `[mpc] accuracy`.
     pub accuracy: f64,
     /// The interior-point method's form of its normal system, with the multiply-adds of an iteration in
@@ -228,6 +234,9 @@ pub mod section {
     pub const RESOURCES: &str = "resources";
     /// The sampled certificate of `[mpc.region]`.
     pub const SAMPLED: &str = "evidence sampled on [mpc.region], not a proof";
+    /// The exact count of the dual active-set method.
+    pub const EXACT: &str =
+        "exact count over [mpc.region] (dual active-set, cold start, constant reference window)";
     /// The build's predicted cost ([`crate::certify::budget`]); not in the `report` module.
     pub const BUILD: &str = "build cost (predicted; limits in codegen::budget)";
 }
@@ -338,6 +347,25 @@ impl Certificate {
             field("sampled.limits.gap", "SAMPLED_GAP_LIMIT", "Final duality gap, relative to max(1, |J|), above which the solve falls back.", SAMPLED, "fallback above relative duality gap", Plain, Real(e.limits.gap)),
         ];
         fields.splice(at..at, evidence);
+        if e.method == mpc_spec::Method::ActiveSet {
+            let at = fields
+                .iter()
+                .position(|f| f.section == LQR)
+                .unwrap_or(fields.len());
+            let x = self.exact.as_ref();
+            let count = |v: Option<usize>| MaybeCount(v);
+            let done = x.filter(|x| x.complete);
+            let exact = [
+                field("exact.cold_worst", "EXACT_COLD_WORST", "Changes of the working set a cold solve makes at most over `[mpc.region]`, for a constant reference window: exact (absent when the partition did not complete).", EXACT, "iterations cold: exact worst", IfPresent, count(done.map(|x| x.cold_worst))),
+                field("exact.regions", "EXACT_REGIONS", "Regions of the parameter box, each with one sequence of working sets (those done, when the partition did not complete).", EXACT, "regions of the partition", IfPresent, count(x.map(|x| x.regions))),
+                field("exact.infeasible_regions", "EXACT_INFEASIBLE_REGIONS", "Regions where the hard rows admit no plan.", EXACT, "of which infeasible", IfPresent, count(x.map(|x| x.infeasible_regions))),
+                field("exact.parameters", "EXACT_PARAMETERS", "The dimension of the parameter: x0, the constant reference, u₋₁ where kept, d.", EXACT, "parameter dimension (all blocks)", IfPresent, count(x.map(|x| x.parameters))),
+                field("exact.lps", "", "", EXACT, "feasibility LPs solved", IfPresent, count(x.map(|x| x.lps))),
+                field("exact.seconds", "", "", EXACT, "time the partition took", Seconds, MaybeReal(x.map(|x| x.seconds))),
+                field("cold_iterations", "COLD_ITERATIONS", "A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).", EXACT, "cap of a cold solve (warm ITERATIONS, then cold)", IfPresent, count(self.cold_iterations)),
+            ];
+            fields.splice(at..at, exact);
+        }
         // A method without run-time residual limits (the dual active-set method: a solve ends at the
         // optimum or is not used) has none to report.
         if e.method == mpc_spec::Method::ActiveSet {
@@ -665,6 +693,9 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
             crate::certify::coordinates::DEFAULT_ACCURACY,
         ),
         sampled: qp.evidence.clone(),
+        exact: qp.evidence.as_ref().and_then(|e| e.exact.clone()),
+        cold_iterations: (qp.method == mpc_spec::Method::ActiveSet)
+            .then(|| crate::solver::active_set::mpc::Caps::of(qp).cold),
         accuracy: qp.accuracy,
         normal_form: plan.solver.normal_form(qp),
         admm_structure: plan.solver.admm_structure(qp),

@@ -68,6 +68,44 @@ pub struct Evidence {
     /// How ADMM's x-update is computed ([`crate::solver::admm::Form`]), chosen or as written; `None` for the
     /// other methods.
     pub admm_form: Option<mpc_spec::AdmmForm>,
+    /// The exact count of the dual active-set method's cold start over the region, where
+    /// `[mpc.region] certificate = "exact"` (the default) and the method is the dual active-set one; the
+    /// certificate carries it apart from the sample ([`crate::certificate::Certificate::exact`]).
+    #[serde(skip)]
+    pub exact: Option<Exact>,
+}
+
+/// The exact iteration count of the dual active-set method's cold start over the region
+/// ([`crate::solver::active_set::exact`]): a proof for every x₀ in the region's box, every reference
+/// held constant over the window within its box, every u₋₁ in the input box and every disturbance in
+/// its box, in exact arithmetic (the round-off margins are the module doc's). A reference window that
+/// varies over the horizon is covered by the sample only.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Exact {
+    /// Whether every block's partition completed within the build's budget
+    /// ([`crate::certify::budget::EXACT_LPS`]). When not, the counts below are over the regions done,
+    /// `note` says why, and the controller's cold cap is the sample's count.
+    pub complete: bool,
+    /// Why the partition did not complete (or was not tried); `None` when it completed.
+    pub note: Option<String>,
+    /// The dimension of the parameter θ (x₀, the constant reference, u₋₁ where kept, d).
+    pub parameters: usize,
+    /// Per block, the names of the parameters its sides depend on: the dimension it is partitioned in.
+    pub block_parameters: Vec<Vec<String>>,
+    /// Final regions over all blocks.
+    pub regions: usize,
+    /// Regions where the hard rows admit no plan (the dual is unbounded there).
+    pub infeasible_regions: usize,
+    /// Feasibility LPs solved.
+    pub lps: usize,
+    /// Changes of the working set a cold solve makes at most: the sum of the blocks' maxima.
+    pub cold_worst: usize,
+    /// Per block, its maximum.
+    pub block_worst: Vec<usize>,
+    /// θ where every block attains its maximum (the Chebyshev centres of the worst regions), by name.
+    pub witness: Vec<(String, f64)>,
+    /// Seconds the partition took (not in the `report` module, which is reproducible).
+    pub seconds: f64,
 }
 
 /// The limits above which a fixed-iteration solve is not trusted and [`crate::solver::constrained::Fallback::WarmStart`] is used.

@@ -513,6 +513,7 @@ fn certify_spending<M: Sampled>(
         sample_macs: spent.macs,
         rho: method.admm().map(|t| t.rho),
         admm_form: method.admm().map(|t| t.form),
+        exact: None,
     })
 }
 

@@ -229,7 +229,24 @@ fn constants(m: &Method) -> TokenStream {
     .map(lit);
     let accuracy = Num(Scalar::F64).lit(qp.accuracy);
     let ntheta = lit(Theta::of(m.p).len);
+    let caps = super::mpc::Caps::of(qp);
+    let cold = lit(caps.cold);
+    let exact = qp.evidence.as_ref().and_then(|e| e.exact.as_ref());
+    let cold_doc = match exact {
+        Some(x) if x.complete => format!(
+            " Changes of the working set a cold solve may make: the exact cold count over `[mpc.region]` ({}, proved for constant reference windows; `report::EXACT_*`), or [`ITERATIONS`] if larger. A warm solve that runs out restarts cold, so a step makes at most ITERATIONS + COLD_ITERATIONS = {} changes.",
+            x.cold_worst,
+            caps.per_step()
+        ),
+        _ => format!(
+            " Changes of the working set a cold solve may make: [`ITERATIONS`], the sampled count ({}). A warm solve that runs out restarts cold, so a step makes at most ITERATIONS + COLD_ITERATIONS = {} changes.",
+            exact.map_or("`certificate = \"sampled\"`", |x| x.note.as_deref().unwrap_or("the exact count did not complete")),
+            caps.per_step()
+        ),
+    };
     quote! {
+        #[doc = #cold_doc]
+        pub const COLD_ITERATIONS: usize = #cold;
         /// Entries of the plan, N·NU.
         pub const NP: usize = #plan_steps * NU;
         /// The QP's unknowns z: the plan, then one slack per soft constraint component.
@@ -262,15 +279,15 @@ fn api(m: &Method, reach_code: &TokenStream, coordinate_code: &TokenStream) -> T
     let status_types = status_types(
         "dual active-set method",
         &[
-            " Changes of the working set (sides added or removed) over all blocks: at most",
-            " [`ITERATIONS`], the certified count with its margin. A solve that needs more falls back.",
+            " Changes of the working set (sides added or removed) over all blocks, of the warm solve and",
+            " of its cold restart: at most [`ITERATIONS`] + [`COLD_ITERATIONS`]. A solve that needs more falls back.",
         ],
     );
     let evidence_doc = evidence_doc(m.p.qp.evidence.as_ref(), "");
     let blocks = m.prepared.blocks.len();
     let real_name = m.num.numeric().name();
     let doc = format!(
-        " Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and\n Idnani's, as DAQP) on the condensed QP in {real_name}, in {blocks} independent block(s), with the Cholesky\n factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve\n starts from the previous working set and stops at the optimum or after [`ITERATIONS`] changes;\n a solve that does not reach the optimum falls back to the held plan ([`Fallback::WarmStart`])."
+        " Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and\n Idnani's, as DAQP) on the condensed QP in {real_name}, in {blocks} independent block(s), with the Cholesky\n factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve\n starts from the previous working set and stops at the optimum or after [`ITERATIONS`] changes,\n then restarts cold with at most [`COLD_ITERATIONS`]; a solve that does not reach the optimum\n falls back to the held plan ([`Fallback::WarmStart`])."
     );
     let doc: Vec<&str> = doc.split('\n').collect();
     let entry = entry(m.p);
@@ -528,26 +545,29 @@ fn checked(
                 });
             }
             // A cold start after `new`, `reset`, a fallback or a relaxed solve.
-            if !self.warm | relax {
+            let warm = self.warm & !relax;
+            if !warm {
                 self.warm_len = [0; NBLOCKS];
             }
             #zero_rows
             let mut work = self.work.work();
             #empty_check {
-                solve(
-                    &BLOCKS,
-                    f,
-                    lower,
-                    upper,
-                    &mut work,
-                    &mut self.warm_set,
-                    &mut self.warm_len,
-                    ITERATIONS,
-                    &TOLERANCES,
-                    &mut Tally,
-                    z,
-                    |_, _, _, _| {},
-                )
+                let cap = if warm { ITERATIONS } else { COLD_ITERATIONS };
+                let (ended, iterations) = solve(
+                    &BLOCKS, f, lower, upper, &mut work, &mut self.warm_set, &mut self.warm_len, cap,
+                    &TOLERANCES, &mut Tally, z, |_, _, _, _| {},
+                );
+                // A warm solve that ran out (or cycled) restarts cold: its count is certified.
+                if warm & ((ended == Ended::IterationLimit) | (ended == Ended::Cycling)) {
+                    self.warm_len = [0; NBLOCKS];
+                    let (ended, cold) = solve(
+                        &BLOCKS, f, lower, upper, &mut work, &mut self.warm_set, &mut self.warm_len,
+                        COLD_ITERATIONS, &TOLERANCES, &mut Tally, z, |_, _, _, _| {},
+                    );
+                    (ended, iterations + cold)
+                } else {
+                    (ended, iterations)
+                }
             } #empty_end
             let trusted = ended == Ended::Solved;
             if trusted {

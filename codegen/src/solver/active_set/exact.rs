@@ -39,14 +39,25 @@
 //! split's candidates without an LP.
 //!
 //! **What it covers.** Cold starts (an empty working set) with a constant reference window. The emitted
-//! controller warm-starts from the previous working set; this count does not bound those solves.
+//! controller warm-starts from the previous working set with the sampled cap `ITERATIONS`, and a warm
+//! solve that runs out restarts cold with `COLD_ITERATIONS` ≥ this count ([`super::mpc::Caps`]): so a
+//! step within the region ends at the optimum after at most `ITERATIONS + COLD_ITERATIONS` changes.
+//!
+//! **In the build.** [`certify`] runs it within [`Limits::BUILD`] (`codegen::budget::EXACT_LPS` LPs per
+//! block, `EXACT_DIMENSION` parameters per block); where it does not complete, the certificate says why
+//! and the caps are the sample's. The dimension reached is 2 parameters (complete in 0.2 s, checked
+//! against the kernel on a grid and random draws, `codegen/tests/exact_count.rs`); paper-limits (3
+//! blocks of 4), afti16 (7) and the pendulum (6) do not complete within minutes, so the build does not
+//! try blocks above 3 (BENCHMARKS.md, "The exact count"). The cost is the LPs: tens per region, most
+//! of them the add rule's candidates, each a Clarabel solve.
 #![allow(non_snake_case)]
 
 use super::{Offsets, Prepared, Tolerances};
-use crate::certify::evidence::Region;
+use crate::certify::evidence::{Exact, Region};
 use crate::lower::problem::Problem;
 use crate::solver::ipm::mpc_qp;
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// Regions whose Chebyshev ball in ξ ∈ [−1, 1]^p is smaller than this are boundary slivers, pruned.
@@ -151,6 +162,12 @@ impl Parameters {
 
     /// The MPC's QP at θ (the reference constant over the window), as the sampled certificate forms it.
     pub fn qp(&self, p: &Problem, theta: &[f64]) -> crate::solver::constrained::InequalityQp {
+        let (f, offset) = self.data(p, theta);
+        mpc_qp(&p.qp, &f, &offset)
+    }
+
+    /// The QP's data at θ: f and the rows' offsets, as a control step takes them.
+    pub fn data(&self, p: &Problem, theta: &[f64]) -> (DVector<f64>, DVector<f64>) {
         let qp = &p.qp;
         let [x0, r, last, d] = self.split(theta);
         let last = if self.nlast == 0 {
@@ -165,7 +182,7 @@ impl Parameters {
             f += qp.Fd.columns(0, self.nd) * &d;
         }
         let offset = qp.rows.offset(&x0, &d, &last);
-        mpc_qp(qp, &f, &offset)
+        (f, offset)
     }
 
     /// θ of the normalised ξ of `parameters` (the others at the centre).
@@ -269,6 +286,64 @@ fn scaled_sides(prepared: &Prepared, offsets: &Offsets, b: usize) -> (Vec<f64>, 
 pub struct Limits {
     /// LPs per block at most.
     pub lps: usize,
+    /// Parameters a block may depend on: a block above it is not partitioned (its regions grow
+    /// exponentially with the dimension).
+    pub dimension: usize,
+}
+
+impl Limits {
+    /// The build's: [`crate::certify::budget::EXACT_LPS`] and [`crate::certify::budget::EXACT_DIMENSION`].
+    pub const BUILD: Limits = Limits {
+        lps: crate::certify::budget::EXACT_LPS,
+        dimension: crate::certify::budget::EXACT_DIMENSION,
+    };
+}
+
+/// The exact count of `p`'s QP over `region` within `limits`, as the certificate carries it: the
+/// partition's result, or where it did not complete, the regions done and why.
+pub fn certify(p: &Problem, prepared: &Prepared, region: &Region, limits: Limits) -> Exact {
+    let count = exact_count(p, prepared, region, limits);
+    let names = &count.parameters.names;
+    let note = count.blocks.iter().enumerate().find_map(|(b, c)| {
+        if c.complete {
+            None
+        } else if c.parameters.len() > limits.dimension {
+            Some(format!(
+                "block {b} depends on {} parameters, above the {} the exact count partitions (codegen::budget::EXACT_DIMENSION)",
+                c.parameters.len(),
+                limits.dimension
+            ))
+        } else if c.lps > limits.lps {
+            Some(format!(
+                "block {b} ran out of the build's {} feasibility LPs (codegen::budget::EXACT_LPS) after {} regions",
+                limits.lps,
+                c.pieces.len()
+            ))
+        } else if c.parameters.is_empty() && c.pieces.is_empty() {
+            Some("the QP's offsets at the region's corners are not finite".to_string())
+        } else {
+            Some(format!(
+                "block {b}: a region changed its working set more than {MAX_DEPTH} times"
+            ))
+        }
+    });
+    Exact {
+        complete: count.complete,
+        note,
+        parameters: count.parameters.len(),
+        block_parameters: count
+            .blocks
+            .iter()
+            .map(|c| c.parameters.iter().map(|&j| names[j].clone()).collect())
+            .collect(),
+        regions: count.regions,
+        infeasible_regions: count.blocks.iter().map(|c| c.infeasible).sum(),
+        lps: count.blocks.iter().map(|c| c.lps).sum(),
+        cold_worst: count.worst,
+        block_worst: count.blocks.iter().map(|c| c.worst).collect(),
+        witness: names.iter().cloned().zip(count.witness.iter().copied()).collect(),
+        seconds: count.seconds,
+    }
 }
 
 /// The exact cold-start count of every block of `prepared` (the MPC's QP of `p`) over `region`.
@@ -291,21 +366,21 @@ pub fn exact_count(
             offsets_at(&t)
         })
         .collect();
-    let mut blocks = Vec::new();
-    for b in 0..prepared.blocks.len() {
+    let not_done = |parameters: Vec<usize>| BlockCount {
+        parameters,
+        pieces: Vec::new(),
+        worst: 0,
+        witness: centre.clone(),
+        infeasible: 0,
+        lps: 0,
+        lp_failures: 0,
+        seconds: 0.0,
+        complete: false,
+    };
+    // The blocks are independent problems: partitioned in parallel (rayon), in order.
+    let count_block = |b: usize| {
         let (Some(base), true) = (&base, unit.iter().all(Option::is_some)) else {
-            blocks.push(BlockCount {
-                parameters: Vec::new(),
-                pieces: Vec::new(),
-                worst: 0,
-                witness: centre.clone(),
-                infeasible: 0,
-                lps: 0,
-                lp_failures: 0,
-                seconds: 0.0,
-                complete: false,
-            });
-            continue;
+            return not_done(Vec::new());
         };
         let (lo0, hi0) = scaled_sides(prepared, base, b);
         let columns: Vec<(Vec<f64>, Vec<f64>)> = unit
@@ -345,13 +420,20 @@ pub fn exact_count(
                 })
                 .collect::<Vec<Option<Aff>>>()
         };
+        if used.len() > limits.dimension {
+            return not_done(used);
+        }
         let lo = aff(&lo0, |c| &c.0);
         let hi = aff(&hi0, |c| &c.1);
         let mut count = partition(prepared, b, lo, hi, used.len(), limits);
         count.witness = parameters.theta(&used, &count.witness);
         count.parameters = used;
-        blocks.push(count);
-    }
+        count
+    };
+    let blocks: Vec<BlockCount> = (0..prepared.blocks.len())
+        .into_par_iter()
+        .map(count_block)
+        .collect();
     let mut witness = centre.clone();
     let mut seen = vec![false; np];
     let mut disjoint = true;

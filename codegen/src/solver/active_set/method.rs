@@ -1,7 +1,7 @@
 //! The dual active-set method behind [`Solver`].
 #![allow(non_snake_case)]
 
-use super::mpc::{control_step, macs_once, macs_per_iteration, prepare};
+use super::mpc::{control_step, macs_once, macs_per_iteration, prepare, Caps};
 use crate::certify::evidence::Evidence;
 use crate::certify::sampling;
 use crate::emit::sections::Sections;
@@ -10,7 +10,7 @@ use crate::lower::problem::{Problem, Qp};
 use crate::plan::machine::{machine, Machine};
 use crate::plan::{Plan, Solver};
 use crate::solver::stepping::{StepData, Stepping};
-use mpc_spec::{Diagnostic, Diagnostics, Method, Scalar, Spec};
+use mpc_spec::{Certificate, Diagnostic, Diagnostics, Method, Scalar, Spec};
 use nalgebra::DVector;
 use std::sync::Arc;
 
@@ -70,12 +70,31 @@ impl Solver for ActiveSet {
                 spec.spans.get("mpc.method"),
             ))
         })?;
-        let method = super::sampled::ActiveSet::new(prepared, problem.scalar);
-        sampling::certify(spec, problem, &method, 0).map(Some)
+        // The exact cold count first: the sample's warm steps restart cold with it as their cap.
+        let exact = match spec.mpc.region.certificate {
+            Certificate::Exact => {
+                let region = sampling::resolve_region(spec, problem, super::TITLE)?;
+                Some(super::exact::certify(
+                    problem,
+                    &prepared,
+                    &region,
+                    super::exact::Limits::BUILD,
+                ))
+            }
+            Certificate::Sampled => None,
+        };
+        let exact_cold = exact
+            .as_ref()
+            .filter(|x| x.complete)
+            .map_or(0, |x| x.cold_worst);
+        let method = super::sampled::ActiveSet::new(prepared, problem.scalar, exact_cold);
+        let mut evidence = sampling::certify(spec, problem, &method, 0)?;
+        evidence.exact = exact;
+        Ok(Some(evidence))
     }
 
     fn bound_form(&self, _rate: bool) -> String {
-        "none yet: the count is sampled (an exact certificate over the region is to come)"
+        "none: the count is the exact cold count over the region where the certificate is exact, else sampled"
             .to_string()
     }
 
@@ -177,7 +196,7 @@ impl Solver for ActiveSet {
             &offset,
             state.active_set_start.as_ref(),
             data.plan,
-            qp.iterations,
+            Caps::of(qp),
             state.relax,
             Scalar::F64,
         );

@@ -2,11 +2,14 @@
 //! fallback and its warm start, the same in the oracle, the certificate and the emitted module.
 //!
 //! A step solves the QP of [`mpc_qp`] (relaxed where the controller is recovering, as the other
-//! constrained methods do) from the previous step's working set, with at most the certified count of
-//! changes of the working set. A solve that ends anywhere but at the optimum falls back: a truncated
-//! dual iterate is not primal feasible, so its plan is not used; the plan is the previous one shifted by
-//! one step with the rest input appended, projected onto the box ([`held_plan`]), and the next solve
-//! starts cold. The warm start is the previous working set as it was, not shifted in time: on the shipped
+//! constrained methods do) from the previous step's working set, with at most [`Caps::warm`] changes
+//! of the working set (the sampled count). A warm solve that runs out of changes (or cycles) restarts
+//! cold in the same step with at most [`Caps::cold`]: the exact cold count where the certificate is
+//! exact ([`Caps::of`]), so that within the region, for a constant reference window, a step ends at the
+//! optimum after at most `warm + cold` changes. A solve that still ends anywhere but at the optimum
+//! falls back: a truncated dual iterate is not primal feasible, so its plan is not used; the plan is the
+//! previous one shifted by one step with the rest input appended, projected onto the box
+//! ([`held_plan`]), and the next solve starts cold. The warm start is the previous working set as it was, not shifted in time: on the shipped
 //! specs it needs fewer changes at the median than the shifted set (`codegen/tests/active_set.rs`
 //! prints both).
 #![allow(non_snake_case)]
@@ -24,6 +27,44 @@ pub fn prepare(qp: &Qp) -> Option<Prepared> {
     let n = qp.Nc * qp.u_min.len();
     let structure = mpc_qp(qp, &DVector::zeros(n), &DVector::zeros(qp.rows.len()));
     Prepared::new(&structure).ok()
+}
+
+/// The changes of the working set a control step may make.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Caps {
+    /// A solve from the previous working set: the count certified (`ITERATIONS`).
+    pub warm: usize,
+    /// A cold solve, first or after a warm one ran out: at least `warm`, and at least the exact cold
+    /// count where the certificate has one (`COLD_ITERATIONS`).
+    pub cold: usize,
+}
+
+impl Caps {
+    /// The caps of `qp` as certified: `qp.iterations` warm, and cold the larger of it and the exact
+    /// count where the partition completed.
+    pub fn of(qp: &Qp) -> Caps {
+        let exact = qp
+            .evidence
+            .as_ref()
+            .and_then(|e| e.exact.as_ref())
+            .filter(|x| x.complete)
+            .map_or(0, |x| x.cold_worst);
+        Caps::with(qp.iterations, exact)
+    }
+
+    /// `warm` changes warm, and cold the larger of `warm` and `exact`.
+    pub fn with(warm: usize, exact: usize) -> Caps {
+        Caps {
+            warm,
+            cold: warm.max(exact),
+        }
+    }
+
+    /// The most changes of the working set one control step makes: a warm solve that runs out, then
+    /// the cold restart.
+    pub fn per_step(&self) -> usize {
+        self.warm + self.cold
+    }
 }
 
 /// One control step of the dual active-set method.
@@ -51,9 +92,11 @@ impl Step {
     }
 }
 
-/// One control step: at most `count` changes of the working set from `start` (cold where `None` or
-/// where the step relaxes) by the kernel in `scalar` (f32 as an f32 module runs it), then the plan, or
-/// the held plan where the solve did not end at the optimum.
+/// One control step: at most `caps.warm` changes of the working set from `start`, then, where that
+/// ran out or cycled, a cold restart with at most `caps.cold` (cold from the first where `start` is
+/// `None` or the step relaxes), by the kernel in `scalar` (f32 as an f32 module runs it); then the
+/// plan, or the held plan where the solve did not end at the optimum. The outcome's iterations count
+/// both solves.
 #[allow(clippy::too_many_arguments)]
 pub fn control_step(
     qp: &Qp,
@@ -62,7 +105,7 @@ pub fn control_step(
     offset: &DVector<f64>,
     start: Option<&WorkingSet>,
     previous_plan: &DVector<f64>,
-    count: usize,
+    caps: Caps,
     recovering: bool,
     scalar: Scalar,
 ) -> Step {
@@ -73,15 +116,24 @@ pub fn control_step(
         problem = relaxed(qp, problem, &held);
     }
     let start = if relax { None } else { start };
+    let tolerances = Tolerances::of(scalar);
     let outcome = match prepared.offsets(&problem) {
-        Ok(offsets) => solve_in(
-            prepared,
-            &offsets,
-            start,
-            count,
-            &Tolerances::of(scalar),
-            scalar,
-        ),
+        Ok(offsets) => {
+            let run = |start, cap| solve_in(prepared, &offsets, start, cap, &tolerances, scalar);
+            let cap = if start.is_some() { caps.warm } else { caps.cold };
+            let first = run(start, cap);
+            let ran_out = matches!(first.status, Ended::IterationLimit | Ended::Cycling);
+            if start.is_some() && ran_out {
+                let mut restart = run(None, caps.cold);
+                restart.iterations += first.iterations;
+                for (b, k) in restart.block_iterations.iter_mut().zip(&first.block_iterations) {
+                    *b += k;
+                }
+                restart
+            } else {
+                first
+            }
+        }
         Err(_) => failed(problem.n()),
     };
     let n = f.len();

@@ -2,7 +2,7 @@
 //! the changes of the working set its solve makes to reach the optimum; before that its iterate is a
 //! dual one, which the controller does not use (it falls back), so it counts as failed.
 
-use super::mpc::{control_step, macs_per_iteration};
+use super::mpc::{control_step, macs_per_iteration, Caps};
 use super::{solve_in, Prepared, Status, Tolerances, WorkingSet};
 use crate::certify::sampling::{plain_iterate, Iterate, Sampled, Stepped};
 use crate::lower::problem::Qp;
@@ -18,12 +18,19 @@ pub const PROBE: (usize, usize) = (64, 2048);
 pub struct ActiveSet {
     prepared: Prepared,
     scalar: Scalar,
+    /// The exact cold count where the certificate has one (else 0): the cold restart's cap is at least it.
+    exact_cold: usize,
 }
 
 impl ActiveSet {
-    /// The method on `prepared`, the QP's structure, run in `scalar`.
-    pub fn new(prepared: Prepared, scalar: Scalar) -> Self {
-        ActiveSet { prepared, scalar }
+    /// The method on `prepared`, the QP's structure, run in `scalar`, its cold restarts capped at no
+    /// less than `exact_cold` (the exact count, or 0).
+    pub fn new(prepared: Prepared, scalar: Scalar, exact_cold: usize) -> Self {
+        ActiveSet {
+            prepared,
+            scalar,
+            exact_cold,
+        }
     }
 }
 
@@ -98,7 +105,7 @@ impl Sampled for ActiveSet {
             offset,
             start.as_ref(),
             previous_plan,
-            count,
+            Caps::with(count, self.exact_cold),
             false,
             self.scalar,
         );

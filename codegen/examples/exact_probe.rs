@@ -1,0 +1,22 @@
+//! `cargo run --release -p codegen --example exact_probe -- SPEC LPS`: the exact count's partition of
+//! SPEC per block within LPS feasibility LPs per block, with its time (BENCHMARKS.md, "The exact count").
+use codegen::solver::active_set::exact::{exact_count, Limits};
+use codegen::solver::active_set::mpc::prepare;
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let src = std::fs::read_to_string(&args[1]).expect("the spec");
+    let lps: usize = args.get(2).map_or(200_000, |s| s.parse().expect("LPS"));
+    let spec = mpc_spec::load(&src).expect("a valid spec");
+    let p = codegen::lower(&spec).expect("lowers");
+    let region = codegen::sampling::resolve_region(&spec, &p, "probe").expect("a region");
+    let prepared = prepare(&p.qp).expect("prepared");
+    let count = exact_count(&p, &prepared, &region, Limits { lps, dimension: 64 });
+    for (b, c) in count.blocks.iter().enumerate() {
+        println!(
+            "block {b}: {} parameters, {} regions, worst {}, {} LPs, {:.2} s, complete {}",
+            c.parameters.len(), c.pieces.len(), c.worst, c.lps, c.seconds, c.complete
+        );
+    }
+    println!("total {:.2} s, worst {}, complete {}", count.seconds, count.worst, count.complete);
+}
