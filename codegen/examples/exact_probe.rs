@@ -15,8 +15,16 @@ fn main() {
     for (b, c) in count.blocks.iter().enumerate() {
         println!(
             "block {b}: {} parameters, {} regions, worst {}, {} LPs, {:.2} s, complete {}",
-            c.parameters.len(), c.pieces.len(), c.worst, c.lps, c.seconds, c.complete
+            c.parameters.len(),
+            c.pieces.len(),
+            c.worst,
+            c.lps,
+            c.seconds,
+            c.complete
         );
     }
-    println!("total {:.2} s, worst {}, complete {}", count.seconds, count.worst, count.complete);
+    println!(
+        "total {:.2} s, worst {}, complete {}",
+        count.seconds, count.worst, count.complete
+    );
 }

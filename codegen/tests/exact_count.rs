@@ -44,7 +44,15 @@ fn setup(src: &str) -> (codegen::Problem, Prepared, ExactCount) {
     let p = codegen::lower(&spec).unwrap();
     let region = codegen::sampling::resolve_region(&spec, &p, "test").unwrap();
     let prepared = prepare(&p.qp).unwrap();
-    let count = exact_count(&p, &prepared, &region, Limits { lps: 2_000_000, dimension: 64 });
+    let count = exact_count(
+        &p,
+        &prepared,
+        &region,
+        Limits {
+            lps: 2_000_000,
+            dimension: 64,
+        },
+    );
     (p, prepared, count)
 }
 
@@ -204,12 +212,11 @@ fn the_build_carries_the_exact_count_and_a_warm_solve_restarts_cold() {
     use codegen::solver::active_set::mpc::{control_step, Caps};
     use codegen::solver::active_set::Status;
     let (p, prepared, count) = setup(SMALL);
-    let exact = p
-        .qp
-        .evidence
-        .as_ref()
-        .and_then(|e| e.exact.clone())
-        .expect("the exact count in the certificate");
+    let exact =
+        p.qp.evidence
+            .as_ref()
+            .and_then(|e| e.exact.clone())
+            .expect("the exact count in the certificate");
     assert!(exact.complete, "{:?}", exact.note);
     assert_eq!(exact.cold_worst, count.worst);
     assert_eq!(exact.regions, count.regions);
@@ -223,7 +230,10 @@ fn the_build_carries_the_exact_count_and_a_warm_solve_restarts_cold() {
     assert_eq!(c.exact.as_ref(), Some(&exact));
 
     // "sampled": no partition, and the cold cap is the sample's.
-    let sampled = SMALL.replace("[mpc.region]\n", "[mpc.region]\ncertificate = \"sampled\"\n");
+    let sampled = SMALL.replace(
+        "[mpc.region]\n",
+        "[mpc.region]\ncertificate = \"sampled\"\n",
+    );
     let q = codegen::lower(&mpc_spec::load(&sampled).unwrap()).unwrap();
     assert!(q.qp.evidence.as_ref().unwrap().exact.is_none());
     assert_eq!(Caps::of(&q.qp).cold, q.qp.iterations);
@@ -264,7 +274,10 @@ fn the_build_carries_the_exact_count_and_a_warm_solve_restarts_cold() {
         mpc_spec::Scalar::F64,
     );
     assert_eq!(step.outcome.status, Status::Solved);
-    assert!(step.outcome.iterations > cold.outcome.iterations, "the warm solve ran out first");
+    assert!(
+        step.outcome.iterations > cold.outcome.iterations,
+        "the warm solve ran out first"
+    );
     assert!(step.outcome.iterations <= tight.per_step());
     assert_eq!(step.plan, cold.plan);
 }

@@ -91,7 +91,10 @@ fn exact_lines(x: &codegen::evidence::Exact, lines: &mut Vec<(String, String)>) 
             .iter()
             .map(|(name, v)| format!("{name} = {v:.4}"))
             .collect();
-        lines.push(("witness (every block at its worst)".to_string(), witness.join(", ")));
+        lines.push((
+            "witness (every block at its worst)".to_string(),
+            witness.join(", "),
+        ));
     }
     lines.push((
         "a reference window varying over the horizon".to_string(),

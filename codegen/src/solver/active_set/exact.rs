@@ -341,7 +341,11 @@ pub fn certify(p: &Problem, prepared: &Prepared, region: &Region, limits: Limits
         lps: count.blocks.iter().map(|c| c.lps).sum(),
         cold_worst: count.worst,
         block_worst: count.blocks.iter().map(|c| c.worst).collect(),
-        witness: names.iter().cloned().zip(count.witness.iter().copied()).collect(),
+        witness: names
+            .iter()
+            .cloned()
+            .zip(count.witness.iter().copied())
+            .collect(),
         seconds: count.seconds,
     }
 }

@@ -120,13 +120,21 @@ pub fn control_step(
     let outcome = match prepared.offsets(&problem) {
         Ok(offsets) => {
             let run = |start, cap| solve_in(prepared, &offsets, start, cap, &tolerances, scalar);
-            let cap = if start.is_some() { caps.warm } else { caps.cold };
+            let cap = if start.is_some() {
+                caps.warm
+            } else {
+                caps.cold
+            };
             let first = run(start, cap);
             let ran_out = matches!(first.status, Ended::IterationLimit | Ended::Cycling);
             if start.is_some() && ran_out {
                 let mut restart = run(None, caps.cold);
                 restart.iterations += first.iterations;
-                for (b, k) in restart.block_iterations.iter_mut().zip(&first.block_iterations) {
+                for (b, k) in restart
+                    .block_iterations
+                    .iter_mut()
+                    .zip(&first.block_iterations)
+                {
                     *b += k;
                 }
                 restart
