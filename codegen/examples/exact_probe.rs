@@ -14,11 +14,12 @@ fn main() {
     let count = exact_count(&p, &prepared, &region, Limits { lps, dimension: 64 });
     for (b, c) in count.blocks.iter().enumerate() {
         println!(
-            "block {b}: {} parameters, {} regions, worst {}, {} LPs, {:.2} s, complete {}",
+            "block {b}: {} parameters, {} regions, worst {}, {} LPs ({} left to Clarabel), {:.2} s, complete {}",
             c.parameters.len(),
             c.pieces.len(),
             c.worst,
             c.lps,
+            c.lp_fallbacks,
             c.seconds,
             c.complete
         );

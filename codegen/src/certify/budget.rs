@@ -120,14 +120,14 @@ pub const CASE_OVERHEAD_MACS: f64 = 1e6;
 
 /// Feasibility LPs the exact count of the dual active-set method ([`crate::solver::active_set::exact`])
 /// may solve per block before it falls back to the sampled count: the 2-parameter problem of
-/// `codegen/tests/exact_count.rs` needs 3,567 (0.2 s).
+/// `codegen/tests/exact_count.rs` needs 3,569 (0.03 s).
 pub const EXACT_LPS: usize = 20_000;
 
 /// Parameters a block of the dual active-set method's QP may depend on for the exact count to partition
 /// it within the build: the regions, and the LPs per region, grow with the dimension. At 4 (paper-limits
-/// per axis) 200,000 LPs per block gave 3,948 regions in 608 s without completing, at 6-7 (the
-/// pendulum, afti16) 5,000 LPs gave 69-101 regions (BENCHMARKS.md, "The exact count"): a block above
-/// this is not partitioned, and the sample certifies it.
+/// per axis) 100,000 LPs per block gave about 1,070 regions without completing, at 6-7 (the pendulum,
+/// afti16) 5,000 LPs gave 69-101 regions (BENCHMARKS.md, "The exact count"): a block above this is not
+/// partitioned, and the sample certifies it.
 pub const EXACT_DIMENSION: usize = 3;
 
 /// Iterations one exact reference solve is priced at: the interior-point method run to

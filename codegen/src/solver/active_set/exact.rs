@@ -33,8 +33,9 @@
 //! on the region up to these slivers. Neither the cycling guard nor the refactorisation and refinement
 //! at the optimum (no-ops in exact arithmetic) is modelled.
 //!
-//! **The LP.** Emptiness is decided by the Chebyshev ball, max r s.t. aᵢ·ξ + ‖aᵢ‖·r ≤ bᵢ, with Clarabel
-//! (already a dependency, well kept, and robust on the degenerate LPs the splits produce); each
+//! **The LP.** Emptiness is decided by the Chebyshev ball, max r s.t. aᵢ·ξ + ‖aᵢ‖·r ≤ bᵢ, by the small
+//! dense LP of [`super::small_lp`] from a feasible point (the parent's centre), and by Clarabel (already a
+//! dependency, well kept, and robust on the degenerate LPs the splits produce) where that cannot decide; each
 //! region's bounding box (2p more LPs) then drops the rows it makes redundant and pre-screens the next
 //! split's candidates without an LP.
 //!
@@ -45,11 +46,12 @@
 //!
 //! **In the build.** [`certify`] runs it within [`Limits::BUILD`] (`codegen::budget::EXACT_LPS` LPs per
 //! block, `EXACT_DIMENSION` parameters per block); where it does not complete, the certificate says why
-//! and the caps are the sample's. The dimension reached is 2 parameters (complete in 0.2 s, checked
+//! and the caps are the sample's. The dimension reached is 2 parameters (complete in 0.03 s, checked
 //! against the kernel on a grid and random draws, `codegen/tests/exact_count.rs`); paper-limits (3
 //! blocks of 4), afti16 (7) and the pendulum (6) do not complete within minutes, so the build does not
-//! try blocks above 3 (BENCHMARKS.md, "The exact count"). The cost is the LPs: tens per region, most
-//! of them the add rule's candidates, each a Clarabel solve.
+//! try blocks above 3 (BENCHMARKS.md, "The exact count"). The cost is the LPs: about a hundred per
+//! region, most of them the add rule's candidates; and paper-limits' third block cycles past
+//! [`MAX_DEPTH`] (the kernel's cycling guard is not modelled).
 #![allow(non_snake_case)]
 
 use super::{Offsets, Prepared, Tolerances};
@@ -225,6 +227,8 @@ pub struct BlockCount {
     pub lps: usize,
     /// LPs Clarabel did not solve: their regions were dropped as empty (0 on the shipped specs).
     pub lp_failures: usize,
+    /// LPs the small dense solver left to Clarabel (a step cap or a singular system).
+    pub lp_fallbacks: usize,
     /// Seconds taken.
     pub seconds: f64,
     /// False when the work budget ran out (or a piece exceeded [`MAX_DEPTH`]): `worst` is then over
@@ -378,6 +382,7 @@ pub fn exact_count(
         infeasible: 0,
         lps: 0,
         lp_failures: 0,
+        lp_fallbacks: 0,
         seconds: 0.0,
         complete: false,
     };
@@ -506,6 +511,8 @@ struct Certifier<'a> {
     lps: usize,
     /// LPs Clarabel did not solve (their regions are dropped as empty).
     failures: usize,
+    /// LPs the small dense solver left to Clarabel.
+    fallbacks: usize,
 }
 
 /// a + s·b.
@@ -555,50 +562,17 @@ fn winner_rows(values: &[Aff], i: usize, max: bool) -> Option<Vec<Aff>> {
 }
 
 impl Certifier<'_> {
-    /// Maximises cᵀx over {A·x ≤ b} with Clarabel: the maximiser, or `None` when it has none.
-    fn lp(&mut self, c: &[f64], rows: &[(Vec<f64>, f64)]) -> Option<Vec<f64>> {
-        use clarabel::algebra::CscMatrix;
-        use clarabel::solver::{
-            DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
-        };
+    /// Maximises cᵀx over {A·x ≤ b} from the feasible `start` ([`super::small_lp`]), or with Clarabel
+    /// where that cannot decide: the maximiser, or `None` when it has none.
+    fn lp(&mut self, c: &[f64], rows: &[(Vec<f64>, f64)], start: &[f64]) -> Option<Vec<f64>> {
         self.lps += 1;
-        let (n, m) = (c.len(), rows.len());
-        let (mut colptr, mut rowval, mut nzval) = (vec![0], Vec::new(), Vec::new());
-        for j in 0..n {
-            for (i, (a, _)) in rows.iter().enumerate() {
-                if a[j] != 0.0 {
-                    rowval.push(i);
-                    nzval.push(a[j]);
-                }
-            }
-            colptr.push(rowval.len());
+        if let Ok(x) = super::small_lp::maximise(c, rows, start) {
+            return Some(x);
         }
-        let A = CscMatrix::new(m, n, colptr, rowval, nzval);
-        let P = CscMatrix::zeros((n, n));
-        let q: Vec<f64> = c.iter().map(|v| -v).collect();
-        let b: Vec<f64> = rows.iter().map(|r| r.1).collect();
-        let settings = DefaultSettings {
-            verbose: false,
-            presolve_enable: false,
-            ..DefaultSettings::default()
-        };
-        let mut solver = DefaultSolver::new(
-            &P,
-            &q,
-            &A,
-            &b,
-            &[SupportedConeT::NonnegativeConeT(m)],
-            settings,
-        )
-        .ok()?;
-        solver.solve();
-        match solver.solution.status {
-            SolverStatus::Solved | SolverStatus::AlmostSolved => Some(solver.solution.x.clone()),
-            _ => {
-                self.failures += 1;
-                None
-            }
-        }
+        self.fallbacks += 1;
+        let x = super::small_lp::with_clarabel(c, rows);
+        self.failures += usize::from(x.is_none());
+        x
     }
 
     /// The region `parent` ∩ {h ≤ 0 for each h of `cuts`}, with its Chebyshev ball and bounding box;
@@ -665,7 +639,14 @@ impl Certifier<'_> {
             .collect();
         let mut objective = vec![0.0; p];
         objective.push(1.0);
-        let x = self.lp(&objective, &ball)?;
+        // A feasible start: the parent's centre with the largest radius its rows allow there.
+        let mut start = parent.centre.clone();
+        let room = ball
+            .iter()
+            .map(|(a, b)| b - a[..p].iter().zip(&start).map(|(u, v)| u * v).sum::<f64>())
+            .fold(f64::INFINITY, f64::min);
+        start.push(room);
+        let x = self.lp(&objective, &ball, &start)?;
         let radius = x[p];
         if radius.is_nan() || radius < MIN_RADIUS {
             return None;
@@ -677,7 +658,7 @@ impl Certifier<'_> {
             for sign in [1.0, -1.0] {
                 let mut c = vec![0.0; p];
                 c[j] = sign;
-                if let Some(x) = self.lp(&c, &bounded) {
+                if let Some(x) = self.lp(&c, &bounded, &centre) {
                     if sign > 0.0 {
                         hi[j] = hi[j].min(x[j] + 1e-9);
                     } else {
@@ -1001,6 +982,7 @@ fn partition(
         tol: Tolerances::F64,
         lps: 0,
         failures: 0,
+        fallbacks: 0,
     };
     let mut rows = Vec::new();
     for j in 0..p {
@@ -1067,6 +1049,7 @@ fn partition(
         infeasible,
         lps: cert.lps,
         lp_failures: cert.failures,
+        lp_fallbacks: cert.fallbacks,
         seconds: start.elapsed().as_secs_f64(),
         complete,
     }
