@@ -219,6 +219,13 @@ fn the_build_carries_the_exact_count_and_a_warm_solve_restarts_cold() {
             .expect("the exact count in the certificate");
     assert!(exact.complete, "{:?}", exact.note);
     assert_eq!(exact.cold_worst, count.worst);
+    // No sampled cold case exceeds it (the build checks this too, and distrusts the partition if one does).
+    let sampled = p.qp.evidence.as_ref().unwrap().cold_worst;
+    assert!(
+        sampled <= exact.cold_worst,
+        "{sampled} > {}",
+        exact.cold_worst
+    );
     assert_eq!(exact.regions, count.regions);
     let caps = Caps::of(&p.qp);
     assert_eq!(caps.warm, p.qp.iterations);

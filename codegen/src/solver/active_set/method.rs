@@ -2,7 +2,7 @@
 #![allow(non_snake_case)]
 
 use super::mpc::{control_step, macs_once, macs_per_iteration, prepare, Caps};
-use crate::certify::evidence::Evidence;
+use crate::certify::evidence::{Evidence, Exact};
 use crate::certify::sampling;
 use crate::emit::sections::Sections;
 use crate::emit::tokens::Num;
@@ -13,6 +13,21 @@ use crate::solver::stepping::{StepData, Stepping};
 use mpc_spec::{Certificate, Diagnostic, Diagnostics, Method, Scalar, Spec};
 use nalgebra::DVector;
 use std::sync::Arc;
+
+/// The exact count `x` against the sample's cold cases, which draw the same parameters (x₀ in the
+/// region, a constant reference, u₋₁ and d in their boxes): in f64, a cold case needing more than the
+/// exact count is a case the partition got wrong, so the count is not trusted and the caps are the
+/// sample's. (An f32 kernel may take other branches near the regions' boundaries: not compared.)
+fn checked_by_sample(mut x: Exact, sampled_cold_worst: usize, scalar: Scalar) -> Exact {
+    if x.complete && scalar == Scalar::F64 && sampled_cold_worst > x.cold_worst {
+        x.complete = false;
+        x.note = Some(format!(
+            "a sampled cold case needed {sampled_cold_worst} changes, above the exact count of {}: the partition is not trusted",
+            x.cold_worst
+        ));
+    }
+    x
+}
 
 /// The dual active-set method (Goldfarb and Idnani's, as DAQP) on the condensed QP, in the module's
 /// scalar, with its factor, Gram matrix and blocks computed at build time.
@@ -89,7 +104,7 @@ impl Solver for ActiveSet {
             .map_or(0, |x| x.cold_worst);
         let method = super::sampled::ActiveSet::new(prepared, problem.scalar, exact_cold);
         let mut evidence = sampling::certify(spec, problem, &method, 0)?;
-        evidence.exact = exact;
+        evidence.exact = exact.map(|x| checked_by_sample(x, evidence.cold_worst, problem.scalar));
         Ok(Some(evidence))
     }
 
@@ -205,5 +220,40 @@ impl Solver for ActiveSet {
         let plan = step.plan.clone();
         state.active_set_step = Some(step);
         plan
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn exact(cold_worst: usize) -> Exact {
+        Exact {
+            complete: true,
+            note: None,
+            parameters: 2,
+            block_parameters: vec![vec!["x0[0]".into(), "x0[1]".into()]],
+            regions: 10,
+            infeasible_regions: 0,
+            lps: 100,
+            cold_worst,
+            block_worst: vec![cold_worst],
+            witness: Vec::new(),
+            seconds: 0.0,
+        }
+    }
+
+    #[test]
+    fn a_sampled_case_above_the_exact_count_distrusts_it_in_f64() {
+        let kept = checked_by_sample(exact(7), 7, Scalar::F64);
+        assert!(kept.complete && kept.note.is_none());
+        let distrusted = checked_by_sample(exact(7), 8, Scalar::F64);
+        assert!(!distrusted.complete);
+        assert!(distrusted
+            .note
+            .unwrap()
+            .contains("needed 8 changes, above the exact count of 7"));
+        // An f32 kernel's branches near the boundaries may differ: not compared.
+        assert!(checked_by_sample(exact(7), 8, Scalar::F32).complete);
     }
 }
