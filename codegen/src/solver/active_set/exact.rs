@@ -984,14 +984,7 @@ fn partition(
         failures: 0,
         fallbacks: 0,
     };
-    let mut rows = Vec::new();
-    for j in 0..p {
-        for sign in [1.0, -1.0] {
-            let mut a = vec![0.0; p];
-            a[j] = sign;
-            rows.push((a, 1.0));
-        }
-    }
+    let rows = super::small_lp::unit_box(p);
     let root = State {
         region: Polyhedron {
             rows,

@@ -96,6 +96,19 @@ pub fn maximise(c: &[f64], rows: &[(Vec<f64>, f64)], start: &[f64]) -> Result<Ve
     Err(Undecided::Numerics)
 }
 
+/// The rows of the box [−1, 1]ⁿ: ±xⱼ ≤ 1.
+pub fn unit_box(n: usize) -> Vec<(Vec<f64>, f64)> {
+    let mut rows = Vec::with_capacity(2 * n);
+    for j in 0..n {
+        for sign in [1.0, -1.0] {
+            let mut a = vec![0.0; n];
+            a[j] = sign;
+            rows.push((a, 1.0));
+        }
+    }
+    rows
+}
+
 /// The maximiser by Clarabel (an interior-point method, robust on degenerate LPs), or `None` where it
 /// reports no solution.
 pub fn with_clarabel(c: &[f64], rows: &[(Vec<f64>, f64)]) -> Option<Vec<f64>> {
@@ -159,14 +172,7 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         for case in 0..400 {
             let n = 1 + case % 6;
-            let mut rows = Vec::new();
-            for j in 0..n {
-                for sign in [1.0, -1.0] {
-                    let mut a = vec![0.0; n];
-                    a[j] = sign;
-                    rows.push((a, 1.0));
-                }
-            }
+            let mut rows = unit_box(n);
             for _ in 0..rng.gen_range(0..30) {
                 let a: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
                 let norm = a.iter().map(|v| v * v).sum::<f64>().sqrt();
