@@ -14,15 +14,39 @@ fn main() {
     let count = exact_count(&p, &prepared, &region, Limits { lps, dimension: 64 });
     for (b, c) in count.blocks.iter().enumerate() {
         println!(
-            "block {b}: {} parameters, {} regions, worst {}, {} LPs ({} left to Clarabel), {:.2} s, complete {}",
+            "block {b}: {} parameters, {} regions ({} cycling, radius ≤ {:.1e}), worst {}, {} LPs ({} left to Clarabel), {:.2} s, complete {}",
             c.parameters.len(),
             c.pieces.len(),
+            c.cycling,
+            c.cycling_radius,
             c.worst,
             c.lps,
             c.lp_fallbacks,
             c.seconds,
             c.complete
         );
+    }
+    if std::env::var("CYCLES").is_ok() {
+        for c in &count.blocks {
+            for q in c
+                .pieces
+                .iter()
+                .filter(|q| q.end == codegen::solver::active_set::exact::End::Cycles)
+            {
+                let theta = count.parameters.theta(&c.parameters, &q.centre);
+                let qp = count.parameters.qp(&p, &theta);
+                let o = codegen::solver::active_set::solve(
+                    &prepared,
+                    &prepared.offsets(&qp).unwrap(),
+                    None,
+                    10_000,
+                );
+                println!(
+                    "cycling at {:?} r {:.1e} after {}: kernel {:?} {:?}",
+                    q.centre, q.radius, q.iterations, o.status, o.block_iterations
+                );
+            }
+        }
     }
     println!(
         "total {:.2} s, worst {}, complete {}",

@@ -204,6 +204,47 @@ fn paper_limits_per_axis() {
     );
 }
 
+/// Paper-limits' third block (the height, its floor soft) has a sliver near a corner of the region
+/// where the exact iteration returns to a working set it scanned (a degenerate tie): the region ends
+/// there as cycling, outside the count, and the partition goes on (it used to run that path to
+/// `MAX_DEPTH` and stop). The kernel, whose tolerances break the tie, solves the sliver's centre.
+#[test]
+fn a_cycle_in_exact_arithmetic_ends_its_region_and_the_partition_goes_on() {
+    use codegen::solver::active_set::exact::End;
+    let spec = mpc_spec::load(include_str!(
+        "../../tests/specs/active-set/paper-limits.toml"
+    ))
+    .unwrap();
+    let p = codegen::lower(&spec).unwrap();
+    let region = codegen::sampling::resolve_region(&spec, &p, "test").unwrap();
+    let prepared = prepare(&p.qp).unwrap();
+    let limits = Limits {
+        lps: 8_000,
+        dimension: 64,
+    };
+    let count = exact_count(&p, &prepared, &region, limits);
+    let c = &count.blocks[2];
+    report("paper-limits", &count);
+    assert!(c.cycling >= 1, "no cycling region found");
+    assert!(c.cycling_radius < 1e-5, "{}", c.cycling_radius);
+    assert!(
+        c.pieces.len() > c.cycling + 100,
+        "{} regions",
+        c.pieces.len()
+    );
+    for q in c.pieces.iter().filter(|q| q.end == End::Cycles) {
+        assert!(
+            q.iterations <= c.worst + 8,
+            "{} against {}",
+            q.iterations,
+            c.worst
+        );
+        let theta = count.parameters.theta(&c.parameters, &q.centre);
+        let k = kernel(&p, &prepared, &count, &theta);
+        assert!(k[2] < 100, "the kernel at the sliver's centre: {k:?}");
+    }
+}
+
 /// The build carries the exact count (`[mpc.region] certificate = "exact"`, the default): the
 /// certificate's count is the partition's, the cold cap is at least it, and a warm solve that runs out
 /// restarts cold within that cap and ends at the optimum, in `warm + cold` changes at most.

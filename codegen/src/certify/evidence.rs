@@ -96,6 +96,13 @@ pub struct Exact {
     pub regions: usize,
     /// Regions where the hard rows admit no plan (the dual is unbounded there).
     pub infeasible_regions: usize,
+    /// Regions where the exact iteration returns to a working set it left (a degenerate tie broken the
+    /// same way each time): there the kernel's guard ends the solve (`Cycling`) and the controller falls
+    /// back. They are outside `cold_worst`.
+    pub cycling_regions: usize,
+    /// The largest Chebyshev radius of a cycling region, in the block's parameters normalised to
+    /// [−1, 1] (0 without one): how thin they are.
+    pub cycling_radius: f64,
     /// Feasibility LPs solved.
     pub lps: usize,
     /// Changes of the working set a cold solve makes at most: the sum of the blocks' maxima.

@@ -30,8 +30,11 @@
 //! the kernel may take the other branch. Ties between two affine functions that agree identically
 //! (duplicate rows, multipliers both zero) follow the kernel's rule: the earlier index wins. Regions
 //! whose Chebyshev ball has a radius below [`MIN_RADIUS`] in ξ are pruned as boundary: the count holds
-//! on the region up to these slivers. Neither the cycling guard nor the refactorisation and refinement
-//! at the optimum (no-ops in exact arithmetic) is modelled.
+//! on the region up to these slivers. A path that scans a working set it scanned before cycles in
+//! exact arithmetic ([`End::Cycles`]): its region is final, reported apart and outside the count
+//! (paper-limits' third block has a sliver of radius 5e-7 where this happens; the kernel solves its
+//! centre in 23 changes). The kernel's cycling guard, refactorisation and refinement at the optimum
+//! (no-ops in exact arithmetic) are not modelled.
 //!
 //! **The LP.** Emptiness is decided by the Chebyshev ball, max r s.t. aᵢ·ξ + ‖aᵢ‖·r ≤ bᵢ, by the small
 //! dense LP of [`super::small_lp`] from a feasible point (the parent's centre), and by Clarabel (already a
@@ -49,11 +52,11 @@
 //! and the caps are the sample's. The dimension reached is 2 parameters (complete in 0.03 s, checked
 //! against the kernel on a grid and random draws, `codegen/tests/exact_count.rs`); paper-limits (3
 //! blocks of 4), afti16 (7) and the pendulum (6) do not complete within minutes, so the build does not
-//! try blocks above 3 (BENCHMARKS.md, "The exact count"). The cost is the LPs: about a hundred per
-//! region, most of them the add rule's candidates; and paper-limits' third block cycles past
-//! [`MAX_DEPTH`] (the kernel's cycling guard is not modelled).
+//! try blocks above 3 (BENCHMARKS.md, "The exact count"). The cost is the LPs: 60-100 per region,
+//! most of them the add rule's candidates and the regions' bounding boxes.
 #![allow(non_snake_case)]
 
+use super::small_lp::Rows;
 use super::{Offsets, Prepared, Tolerances};
 use crate::certify::evidence::{Exact, Region};
 use crate::lower::problem::Problem;
@@ -197,13 +200,28 @@ impl Parameters {
     }
 }
 
+/// How the exact iteration ends on a region.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum End {
+    /// At the optimum.
+    Solved,
+    /// The dual is unbounded: the hard rows admit no plan.
+    Infeasible,
+    /// The iteration returns to a working set it scanned before (a degenerate tie broken the same
+    /// way each time): in exact arithmetic it repeats forever. The kernel, whose tolerances break such
+    /// ties by round-off, either leaves the cycle or its guard ends the solve with `Cycling` (the
+    /// controller falls back); such a region is outside the count. `iterations` counts the changes up
+    /// to the repeat.
+    Cycles,
+}
+
 /// One final region of a block's partition: its sequence of working sets is fixed.
 #[derive(Clone, Debug)]
 pub struct Piece {
     /// Changes of the working set (additions and removals) the cold solve makes.
     pub iterations: usize,
-    /// Whether it ends at the optimum (else the dual is unbounded there: infeasible).
-    pub solved: bool,
+    /// How it ends.
+    pub end: End,
     /// The Chebyshev centre, in ξ.
     pub centre: Vec<f64>,
     /// The Chebyshev radius, in ξ.
@@ -223,6 +241,10 @@ pub struct BlockCount {
     pub witness: Vec<f64>,
     /// Regions that end infeasible.
     pub infeasible: usize,
+    /// Regions where the iteration cycles ([`End::Cycles`]), outside `worst`.
+    pub cycling: usize,
+    /// The largest Chebyshev radius (in ξ) of a cycling region, 0 without one.
+    pub cycling_radius: f64,
     /// LPs solved.
     pub lps: usize,
     /// LPs Clarabel did not solve: their regions were dropped as empty (0 on the shipped specs).
@@ -342,6 +364,12 @@ pub fn certify(p: &Problem, prepared: &Prepared, region: &Region, limits: Limits
             .collect(),
         regions: count.regions,
         infeasible_regions: count.blocks.iter().map(|c| c.infeasible).sum(),
+        cycling_regions: count.blocks.iter().map(|c| c.cycling).sum(),
+        cycling_radius: count
+            .blocks
+            .iter()
+            .map(|c| c.cycling_radius)
+            .fold(0.0, f64::max),
         lps: count.blocks.iter().map(|c| c.lps).sum(),
         cold_worst: count.worst,
         block_worst: count.blocks.iter().map(|c| c.worst).collect(),
@@ -380,6 +408,8 @@ pub fn exact_count(
         worst: 0,
         witness: centre.clone(),
         infeasible: 0,
+        cycling: 0,
+        cycling_radius: 0.0,
         lps: 0,
         lp_failures: 0,
         lp_fallbacks: 0,
@@ -468,7 +498,7 @@ pub fn exact_count(
 /// A polyhedron {ξ : aᵢ·ξ ≤ bᵢ} inside the box [−1, 1]^p, with a point and a bounding box.
 #[derive(Clone, Debug)]
 struct Polyhedron {
-    rows: Vec<(Vec<f64>, f64)>,
+    rows: Rows,
     centre: Vec<f64>,
     radius: f64,
     lo: Vec<f64>,
@@ -498,6 +528,8 @@ struct State {
     phase: Phase,
     /// Final: solved without another change.
     done: bool,
+    /// Hashes of the working sets (in the factor's order) at each scan on this path.
+    seen: Vec<u64>,
 }
 
 /// The symbolic iteration on one block.
@@ -536,35 +568,34 @@ fn identical(h: &[f64], x: &[f64], y: &[f64]) -> bool {
     h.iter().all(|v| v.abs() <= 1e-9 * size)
 }
 
-/// The rows {h ≤ 0} that make `x_i` win over every `x_j` in an argmax (`max = true`) or argmin, the
-/// first index winning ties; `None` when an identical earlier entry always wins.
-fn winner_rows(values: &[Aff], i: usize, max: bool) -> Option<Vec<Aff>> {
-    let mut rows = Vec::new();
+/// The cuts {h ≤ 0} that make `x_i` win over every `x_j` in an argmax (`max = true`) or argmin, the
+/// first index winning ties, each h an [`Aff`] one after the other; `None` when an identical earlier
+/// entry always wins. `extra` room is reserved for the caller's own cuts.
+fn winner_rows(values: &[Aff], i: usize, max: bool, extra: usize) -> Option<Vec<f64>> {
+    let width = values[i].len();
+    let mut cuts = Vec::with_capacity(width * (values.len() + extra));
     for (j, v) in values.iter().enumerate() {
         if j == i {
             continue;
         }
         // h = x_j − x_i ≤ 0 for a max, x_i − x_j ≤ 0 for a min.
-        let h = if max {
-            sub(v, &values[i])
-        } else {
-            sub(&values[i], v)
-        };
-        if identical(&h, v, &values[i]) {
+        let sign = if max { 1.0 } else { -1.0 };
+        let at = cuts.len();
+        cuts.extend(v.iter().zip(&values[i]).map(|(a, b)| sign * (a - b)));
+        if identical(&cuts[at..], v, &values[i]) {
             if j < i {
                 return None;
             }
-            continue;
+            cuts.truncate(at);
         }
-        rows.push(h);
     }
-    Some(rows)
+    Some(cuts)
 }
 
 impl Certifier<'_> {
     /// Maximises cᵀx over {A·x ≤ b} from the feasible `start` ([`super::small_lp`]), or with Clarabel
     /// where that cannot decide: the maximiser, or `None` when it has none.
-    fn lp(&mut self, c: &[f64], rows: &[(Vec<f64>, f64)], start: &[f64]) -> Option<Vec<f64>> {
+    fn lp(&mut self, c: &[f64], rows: &Rows, start: &[f64]) -> Option<Vec<f64>> {
         self.lps += 1;
         if let Ok(x) = super::small_lp::maximise(c, rows, start) {
             return Some(x);
@@ -575,13 +606,14 @@ impl Certifier<'_> {
         x
     }
 
-    /// The region `parent` ∩ {h ≤ 0 for each h of `cuts`}, with its Chebyshev ball and bounding box;
-    /// `None` when it is empty or a sliver.
-    fn cut(&mut self, parent: &Polyhedron, cuts: &[Aff]) -> Option<Polyhedron> {
+    /// The region `parent` ∩ {h ≤ 0 for each h of `cuts`} (affine functions of ξ, one after the
+    /// other), with its Chebyshev ball and bounding box; `None` when it is empty or a sliver.
+    fn cut(&mut self, parent: &Polyhedron, cuts: &[f64]) -> Option<Polyhedron> {
         let p = self.p;
         let mut rows = parent.rows.clone();
         let mut added = false;
-        for h in cuts {
+        let mut normalised = vec![0.0; p];
+        for h in cuts.chunks_exact(p + 1) {
             let (a, b) = (&h[..p], -h[p]);
             let norm = a.iter().map(|v| v * v).sum::<f64>().sqrt();
             let size = h.iter().fold(1.0f64, |m, v| m.max(v.abs()));
@@ -604,7 +636,10 @@ impl Certifier<'_> {
             if least > b + 1e-9 * norm {
                 return None;
             }
-            rows.push((a.iter().map(|v| v / norm).collect(), b / norm));
+            for (u, v) in normalised.iter_mut().zip(a) {
+                *u = v / norm;
+            }
+            rows.push(&normalised, b / norm);
             added = true;
         }
         if !added {
@@ -612,33 +647,30 @@ impl Certifier<'_> {
         }
         // The parent's bounding box holds the region: its faces are rows of every LP (the rows it
         // made redundant were dropped).
-        let mut bounded = rows.clone();
-        for j in 0..p {
-            let mut a = vec![0.0; p];
-            a[j] = 1.0;
-            bounded.push((a.clone(), parent.hi[j]));
-            a[j] = -1.0;
-            bounded.push((a, -parent.lo[j]));
+        let mut bounded = Rows::with_capacity(p, rows.len() + 2 * p);
+        for (a, b) in rows.iter() {
+            bounded.push(a, b);
         }
-        // The Chebyshev ball: max r s.t. a·ξ + r ≤ b (rows of unit norm).
-        let ball: Vec<(Vec<f64>, f64)> = bounded
-            .iter()
-            .map(|(a, b)| {
-                let mut a = a.clone();
-                a.push(1.0);
-                (a, *b)
-            })
-            .chain(std::iter::once((
-                {
-                    let mut a = vec![0.0; p];
-                    a.push(1.0);
-                    a
-                },
-                1.0,
-            )))
-            .collect();
-        let mut objective = vec![0.0; p];
-        objective.push(1.0);
+        let mut face = vec![0.0; p];
+        for j in 0..p {
+            face[j] = 1.0;
+            bounded.push(&face, parent.hi[j]);
+            face[j] = -1.0;
+            bounded.push(&face, -parent.lo[j]);
+            face[j] = 0.0;
+        }
+        // The Chebyshev ball: max r s.t. a·ξ + r ≤ b (rows of unit norm), r ≤ 1.
+        let mut ball = Rows::with_capacity(p + 1, bounded.len() + 1);
+        let mut widened = vec![0.0; p + 1];
+        for (a, b) in bounded.iter() {
+            widened[..p].copy_from_slice(a);
+            widened[p] = 1.0;
+            ball.push(&widened, b);
+        }
+        widened[..p].fill(0.0);
+        widened[p] = 1.0;
+        ball.push(&widened, 1.0);
+        let objective = &widened;
         // A feasible start: the parent's centre with the largest radius its rows allow there.
         let mut start = parent.centre.clone();
         let room = ball
@@ -646,7 +678,7 @@ impl Certifier<'_> {
             .map(|(a, b)| b - a[..p].iter().zip(&start).map(|(u, v)| u * v).sum::<f64>())
             .fold(f64::INFINITY, f64::min);
         start.push(room);
-        let x = self.lp(&objective, &ball, &start)?;
+        let x = self.lp(objective, &ball, &start)?;
         let radius = x[p];
         if radius.is_nan() || radius < MIN_RADIUS {
             return None;
@@ -654,9 +686,9 @@ impl Certifier<'_> {
         let centre = x[..p].to_vec();
         // The bounding box, then the rows it makes redundant dropped.
         let (mut lo, mut hi) = (parent.lo.clone(), parent.hi.clone());
+        let mut c = vec![0.0; p];
         for j in 0..p {
             for sign in [1.0, -1.0] {
-                let mut c = vec![0.0; p];
                 c[j] = sign;
                 if let Some(x) = self.lp(&c, &bounded, &centre) {
                     if sign > 0.0 {
@@ -666,10 +698,11 @@ impl Certifier<'_> {
                     }
                 }
             }
+            c[j] = 0.0;
         }
-        rows.retain(|(a, b)| {
+        rows.retain(|a, b| {
             let most: f64 = (0..p).map(|j| (a[j] * lo[j]).max(a[j] * hi[j])).sum();
-            most > *b
+            most > b
         });
         Some(Polyhedron {
             rows,
@@ -762,7 +795,7 @@ impl Certifier<'_> {
     }
 
     /// One decision of the kernel on `s`: its children, or `Err((solved))` when `s` is final.
-    fn advance(&mut self, s: State) -> Result<Vec<State>, bool> {
+    fn advance(&mut self, mut s: State) -> Result<Vec<State>, End> {
         let p = self.p;
         let k = s.set.len();
         if s.singular {
@@ -786,7 +819,7 @@ impl Certifier<'_> {
                 })
                 .collect();
             if eligible.is_empty() {
-                return Err(false);
+                return Err(End::Infeasible);
             }
             let t: Vec<Aff> = eligible
                 .iter()
@@ -794,7 +827,7 @@ impl Certifier<'_> {
                 .collect();
             let mut children = Vec::new();
             for (e, &i) in eligible.iter().enumerate() {
-                let Some(cuts) = winner_rows(&t, e, false) else {
+                let Some(cuts) = winner_rows(&t, e, false, 0) else {
                     continue;
                 };
                 let Some(region) = self.cut(&s.region, &cuts) else {
@@ -854,7 +887,7 @@ impl Certifier<'_> {
                 .collect();
             let mut children = Vec::new();
             // The full step: no multiplier goes wrong.
-            if let Some(region) = self.cut(&s.region, &wrong) {
+            if let Some(region) = self.cut(&s.region, &wrong.concat()) {
                 let mut c = s.clone();
                 c.region = region;
                 c.lambda = star.clone();
@@ -867,10 +900,10 @@ impl Certifier<'_> {
                 if wrong[e][..p].iter().all(|v| v.abs() <= 1e-9 * size) && wrong[e][p] <= 0.0 {
                     continue;
                 }
-                let Some(mut cuts) = winner_rows(&t, e, false) else {
+                let Some(mut cuts) = winner_rows(&t, e, false, 1) else {
                     continue;
                 };
-                cuts.push(scale(&wrong[e], -1.0));
+                cuts.extend(wrong[e].iter().map(|v| -v));
                 let Some(region) = self.cut(&s.region, &cuts) else {
                     continue;
                 };
@@ -887,7 +920,18 @@ impl Certifier<'_> {
             }
             return Ok(children);
         }
-        // The scan: the most violated inactive side.
+        // The scan: the most violated inactive side. At a working set this path scanned before, the
+        // multipliers are the same functions (λ* of the set), so the same decisions follow: a cycle.
+        let key = {
+            use std::hash::{Hash, Hasher};
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            s.set.hash(&mut h);
+            h.finish()
+        };
+        if s.seen.contains(&key) {
+            return Err(End::Cycles);
+        }
+        s.seen.push(key);
         let nc = self.lo.len();
         let mut candidates: Vec<(usize, bool)> = Vec::new();
         let mut violations: Vec<Aff> = Vec::new();
@@ -897,7 +941,10 @@ impl Certifier<'_> {
             }
             let mut mu = vec![0.0; p + 1];
             for (i, &(w, _)) in s.set.iter().enumerate() {
-                mu = axpy(&mu, -self.G[(w, c)], &s.lambda[i]);
+                let g = self.G[(w, c)];
+                for (m, l) in mu.iter_mut().zip(&s.lambda[i]) {
+                    *m -= g * l;
+                }
             }
             for upper in [true, false] {
                 let side = if upper { &self.hi[c] } else { &self.lo[c] };
@@ -926,13 +973,12 @@ impl Certifier<'_> {
             }
         }
         let mut children = Vec::new();
-        let none: Vec<Aff> = violations.clone();
-        let solved = self.cut(&s.region, &none);
+        let solved = self.cut(&s.region, &violations.concat());
         for (e, &(c, upper)) in candidates.iter().enumerate() {
-            let Some(mut cuts) = winner_rows(&violations, e, true) else {
+            let Some(mut cuts) = winner_rows(&violations, e, true, 1) else {
                 continue;
             };
-            cuts.push(scale(&violations[e], -1.0));
+            cuts.extend(violations[e].iter().map(|v| -v));
             let Some(region) = self.cut(&s.region, &cuts) else {
                 continue;
             };
@@ -948,7 +994,7 @@ impl Certifier<'_> {
             children.push(child);
         }
         match solved {
-            Some(_) if children.is_empty() => Err(true),
+            Some(_) if children.is_empty() => Err(End::Solved),
             Some(region) => {
                 // The solved part: a final region of its own.
                 let mut done = s;
@@ -1000,11 +1046,11 @@ fn partition(
         iterations: 0,
         phase: Phase::Top,
         done: false,
+        seen: Vec::new(),
     };
     let mut stack = vec![root];
     let mut pieces = Vec::new();
     let mut complete = true;
-    let mut infeasible = 0;
     while let Some(s) = stack.pop() {
         if cert.lps > limits.lps || s.iterations > MAX_DEPTH {
             complete = false;
@@ -1013,7 +1059,7 @@ fn partition(
         if s.done {
             pieces.push(Piece {
                 iterations: s.iterations,
-                solved: true,
+                end: End::Solved,
                 centre: s.region.centre.clone(),
                 radius: s.region.radius,
             });
@@ -1022,24 +1068,27 @@ fn partition(
         let (iterations, centre, radius) = (s.iterations, s.region.centre.clone(), s.region.radius);
         match cert.advance(s) {
             Ok(children) => stack.extend(children),
-            Err(solved) => {
-                infeasible += usize::from(!solved);
-                pieces.push(Piece {
-                    iterations,
-                    solved,
-                    centre,
-                    radius,
-                });
-            }
+            Err(end) => pieces.push(Piece {
+                iterations,
+                end,
+                centre,
+                radius,
+            }),
         }
     }
-    let worst = pieces.iter().max_by_key(|q| q.iterations);
+    let worst = pieces
+        .iter()
+        .filter(|q| q.end != End::Cycles)
+        .max_by_key(|q| q.iterations);
+    let cycling = pieces.iter().filter(|q| q.end == End::Cycles);
     BlockCount {
         parameters: Vec::new(),
         worst: worst.map_or(0, |q| q.iterations),
         witness: worst.map_or(vec![0.0; p], |q| q.centre.clone()),
+        infeasible: pieces.iter().filter(|q| q.end == End::Infeasible).count(),
+        cycling: cycling.clone().count(),
+        cycling_radius: cycling.map(|q| q.radius).fold(0.0, f64::max),
         pieces,
-        infeasible,
         lps: cert.lps,
         lp_failures: cert.failures,
         lp_fallbacks: cert.fallbacks,

@@ -235,6 +235,8 @@ mod tests {
             block_parameters: vec![vec!["x0[0]".into(), "x0[1]".into()]],
             regions: 10,
             infeasible_regions: 0,
+            cycling_regions: 0,
+            cycling_radius: 0.0,
             lps: 100,
             cold_worst,
             block_worst: vec![cold_worst],

@@ -23,24 +23,97 @@ pub enum Undecided {
 /// Relative tolerance on the projected objective, the multipliers and the blocking test.
 const TOL: f64 = 1e-11;
 
+/// Rows aᵢᵀx ≤ bᵢ of an LP in n unknowns, stored flat (one allocation however many rows: the
+/// partition clones and extends them at every split).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Rows {
+    n: usize,
+    a: Vec<f64>,
+    b: Vec<f64>,
+}
+
+impl Rows {
+    /// No rows, in `n` unknowns, with room for `m`.
+    pub fn with_capacity(n: usize, m: usize) -> Rows {
+        Rows {
+            n,
+            a: Vec::with_capacity(n * m),
+            b: Vec::with_capacity(m),
+        }
+    }
+
+    /// The unknowns.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// The rows.
+    pub fn len(&self) -> usize {
+        self.b.len()
+    }
+
+    /// Whether there is none.
+    pub fn is_empty(&self) -> bool {
+        self.b.is_empty()
+    }
+
+    /// Appends aᵀx ≤ b; `a` has the n coefficients.
+    pub fn push(&mut self, a: &[f64], b: f64) {
+        debug_assert_eq!(a.len(), self.n);
+        self.a.extend_from_slice(a);
+        self.b.push(b);
+    }
+
+    /// Row i.
+    pub fn row(&self, i: usize) -> (&[f64], f64) {
+        (&self.a[i * self.n..(i + 1) * self.n], self.b[i])
+    }
+
+    /// The rows in order.
+    pub fn iter(&self) -> impl Iterator<Item = (&[f64], f64)> + '_ {
+        self.a
+            .chunks_exact(self.n.max(1))
+            .zip(self.b.iter().copied())
+            .take(self.b.len())
+    }
+
+    /// Keeps the rows for which `keep` holds, in order.
+    pub fn retain(&mut self, mut keep: impl FnMut(&[f64], f64) -> bool) {
+        let n = self.n;
+        let mut kept = 0;
+        for i in 0..self.b.len() {
+            let b = self.b[i];
+            if keep(&self.a[i * n..(i + 1) * n], b) {
+                self.a.copy_within(i * n..(i + 1) * n, kept * n);
+                self.b[kept] = b;
+                kept += 1;
+            }
+        }
+        self.a.truncate(kept * n);
+        self.b.truncate(kept);
+    }
+}
+
 /// The maximiser of cᵀx over {x : aᵢᵀx ≤ bᵢ for each row (aᵢ, bᵢ)}, from `start`, which must be
 /// feasible (within round-off). Rows are expected of unit norm, or near it.
-pub fn maximise(c: &[f64], rows: &[(Vec<f64>, f64)], start: &[f64]) -> Result<Vec<f64>, Undecided> {
+pub fn maximise(c: &[f64], rows: &Rows, start: &[f64]) -> Result<Vec<f64>, Undecided> {
     let n = c.len();
+    debug_assert_eq!(rows.n(), n);
     let c = DVector::from_column_slice(c);
     let scale = c.amax().max(1e-300);
     let mut x = DVector::from_column_slice(start);
     let mut working: Vec<usize> = Vec::with_capacity(n);
+    let mut in_working = vec![false; rows.len()];
     let cap = 20 * (rows.len() + n) + 100;
     for _ in 0..cap {
         let k = working.len();
-        let a_w = DMatrix::from_fn(k, n, |i, j| rows[working[i]].0[j]);
         let (direction, multipliers) = if k == 0 {
             (c.clone(), DVector::zeros(0))
         } else {
             // A_Wᵀ = Q·R (thin): the projection c − Q·Qᵀc, and R·λ = Qᵀc (better conditioned than the
             // normal equations, whose Gram matrix squares the rows' condition).
-            let qr = a_w.transpose().qr();
+            let a_wt = DMatrix::from_fn(n, k, |j, i| rows.row(working[i]).0[j]);
+            let qr = a_wt.qr();
             let (q, r) = (qr.q(), qr.r());
             let qtc = q.transpose() * &c;
             let lambda = r.solve_upper_triangular(&qtc).ok_or(Undecided::Numerics)?;
@@ -49,7 +122,8 @@ pub fn maximise(c: &[f64], rows: &[(Vec<f64>, f64)], start: &[f64]) -> Result<Ve
         if !direction.iter().all(|v| v.is_finite()) {
             return Err(Undecided::Numerics);
         }
-        if direction.amax() <= TOL * scale {
+        let longest = direction.amax();
+        if longest <= TOL * scale {
             // c lies in the working rows' span: their multipliers decide.
             let leaving = working
                 .iter()
@@ -61,6 +135,7 @@ pub fn maximise(c: &[f64], rows: &[(Vec<f64>, f64)], start: &[f64]) -> Result<Ve
                 None => return Ok(x.iter().copied().collect()),
                 Some(r) => {
                     working.retain(|&w| w != r);
+                    in_working[r] = false;
                     continue;
                 }
             }
@@ -69,11 +144,11 @@ pub fn maximise(c: &[f64], rows: &[(Vec<f64>, f64)], start: &[f64]) -> Result<Ve
         let mut step = f64::INFINITY;
         let mut blocking = None;
         for (i, (a, b)) in rows.iter().enumerate() {
-            if working.contains(&i) {
+            if in_working[i] {
                 continue;
             }
             let rate: f64 = a.iter().zip(direction.iter()).map(|(u, v)| u * v).sum();
-            if rate <= TOL * direction.amax() {
+            if rate <= TOL * longest {
                 continue;
             }
             let slack: f64 = b - a.iter().zip(x.iter()).map(|(u, v)| u * v).sum::<f64>();
@@ -92,26 +167,28 @@ pub fn maximise(c: &[f64], rows: &[(Vec<f64>, f64)], start: &[f64]) -> Result<Ve
         }
         x += step * &direction;
         working.push(i);
+        in_working[i] = true;
     }
     Err(Undecided::Numerics)
 }
 
 /// The rows of the box [−1, 1]ⁿ: ±xⱼ ≤ 1.
-pub fn unit_box(n: usize) -> Vec<(Vec<f64>, f64)> {
-    let mut rows = Vec::with_capacity(2 * n);
+pub fn unit_box(n: usize) -> Rows {
+    let mut rows = Rows::with_capacity(n, 2 * n);
+    let mut a = vec![0.0; n];
     for j in 0..n {
         for sign in [1.0, -1.0] {
-            let mut a = vec![0.0; n];
             a[j] = sign;
-            rows.push((a, 1.0));
+            rows.push(&a, 1.0);
         }
+        a[j] = 0.0;
     }
     rows
 }
 
 /// The maximiser by Clarabel (an interior-point method, robust on degenerate LPs), or `None` where it
 /// reports no solution.
-pub fn with_clarabel(c: &[f64], rows: &[(Vec<f64>, f64)]) -> Option<Vec<f64>> {
+pub fn with_clarabel(c: &[f64], rows: &Rows) -> Option<Vec<f64>> {
     use clarabel::algebra::CscMatrix;
     use clarabel::solver::{
         DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
@@ -160,7 +237,7 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     /// Clarabel's optimum of the same LP, the independent reference.
-    fn clarabel(c: &[f64], rows: &[(Vec<f64>, f64)]) -> f64 {
+    fn clarabel(c: &[f64], rows: &Rows) -> f64 {
         let x = with_clarabel(c, rows).expect("Clarabel solves it");
         c.iter().zip(&x).map(|(u, v)| u * v).sum()
     }
@@ -190,13 +267,13 @@ mod tests {
                     rng.gen_range(0.0..1.0)
                 };
                 if rng.gen_bool(0.1) {
-                    rows.push((a.clone(), b));
+                    rows.push(&a, b);
                 }
-                rows.push((a, b));
+                rows.push(&a, b);
             }
             let c: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
             let x = maximise(&c, &rows, &vec![0.0; n]).unwrap();
-            for (a, b) in &rows {
+            for (a, b) in rows.iter() {
                 let v: f64 = a.iter().zip(&x).map(|(u, w)| u * w).sum();
                 assert!(v <= b + 1e-9, "case {case}: infeasible by {}", v - b);
             }
