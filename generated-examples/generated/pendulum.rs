@@ -3079,6 +3079,8 @@ pub mod pendulum {
         pub const EXACT_REGIONS: Option<usize> = Some(0);
         /// Regions where the hard rows admit no plan.
         pub const EXACT_INFEASIBLE_REGIONS: Option<usize> = Some(0);
+        /// Regions where the exact iteration repeats a working set (a degenerate tie), outside the exact count: there the kernel's tolerances break the tie, or its guard ends the solve (Cycling) and the controller falls back.
+        pub const EXACT_CYCLING_REGIONS: Option<usize> = Some(0);
         /// The dimension of the parameter: x0, the constant reference, u₋₁ where kept, d.
         pub const EXACT_PARAMETERS: Option<usize> = Some(7);
         /// A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).

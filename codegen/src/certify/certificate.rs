@@ -359,7 +359,7 @@ impl Certificate {
                 field("exact.cold_worst", "EXACT_COLD_WORST", "Changes of the working set a cold solve makes at most over `[mpc.region]`, for a constant reference window: exact (absent when the partition did not complete).", EXACT, "iterations cold: exact worst", IfPresent, count(done.map(|x| x.cold_worst))),
                 field("exact.regions", "EXACT_REGIONS", "Regions of the parameter box, each with one sequence of working sets (those done, when the partition did not complete).", EXACT, "regions of the partition", IfPresent, count(x.map(|x| x.regions))),
                 field("exact.infeasible_regions", "EXACT_INFEASIBLE_REGIONS", "Regions where the hard rows admit no plan.", EXACT, "of which infeasible", IfPresent, count(x.map(|x| x.infeasible_regions))),
-                field("exact.cycling_regions", "EXACT_CYCLING_REGIONS", "Regions where the exact iteration repeats a working set (a degenerate tie): the kernel's guard ends the solve there and the controller falls back; outside the exact count.", EXACT, "of which cycling (outside the count)", IfPresent, count(x.map(|x| x.cycling_regions))),
+                field("exact.cycling_regions", "EXACT_CYCLING_REGIONS", "Regions where the exact iteration repeats a working set (a degenerate tie), outside the exact count: there the kernel's tolerances break the tie, or its guard ends the solve (Cycling) and the controller falls back.", EXACT, "of which cycling (outside the count)", IfPresent, count(x.map(|x| x.cycling_regions))),
                 field("exact.cycling_radius", "", "", EXACT, "their largest radius (normalised parameters)", IfPresent, MaybeReal(x.filter(|x| x.cycling_regions > 0).map(|x| x.cycling_radius))),
                 field("exact.parameters", "EXACT_PARAMETERS", "The dimension of the parameter: x0, the constant reference, u₋₁ where kept, d.", EXACT, "parameter dimension (all blocks)", IfPresent, count(x.map(|x| x.parameters))),
                 field("exact.lps", "", "", EXACT, "feasibility LPs solved", IfPresent, count(x.map(|x| x.lps))),
@@ -697,7 +697,11 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
         sampled: qp.evidence.clone(),
         exact: qp.evidence.as_ref().and_then(|e| e.exact.clone()),
         cold_iterations: (qp.method == mpc_spec::Method::ActiveSet)
-            .then(|| crate::solver::active_set::mpc::Caps::of(qp).cold),
+            .then(|| {
+                // `Caps::of(qp).cold` of the active set's module, formed here from the evidence alone.
+                qp.iterations
+                    .max(qp.evidence.as_ref().map_or(0, |e| e.exact_cold()))
+            }),
         accuracy: qp.accuracy,
         normal_form: plan.solver.normal_form(qp),
         admm_structure: plan.solver.admm_structure(qp),

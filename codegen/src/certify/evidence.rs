@@ -75,6 +75,17 @@ pub struct Evidence {
     pub exact: Option<Exact>,
 }
 
+impl Evidence {
+    /// The exact cold count where the partition completed, else 0: what a cold solve's cap
+    /// (`COLD_ITERATIONS`, [`crate::solver::active_set::mpc::Caps`]) must reach besides `iterations`.
+    pub fn exact_cold(&self) -> usize {
+        self.exact
+            .as_ref()
+            .filter(|x| x.complete)
+            .map_or(0, |x| x.cold_worst)
+    }
+}
+
 /// The exact iteration count of the dual active-set method's cold start over the region
 /// ([`crate::solver::active_set::exact`]): a proof for every x₀ in the region's box, every reference
 /// held constant over the window within its box, every u₋₁ in the input box and every disturbance in

@@ -43,12 +43,7 @@ impl Caps {
     /// The caps of `qp` as certified: `qp.iterations` warm, and cold the larger of it and the exact
     /// count where the partition completed.
     pub fn of(qp: &Qp) -> Caps {
-        let exact = qp
-            .evidence
-            .as_ref()
-            .and_then(|e| e.exact.as_ref())
-            .filter(|x| x.complete)
-            .map_or(0, |x| x.cold_worst);
+        let exact = qp.evidence.as_ref().map_or(0, |e| e.exact_cold());
         Caps::with(qp.iterations, exact)
     }
 
