@@ -696,12 +696,11 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
         ),
         sampled: qp.evidence.clone(),
         exact: qp.evidence.as_ref().and_then(|e| e.exact.clone()),
-        cold_iterations: (qp.method == mpc_spec::Method::ActiveSet)
-            .then(|| {
-                // `Caps::of(qp).cold` of the active set's module, formed here from the evidence alone.
-                qp.iterations
-                    .max(qp.evidence.as_ref().map_or(0, |e| e.exact_cold()))
-            }),
+        cold_iterations: (qp.method == mpc_spec::Method::ActiveSet).then(|| {
+            // `Caps::of(qp).cold` of the active set's module, formed here from the evidence alone.
+            qp.iterations
+                .max(qp.evidence.as_ref().map_or(0, |e| e.exact_cold()))
+        }),
         accuracy: qp.accuracy,
         normal_form: plan.solver.normal_form(qp),
         admm_structure: plan.solver.admm_structure(qp),
