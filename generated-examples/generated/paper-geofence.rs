@@ -58,7 +58,7 @@ pub mod paper_geofence {
     /// Final relative dual residual above which the plan is not trusted.
     pub const DUAL_LIMIT: f64 = 0.000001f64;
     /// Final duality gap, relative to max(1, |J|), above which the plan is not trusted.
-    pub const GAP_LIMIT: f64 = 0.0000013922298260706175f64;
+    pub const GAP_LIMIT: f64 = 0.000001f64;
     /// The χ² gate on the normalized innovation squared eᵀS⁻¹e ([kalman] gate): a consistent filter's reading exceeds it with probability 1.0e-6 (NY = 3 degrees of freedom).
     pub const GATE: Real = 30.664849706215296f64;
     /// Consecutive gated readings, each different from the one before, after which the filter
@@ -12369,16 +12369,126 @@ pub mod paper_geofence {
     ];
     /// Side j is ±(its row) ≤ h_j, with h_j = SIDE_H[j] − SIDE_X[j]·x0 (− …).
     const SIDE_H: [f64; NG] = [
-        0f64, 2f64, 2f64, 2f64, 2f64, 2f64, 2f64, 8f64, 0f64, 2f64, 2f64, 2f64, 2f64,
-        2f64, 2f64, 8f64, 0f64, 2f64, 2f64, 2f64, 2f64, 2f64, 2f64, 8f64, 0f64, 2f64,
-        2f64, 2f64, 2f64, 2f64, 2f64, 8f64, 0f64, 2f64, 2f64, 2f64, 2f64, 2f64, 2f64,
-        8f64, 0f64, 2f64, 2f64, 2f64, 2f64, 2f64, 2f64, 8f64, 0f64, 2f64, 2f64, 2f64,
-        2f64, 2f64, 2f64, 8f64, 0f64, 2f64, 2f64, 2f64, 2f64, 2f64, 2f64, 8f64, 0f64,
-        2f64, 2f64, 2f64, 2f64, 2f64, 2f64, 8f64, 0f64, 2f64, 2f64, 2f64, 2f64, 2f64,
-        2f64, 8f64, 0f64, 2f64, 2f64, 2f64, 2f64, 2f64, 2f64, 8f64, 0f64, 2f64, 2f64,
-        2f64, 2f64, 2f64, 2f64, 8f64, 0f64, 2f64, 2f64, 2f64, 2f64, 2f64, 2f64, 8f64,
-        0f64, 2f64, 2f64, 2f64, 2f64, 2f64, 2f64, 8f64, 0f64, 2f64, 2f64, 2f64, 2f64,
-        2f64, 2f64, 8f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
+        0f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        2f64,
+        7.8978500058677f64,
     ];
     /// Whether a side belongs to a soft row (its violation is priced, not forbidden).
     const SIDE_SOFT: [bool; NG] = [
@@ -14930,7 +15040,7 @@ pub mod paper_geofence {
         /// Iterations a warm step needed: worst.
         pub const SAMPLED_WARM_WORST: usize = 19;
         /// The worst |U − U*|∞ / span over the sample at ITERATIONS.
-        pub const SAMPLED_WORST_ERROR: f64 = 0.000056276493122187074f64;
+        pub const SAMPLED_WORST_ERROR: f64 = 0.000056635528658066646f64;
         /// The worst hard-row violation (relative) over the sample at ITERATIONS.
         pub const SAMPLED_WORST_VIOLATION: f64 = 0f64;
         /// Final relative primal residual above which the solve falls back.
@@ -14938,7 +15048,7 @@ pub mod paper_geofence {
         /// Final relative dual residual above which the solve falls back.
         pub const SAMPLED_DUAL_LIMIT: f64 = 0.000001f64;
         /// Final duality gap, relative to max(1, |J|), above which the solve falls back.
-        pub const SAMPLED_GAP_LIMIT: f64 = 0.0000013922298260706175f64;
+        pub const SAMPLED_GAP_LIMIT: f64 = 0.000001f64;
         /// ρ(F − G·K_LQR).
         pub const LQR_SPECTRAL_RADIUS: f64 = 0.9390546005837024f64;
         /// λmin of P solving (F − GK)ᵀP(F − GK) − P = −I.
@@ -14984,6 +15094,12 @@ pub mod paper_geofence {
             [46.28092830755472f64, 0f64, 0f64, 10.782053965675834f64, 0f64, 0f64],
             [0f64, 46.28092830755472f64, 0f64, 0f64, 10.782053965675836f64, 0f64],
             [0f64, 0f64, 46.28092830755472f64, 0f64, 0f64, 10.782053965675837f64],
+        ];
+        /// The back-offs (`x_backoff`, a group's `backoff`): each tightened bound's name in the spec
+        /// and its margin in the bound's units. The rows hold lower + margin ≤ row ≤ upper − margin,
+        /// and `SolverStatus::softened` is measured from the tightened bound.
+        pub const BACKOFF: [(&str, f64); 1] = [
+            ("constraint[0] row 0", 0.1021499941323f64),
         ];
     }
 }

@@ -2,7 +2,7 @@
 
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::model::*;
-use crate::parse::{entries, Located, MatrixInput, Raw, RawRowGroup};
+use crate::parse::{entries, Located, MatrixInput, Raw, RawBackoff, RawRowGroup};
 
 /// Checks `raw` as a whole and builds the spec; `None` when anything was reported (here or while parsing).
 pub fn check(raw: Raw, diags: &mut Diagnostics) -> Option<Spec> {
@@ -847,6 +847,23 @@ fn check_constraints(
             );
         }
     }
+    let x_backoff = match &raw.x_backoff {
+        Some(b) if !raw.has("mpc.x_min") && !raw.has("mpc.x_max") => {
+            diags.push(
+                Diagnostic::new(
+                    "`x_backoff` pulls in `x_min` and `x_max`, and neither is written",
+                    b.span.clone(),
+                )
+                .label("a margin on no constraint")
+                .note("hint: add `x_min` or `x_max` to `[mpc]`, or remove `x_backoff`; a `[[mpc.constraint]]` is pulled in by its own `backoff`"),
+            );
+            None
+        }
+        Some(b) => backoff(raw, "mpc.x_backoff", b, nx, "nx (one per state)", diags),
+        None if raw.has("mpc.x_backoff") => None,
+        None => Some(None),
+    };
+    ok &= x_backoff.is_some();
     let du_min = optional_list(diags, raw, "mpc.du_min", raw.du_min.as_ref(), nu, "nu");
     let du_max = optional_list(diags, raw, "mpc.du_max", raw.du_max.as_ref(), nu, "nu");
     if let (Some(lo), Some(hi)) = (&du_min, &du_max) {
@@ -866,10 +883,53 @@ fn check_constraints(
         x_min: x_min?,
         x_max: x_max?,
         x_soft: raw.x_soft.as_ref().map(|s| s.value),
+        x_backoff: x_backoff?,
         du_min: du_min?,
         du_max: du_max?,
         rows,
     })
+}
+
+/// A back-off as written, checked: a list has `n` entries; `"<z>sigma"` needs `[kalman]`, whose
+/// steady-state covariance gives σ. `None` after a reported error, `Some(None)` never.
+fn backoff(
+    raw: &Raw,
+    path: &str,
+    b: &Located<RawBackoff>,
+    n: usize,
+    what: &str,
+    diags: &mut Diagnostics,
+) -> Option<Option<Backoff>> {
+    match &b.value {
+        RawBackoff::Each(m) => Some(Some(Backoff::Margin(vec![*m; n]))),
+        RawBackoff::List(list) if list.len() == n => Some(Some(Backoff::Margin(list.clone()))),
+        RawBackoff::List(list) => {
+            diags.push(
+                Diagnostic::new(
+                    format!(
+                        "`{path}` must have {n} entries, {what}, found {}",
+                        list.len()
+                    ),
+                    b.span.clone(),
+                )
+                .label(format!("expected {}", entries(n)))
+                .note("hint: or write one number for every bound"),
+            );
+            None
+        }
+        RawBackoff::Sigmas(_) if !raw.tables.contains("kalman") => {
+            diags.push(
+                Diagnostic::new(
+                    format!("`{path}` in standard deviations needs the Kalman filter of `[kalman]`"),
+                    b.span.clone(),
+                )
+                .label("no estimation error to measure it in")
+                .note("hint: without `[kalman]` the controller is given the state; write the margin in the bound's units instead"),
+            );
+            None
+        }
+        RawBackoff::Sigmas(z) => Some(Some(Backoff::Sigmas(*z))),
+    }
 }
 
 /// `du_min ≤ 0 ≤ du_max` entrywise, not both zero: holding the last input (a zero move) must be allowed,
@@ -1073,12 +1133,26 @@ fn check_row_group(
         entry: &|i| format!("row {i} of `{p}`"),
     };
     ok &= order.check(raw, &lower, &upper, diags);
+    let backoff = match &g.backoff {
+        Some(b) => backoff(
+            raw,
+            &format!("{p}.backoff"),
+            b,
+            rows,
+            "one per row of `ax`",
+            diags,
+        ),
+        None if has("backoff") => None,
+        None => Some(None),
+    };
+    let backoff = backoff?;
     ok.then(|| RowGroup {
         ax: ax.value.clone(),
         au,
         lower,
         upper,
         soft: g.soft.as_ref().map(|s| s.value),
+        backoff,
     })
 }
 

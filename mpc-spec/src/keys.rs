@@ -36,6 +36,7 @@ pub const MPC_KEYS: &[&str] = &[
     "x_min",
     "x_max",
     "x_soft",
+    "x_backoff",
     "du_min",
     "du_max",
     CONSTRAINT,
@@ -45,7 +46,7 @@ pub const MPC_KEYS: &[&str] = &[
 /// `[[mpc.constraint]]`: a group of rows lower ≤ Ax·x_k + Au·u_k ≤ upper, an array of tables in `[mpc]`.
 pub const CONSTRAINT: &str = "constraint";
 /// Keys of each `[[mpc.constraint]]`.
-pub const CONSTRAINT_KEYS: &[&str] = &["ax", "au", "lower", "upper", "soft"];
+pub const CONSTRAINT_KEYS: &[&str] = &["ax", "au", "lower", "upper", "soft", "backoff"];
 /// `[mpc.region]`: where the compiler certifies an interior-point method, a table in `[mpc]`.
 pub const REGION: &str = "region";
 /// Keys of `[mpc.region]`.

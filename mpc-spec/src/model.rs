@@ -238,6 +238,8 @@ pub struct Constraints {
     pub x_max: Vec<f64>,
     /// `x_soft`: the weight of the exact (L1) penalty on a violation of `x_min`/`x_max`; `None`: hard.
     pub x_soft: Option<f64>,
+    /// `x_backoff`: how far `x_min`/`x_max` are pulled in (constraint tightening); `None`: not at all.
+    pub x_backoff: Option<Backoff>,
     /// Lower bounds on the moves u_k − u_{k−1}, k = 0 … N−1 (nu); empty when `du_min` is not written.
     pub du_min: Vec<f64>,
     /// Upper bounds on the moves (nu); empty when not written.
@@ -296,6 +298,20 @@ pub struct RowGroup {
     pub upper: Vec<f64>,
     /// The exact penalty's weight on a violation; `None`: hard.
     pub soft: Option<f64>,
+    /// How far `lower`/`upper` are pulled in (constraint tightening); `None`: not at all.
+    pub backoff: Option<Backoff>,
+}
+
+/// A back-off (constraint tightening), `[mpc] x_backoff` or a group's `backoff`: each finite bound is
+/// pulled in by a margin, lower + m ≤ row ≤ upper − m, so that the true state keeps a bound the plan of
+/// the estimate keeps (docs/spec.md, "Back-off").
+#[derive(Clone, Debug, PartialEq)]
+pub enum Backoff {
+    /// A margin per entry in the bound's units: nx for `x_backoff`, one per row for a group.
+    Margin(Vec<f64>),
+    /// `"<z>sigma"`: z standard deviations of the Kalman filter's steady-state estimation error
+    /// along the row, √(a·P∞·aᵀ) for the row's state coefficients a, computed by the compiler.
+    Sigmas(f64),
 }
 
 spelled! {

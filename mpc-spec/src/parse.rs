@@ -87,6 +87,7 @@ pub struct Raw {
     pub x_min: Option<Located<Vec<f64>>>,
     pub x_max: Option<Located<Vec<f64>>>,
     pub x_soft: Option<Located<f64>>,
+    pub x_backoff: Option<Located<RawBackoff>>,
     pub du_min: Option<Located<Vec<f64>>>,
     pub du_max: Option<Located<Vec<f64>>>,
     /// `[[mpc.constraint]]`, one per table written, with what could be read of each.
@@ -144,7 +145,22 @@ pub struct RawRowGroup {
     pub lower: Option<Located<Vec<f64>>>,
     pub upper: Option<Located<Vec<f64>>>,
     pub soft: Option<Located<f64>>,
+    pub backoff: Option<Located<RawBackoff>>,
 }
+
+/// A `backoff` as written, before its length is checked against the bounds it tightens.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RawBackoff {
+    /// One margin for every bound.
+    Each(f64),
+    /// One margin per entry (`x_backoff`: per state; a group's: per row), each located as `path[i]`.
+    List(Vec<f64>),
+    /// `"<z>sigma"`: z standard deviations of the filter's steady-state estimation error.
+    Sigmas(f64),
+}
+
+/// What a `backoff` may be, for its errors.
+const BACKOFF_HINT: &str = "hint: a margin in the bound's units (a number for every bound, or a list with one per entry), or \"<z>sigma\" (e.g. \"3sigma\") for z standard deviations of the Kalman filter's steady-state estimation error along the row";
 
 /// Which side of a bound a list is: the side whose infinity means "unbounded".
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -281,6 +297,9 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
             .get("x_max")
             .and_then(|v| p.bounds(v, "mpc.x_max", Side::Upper));
         raw.x_soft = t.get("x_soft").and_then(|v| p.positive(v, "mpc.x_soft"));
+        raw.x_backoff = t
+            .get("x_backoff")
+            .and_then(|v| p.backoff(v, "mpc.x_backoff"));
         raw.du_min = t
             .get("du_min")
             .and_then(|v| p.bounds(v, "mpc.du_min", Side::Lower));
@@ -1050,6 +1069,9 @@ impl Parser<'_> {
             let soft = t
                 .get("soft")
                 .and_then(|v| self.positive(v, &format!("{group}.soft")));
+            let backoff = t
+                .get("backoff")
+                .and_then(|v| self.backoff(v, &format!("{group}.backoff")));
             out.push(RawRowGroup {
                 path: group,
                 span,
@@ -1058,9 +1080,68 @@ impl Parser<'_> {
                 lower,
                 upper,
                 soft,
+                backoff,
             });
         }
         out
+    }
+
+    /// A `backoff`: a margin ≥ 0, a list of them, or `"<z>sigma"` with z > 0.
+    fn backoff(&mut self, v: &Value<'_>, path: &str) -> Option<Located<RawBackoff>> {
+        match v.get_ref() {
+            DeValue::String(s) => {
+                let z = s
+                    .strip_suffix("sigma")
+                    .and_then(|z| z.trim().parse::<f64>().ok())
+                    .filter(|z| z.is_finite() && *z > 0.0);
+                match z {
+                    Some(z) => Some(self.located(path, v, RawBackoff::Sigmas(z))),
+                    None => {
+                        self.err(
+                            Diagnostic::new(
+                                format!("unknown value \"{s}\" for `{path}`"),
+                                v.span(),
+                            )
+                            .label("expected \"<z>sigma\" with z > 0, or a margin")
+                            .note(BACKOFF_HINT),
+                        );
+                        None
+                    }
+                }
+            }
+            DeValue::Array(_) => {
+                let list = self.listed(v, path)?;
+                let mut ok = true;
+                if let DeValue::Array(items) = v.get_ref() {
+                    for (item, x) in items.iter().zip(&list.value) {
+                        if *x < 0.0 {
+                            ok = false;
+                            self.err(
+                                Diagnostic::new(
+                                    format!("`{path}` must not be negative, found {x}"),
+                                    item.span(),
+                                )
+                                .label("a back-off pulls a bound in, by a margin ≥ 0")
+                                .note(BACKOFF_HINT),
+                            );
+                        }
+                    }
+                }
+                ok.then(|| self.located(path, v, RawBackoff::List(list.value)))
+            }
+            DeValue::Integer(_) | DeValue::Float(_) => {
+                let x = self.non_negative(v, path)?;
+                Some(self.located(path, v, RawBackoff::Each(x.value)))
+            }
+            other => {
+                self.err(
+                    Diagnostic::new(format!("`{path}` must be a number, a list of numbers or \"<z>sigma\", found {}", other.type_str()), v.span())
+                        .label("expected a margin or \"<z>sigma\"")
+                        .note(BACKOFF_HINT),
+                );
+                None
+            }
+        }
     }
 
     /// A matrix whose rows are located as `path[i]`.

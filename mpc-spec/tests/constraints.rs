@@ -668,3 +668,73 @@ fn a_zero_row_of_outputs_is_located_on_the_row() {
     assert_eq!(at, "[0, 0]");
     assert!(note.unwrap().starts_with("hint:"));
 }
+
+#[test]
+fn a_backoff_is_a_margin_a_list_or_sigmas() {
+    let spec = load(&ipm(
+        "x_min = [-1, -inf]\nx_max = [1, 2]\nx_backoff = 0.1\n",
+    ))
+    .unwrap();
+    assert_eq!(
+        spec.mpc.constraints.x_backoff,
+        Some(Backoff::Margin(vec![0.1, 0.1]))
+    );
+    let spec = load(&ipm("x_max = [1, 2]\nx_backoff = [0, 0.25]\n")).unwrap();
+    assert_eq!(
+        spec.mpc.constraints.x_backoff,
+        Some(Backoff::Margin(vec![0.0, 0.25]))
+    );
+    let group = "\n[[mpc.constraint]]\nax = [[1, 0], [0, 1]]\nupper = [1, 1]\nbackoff = ";
+    let spec = load(&ipm(&format!("{group}[0.5, 0]\n"))).unwrap();
+    assert_eq!(
+        spec.mpc.constraints.rows[0].backoff,
+        Some(Backoff::Margin(vec![0.5, 0.0]))
+    );
+    // In standard deviations, with a filter.
+    let filtered = format!(
+        "{}\n[kalman]\nq = [[0.01, 0], [0, 0.01]]\nr = [[0.1]]\n",
+        ipm(&format!("{group}\"2.5sigma\"\n"))
+    )
+    .replace("b = [[0.005], [0.1]]", "b = [[0.005], [0.1]]\nc = [[1, 0]]");
+    let spec = load(&filtered).unwrap();
+    assert_eq!(
+        spec.mpc.constraints.rows[0].backoff,
+        Some(Backoff::Sigmas(2.5))
+    );
+}
+
+#[test]
+fn a_backoff_mistake_is_located_at_its_value() {
+    // Sigmas need the filter that measures them.
+    let (message, at, note) = only_error(&ipm("x_max = [1, 2]\nx_backoff = \"3sigma\"\n"));
+    assert!(message.contains("needs the Kalman filter"), "{message}");
+    assert_eq!(at, "\"3sigma\"");
+    assert!(note.unwrap().contains("bound's units"));
+    // No bounds to pull in.
+    let (message, at, _) = only_error(&ipm("x_backoff = 0.1\n"));
+    assert!(message.contains("neither is written"), "{message}");
+    assert_eq!(at, "0.1");
+    // The wrong length, a negative margin, a word that is not sigmas.
+    let (message, at, _) = only_error(&ipm("x_max = [1, 2]\nx_backoff = [0.1]\n"));
+    assert!(message.contains("must have 2 entries"), "{message}");
+    assert_eq!(at, "[0.1]");
+    let (message, at, _) = only_error(&ipm("x_max = [1, 2]\nx_backoff = [0.1, -0.2]\n"));
+    assert!(message.contains("must not be negative"), "{message}");
+    assert_eq!(at, "-0.2");
+    let (message, at, note) = only_error(&ipm("x_max = [1, 2]\nx_backoff = \"3 sigmas\"\n"));
+    assert!(message.contains("unknown value"), "{message}");
+    assert_eq!(at, "\"3 sigmas\"");
+    assert!(note.unwrap().contains("\"3sigma\""));
+    let (message, at, _) = only_error(&ipm("x_max = [1, 2]\nx_backoff = \"-1sigma\"\n"));
+    assert!(message.contains("unknown value"), "{message}");
+    assert_eq!(at, "\"-1sigma\"");
+    // A group's, one per row.
+    let (message, at, _) = only_error(&ipm(
+        "\n[[mpc.constraint]]\nax = [[1, 0], [0, 1]]\nupper = [1, 1]\nbackoff = [0.1]\n",
+    ));
+    assert!(
+        message.contains("mpc.constraint[0].backoff") && message.contains("one per row"),
+        "{message}"
+    );
+    assert_eq!(at, "[0.1]");
+}

@@ -29,6 +29,8 @@ struct Check<'a> {
     /// Whether the moves Δu are weighted (`[mpc] r_du`).
     moves: bool,
     model: Model,
+    /// The back-offs (`x_backoff`, a group's `backoff`), one per tightened bound; empty without.
+    backoff: Vec<Backoff>,
     #[serde(flatten)]
     certificate: &'a Certificate,
     warnings: Vec<&'a str>,
@@ -45,6 +47,20 @@ struct Model {
     /// The filter's process covariance of the state (without the disturbance's), when there is a filter.
     #[serde(skip_serializing_if = "Option::is_none")]
     q: Option<Vec<Vec<f64>>>,
+}
+
+/// One bound pulled in by a back-off.
+#[derive(Serialize)]
+struct Backoff {
+    /// The spec's name of the bound: `x_min/x_max[1]`, `constraint[0] row 0`.
+    row: String,
+    /// The margin, in the bound's units.
+    margin: f64,
+    /// For `"<z>sigma"`: z, and σ = √(a·P∞·aᵀ) of the filter's steady-state error along the row.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    z: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sigma: Option<f64>,
 }
 
 /// The `rows` × `cols` matrix whose entry (i, j) is `at(i, j)`, as a list of rows.
@@ -118,6 +134,17 @@ pub(crate) fn json(shown: &str, g: &Generated) -> String {
         filter: p.filter.is_some(),
         moves: p.has_moves(),
         model: Model::of(p),
+        backoff: p
+            .qp
+            .backoff
+            .iter()
+            .map(|m| Backoff {
+                row: m.kind.name(),
+                margin: m.margin,
+                z: m.sigmas.map(|s| s.0),
+                sigma: m.sigmas.map(|s| s.1),
+            })
+            .collect(),
         certificate: &g.certificate,
         warnings: g.warnings.iter().map(|w| w.message.as_str()).collect(),
     };
@@ -203,6 +230,23 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
                 candidate_lines(c),
             ),
         );
+    }
+    if !p.qp.backoff.is_empty() {
+        sections.push((
+            "back-off: bounds pulled in by the margin (x_backoff, backoff)",
+            p.qp.backoff
+                .iter()
+                .map(|m| {
+                    let how = m.sigmas.map_or(String::new(), |(z, sigma)| {
+                        format!(
+                            " = {z}σ, σ = {} of the filter's steady-state error",
+                            num(sigma)
+                        )
+                    });
+                    (m.kind.name(), format!("{}{how}", num(m.margin)))
+                })
+                .collect(),
+        ));
     }
     if let Some(choice) = &c.normal_form {
         sections.push((

@@ -84,7 +84,7 @@ pub fn module(
 ) -> TokenStream {
     let num = Num(p.scalar);
     let items = items(p, plan, num);
-    let report = report::emit(certificate);
+    let report = report::emit(certificate, &p.qp.backoff);
     // Only the lints the code needs, each where it is needed: the paper's names (P, S_inv, FP) and
     // `!(d > 0.0)` (the NaN-aware pivot test) in the time-varying filter, S_inv and `!(nis <= GATE)` in
     // the gate; the target's own cfg where NEON

@@ -39,7 +39,7 @@ fn constant(value: Value) -> (TokenStream, TokenStream) {
 }
 
 /// `pub mod report { ... }`.
-pub fn emit(c: &Certificate) -> TokenStream {
+pub fn emit(c: &Certificate, backoff: &[crate::lower::backoff::Margin]) -> TokenStream {
     let fields = c
         .fields()
         .into_iter()
@@ -82,6 +82,20 @@ pub fn emit(c: &Certificate) -> TokenStream {
         }
         None => quote!(None),
     };
+    // Only a spec with a back-off has the table.
+    let backoff = (!backoff.is_empty()).then(|| {
+        let k = Literal::usize_unsuffixed(backoff.len());
+        let items = backoff.iter().map(|m| {
+            let (name, margin) = (m.kind.name(), real(m.margin));
+            quote!((#name, #margin))
+        });
+        quote! {
+            /// The back-offs (`x_backoff`, a group's `backoff`): each tightened bound's name in the spec
+            /// and its margin in the bound's units. The rows hold lower + margin ≤ row ≤ upper − margin,
+            /// and `SolverStatus::softened` is measured from the tightened bound.
+            pub const BACKOFF: [(&str, f64); #k] = [#(#items),*];
+        }
+    });
     quote! {
         /// What the compiler proved and counted about this controller (see `codegen::certificate` for the
         /// bounds' forms). Every number is f64, computed once at compile time.
@@ -94,6 +108,7 @@ pub fn emit(c: &Certificate) -> TokenStream {
             pub const LQR_GAIN: [[f64; #columns]; NU] = #lqr_gain;
             #[doc = #mpc_doc]
             pub const MPC_GAIN: [[f64; #columns]; NU] = #mpc_gain;
+            #backoff
         }
     }
 }

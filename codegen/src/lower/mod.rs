@@ -4,6 +4,7 @@
 //! `cargo build` time and bakes into the emitted module, and what the generic solver runs with.
 #![allow(non_snake_case)]
 
+pub mod backoff;
 pub mod constraints;
 pub mod discretize;
 pub mod problem;
@@ -99,7 +100,7 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
         check_sampling(spec, a, b, &F, &G)?;
     }
     if !spec.mpc.constraints.is_empty() {
-        check_rows_admit_a_stage(spec)?;
+        check_rows_admit_a_stage(spec, &spec.mpc.constraints, false)?;
     }
     if let ModelKind::Linear { .. } = spec.model.kind {
         check_inputs_act(&G, spec.spans.get("model.b"), &mut diags);
@@ -173,8 +174,17 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
     let nd = filter.as_ref().map_or(0, |f| f.nd);
     let Fd = &H * DMatrix::from_fn(Nc * nu, nd, |i, j| if i % nu == j { 1.0 } else { 0.0 })
         + Fu.columns(0, nd);
+    // The back-offs pull the bounds in before anything reads them; "<z>sigma" measures the filter's
+    // steady-state error.
+    let P_state = filter
+        .as_ref()
+        .map(|f| f.P_inf.view((0, 0), (nx, nx)).into_owned());
+    let (constraints, backoff) = crate::lower::backoff::tighten(spec, P_state.as_ref())?;
+    if !backoff.is_empty() {
+        check_rows_admit_a_stage(spec, &constraints, true)?;
+    }
     // The rows are lowered on U and keep their N slots; their coefficients on U become ones on V.
-    let mut rows = crate::lower::constraints::lower(&m.constraints, &Sx, &Su_full, nu);
+    let mut rows = crate::lower::constraints::lower(&constraints, &Sx, &Su_full, nu);
     if Nc < N {
         let slacks = rows.A.columns(N * nu, rows.slacks()).into_owned();
         let mut A = DMatrix::zeros(rows.len(), Nc * nu + slacks.ncols());
@@ -186,10 +196,10 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
     let bound = |v: &[f64], i: usize, absent: f64| v.get(i).copied().unwrap_or(absent);
     let x_bounds = (
         (0..nx)
-            .map(|i| bound(&m.constraints.x_min, i, f64::NEG_INFINITY))
+            .map(|i| bound(&constraints.x_min, i, f64::NEG_INFINITY))
             .collect(),
         (0..nx)
-            .map(|i| bound(&m.constraints.x_max, i, f64::INFINITY))
+            .map(|i| bound(&constraints.x_max, i, f64::INFINITY))
             .collect(),
     );
     let qp = Qp {
@@ -221,6 +231,7 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
         u_min: DVector::from_column_slice(&m.u_min),
         u_max: DVector::from_column_slice(&m.u_max),
         rows,
+        backoff,
         accuracy: m.accuracy,
         evidence: None,
     };
@@ -1303,8 +1314,12 @@ fn check_sampling(
 /// is empty for every state makes every QP infeasible whatever the region, and it is the rows' doing:
 /// the group where it first empties, in the order written, is refused (the earlier ones and the bounds
 /// are what it contradicts). Each set is tested by the interior-point method on min ½‖(x, u)‖².
-fn check_rows_admit_a_stage(spec: &Spec) -> Result<(), Diagnostics> {
-    let c = &spec.mpc.constraints;
+/// `backed_off`: `c` holds the back-offs' tightened bounds, and the error says so.
+fn check_rows_admit_a_stage(
+    spec: &Spec,
+    c: &mpc_spec::Constraints,
+    backed_off: bool,
+) -> Result<(), Diagnostics> {
     let (nx, nu) = (spec.model.kind.nx(), spec.model.kind.nu());
     let n = nx + nu;
     let hard_x = c.x_soft.is_none();
@@ -1383,7 +1398,11 @@ fn check_rows_admit_a_stage(spec: &Spec) -> Result<(), Diagnostics> {
                     .or(spec.spans.get("mpc.constraint")),
             )
             .label(format!("empty {at}"))
-            .note("hint: every QP would be infeasible, from any state; check the signs and bounds of `lower` and `upper` against the other rows and `x_min`/`x_max`, or make the group soft (`soft = 1e3`)")
+            .note(if backed_off {
+                "hint: the bounds admit a stage, but not once `x_backoff` and the groups' `backoff` pull them in; shrink the back-off, or make the group soft (`soft = 1e3`)"
+            } else {
+                "hint: every QP would be infeasible, from any state; check the signs and bounds of `lower` and `upper` against the other rows and `x_min`/`x_max`, or make the group soft (`soft = 1e3`)"
+            })
             .into());
         }
     }

@@ -89,6 +89,9 @@ pub struct Qp {
     pub u_max: DVector<f64>,
     /// The constraints beyond the input box ([`crate::lower::constraints`]); empty for the box alone.
     pub rows: Rows,
+    /// The back-offs applied to `rows` (and `x_bounds`), nonzero margins only
+    /// ([`crate::lower::backoff`]).
+    pub backoff: Vec<crate::lower::backoff::Margin>,
     /// `[mpc] accuracy`: the plan within accuracy·(u_max − u_min) of the exact solution.
     pub accuracy: f64,
     /// The sampled certificate ([`crate::certify::sampling`]): always for `ipm` and `admm` (with ADMM's tuned ρ,

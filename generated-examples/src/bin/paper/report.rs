@@ -390,7 +390,11 @@ fn geofence(out: &mut String, summary: &Value) {
          speed in m/s (its worst axis). The plan is the states x₁ … x_N the controller predicts from its \
          estimate x̂₀ with the inputs it returned; its excess is what it violates beyond the least any \
          plan in the input box reaches from the same x̂₀ (an estimate beyond the wall, or too fast to \
-         stop before it), and is 0 within `accuracy` when it is at most the tolerance.\n"
+         stop before it), and is 0 within `accuracy` when it is at most the tolerance. The plan holds \
+         the wall pulled in by the spec's back-off, y ≤ {} − {:.4} m (3σ of the filter's steady-state \
+         error); the violations are of the wall itself.\n",
+        cfg["wall_y_m"],
+        cfg["wall_backoff_m"].as_f64().unwrap_or(f64::NAN),
     );
     let _ = writeln!(
         out,

@@ -109,6 +109,8 @@ pub fn geofence_config() -> Value {
         "method": "ipm",
         "wall": "y ≤ wall_y_m on the predicted positions y_1 … y_N, soft (exact L1 penalty)",
         "wall_y_m": fence::WALL_Y,
+        "wall_backoff": "the plan holds y ≤ wall_y_m − wall_backoff_m: the spec's `backoff = \"3sigma\"`, 3 standard deviations of the filter's steady-state error in y",
+        "wall_backoff_m": fence::WALL_BACKOFF,
         "speed_limit": "|v_i| ≤ speed_limit_m_s per axis on v_1 … v_N, soft",
         "speed_limit_m_s": fence::SPEED_LIMIT,
         "floor": "z ≥ floor_m on z_1 … z_N, soft",
