@@ -29,7 +29,8 @@ struct Check<'a> {
     /// Whether the moves Δu are weighted (`[mpc] r_du`).
     moves: bool,
     model: Model,
-    /// The back-offs (`x_backoff`, a group's `backoff`), one per tightened bound; empty without.
+    /// The back-offs (`x_backoff`, a group's `backoff`), one per tightened bound; absent without.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
     backoff: Vec<Backoff>,
     #[serde(flatten)]
     certificate: &'a Certificate,

@@ -153,6 +153,27 @@ fn check_json_has_the_stable_names() {
     assert_eq!(round("lqr.lyapunov_max", 2), 142.44);
     assert_eq!(v["iterations"], 30);
     assert_eq!(v["warnings"], serde_json::json!([]));
+    // No back-off, no key.
+    assert!(v.get("backoff").is_none());
+}
+
+#[test]
+fn check_prints_the_backoffs() {
+    let o = mpcc(&["check", "specs/pendulum.toml"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    let line = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("x_min/x_max[2]"))
+        .unwrap_or_else(|| panic!("no back-off line in\n{text}"));
+    assert!(line.contains("= 3σ, σ = "), "{line}");
+    let o = mpcc(&["check", "specs/pendulum.toml", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("valid JSON");
+    let b = &v["backoff"][0];
+    assert_eq!(b["row"], "x_min/x_max[2]");
+    assert_eq!(b["z"], 3.0);
+    let (margin, sigma) = (b["margin"].as_f64().unwrap(), b["sigma"].as_f64().unwrap());
+    assert!(sigma > 0.0 && (margin - 3.0 * sigma).abs() <= 1e-15, "{b}");
 }
 
 #[test]
