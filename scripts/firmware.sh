@@ -13,7 +13,8 @@
 # FIRMWARE_CYCLES). --linear flies the spec's own linear model under its state-feedback controller
 # instead of the drone (the `linear` feature, firmware-template/src/linear.rs: from rest to state 2 = 1,
 # 100 cycles unless --cycles); it is on by itself when SPEC's model is `type = "linear"`. For a SPEC
-# with a [kalman] (e.g. specs/paper.toml with --linear) the controller measures C x through its filter.
+# with a [kalman] (e.g. specs/paper.toml with --linear) the controller measures C x through its filter;
+# for a SPEC with `[mpc] outputs` the reference is of the tracked outputs, the first at 1.
 # --elf-out copies the built ELF to PATH. One invocation at a time builds (a lock file in the
 # template's target/), since all share the template's build directory and spec-override file.
 # Missing tools (qemu-system-arm, nightly's rust-src) are installed when possible.
@@ -91,6 +92,8 @@ if [ "$linear" = 1 ]; then
     features=(--features spec-override,linear)
     # Behind a filter the controller measures C x (firmware-template/src/linear.rs).
     grep -Eq '^[[:space:]]*\[kalman\]' "$spec" && features=(--features spec-override,linear-filter)
+    # With tracked outputs the reference is of C_z x (the `linear-outputs` feature).
+    grep -Eq '^[[:space:]]*outputs[[:space:]]*=' "$spec" && features=("${features[0]}" "${features[1]},linear-outputs")
 fi
 
 cd "$template"

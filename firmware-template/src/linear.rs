@@ -10,7 +10,9 @@
 //! filter started at rest (`Controller::new(x0)`, `step(&z, &xref)`).
 //! The loop is `flight_sim::fly_linear`, which the host test flies with the same generated module.
 //! The scenario is OSQP's MPC example: from rest (x = 0) to the constant reference with state 2 at 1
-//! (the quadcopter's yaw ψ = 1 rad) and every other state at 0, without noise.
+//! (the quadcopter's yaw ψ = 1 rad) and every other state at 0, without noise. With the
+//! `linear-outputs` feature (scripts/firmware.sh sets it for a spec with `[mpc] outputs`) the reference
+//! is of the tracked outputs `C_z x` instead: the first at 1 (the pendulum's cart position), the others 0.
 //!
 //! Each `Controller::step` is timed with the board's timer and its stack probed exactly as in the
 //! paper's loop (`main.rs`). Every command is printed as the bits of its `Real`s (`U k b0 b1 …`),
@@ -47,13 +49,29 @@ pub const CYCLES: usize = match option_env!("FIRMWARE_CYCLES") {
 /// The state the flight starts from: rest.
 pub const START: [f64; NX] = [0.0; NX];
 
-/// The reference: state 2 at 1 (OSQP's `xr`, a yaw of 1 rad), the others at 0.
-pub const REFERENCE: [f64; NX] = {
-    let mut r = [0.0; NX];
-    if NX > 2 {
+/// What the reference is of: the state, or the tracked outputs `C_z x` of a spec with `outputs`.
+#[cfg(not(feature = "linear-outputs"))]
+const NR: usize = NX;
+#[cfg(feature = "linear-outputs")]
+const NR: usize = ctrl::NZ;
+
+/// The reference: state 2 at 1 (OSQP's `xr`, a yaw of 1 rad), the others at 0; with outputs, the first
+/// output at 1.
+pub const REFERENCE: [f64; NR] = {
+    let mut r = [0.0; NR];
+    if cfg!(feature = "linear-outputs") {
+        r[0] = 1.0;
+    } else if NR > 2 {
         r[2] = 1.0;
     }
     r
+};
+
+/// What the reference says where it is, for the log.
+const REFERENCE_NAME: &str = if cfg!(feature = "linear-outputs") {
+    "output 0 = 1"
+} else {
+    "state 2 = 1"
 };
 
 /// The generated controller, with each call timed.
@@ -76,8 +94,8 @@ struct Counts {
     saturated: u64,
 }
 
-impl LinearController<NU, NY, NX> for Timed<'_> {
-    fn step<R: LinearReference<NX>>(&mut self, k: usize, x: &[f64; NY], r: &R) -> [f64; NU] {
+impl LinearController<NU, NY, NR> for Timed<'_> {
+    fn step<R: LinearReference<NR>>(&mut self, k: usize, x: &[f64; NY], r: &R) -> [f64; NU] {
         // The reference window and the conversion to the controller's scalar stay outside the
         // timed span, as in the paper's loop.
         let xref = r.window::<ctrl::Real, { ctrl::N }>(k, dt());
@@ -120,6 +138,17 @@ fn identity() -> [[f64; NX]; NX] {
         row[i] = 1.0;
     }
     c
+}
+
+/// The tracked quantities: the state, or the module's `C_z`.
+#[cfg(not(feature = "linear-outputs"))]
+fn tracked() -> [[f64; NX]; NR] {
+    identity()
+}
+
+#[cfg(feature = "linear-outputs")]
+fn tracked() -> [[f64; NX]; NR] {
+    ctrl::CZ.map(|row| cast(&row))
 }
 
 /// The state measured exactly (C = I).
@@ -189,10 +218,12 @@ pub fn run() -> ! {
         .u64(ctrl::report::MACS_PER_CYCLE as u64)
         .str(" multiply-adds a cycle\nflying ")
         .u64(CYCLES as u64)
-        .str(" cycles from rest to state 2 = 1\n");
+        .str(" cycles from rest to ")
+        .str(REFERENCE_NAME)
+        .str("\n");
 
     let mut plant = plant();
-    let identity = identity();
+    let tracked = tracked();
     let scenario = LinearScenario {
         seed: SEED,
         cycles: CYCLES,
@@ -205,7 +236,7 @@ pub fn run() -> ! {
         &mut plant,
         &mut timed,
         &Setpoint(REFERENCE),
-        &identity,
+        &tracked,
         &scenario,
         |_| [0.0; NU],
         |sample, _| {

@@ -810,3 +810,22 @@ fn emit_c_writes_the_crate_and_header() {
         stderr(&o)
     );
 }
+
+#[test]
+fn the_pendulum_fits_both_boards_with_the_active_set() {
+    for (spec, scalar) in [
+        ("tests/specs/pendulum/cortex-a9.toml", "f64"),
+        ("tests/specs/pendulum/cortex-m4f.toml", "f32"),
+    ] {
+        let o = mpcc(&["check", spec, "--json"]);
+        assert!(o.status.success(), "{spec}: {}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("valid JSON");
+        assert_eq!(v["method"], "active_set", "{spec}");
+        let step = &v["control_step"];
+        let (cycles, period) = (
+            step["cycles"].as_f64().unwrap(),
+            step["period_cycles"].as_f64().unwrap(),
+        );
+        assert!(cycles < period, "{spec} ({scalar}): {step}");
+    }
+}

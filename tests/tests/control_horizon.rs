@@ -318,3 +318,20 @@ fn the_published_pendulum_steps_a_metre_within_its_bounds() {
         }
     }
 }
+
+/// The boards' variants of the pendulum (tests/specs/pendulum/) are `specs/pendulum.toml` with another
+/// `[codegen]`: the spec up to that table is the same text.
+#[test]
+fn the_boards_pendulums_are_the_shipped_one() {
+    let body = |text: &str| -> String {
+        let start = text.find("[model]").expect("a [model]");
+        let end = text.find("[codegen]").expect("a [codegen]");
+        text[start..end].to_string()
+    };
+    for variant in [
+        include_str!("../specs/pendulum/cortex-a9.toml"),
+        include_str!("../specs/pendulum/cortex-m4f.toml"),
+    ] {
+        assert_eq!(body(variant), body(PENDULUM));
+    }
+}

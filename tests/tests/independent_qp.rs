@@ -11,6 +11,10 @@
 //! table: `x_min`/`x_max` at x_1 … x_N, moves at k = 0 … N−1 from u₋₁, a `[[mpc.constraint]]` row with a
 //! nonzero `au` at k = 0 … N−1 on (x_k, u_k), an `ax`-only row at k = 1 … N, decided per row; soft ones
 //! with one slack per component / row shared by every stage and both sides, cost w·σ + ½·10⁻³·w·σ².
+//! A back-off (docs/spec.md, "Back-off") pulls each finite bound in by its margin first; a `"<z>sigma"`
+//! margin is z·√(a·P∞·aᵀ) with P∞ the filter's steady-state a priori covariance, formed here from the
+//! `[kalman]` definitions (eq. 3's white acceleration, or `q` sampled by Van Loan's exponential for a
+//! continuous model; the disturbance's random walk appended) by the Riccati recursion to convergence.
 //!
 //! At states, references, last inputs (and disturbances) drawn from the certificate's region (12 cold
 //! draws, a third with a bounded state at 95 % of its bound, and two 10-step closed loops), it checks:
@@ -35,7 +39,7 @@ use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
 use codegen::ipm::{self, mpc_qp, Fallback};
 use codegen::oracle;
-use mpc_spec::{Matrix, ModelKind, Spec, TimeDomain};
+use mpc_spec::{Backoff, KalmanNoise, Matrix, ModelKind, Spec, TimeDomain};
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -131,6 +135,110 @@ struct HalfspaceQp {
     labels: Vec<String>,
 }
 
+/// The Kalman filter's steady-state a priori covariance of the state (nx × nx), `None` without
+/// `[kalman]`: the discrete process covariance as docs/spec.md defines it (eq. 3's white acceleration
+/// σ_a²·[[dt⁴/4, dt³/2], [dt³/2, dt²]] per axis; `q` as written, or for a continuous model the spectral
+/// density sampled by Van Loan's exponential of [[−A, Q], [0, Aᵀ]]·dt), the measurement covariance
+/// (diag σ_meas², or `r`), the disturbance's random walk appended (x⁺ = A x + B (u + d), d⁺ = d + w_d),
+/// and P ← A_a(P − PC_aᵀ(C_aPC_aᵀ + R)⁻¹C_aP)A_aᵀ + Q_a iterated until it stops changing.
+fn steady_state_covariance(
+    spec: &Spec,
+    A: &DMatrix<f64>,
+    B: &DMatrix<f64>,
+) -> Option<DMatrix<f64>> {
+    let kalman = spec.kalman.as_ref()?;
+    let (nx, nu) = (A.nrows(), B.ncols());
+    let dt = spec.model.dt;
+    let (C, Q, R) = match (&spec.model.kind, &kalman.noise) {
+        (
+            ModelKind::DoubleIntegrator { axes },
+            KalmanNoise::WhiteAcceleration {
+                sigma_a,
+                sigma_meas,
+            },
+        ) => {
+            let n = *axes;
+            let mut C = DMatrix::zeros(n, 2 * n);
+            let mut Q = DMatrix::zeros(2 * n, 2 * n);
+            let s2 = sigma_a * sigma_a;
+            for i in 0..n {
+                C[(i, i)] = 1.0;
+                Q[(i, i)] = s2 * dt.powi(4) / 4.0;
+                Q[(i, n + i)] = s2 * dt.powi(3) / 2.0;
+                Q[(n + i, i)] = s2 * dt.powi(3) / 2.0;
+                Q[(n + i, n + i)] = s2 * dt * dt;
+            }
+            let R = DMatrix::from_fn(
+                n,
+                n,
+                |i, j| if i == j { sigma_meas[i].powi(2) } else { 0.0 },
+            );
+            (C, Q, R)
+        }
+        (kind, KalmanNoise::Covariances { q, r }) => {
+            let C = match kind {
+                ModelKind::Linear { c, .. } => dense(c),
+                ModelKind::DoubleIntegrator { axes } => {
+                    DMatrix::from_fn(*axes, 2 * axes, |i, j| if i == j { 1.0 } else { 0.0 })
+                }
+            };
+            let q = dense(q);
+            let continuous = matches!(
+                kind,
+                ModelKind::Linear {
+                    time: TimeDomain::Continuous,
+                    ..
+                }
+            );
+            let Q = if continuous {
+                let a = match kind {
+                    ModelKind::Linear { a, .. } => dense(a),
+                    _ => unreachable!("a continuous model is linear"),
+                };
+                let mut M = DMatrix::zeros(2 * nx, 2 * nx);
+                M.view_mut((0, 0), (nx, nx)).copy_from(&(-&a * dt));
+                M.view_mut((0, nx), (nx, nx)).copy_from(&(&q * dt));
+                M.view_mut((nx, nx), (nx, nx))
+                    .copy_from(&(a.transpose() * dt));
+                let E = expm_taylor(&M);
+                E.view((nx, nx), (nx, nx)).transpose() * E.view((0, nx), (nx, nx))
+            } else {
+                q
+            };
+            (C, Q, dense(r))
+        }
+        (_, KalmanNoise::WhiteAcceleration { .. }) => unreachable!("σ_a is a double integrator's"),
+    };
+    let nd = kalman.disturbance.as_ref().map_or(0, |_| nu);
+    let n = nx + nd;
+    let mut Aa = DMatrix::identity(n, n);
+    Aa.view_mut((0, 0), (nx, nx)).copy_from(A);
+    let mut Ca = DMatrix::zeros(C.nrows(), n);
+    Ca.view_mut((0, 0), (C.nrows(), nx)).copy_from(&C);
+    let mut Qa = DMatrix::zeros(n, n);
+    Qa.view_mut((0, 0), (nx, nx)).copy_from(&Q);
+    if let Some(sigma_d) = &kalman.disturbance {
+        Aa.view_mut((0, nx), (nx, nu)).copy_from(B);
+        for i in 0..nu {
+            Qa[(nx + i, nx + i)] = sigma_d[i].powi(2);
+        }
+    }
+    let mut P = DMatrix::identity(n, n);
+    for _ in 0..1_000_000 {
+        let S = &Ca * &P * Ca.transpose() + &R;
+        let K = &P * Ca.transpose() * S.try_inverse().expect("S is definite");
+        let posterior = &P - &K * &Ca * &P;
+        let next = &Aa * posterior * Aa.transpose() + &Qa;
+        let next = (&next + next.transpose()) / 2.0;
+        let change = (&next - &P).amax();
+        P = next;
+        if change <= 1e-15 * P.amax() {
+            break;
+        }
+    }
+    Some(P.view((0, 0), (nx, nx)).into_owned())
+}
+
 impl Independent {
     fn new(spec: &Spec) -> Self {
         let dt = spec.model.dt;
@@ -167,6 +275,7 @@ impl Independent {
             }
         };
         let (nx, nu) = (A.nrows(), B.ncols());
+        let P = steady_state_covariance(spec, &A, &B);
         let m = &spec.mpc;
         let Cz = m
             .outputs
@@ -206,13 +315,42 @@ impl Independent {
                     .collect()
             })
             .collect();
+        // The back-offs: a margin per state and per group row, in the bound's units.
+        let margin = |b: &Option<Backoff>, i: usize, a: &DVector<f64>| match b {
+            None => 0.0,
+            Some(Backoff::Margin(m)) => m[i],
+            Some(Backoff::Sigmas(z)) => {
+                let P = P.as_ref().expect("`<z>sigma` has a filter");
+                z * (a.transpose() * P * a)[(0, 0)].sqrt()
+            }
+        };
+        let pulled = |lo: f64, hi: f64, m: f64| (lo + m, hi - m);
+        let state_margin: Vec<f64> = (0..nx)
+            .map(|i| {
+                let e = DVector::from_fn(nx, |j, _| if i == j { 1.0 } else { 0.0 });
+                margin(&c.x_backoff, i, &e)
+            })
+            .collect();
+        let group_margin: Vec<Vec<f64>> = c
+            .rows
+            .iter()
+            .map(|g| {
+                (0..g.ax.rows)
+                    .map(|r| {
+                        let a = DVector::from_fn(nx, |j, _| g.ax.data[r * g.ax.cols + j]);
+                        margin(&g.backoff, r, &a)
+                    })
+                    .collect()
+            })
+            .collect();
         // The row expressions, stage by stage in the stage ranges of docs/spec.md.
         let mut rows = Vec::new();
         for k in 1..=N {
             for (i, slack) in state_slack.iter().enumerate() {
-                let (lo, hi) = (
+                let (lo, hi) = pulled(
                     bound(&c.x_min, i, f64::NEG_INFINITY),
                     bound(&c.x_max, i, f64::INFINITY),
+                    state_margin[i],
                 );
                 if lo.is_finite() || hi.is_finite() {
                     rows.push(RowDef {
@@ -244,11 +382,12 @@ impl Independent {
             for (r, slack) in slacks.iter().enumerate() {
                 let with_input = (0..nu).any(|i| group.au.data[r * group.au.cols + i] != 0.0);
                 let stages = if with_input { 0..N } else { 1..N + 1 };
+                let (lower, upper) = pulled(group.lower[r], group.upper[r], group_margin[g][r]);
                 for k in stages {
                     rows.push(RowDef {
                         what: format!("constraint[{g}] row {r} at k = {k}"),
-                        lower: group.lower[r],
-                        upper: group.upper[r],
+                        lower,
+                        upper,
                         slack: *slack,
                     });
                 }
