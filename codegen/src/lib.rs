@@ -108,6 +108,82 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     choice::resolve(spec).map(|(_, problem)| problem)
 }
 
+/// The changes to a spec refused for its period that the compiler prices by building them, each with its
+/// estimated cycles a step: every other method that takes the spec (written explicitly: `auto` does not
+/// weigh the active set in f64 without f64 hardware), a control horizon of half the horizon, and half the
+/// horizon (both with the resolved method). A change whose lowering fails, or that the build's budget refuses, is listed with the
+/// reason instead; so is one with ADMM, whose certificate (ρ tuned over its sample, thousands of
+/// iterations a case) would cost this refusal up to a minute each (`choice::CANDIDATES`).
+///
+/// `candidates` are what `auto` weighed ([`Problem::candidates`]): a method that failed there is listed
+/// with its finding, not built again.
+fn alternatives(resolved: &Spec, candidates: &[choice::Candidate]) -> Vec<target::Alternative> {
+    let mpc = &resolved.mpc;
+    let (horizon, held) = (mpc.horizon, mpc.control_horizon);
+    let mut variants: Vec<(String, Spec)> = Vec::new();
+    for &method in choice::CANDIDATES {
+        if method == resolved.mpc.method || (method.box_only() && !mpc.constraints.is_empty()) {
+            continue;
+        }
+        let mut s = resolved.clone();
+        s.mpc.method = method;
+        s.mpc.method_requested = method;
+        variants.push((format!("`method = \"{}\"`", method.name()), s));
+    }
+    if horizon >= 4 && held == horizon {
+        let mut s = resolved.clone();
+        s.mpc.control_horizon = horizon / 2;
+        variants.push((format!("`control_horizon = {}`", horizon / 2), s));
+    }
+    if horizon >= 4 {
+        let mut s = resolved.clone();
+        s.mpc.horizon = horizon / 2;
+        s.mpc.control_horizon = held.min(horizon / 2);
+        variants.push((format!("`horizon = {}`", horizon / 2), s));
+    }
+    variants
+        .into_iter()
+        .map(|(change, s)| target::Alternative {
+            change,
+            cycles: {
+                let failed = candidates
+                    .iter()
+                    .filter(|c| c.method == s.mpc.method && s.mpc.method != resolved.mpc.method)
+                    .find_map(|c| c.unavailable.clone());
+                // A rule that kept `auto` from weighing it (f64 without hardware, ADMM's cost) is no
+                // finding about it: a written method is built all the same.
+                let rule = plan::of(s.mpc.method).not_weighed(&s, true);
+                let failed = failed.filter(|why| Some(why) != rule.as_ref());
+                match failed {
+                    Some(why) => Err(why),
+                    None if s.mpc.method == mpc_spec::Method::Admm => Err(
+                        "ADMM's certificate is not run for a refusal; write it to see its count"
+                            .to_string(),
+                    ),
+                    None => step_cycles(&s),
+                }
+            },
+        })
+        .collect()
+}
+
+/// The estimated cycles of one control step of `spec` on its target, built as [`generate`] builds it up
+/// to the period check; the first finding otherwise.
+fn step_cycles(spec: &Spec) -> Result<f64, String> {
+    let first = |d: Diagnostics| {
+        d.iter()
+            .next()
+            .map_or_else(|| "failed".to_string(), |d| d.message.clone())
+    };
+    let (resolved, problem) = choice::resolve(spec).map_err(first)?;
+    let plan = plan(&resolved, &problem).map_err(first)?;
+    let (resources, build_cost) = certificate::predicted(&problem, &plan);
+    if let Some(over) = budget::over(&build_cost) {
+        return Err(over);
+    }
+    Ok(target::StepCost::of(&resolved, &problem, &resources).cycles)
+}
+
 /// Lowers `spec`, plans its solver, certifies it and emits its module.
 pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
     let (resolved, problem) = choice::resolve(spec)?;
@@ -132,7 +208,9 @@ pub fn generate(spec: &Spec, opt: &Opt) -> Result<Generated, Diagnostics> {
     }
     // A step that cannot fit the sampling period at the target's clock is refused before the analyses.
     let step = target::StepCost::of(spec, &problem, &resources);
-    target::check_period(spec, &step)?;
+    if target::check_period(spec, &step).is_err() {
+        target::check_period_with(spec, &step, &alternatives(spec, &problem.candidates))?;
+    }
     let certificate = certify(&problem, &plan);
     let mut warnings = certificate::review(spec, &certificate)?;
     warnings.0.extend(target::review(spec).0);

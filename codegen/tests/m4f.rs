@@ -200,3 +200,42 @@ fn the_quadcopter_on_the_m4f_builds_with_admm_in_f32_within_its_period() {
     assert_eq!(a.problem.qp.method, Method::ActiveSet);
     assert!(a.step.load().expect("a clock") < 1.0);
 }
+
+/// A refusal prices the changes the compiler can build (issue 34, item 4): the published pendulum in
+/// f64 on the M4F, where `auto` does not weigh the active set (no f64 hardware) and takes ADMM, over
+/// its 10 ms period. The hint gives f32 and `method = "active_set"` with their cycles, both within the
+/// period, each as the compiler builds it: the active set written explicitly builds and its step fits.
+#[test]
+fn a_refusal_prices_the_cheaper_changes() {
+    let src = include_str!("../../tests/specs/pendulum/cortex-m4f.toml")
+        .replace("scalar = \"f32\"", "scalar = \"f64\"");
+    let d = refusal(&src);
+    let hint = d.note.as_deref().expect("a hint");
+    assert!(d.message.contains("of its 10 ms period"), "{}", d.message);
+    assert!(
+        d.related[0].1.contains(" iterations of ADMM"),
+        "{:?}",
+        d.related
+    );
+    let priced = |change: &str| -> f64 {
+        let at = hint
+            .find(&format!("{change} (about "))
+            .unwrap_or_else(|| panic!("no price for {change} in: {hint}"));
+        let rest = &hint[at + change.len() + " (about ".len()..];
+        let cycles: f64 = rest.split(' ').next().unwrap().parse().unwrap();
+        assert!(
+            rest.split(';').next().unwrap().ends_with("of the period: fits)"),
+            "{change}: {rest}"
+        );
+        cycles
+    };
+    let f32_cycles = priced("`scalar = \"f32\"` in `[codegen]`");
+    let active_set = priced("`method = \"active_set\"`");
+    assert!(f32_cycles < active_set, "{hint}");
+    // The active set as written: it builds, and its step is the price.
+    let written = src.replace("[mpc]\n", "[mpc]\nmethod = \"active_set\"\n");
+    let g = generate_from_source(&written, &Opt::default()).expect("fits");
+    assert_eq!(g.problem.qp.method, Method::ActiveSet);
+    let relative = (g.step.cycles - active_set).abs() / g.step.cycles;
+    assert!(relative < 1e-3, "{} against {active_set}", g.step.cycles);
+}

@@ -158,10 +158,31 @@ pub fn significant(x: f64, digits: usize) -> String {
     }
 }
 
+/// A change to a refused spec that the compiler priced by building it (`crate::generate` forms them):
+/// what to write, and its estimated cycles a step, or why it has none (its lowering failed, or the
+/// build's budget refused it: `codegen::budget`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Alternative {
+    /// The change, as it would be written: "`method = \"active_set\"`".
+    pub change: String,
+    /// Its step's estimated cycles, or why it was not priced.
+    pub cycles: Result<f64, String>,
+}
+
 /// Refuses a control step whose estimated cycles exceed the sampling period at the target's clock, with a
 /// located error on `dt` that also points at `iterations` and `target`. The host has no fixed clock: no
-/// refusal there.
+/// refusal there. The hint prices `scalar = "f32"` from the cost; [`check_period_with`] adds the changes
+/// the compiler built.
 pub fn check_period(spec: &Spec, cost: &StepCost) -> Result<(), Diagnostic> {
+    check_period_with(spec, cost, &[])
+}
+
+/// [`check_period`], the hint listing `alternatives` with their cycles against the period.
+pub fn check_period_with(
+    spec: &Spec,
+    cost: &StepCost,
+    alternatives: &[Alternative],
+) -> Result<(), Diagnostic> {
     let Some(period) = cost.period_cycles else {
         return Ok(());
     };
@@ -207,7 +228,7 @@ pub fn check_period(spec: &Spec, cost: &StepCost) -> Result<(), Diagnostic> {
     )
     .note(format!(
         "hint: {}fewer iterations or a shorter horizon, a longer `dt`, or a faster target; the estimate is {} multiply-adds of the solver and {} of the filter and gradient map, at the cycles per multiply-add measured on the emulated {} (`codegen::target`)",
-        cheaper(cost),
+        cheaper(cost, alternatives),
         cost.solver_macs,
         cost.other_macs,
         m.target.name()
@@ -215,21 +236,43 @@ pub fn check_period(spec: &Spec, cost: &StepCost) -> Result<(), Diagnostic> {
 }
 
 /// The cheaper changes the compiler prices itself, each with its estimated cycles against the period:
-/// `scalar = "f32"` where the module is f64 and the solver would follow it.
-fn cheaper(cost: &StepCost) -> String {
-    let (Some(f32_cycles), Some(period)) = (cost.f32_cycles, cost.period_cycles) else {
+/// `scalar = "f32"` where the module is f64 and the solver would follow it, then `alternatives` (one
+/// without a price says why).
+fn cheaper(cost: &StepCost, alternatives: &[Alternative]) -> String {
+    let Some(period) = cost.period_cycles else {
         return String::new();
     };
-    let fits = if f32_cycles <= period {
-        "fits"
-    } else {
-        "still over"
+    let priced = |cycles: f64| {
+        let fits = if cycles <= period {
+            "fits"
+        } else {
+            "still over"
+        };
+        format!(
+            "about {} cycles, {} % of the period: {fits}",
+            significant(cycles, 3),
+            significant(100.0 * cycles / period, 3)
+        )
     };
-    format!(
-        "`scalar = \"f32\"` in `[codegen]` (about {} cycles, {} % of the period: {fits}); or ",
-        significant(f32_cycles, 3),
-        significant(100.0 * f32_cycles / period, 3)
-    )
+    let mut out = String::new();
+    if let Some(f32_cycles) = cost.f32_cycles {
+        out += &format!(
+            "`scalar = \"f32\"` in `[codegen]` ({}); ",
+            priced(f32_cycles)
+        );
+    }
+    for a in alternatives {
+        let what = match &a.cycles {
+            Ok(cycles) => priced(*cycles),
+            Err(why) => format!("not priced: {why}"),
+        };
+        out += &format!("{} ({what}); ", a.change);
+    }
+    if out.is_empty() {
+        out
+    } else {
+        out + "or "
+    }
 }
 
 /// Findings about the target that do not stop the build: an f64 `scalar` on a target without f64 in
