@@ -224,7 +224,10 @@ fn a_refusal_prices_the_cheaper_changes() {
         let rest = &hint[at + change.len() + " (about ".len()..];
         let cycles: f64 = rest.split(' ').next().unwrap().parse().unwrap();
         assert!(
-            rest.split(';').next().unwrap().ends_with("of the period: fits)"),
+            rest.split(';')
+                .next()
+                .unwrap()
+                .ends_with("of the period: fits)"),
             "{change}: {rest}"
         );
         cycles

@@ -324,8 +324,8 @@ fn the_published_pendulum_steps_a_metre_within_its_bounds() {
 #[test]
 fn the_boards_pendulums_are_the_shipped_one() {
     let body = |text: &str| -> String {
-        let start = text.find("[model]").expect("a [model]");
-        let end = text.find("[codegen]").expect("a [codegen]");
+        let start = text.find("\n[model]\n").expect("a [model]");
+        let end = text.find("\n[codegen]\n").expect("a [codegen]");
         text[start..end].to_string()
     };
     for variant in [
