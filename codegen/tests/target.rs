@@ -224,7 +224,7 @@ fn the_period_refusal_prices_f32() {
     let share = target::significant(100.0 * g.step.load().unwrap(), 3);
     assert!(
         note.starts_with(&format!(
-            "hint: `scalar = \"f32\"` in `[codegen]` (about {cycles} cycles, {share} % of the period: fits); or "
+            "hint: `scalar = \"f32\"` in `[codegen]` (about {cycles} cycles, {share} % of the period: fits); "
         )),
         "{note}"
     );
