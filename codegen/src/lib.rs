@@ -145,26 +145,29 @@ fn alternatives(resolved: &Spec, candidates: &[choice::Candidate]) -> Vec<target
         .into_iter()
         .map(|(change, s)| target::Alternative {
             change,
-            cycles: {
-                let failed = candidates
-                    .iter()
-                    .filter(|c| c.method == s.mpc.method && s.mpc.method != resolved.mpc.method)
-                    .find_map(|c| c.unavailable.clone());
-                // A rule that kept `auto` from weighing it (f64 without hardware, ADMM's cost) is no
-                // finding about it: a written method is built all the same.
-                let rule = plan::of(s.mpc.method).not_weighed(&s, true);
-                let failed = failed.filter(|why| Some(why) != rule.as_ref());
-                match failed {
-                    Some(why) => Err(why),
-                    None if s.mpc.method == mpc_spec::Method::Admm => Err(
-                        "ADMM's certificate is not run for a refusal; write it to see its count"
-                            .to_string(),
-                    ),
-                    None => step_cycles(&s),
-                }
-            },
+            cycles: price(&s, candidates),
         })
         .collect()
+}
+
+/// The cycles of a variant's step: the finding of its method where `auto` already tried that method and
+/// it failed (a rule that kept `auto` from weighing it, f64 without hardware or ADMM's cost, is no
+/// finding: a written method is built all the same); no certificate for ADMM; otherwise built.
+fn price(variant: &Spec, candidates: &[choice::Candidate]) -> Result<f64, String> {
+    let method = variant.mpc.method;
+    let rule = plan::of(method).not_weighed(variant, true);
+    let failed = candidates
+        .iter()
+        .filter(|c| c.method == method)
+        .find_map(|c| c.unavailable.clone())
+        .filter(|why| Some(why) != rule.as_ref());
+    match failed {
+        Some(why) => Err(why),
+        None if method == mpc_spec::Method::Admm => Err(
+            "ADMM's certificate is not run for a refusal; write it to see its count".to_string(),
+        ),
+        None => step_cycles(variant),
+    }
 }
 
 /// The estimated cycles of one control step of `spec` on its target, built as [`generate`] builds it up

@@ -859,7 +859,7 @@ fn check_constraints(
             );
             None
         }
-        Some(b) => backoff(raw, "mpc.x_backoff", b, nx, "nx (one per state)", diags),
+        Some(b) => backoff(raw, "mpc.x_backoff", b, nx, "nx (one per state)", diags).map(Some),
         None if raw.has("mpc.x_backoff") => None,
         None => Some(None),
     };
@@ -891,7 +891,7 @@ fn check_constraints(
 }
 
 /// A back-off as written, checked: a list has `n` entries; `"<z>sigma"` needs `[kalman]`, whose
-/// steady-state covariance gives σ. `None` after a reported error, `Some(None)` never.
+/// steady-state covariance gives σ. `None` after a reported error.
 fn backoff(
     raw: &Raw,
     path: &str,
@@ -899,10 +899,10 @@ fn backoff(
     n: usize,
     what: &str,
     diags: &mut Diagnostics,
-) -> Option<Option<Backoff>> {
+) -> Option<Backoff> {
     match &b.value {
-        RawBackoff::Each(m) => Some(Some(Backoff::Margin(vec![*m; n]))),
-        RawBackoff::List(list) if list.len() == n => Some(Some(Backoff::Margin(list.clone()))),
+        RawBackoff::Each(m) => Some(Backoff::Margin(vec![*m; n])),
+        RawBackoff::List(list) if list.len() == n => Some(Backoff::Margin(list.clone())),
         RawBackoff::List(list) => {
             diags.push(
                 Diagnostic::new(
@@ -928,7 +928,7 @@ fn backoff(
             );
             None
         }
-        RawBackoff::Sigmas(z) => Some(Some(Backoff::Sigmas(*z))),
+        RawBackoff::Sigmas(z) => Some(Backoff::Sigmas(*z)),
     }
 }
 
@@ -1141,7 +1141,8 @@ fn check_row_group(
             rows,
             "one per row of `ax`",
             diags,
-        ),
+        )
+        .map(Some),
         None if has("backoff") => None,
         None => Some(None),
     };
