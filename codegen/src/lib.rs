@@ -108,6 +108,21 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     choice::resolve(spec).map(|(_, problem)| problem)
 }
 
+/// `blocks` cut at `horizon` steps: the first blocks that fit, the one that crosses it shortened (MATLAB's
+/// truncation of a blocking vector).
+fn truncated(blocks: &[usize], horizon: usize) -> Vec<usize> {
+    let mut out = Vec::new();
+    let mut left = horizon;
+    for &b in blocks {
+        if left == 0 {
+            break;
+        }
+        out.push(b.min(left));
+        left -= b.min(left);
+    }
+    out
+}
+
 /// The changes to a spec refused for its period that the compiler prices by building them, each with its
 /// estimated cycles a step: every other method that takes the spec (written explicitly: `auto` does not
 /// weigh the active set in f64 without f64 hardware), a control horizon of half the horizon, and half the
@@ -119,7 +134,7 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
 /// with its finding, not built again.
 fn alternatives(resolved: &Spec, candidates: &[choice::Candidate]) -> Vec<target::Alternative> {
     let mpc = &resolved.mpc;
-    let (horizon, held) = (mpc.horizon, mpc.control_horizon);
+    let (horizon, held) = (mpc.horizon, mpc.control_horizon());
     let mut variants: Vec<(String, Spec)> = Vec::new();
     for &method in choice::CANDIDATES {
         if method == resolved.mpc.method || (method.box_only() && !mpc.constraints.is_empty()) {
@@ -132,13 +147,13 @@ fn alternatives(resolved: &Spec, candidates: &[choice::Candidate]) -> Vec<target
     }
     if horizon >= 4 && held == horizon {
         let mut s = resolved.clone();
-        s.mpc.control_horizon = horizon / 2;
+        s.mpc.blocks = mpc_spec::held_after(horizon, horizon / 2);
         variants.push((format!("`control_horizon = {}`", horizon / 2), s));
     }
     if horizon >= 4 {
         let mut s = resolved.clone();
         s.mpc.horizon = horizon / 2;
-        s.mpc.control_horizon = held.min(horizon / 2);
+        s.mpc.blocks = truncated(&mpc.blocks, horizon / 2);
         variants.push((format!("`horizon = {}`", horizon / 2), s));
     }
     variants

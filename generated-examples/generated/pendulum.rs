@@ -24,6 +24,8 @@ pub mod pendulum {
     pub const N: usize = 10;
     /// Control horizon Nc: the plan holds the free inputs u_0 … u_{Nc−1}; u_k = u_{Nc−1} for k ≥ Nc.
     pub const CONTROL_HORIZON: usize = 5;
+    /// The blocks' lengths in steps (they sum to N): the plan's block j drives `MOVE_BLOCKS[j]` steps.
+    pub const MOVE_BLOCKS: [usize; CONTROL_HORIZON] = [1, 1, 1, 1, 6];
     /// Solver iterations per control step.
     pub const ITERATIONS: usize = 9;
     /// Sampling time, s.
@@ -493,7 +495,8 @@ pub mod pendulum {
                     self
                         .plan
                         .chunks_exact(NU)
-                        .chain(core::iter::repeat(&self.plan[NP - NU..])),
+                        .zip(MOVE_BLOCKS)
+                        .flat_map(|(block, steps)| core::iter::repeat_n(block, steps)),
                 )
             {
                 o.copy_from_slice(step);

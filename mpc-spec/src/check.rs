@@ -349,10 +349,10 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
         None => Step::Auto,
     };
     let horizon = raw.horizon.as_ref()?.value;
-    let control_horizon = check_control_horizon(raw, horizon, diags)?;
+    let blocks = check_blocks(raw, horizon, diags)?;
     Some(Mpc {
         horizon,
-        control_horizon,
+        blocks,
         iterations: match raw.iterations.as_ref()?.value {
             Some(n) => Iterations::Fixed(n),
             None => Iterations::Auto,
@@ -1259,10 +1259,72 @@ fn expect_shape(
     false
 }
 
-/// `control_horizon` (Nc): at most the prediction horizon; N when absent.
-fn check_control_horizon(raw: &Raw, horizon: usize, diags: &mut Diagnostics) -> Option<usize> {
+/// The move blocks: from `move_blocking` (MATLAB's vector `ControlHorizon`: block lengths; a sum short
+/// of the horizon gets a last block holding the rest) or `control_horizon` (Nc ≤ N), N blocks of one
+/// when both are absent. The two keys exclude each other, and blocks that overrun the horizon are an
+/// error (MATLAB truncates them silently).
+fn check_blocks(raw: &Raw, horizon: usize, diags: &mut Diagnostics) -> Option<Vec<usize>> {
+    if let (Some(nc), Some(blocks)) = (&raw.control_horizon, &raw.move_blocking) {
+        diags.push(
+            Diagnostic::new(
+                "`mpc.move_blocking` and `mpc.control_horizon` both set the free inputs",
+                blocks.span.clone(),
+            )
+            .label("second definition of the blocks")
+            .related(Some(nc.span.clone()), "and here")
+            .note(format!(
+                "hint: `control_horizon = {}` is `move_blocking = [{}]`; keep one of the two keys",
+                nc.value,
+                crate::held_after(horizon, nc.value.min(horizon))
+                    .iter()
+                    .map(|b| b.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )),
+        );
+        return None;
+    }
+    if let Some(blocks) = &raw.move_blocking {
+        let mut sum = 0;
+        let mut kept = Vec::new();
+        for &b in &blocks.value {
+            if sum + b > horizon {
+                let mut truncated = kept.clone();
+                if sum < horizon {
+                    truncated.push(horizon - sum);
+                }
+                let list = |v: &[usize]| {
+                    v.iter()
+                        .map(|b| b.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                };
+                diags.push(
+                    Diagnostic::new(
+                        format!(
+                            "the blocks of `mpc.move_blocking` sum to {} steps, more than the prediction horizon `mpc.horizon` = {horizon}",
+                            blocks.value.iter().sum::<usize>()
+                        ),
+                        blocks.span.clone(),
+                    )
+                    .label(format!("must sum to at most {horizon}"))
+                    .note(format!(
+                        "hint: MATLAB truncates these blocks to [{}]; write that to keep its meaning",
+                        list(&truncated)
+                    )),
+                );
+                return None;
+            }
+            sum += b;
+            kept.push(b);
+        }
+        if sum < horizon {
+            kept.push(horizon - sum);
+        }
+        return Some(kept);
+    }
     let Some(nc) = &raw.control_horizon else {
-        return Some(horizon);
+        return Some(vec![1; horizon]);
     };
     if nc.value > horizon {
         diags.push(
@@ -1278,5 +1340,5 @@ fn check_control_horizon(raw: &Raw, horizon: usize, diags: &mut Diagnostics) -> 
         );
         return None;
     }
-    Some(nc.value)
+    Some(crate::held_after(horizon, nc.value))
 }

@@ -18,6 +18,7 @@ pub const MODEL_KEYS: &[&str] = &["type", "axes", "dt", "time", "a", "b", "c"];
 pub const MPC_KEYS: &[&str] = &[
     "horizon",
     "control_horizon",
+    "move_blocking",
     "iterations",
     "tolerance",
     "strict",

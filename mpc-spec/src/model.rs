@@ -364,9 +364,11 @@ pub enum Step {
 pub struct Mpc {
     /// Prediction horizon N.
     pub horizon: usize,
-    /// Control horizon Nc ≤ N (`control_horizon`; N when absent): the inputs u_0 … u_{Nc−1} are free and
-    /// u_k = u_{Nc−1} for k ≥ Nc, so the QP has Nc·nu decision variables.
-    pub control_horizon: usize,
+    /// The move blocks: their lengths, summing to N, one free input each (`move_blocking`, MATLAB's
+    /// vector `ControlHorizon`; from `control_horizon = Nc` Nc − 1 blocks of one step and one of the
+    /// N − Nc + 1 held ones; N blocks of one when both are absent). The QP has `blocks.len()`·nu decision
+    /// variables, and u_k is the free input of the block that holds step k.
+    pub blocks: Vec<usize>,
     /// Solver iterations per control step.
     pub iterations: Iterations,
     /// The suboptimality the iterations must guarantee, relative to the initial gap:
@@ -415,6 +417,22 @@ pub struct Mpc {
     pub accuracy: f64,
     /// `[mpc.region]`, where an interior-point method is certified.
     pub region: Region,
+}
+
+impl Mpc {
+    /// The control horizon: the number of free inputs, one per move block (N without blocking).
+    pub fn control_horizon(&self) -> usize {
+        self.blocks.len()
+    }
+}
+
+/// The move blocks of a control horizon Nc ≤ N: Nc − 1 blocks of one step, then one holding the last
+/// N − Nc + 1 steps (N blocks of one for Nc = N).
+pub fn held_after(horizon: usize, control_horizon: usize) -> Vec<usize> {
+    let nc = control_horizon.clamp(1, horizon.max(1));
+    let mut blocks = vec![1; nc - 1];
+    blocks.push(horizon + 1 - nc);
+    blocks
 }
 
 /// The filter's noise model, from `[kalman]`.

@@ -66,6 +66,8 @@ pub struct Raw {
     pub mpc_span: Span,
     pub horizon: Option<Located<usize>>,
     pub control_horizon: Option<Located<usize>>,
+    /// `move_blocking`: the block lengths, each entry located as `mpc.move_blocking[i]`.
+    pub move_blocking: Option<Located<Vec<usize>>>,
     /// `None` inside for `"auto"`.
     pub iterations: Option<Located<Option<usize>>>,
     pub tolerance: Option<Located<f64>>,
@@ -245,6 +247,9 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
                 HORIZON_LIMIT,
             )
         });
+        raw.move_blocking = t
+            .get("move_blocking")
+            .and_then(|v| p.counts(v, "mpc.move_blocking", 1, crate::MAX_HORIZON as i64));
         raw.iterations = p
             .required(t, "mpc", "iterations", &span)
             .and_then(|v| p.iterations(v));
@@ -802,6 +807,24 @@ impl Parser<'_> {
                 None
             }
         }
+    }
+
+    /// A list of whole numbers in `min..=max`, each entry located as `path[i]`.
+    fn counts(
+        &mut self,
+        v: &Value<'_>,
+        path: &str,
+        min: i64,
+        max: i64,
+    ) -> Option<Located<Vec<usize>>> {
+        let items = self.array(v, path, "a list of whole numbers")?;
+        self.item_spans(v, path);
+        let values: Vec<Option<usize>> = items
+            .iter()
+            .map(|x| self.count_at_most(x, path, min, max, "").map(|c| c.value))
+            .collect();
+        let values: Option<Vec<usize>> = values.into_iter().collect();
+        Some(self.located(path, v, values?))
     }
 
     /// A list of numbers.

@@ -738,3 +738,51 @@ fn a_backoff_mistake_is_located_at_its_value() {
     );
     assert_eq!(at, "[0.1]");
 }
+
+#[test]
+fn move_blocking_has_matlabs_meaning() {
+    // A sum short of the horizon gets a last block of the rest (MATLAB's [1 2 3] at p = 10).
+    let spec = load(&with_method("", "move_blocking = [1, 2, 3]\n")).unwrap();
+    assert_eq!(spec.mpc.blocks, vec![1, 2, 3, 4]);
+    assert_eq!(spec.mpc.control_horizon(), 4);
+    let spec = load(&with_method("", "move_blocking = [5, 5]\n")).unwrap();
+    assert_eq!(spec.mpc.blocks, vec![5, 5]);
+    // A control horizon is blocks of one and a held tail; neither key is N blocks of one.
+    let spec = load(&with_method("", "control_horizon = 3\n")).unwrap();
+    assert_eq!(spec.mpc.blocks, vec![1, 1, 8]);
+    assert_eq!(spec.mpc.blocks, held_after(10, 3));
+    let spec = load(&with_method("", "")).unwrap();
+    assert_eq!(spec.mpc.blocks, vec![1; 10]);
+}
+
+#[test]
+fn move_blocking_mistakes_are_located() {
+    // Blocks past the horizon: MATLAB truncates them; here it is an error that names the truncation.
+    let src = with_method("", "move_blocking = [1, 2, 3, 6, 7]\n");
+    let (message, at, hint) = only_error(&src);
+    assert!(message.contains("sum to 19 steps"), "{message}");
+    assert_eq!(at, "[1, 2, 3, 6, 7]");
+    assert!(hint.unwrap().contains("[1, 2, 3, 4]"));
+    // A block of no steps, on its entry.
+    let src = with_method("", "move_blocking = [2, 0, 3]\n");
+    let (message, at, _) = only_error(&src);
+    assert!(
+        message.contains("`mpc.move_blocking` must be between 1"),
+        "{message}"
+    );
+    assert_eq!(at, "0");
+    // Not a list of whole numbers.
+    for bad in ["[]", "[1.5, 2]", "3", "[\"2\"]"] {
+        let src = with_method("", &format!("move_blocking = {bad}\n"));
+        let (message, _, _) = only_error(&src);
+        assert!(message.contains("mpc.move_blocking"), "{bad}: {message}");
+    }
+    // Both keys: at the blocks, the control horizon pointed at, the equivalent blocks in the hint.
+    let src = with_method("", "control_horizon = 4\nmove_blocking = [1, 2]\n");
+    let diags = load(&src).expect_err("both keys");
+    let d = diags.iter().next().unwrap();
+    assert!(d.message.contains("both set"), "{}", d.message);
+    assert_eq!(&src[d.span.clone().unwrap()], "[1, 2]");
+    assert_eq!(&src[d.related[0].0.clone()], "4");
+    assert!(d.note.as_ref().unwrap().contains("[1, 1, 1, 7]"));
+}

@@ -19,6 +19,10 @@ struct Check<'a> {
     /// The estimated cycles of one control step on the target, against its sampling period.
     control_step: &'a codegen::target::StepCost,
     horizon: usize,
+    /// The move blocks' lengths in steps (one free input each, summing to `horizon`); absent without a
+    /// control horizon or move blocking.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    move_blocks: Option<&'a [usize]>,
     nx: usize,
     nu: usize,
     ny: usize,
@@ -128,6 +132,7 @@ pub(crate) fn json(shown: &str, g: &Generated) -> String {
         target: g.step.machine.target,
         control_step: &g.step,
         horizon: p.qp.N,
+        move_blocks: p.qp.blocked().then_some(&p.qp.blocks[..]),
         nx: p.nx,
         nu: p.nu,
         ny: p.ny,
@@ -287,7 +292,11 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
         p.qp.N, c.iterations, p.nx, p.nu, p.ny
     );
     if p.qp.blocked() {
-        let _ = write!(out, ", control horizon {}", p.qp.Nc);
+        if p.qp.held_tail() {
+            let _ = write!(out, ", control horizon {}", p.qp.Nc);
+        } else {
+            let _ = write!(out, ", move blocking {:?}", p.qp.blocks);
+        }
     }
     if p.qp.Cz.is_some() {
         let _ = write!(out, ", nz = {} tracked outputs", p.qp.nz);

@@ -177,6 +177,28 @@ fn check_prints_the_backoffs() {
 }
 
 #[test]
+fn check_names_the_move_blocks() {
+    let spec = "tests/specs/control-horizon/blocks-fgm.toml";
+    let o = mpcc(&["check", spec]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let first = stdout(&o).lines().next().unwrap_or_default().to_string();
+    assert!(first.contains(", move blocking [2, 3, 5],"), "{first}");
+    let o = mpcc(&["check", "specs/pendulum.toml"]);
+    let first = stdout(&o).lines().next().unwrap_or_default().to_string();
+    assert!(first.contains(", control horizon 5,"), "{first}");
+    let json = |spec: &str| -> serde_json::Value {
+        let o = mpcc(&["check", spec, "--json"]);
+        serde_json::from_slice(&o.stdout).expect("valid JSON")
+    };
+    assert_eq!(json(spec)["move_blocks"], serde_json::json!([2, 3, 5]));
+    assert_eq!(
+        json("specs/pendulum.toml")["move_blocks"],
+        serde_json::json!([1, 1, 1, 1, 6])
+    );
+    assert!(json("specs/paper.toml").get("move_blocks").is_none());
+}
+
+#[test]
 fn check_a_bad_spec_renders_the_macros_error_and_exits_1() {
     let dir = scratch("bad-spec");
     let spec = dir.join("typo.toml");

@@ -1,11 +1,13 @@
-//! `[mpc] control_horizon` (Nc < N): the inputs u_0 … u_{Nc−1} are free, u_k = u_{Nc−1} after.
+//! `[mpc] control_horizon` (Nc < N): the inputs u_0 … u_{Nc−1} are free, u_k = u_{Nc−1} after; and
+//! `[mpc] move_blocking` (MATLAB's vector `ControlHorizon`): one free input per block of steps.
 //! - The lowered QP is the full-horizon QP with U = T·V substituted, T formed here from the definition
 //!   (H = TᵀHT, the linear maps Tᵀ·, Su·T, the rows' coefficients on U times T, their data unchanged), on
 //!   specs with every kind of row, weighted moves, `qf = "lqr"`, outputs and a disturbance model.
 //! - The oracle's plan is the optimum of the full-horizon QP with the held steps as equality rows
-//!   u_k − u_{Nc−1} = 0, solved by Clarabel (independent of the substitution).
+//!   u_k − u_s = 0 (s the first step of k's block), solved by Clarabel (independent of the substitution).
 //! - Generated controllers (active set, interior point, FGM with f from the tables and unrolled) against
-//!   the oracle on warm-started closed loops: the same plan, N steps from `plan()`, the held steps equal.
+//!   the oracle on warm-started closed loops: the same plan, N steps from `plan()`, each block's steps
+//!   equal.
 #![allow(non_snake_case)]
 
 use codegen::ipm::InequalityQp;
@@ -22,27 +24,72 @@ mpc_macros::mpc!(mod linear_active_set = "specs/control-horizon/linear-active-se
 mpc_macros::mpc!(mod linear_ipm = "specs/control-horizon/linear-ipm.toml");
 mpc_macros::mpc!(mod pendulum_fgm = "specs/control-horizon/pendulum-fgm.toml");
 mpc_macros::mpc!(mod offset_free = "specs/control-horizon/offset-free-unrolled.toml");
+mpc_macros::mpc!(mod blocks_active_set = "specs/control-horizon/blocks-active-set.toml");
+mpc_macros::mpc!(mod blocks_ipm = "specs/control-horizon/blocks-ipm.toml");
+mpc_macros::mpc!(mod blocks_fgm = "specs/control-horizon/blocks-fgm.toml");
 
 const PENDULUM: &str = include_str!("../../specs/pendulum.toml");
 const LINEAR_ACTIVE_SET: &str = include_str!("../specs/control-horizon/linear-active-set.toml");
 const LINEAR_IPM: &str = include_str!("../specs/control-horizon/linear-ipm.toml");
 const PENDULUM_FGM: &str = include_str!("../specs/control-horizon/pendulum-fgm.toml");
 const OFFSET_FREE: &str = include_str!("../specs/control-horizon/offset-free-unrolled.toml");
+const BLOCKS_ACTIVE_SET: &str = include_str!("../specs/control-horizon/blocks-active-set.toml");
+const BLOCKS_IPM: &str = include_str!("../specs/control-horizon/blocks-ipm.toml");
+const BLOCKS_FGM: &str = include_str!("../specs/control-horizon/blocks-fgm.toml");
 
-/// The spec without its `control_horizon` line: the full-horizon problem.
+/// The spec without its `control_horizon` or `move_blocking` line: the full-horizon problem.
 fn full(text: &str) -> String {
     text.lines()
-        .filter(|l| !l.trim_start().starts_with("control_horizon"))
+        .filter(|l| {
+            let l = l.trim_start();
+            !l.starts_with("control_horizon") && !l.starts_with("move_blocking")
+        })
         .map(|l| format!("{l}\n"))
         .collect()
 }
 
-/// The blocking matrix by its definition: row block k of U is column block min(k, Nc − 1) of V.
-fn blocking(N: usize, Nc: usize, nu: usize) -> DMatrix<f64> {
-    let mut T = DMatrix::zeros(N * nu, Nc * nu);
-    for k in 0..N {
+/// The first step of each step's block, from the spec's text as docs/spec.md defines it: `control_horizon
+/// = Nc` holds steps Nc … N−1 at step Nc − 1; `move_blocking = [b₀, b₁, …]` makes blocks of those lengths,
+/// a sum short of N getting a last block of the rest.
+fn block_starts(text: &str, N: usize) -> Vec<usize> {
+    let value = |key: &str| {
+        text.lines()
+            .find_map(|l| l.trim_start().strip_prefix(key))
+            .map(|rest| rest.trim_start().trim_start_matches('=').trim().to_string())
+    };
+    let mut lengths: Vec<usize> = if let Some(nc) = value("control_horizon") {
+        let nc: usize = nc.parse().unwrap();
+        (0..nc - 1).map(|_| 1).chain([N + 1 - nc]).collect()
+    } else {
+        let list = value("move_blocking").expect("a control horizon or move blocking");
+        list.trim_matches(['[', ']'])
+            .split(',')
+            .map(|b| b.trim().parse().unwrap())
+            .collect()
+    };
+    let sum: usize = lengths.iter().sum();
+    if sum < N {
+        lengths.push(N - sum);
+    }
+    let mut starts = Vec::new();
+    for b in lengths {
+        let s = starts.len();
+        starts.extend(std::iter::repeat_n(s, b));
+    }
+    assert_eq!(starts.len(), N, "the blocks cover the horizon");
+    starts
+}
+
+/// The blocking matrix by its definition: row block k of U is the column block of V that k's block
+/// holds (blocks numbered in order of their first steps).
+fn blocking(starts: &[usize], nu: usize) -> DMatrix<f64> {
+    let mut firsts: Vec<usize> = starts.to_vec();
+    firsts.dedup();
+    let mut T = DMatrix::zeros(starts.len() * nu, firsts.len() * nu);
+    for (k, s) in starts.iter().enumerate() {
+        let j = firsts.iter().position(|f| f == s).unwrap();
         for i in 0..nu {
-            T[(k * nu + i, k.min(Nc - 1) * nu + i)] = 1.0;
+            T[(k * nu + i, j * nu + i)] = 1.0;
         }
     }
     T
@@ -68,11 +115,14 @@ fn lowered_qp_is_the_full_qp_substituted() {
         ("linear", LINEAR_ACTIVE_SET),
         ("pendulum", PENDULUM),
         ("offset-free", OFFSET_FREE),
+        ("linear, move blocking", BLOCKS_ACTIVE_SET),
+        ("pendulum, move blocking", BLOCKS_FGM),
     ] {
         let (b, f) = (uncertified(text), uncertified(&full(text)));
         let (qb, qf) = (&b.qp, &f.qp);
         assert!(qb.Nc < qb.N && qf.Nc == qf.N, "{name}: a control horizon");
-        let T = blocking(qf.N, qb.Nc, f.nu);
+        let T = blocking(&block_starts(text, qf.N), f.nu);
+        assert_eq!(T.ncols(), qb.Nc * f.nu, "{name}: the free inputs");
         let Tt = T.transpose();
         assert_close(&format!("{name} H"), &qb.H, &(&Tt * &qf.H * &T));
         assert_close(&format!("{name} Fx"), &qb.Fx, &(&Tt * &qf.Fx));
@@ -101,21 +151,27 @@ fn lowered_qp_is_the_full_qp_substituted() {
     }
 }
 
-/// The full-horizon QP of `full_p` at `c` with the held steps as equality rows u_k − u_{Nc−1} = 0.
-fn held_by_rows(full_p: &codegen::Problem, Nc: usize, c: &Drawn) -> InequalityQp {
+/// The full-horizon QP of `full_p` at `c` with the held steps as equality rows u_k − u_s = 0, s =
+/// `starts[k]` the first step of k's block.
+fn held_by_rows(full_p: &codegen::Problem, starts: &[usize], c: &Drawn) -> InequalityQp {
     let reference = oracle::Mpc::new(full_p);
     let (mut qp, _) = qp_of(full_p, &reference, c);
     let nu = full_p.nu;
-    let N = full_p.qp.N;
-    let extra = (N - Nc) * nu;
+    let held: Vec<(usize, usize)> = starts
+        .iter()
+        .enumerate()
+        .filter(|(k, s)| *k != **s)
+        .map(|(k, s)| (k, *s))
+        .collect();
+    let extra = held.len() * nu;
     let (m, nz) = qp.A.shape();
     let mut A = DMatrix::zeros(m + extra, nz);
     A.rows_mut(0, m).copy_from(&qp.A);
-    for k in Nc..N {
+    for (h, (k, s)) in held.iter().enumerate() {
         for i in 0..nu {
-            let r = m + (k - Nc) * nu + i;
+            let r = m + h * nu + i;
             A[(r, k * nu + i)] = 1.0;
-            A[(r, (Nc - 1) * nu + i)] = -1.0;
+            A[(r, s * nu + i)] = -1.0;
         }
     }
     qp.A = A;
@@ -126,7 +182,11 @@ fn held_by_rows(full_p: &codegen::Problem, Nc: usize, c: &Drawn) -> InequalityQp
 
 #[test]
 fn oracle_plan_is_the_held_optimum() {
-    for (name, text, seed) in [("pendulum", PENDULUM, 1), ("linear", LINEAR_IPM, 2)] {
+    for (name, text, seed) in [
+        ("pendulum", PENDULUM, 1),
+        ("linear", LINEAR_IPM, 2),
+        ("linear, move blocking", BLOCKS_IPM, 3),
+    ] {
         let p = problem(text);
         let full_p = uncertified(&full(text));
         let mut rng = rng(seed);
@@ -135,7 +195,7 @@ fn oracle_plan_is_the_held_optimum() {
             let c = draw(&p, &mut rng, 1.0);
             let mut mpc = oracle::Mpc::new(&p);
             mpc.solve(&c.x0, &window(&p, &c.reference));
-            let qp = held_by_rows(&full_p, p.qp.Nc, &c);
+            let qp = held_by_rows(&full_p, &block_starts(text, p.qp.N), &c);
             if codegen::ipm::solve(&qp, 1e-10, 200).status != codegen::ipm::Status::Converged {
                 continue;
             }
@@ -155,7 +215,7 @@ fn oracle_plan_is_the_held_optimum() {
 }
 
 /// A generated module beside the oracle over warm-started sequences: the worst plan difference over the
-/// span, after checking that `plan()` holds its last free input.
+/// span, after checking that `plan()` holds each block's input over its steps.
 macro_rules! run {
     ($m:ident, $text:expr, $seed:expr, $sequences:expr, $steps:expr, $draw:expr) => {{
         use $m as m;
@@ -177,8 +237,9 @@ macro_rules! run {
                 }
                 let plan = generated.plan();
                 assert_eq!(m::CONTROL_HORIZON, p.qp.Nc);
-                for k in m::CONTROL_HORIZON..m::N {
-                    assert_eq!(plan[k], plan[m::CONTROL_HORIZON - 1], "step {k} is held");
+                assert_eq!(m::MOVE_BLOCKS.iter().sum::<usize>(), m::N);
+                for (k, s) in block_starts($text, m::N).into_iter().enumerate() {
+                    assert_eq!(plan[k], plan[s], "step {k} is held at step {s}");
                 }
                 let flat: Vec<f64> = plan.iter().flatten().map(|v| *v as f64).collect();
                 for (i, (a, b)) in flat.iter().zip(reference.plan().iter()).enumerate() {
@@ -233,6 +294,18 @@ fn generated_matches_the_oracle() {
         (
             "offset-free (fgm, unrolled)",
             run!(offset_free, OFFSET_FREE, 5, 3, 30, near_rest),
+        ),
+        (
+            "linear, move blocking (active set)",
+            run!(blocks_active_set, BLOCKS_ACTIVE_SET, 6, 3, 20, in_region),
+        ),
+        (
+            "linear, move blocking (ipm)",
+            run!(blocks_ipm, BLOCKS_IPM, 7, 3, 20, in_region),
+        ),
+        (
+            "pendulum, move blocking (fgm, table)",
+            run!(blocks_fgm, BLOCKS_FGM, 8, 3, 30, near_rest),
         ),
     ];
     for (name, worst) in cases {

@@ -179,11 +179,11 @@ pub fn plan_steps(p: &Problem) -> TokenStream {
     }
 }
 
-/// The plan's N steps from the iterator `blocks` over its blocks: under a control horizon the last
-/// block, `last`, repeated for the held steps. What every method's `Mpc::plan` expands.
-pub fn held_steps(p: &Problem, blocks: TokenStream, last: TokenStream) -> TokenStream {
+/// The plan's N steps from the iterator `blocks` over its blocks: under move blocking each block
+/// repeated for its `MOVE_BLOCKS` steps. What every method's `Mpc::plan` expands.
+pub fn held_steps(p: &Problem, blocks: TokenStream) -> TokenStream {
     if p.qp.blocked() {
-        quote!(#blocks.chain(core::iter::repeat(#last)))
+        quote!(#blocks.zip(MOVE_BLOCKS).flat_map(|(block, steps)| core::iter::repeat_n(block, steps)))
     } else {
         blocks
     }
@@ -220,9 +220,17 @@ pub fn items(p: &Problem, plan: &Plan, num: Num) -> TokenStream {
     let dt = num.lit(p.dt);
     let control_horizon = qp.blocked().then(|| {
         let nc = Literal::usize_unsuffixed(qp.Nc);
+        let blocks = qp.blocks.iter().map(|&b| Literal::usize_unsuffixed(b));
+        let doc = if qp.held_tail() {
+            " Control horizon Nc: the plan holds the free inputs u_0 … u_{Nc−1}; u_k = u_{Nc−1} for k ≥ Nc."
+        } else {
+            " Move blocking: the plan holds one free input per block, Nc blocks."
+        };
         quote! {
-            /// Control horizon Nc: the plan holds the free inputs u_0 … u_{Nc−1}; u_k = u_{Nc−1} for k ≥ Nc.
+            #[doc = #doc]
             pub const CONTROL_HORIZON: usize = #nc;
+            /// The blocks' lengths in steps (they sum to N): the plan's block j drives `MOVE_BLOCKS[j]` steps.
+            pub const MOVE_BLOCKS: [usize; CONTROL_HORIZON] = [#(#blocks),*];
         }
     });
     let u_min = num.vector(qp.u_min.iter().copied());

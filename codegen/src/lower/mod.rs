@@ -132,8 +132,8 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
     let (Sx, Su_full, Fx) = (condensed.Sx, condensed.Su, condensed.Fx);
     // A control horizon substitutes U = T·V (T the blocking matrix) into every term: the QP's variables
     // are the Nc free inputs.
-    let Nc = m.control_horizon;
-    let T = blocking(N, Nc, nu);
+    let Nc = m.control_horizon();
+    let T = blocking(&m.blocks, nu);
     let Tt = T.transpose();
     let (H, Fu, Fx, Fr, Su) = if Nc < N {
         (
@@ -206,6 +206,7 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
         x_bounds,
         N,
         Nc,
+        blocks: m.blocks.clone(),
         iterations,
         tolerance: m.tolerance,
         method: m.method,
@@ -568,17 +569,25 @@ impl Condensed {
     }
 }
 
-/// The blocking matrix T of a control horizon Nc ≤ N ((N·nu) × (Nc·nu)): U = T·V holds u_k = v_{min(k, Nc−1)}
-/// (the identity for Nc = N).
-pub fn blocking(N: usize, Nc: usize, nu: usize) -> DMatrix<f64> {
-    DMatrix::from_fn(N * nu, Nc * nu, |i, j| {
-        let k = (i / nu).min(Nc.saturating_sub(1));
-        if k * nu + i % nu == j {
-            1.0
-        } else {
-            0.0
+/// The blocking matrix T of the move blocks ((N·nu) × (Nc·nu), N the sum of the block lengths, Nc their
+/// number): U = T·V holds u_k = v_j for every step k of block j (the identity for N blocks of one).
+pub fn blocking(blocks: &[usize], nu: usize) -> DMatrix<f64> {
+    let N: usize = blocks.iter().sum();
+    let mut T = DMatrix::zeros(N * nu, blocks.len() * nu);
+    for (k, j) in block_of_step(blocks).enumerate() {
+        for i in 0..nu {
+            T[(k * nu + i, j * nu + i)] = 1.0;
         }
-    })
+    }
+    T
+}
+
+/// The block of each step, in order: block j repeated `blocks[j]` times.
+pub fn block_of_step(blocks: &[usize]) -> impl Iterator<Item = usize> + '_ {
+    blocks
+        .iter()
+        .enumerate()
+        .flat_map(|(j, &n)| std::iter::repeat_n(j, n))
 }
 
 /// N blocks on the diagonal: `stage` N − 1 times, then `last`.

@@ -32,6 +32,9 @@ pub struct Qp {
     /// V of the Nc free inputs (Nc·nu), and U = T·V ([`crate::lower::blocking`]) holds u_k = v_{Nc−1} for
     /// k ≥ Nc. Every matrix below that acts on the plan (H, Fx, Fr, Fu, Fd, Su, the rows' A) is on V.
     pub Nc: usize,
+    /// The move blocks' lengths (Nc of them, summing to N; [`mpc_spec::Mpc::blocks`]): block j's free
+    /// input drives its steps. A control horizon is Nc − 1 blocks of one and a last one of N − Nc + 1.
+    pub blocks: Vec<usize>,
     /// Solver iterations per control step (resolved from `"auto"`).
     pub iterations: usize,
     /// The suboptimality the iterations must guarantee, if the spec gives one.
@@ -194,18 +197,36 @@ impl Qp {
         )
     }
 
-    /// Whether a control horizon shorter than the prediction horizon holds the last inputs.
+    /// Whether a control horizon shorter than the prediction horizon, or move blocking, holds one input
+    /// over several steps.
     pub fn blocked(&self) -> bool {
         self.Nc < self.N
     }
 
-    /// The plan of the QP's variables V (Nc·nu) expanded to the N steps U = T·V: each held step repeats
-    /// the last free input.
+    /// The plan of the QP's variables V (Nc·nu) expanded to the N steps U = T·V: each step takes the
+    /// free input of its block.
     pub fn expand(&self, V: &DVector<f64>) -> DVector<f64> {
         let nu = self.u_min.len();
-        DVector::from_fn(self.N * nu, |i, _| {
-            V[(i / nu).min(self.Nc - 1) * nu + i % nu]
-        })
+        DVector::from_iterator(
+            self.N * nu,
+            crate::lower::block_of_step(&self.blocks)
+                .flat_map(|j| (0..nu).map(move |i| V[j * nu + i])),
+        )
+    }
+
+    /// Whether the blocks are those of a control horizon: one step each, but the last.
+    pub fn held_tail(&self) -> bool {
+        self.blocks[..self.Nc - 1].iter().all(|&b| b == 1)
+    }
+
+    /// The blocking as the spec would write it: `control_horizon = Nc`, or `move_blocking = [...]`.
+    pub fn blocking_written(&self) -> String {
+        if self.held_tail() {
+            format!("`control_horizon = {}`", self.Nc)
+        } else {
+            let blocks: Vec<String> = self.blocks.iter().map(|b| b.to_string()).collect();
+            format!("`move_blocking = [{}]`", blocks.join(", "))
+        }
     }
 
     /// What the algorithm runs with.

@@ -39,11 +39,11 @@ pub fn plan(spec: &Spec, p: &Problem) -> Result<Plan, Diagnostics> {
         (emission, form::per_step_refusal(p))
     {
         return Err(Diagnostic::new(
-            format!("`emission = \"{}\"` is not built under a control horizon", emission.name()),
+            format!("`emission = \"{}\"` is not built under a control horizon or move blocking", emission.name()),
             spec.spans.get("codegen.emission"),
         )
         .label(why)
-        .note("hint: write `emission = \"table\"`, `\"unrolled\"` or `\"auto\"`, or leave out `mpc.control_horizon`")
+        .note("hint: write `emission = \"table\"`, `\"unrolled\"` or `\"auto\"`, or leave out `mpc.control_horizon` (`mpc.move_blocking`)")
         .into());
     }
     let form = match (emission, H_axis) {

@@ -311,11 +311,7 @@ pub fn offsets(
 
 /// The plan's N steps over `self.plan` (NP entries): [`crate::emit::held_steps`] of its blocks.
 pub fn held(p: &crate::lower::problem::Problem) -> TokenStream {
-    crate::emit::held_steps(
-        p,
-        quote!(self.plan.chunks_exact(NU)),
-        quote!(&self.plan[NP - NU..]),
-    )
+    crate::emit::held_steps(p, quote!(self.plan.chunks_exact(NU)))
 }
 
 /// What a constrained method's `Mpc` holds besides the fields every method's has, for [`mpc_type`].

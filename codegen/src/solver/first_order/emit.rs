@@ -16,11 +16,7 @@ pub fn emit(p: &Problem, plan: &Plan, algorithm: &dyn Algorithm, num: Num) -> Se
     let qp = &p.qp;
     let (nu, Nc) = (p.nu, qp.Nc);
     let steps = crate::emit::plan_steps(p);
-    let held = crate::emit::held_steps(
-        p,
-        quote!(self.plan.iter()),
-        quote!(&self.plan[CONTROL_HORIZON - 1]),
-    );
+    let held = crate::emit::held_steps(p, quote!(self.plan.iter()));
     let nd = p.nd();
     let form = plan.form.gradient();
     let lanes = form.plan_lanes(p);

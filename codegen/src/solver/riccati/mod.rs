@@ -143,7 +143,7 @@ impl Stages {
             not_built.push("`r_du` weights the moves, so a stage would carry u_{k−1} as a state");
         }
         if qp.blocked() {
-            not_built.push("`control_horizon` holds one input over several stages");
+            not_built.push("the move blocks hold one input over several stages");
         }
         if !not_built.is_empty() {
             return Err(format!("not built: {}", not_built.join("; ")));

@@ -139,12 +139,14 @@ pub fn estimates(p: &Problem, H_axis: Option<&DMatrix<f64>>) -> Vec<Estimate> {
 }
 
 /// Why the forms that run over the N steps one input each (`lanes`, `matrix_free`) are not built: a
-/// control horizon, whose plan holds fewer blocks than steps. `None` where they are.
+/// control horizon or move blocking, whose plan holds fewer blocks than steps. `None` where they are.
 pub fn per_step_refusal(p: &Problem) -> Option<String> {
     p.qp.blocked().then(|| {
         format!(
-            "`control_horizon` = {} < N = {}: the plan holds fewer inputs than the steps",
-            p.qp.Nc, p.qp.N
+            "{}: the plan holds {} inputs for N = {} steps",
+            p.qp.blocking_written(),
+            p.qp.Nc,
+            p.qp.N
         )
     })
 }
