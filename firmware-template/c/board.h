@@ -1,11 +1,27 @@
-/* The C firmware's board: the STM32F405 under QEMU's netduinoplus2 (stm32f405.c), as
- * firmware-template/src/stm32f405/ for the Rust firmware: USART1 for text, TIM2 for timing,
- * semihosting for the exit status. */
+/* The C firmware's board, as firmware-template/src/<board>/ for the Rust firmware: text on a UART, a
+ * timer for the timing, semihosting for the exit status. BOARD_ZYNQ (scripts/c-firmware.sh --board
+ * zynq) picks the Zynq-7000 under QEMU's xilinx-zynq-a9 (zynq.c, zynq.S: UART0, the MPCore global
+ * timer); otherwise the STM32F405 under QEMU's netduinoplus2 (stm32f405.c: USART1, TIM2). */
 #ifndef BOARD_H
 #define BOARD_H
 
 #include <stdint.h>
 
+#ifdef BOARD_ZYNQ
+/* The board name in RESULT, and what a tick counts. */
+#define BOARD_NAME "zynq-7000"
+#define BOARD_TIMER "global timer ticks"
+/* Resets UART0 and enables it for 115200 8N1. */
+void board_serial_init(void);
+/* Sends one byte, waiting while the transmit FIFO is full. */
+void board_byte(char c);
+/* Starts the global timer at prescaler 0 (one tick per 10 instructions under QEMU's -icount shift=0). */
+void board_timer_start(void);
+/* The low word of the global timer: differences of a few seconds' ticks are exact modulo 2^32. */
+static inline uint32_t board_now(void) { return *(volatile uint32_t *)0xf8f00200u; }
+/* Ends the program with `status` through semihosting (QEMU exits with it). */
+_Noreturn void board_exit(uint32_t status);
+#else
 /* The board name in RESULT, and what a tick counts. */
 #define BOARD_NAME "stm32f405"
 #define BOARD_TIMER "TIM2 ticks"
@@ -21,5 +37,6 @@ void board_timer_start(void);
 static inline uint32_t board_now(void) { return *(volatile uint32_t *)0x40000024u; }
 /* Ends the program with `status` through semihosting (QEMU exits with it). */
 _Noreturn void board_exit(uint32_t status);
+#endif
 
 #endif

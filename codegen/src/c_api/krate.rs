@@ -67,6 +67,8 @@ fn cargo_toml(name: &str, origin: &str) -> String {
          [package]\nname = \"{pkg}-c\"\nversion = \"0.1.0\"\nedition = \"2021\"\npublish = false\n\n\
          [lib]\nname = \"{name}\"\npath = \"src/lib.rs\"\ncrate-type = [\"staticlib\"]\ntest = false\nbench = false\n\n\
          # A crate of its own, inside or outside another workspace.\n[workspace]\n\n\
+         # `--cfg mpc_neon` (RUSTFLAGS) builds the module's NEON kernels for a Cortex-A9 with NEON.\n\
+         [lints.rust]\nunexpected_cfgs = {{ level = \"warn\", check-cfg = [\"cfg(mpc_neon)\"] }}\n\n\
          # No unwinding into C, and no `rust_eh_personality` for the C link to find.\n\
          [profile.dev]\npanic = \"abort\"\n\n\
          [profile.release]\npanic = \"abort\"\nopt-level = 3\ncodegen-units = 1\n\

@@ -43,7 +43,10 @@ pub fn lib_rs(model: &Model, layout: Layout, origin: &str) -> String {
          //! The C API of the controller `{name}`: the functions `{name}.h` declares, over the module in\n\
          //! `controller.rs`. Every pointer is checked (null, alignment) before it is used; the module\n\
          //! has no reachable panic, so the panic handler is never entered.\n\
-         #![no_std]\n#![allow(clippy::missing_safety_doc)]\n\n\
+         #![no_std]\n#![allow(clippy::missing_safety_doc)]\n\
+         // The module's NEON kernels (f32 lanes), built with `--cfg mpc_neon` for a Cortex-A9 as the Rust\n\
+         // firmware builds them: arm's intrinsics are nightly-only.\n\
+         #![cfg_attr(mpc_neon, feature(stdarch_arm_neon_intrinsics))]\n\n\
          #[allow(dead_code)]\nmod controller;\n\nuse controller::{name} as m;\nuse m::{{Controller, Real, N, NU, NX}};\n\n\
          /// `{up}_ERROR_POINTER`.\nconst ERROR_POINTER: i32 = -1;\n"
     );

@@ -1,7 +1,8 @@
 //! The C firmware (issue 35.2): firmware-template's linear mode written in C (firmware-template/c/)
 //! over the C API of `specs/paper.toml` (f32, a filter in front of the fast gradient method), its
-//! static library built for thumbv7em-none-eabihf and linked with arm-none-eabi-gcc and newlib by
-//! scripts/c-firmware.sh, flown on the emulated STM32F405 beside the Rust firmware built with
+//! static library built for thumbv7em-none-eabihf (the STM32F405) and armv7a-none-eabihf (the
+//! Zynq-7000, with its NEON kernels) and linked with arm-none-eabi-gcc and newlib by
+//! scripts/c-firmware.sh, flown on each emulated board beside the Rust firmware built with
 //! `scripts/firmware.sh --linear` from the same spec, and the same loop on the host.
 //!
 //! Without arm-none-eabi-gcc, newlib or qemu-system-arm the script fails and so does the test: CI
@@ -28,23 +29,38 @@ const MAY_DIFFER: [&str; 6] = [
     "calib_ticks",
 ];
 
+/// The Rust firmware's linear mode on `board`: 100 cycles unless told otherwise, the build of
+/// `scripts/firmware.sh --board BOARD --linear specs/paper.toml`.
+fn rust_linear(board: Board) -> Flight {
+    let elf = build_with(board, Some(PAPER), "paper-linear", None, &["--linear"]);
+    fly_elf(board, elf, "the Rust firmware, linear mode")
+}
+
 fn rust_flight() -> &'static Flight {
     static F: OnceLock<Flight> = OnceLock::new();
-    F.get_or_init(|| {
-        // The linear mode flies 100 cycles unless told otherwise: the build `scripts/firmware.sh --board
-        // netduinoplus2 --linear specs/paper.toml` makes.
-        let elf = build_with(M4, Some(PAPER), "paper-linear", None, &["--linear"]);
-        fly_elf(elf, "the Rust firmware, linear mode")
-    })
+    F.get_or_init(|| rust_linear(M4))
 }
 
 fn c_flight() -> &'static Flight {
     static F: OnceLock<Flight> = OnceLock::new();
-    F.get_or_init(|| fly_elf(build_c(PAPER, "paper", CYCLES), "the C firmware"))
+    F.get_or_init(|| fly_elf(M4, build_c(M4, PAPER, "paper", CYCLES), "the C firmware"))
 }
 
-fn fly_elf(elf: PathBuf, what: &str) -> Flight {
-    let (status, uart) = emulate(M4, &elf);
+fn zynq_rust_flight() -> &'static Flight {
+    static F: OnceLock<Flight> = OnceLock::new();
+    F.get_or_init(|| rust_linear(ZYNQ))
+}
+
+fn zynq_c_flight() -> &'static Flight {
+    static F: OnceLock<Flight> = OnceLock::new();
+    F.get_or_init(|| {
+        let elf = build_c(ZYNQ, PAPER, "paper", CYCLES);
+        fly_elf(ZYNQ, elf, "the C firmware on the Zynq")
+    })
+}
+
+fn fly_elf(board: Board, elf: PathBuf, what: &str) -> Flight {
+    let (status, uart) = emulate(board, &elf);
     let result =
         result_line(&uart).unwrap_or_else(|| panic!("no RESULT line from {what}:\n{uart}"));
     Flight {
@@ -55,25 +71,30 @@ fn fly_elf(elf: PathBuf, what: &str) -> Flight {
     }
 }
 
-/// Writes the C crate of `spec` for the Cortex-M4F (as `mpcc emit SPEC --c DIR --target
-/// thumbv7em-none-eabihf`) and builds the C firmware over it with scripts/c-firmware.sh.
-fn build_c(spec: &str, name: &str, cycles: usize) -> PathBuf {
+/// Writes the C crate of `spec` for `board`'s target (as `mpcc emit SPEC --c DIR --target TRIPLE`) and
+/// builds the C firmware over it with scripts/c-firmware.sh.
+fn build_c(board: Board, spec: &str, name: &str, cycles: usize) -> PathBuf {
+    let triple = if board.arg == ZYNQ.arg {
+        "armv7a-none-eabihf"
+    } else {
+        "thumbv7em-none-eabihf"
+    };
     let root = root();
     let source = std::fs::read_to_string(root.join(spec)).expect("the spec is readable");
     let opt = codegen::Opt::new(name, "pub", codegen::Origin::Named(spec.into()));
     let generated = codegen::generate_from_source(&source, &opt)
         .unwrap_or_else(|d| panic!("{spec} does not compile: {d:?}"));
     let tmp = Path::new(env!("CARGO_TARGET_TMPDIR")).join("c-firmware");
-    let dir = tmp.join(name);
-    codegen::c_api::write_crate(&dir, &generated, spec, Some("thumbv7em-none-eabihf"))
+    let dir = tmp.join(board.arg).join(name);
+    codegen::c_api::write_crate(&dir, &generated, spec, Some(triple))
         .unwrap_or_else(|why| panic!("cannot write the C crate of {spec}: {why}"));
-    let elf = tmp.join(format!("{name}.elf"));
+    let elf = tmp.join(format!("{}-{name}.elf", board.arg));
     let mut build = Command::new("timeout");
     build
         .arg(BUILD_TIMEOUT_S.to_string())
         .arg("bash")
         .arg(root.join("scripts/c-firmware.sh"))
-        .args(["--board", M4.arg, "--build-only", "--crate"])
+        .args(["--board", board.arg, "--build-only", "--crate"])
         .arg(&dir)
         .arg("--elf-out")
         .arg(&elf)
@@ -214,4 +235,50 @@ fn c_firmware_flies_the_linear_mode_with_the_rust_firmwares_commands() {
         "C {tc} against Rust {tr} instructions a cycle"
     );
     print_figures(rust, M4);
+}
+
+/// The same C over the C API on the Zynq-7000: firmware-template/c/zynq.S (rt.rs's startup in
+/// assembly), zynq.c and zynq.ld, the library built with the A9's NEON kernels. The same commands
+/// as the STM32F405's C flight and the host's loop (f32 is IEEE on both VFPs), and the Rust
+/// firmware's instructions a cycle on the same board within 1 %.
+#[test]
+fn c_firmware_flies_on_the_zynq_with_the_same_commands() {
+    let (c, rust, m4) = (zynq_c_flight(), zynq_rust_flight(), c_flight());
+    for (what, f) in [("C", c), ("Rust", rust)] {
+        assert_eq!(f.status, Some(0), "{what} firmware exit status\n{}", f.uart);
+        assert_eq!(f.result["ok"], Value::Bool(true), "{what}: {}", f.result);
+        assert_calibrated(&f.result, ZYNQ);
+    }
+    let (cr, r) = (&c.result, &rust.result);
+    assert_eq!(cr["board"], ZYNQ.name);
+    assert_eq!(cr["language"], "c");
+    for k in [
+        "commands_fnv1a64",
+        "final_state_micro",
+        "saturated_cycles",
+        "cycles",
+    ] {
+        assert_eq!(
+            cr[k], m4.result[k],
+            "`{k}`: Zynq {cr}\nSTM32F405 {}",
+            m4.result
+        );
+        assert_eq!(cr[k], r[k], "`{k}`: C {cr}\nRust {r}");
+    }
+    assert_eq!(command_lines(&c.uart), command_lines(&m4.uart));
+    assert_eq!(
+        cr["commands_fnv1a64"],
+        Value::String(host_commands_hash(CYCLES))
+    );
+    assert_deterministic(cr, TICK_SPREAD);
+    let (tc, tr) = (uint(cr, "ticks_mean"), uint(r, "ticks_mean"));
+    let ratio = tc as f64 / tr as f64;
+    eprintln!(
+        "specs/paper.toml, linear mode, {CYCLES} cycles on the emulated Zynq-7000: C {tc}, Rust {tr} \
+         global timer ticks a control cycle (C/Rust {ratio:.4})"
+    );
+    assert!(
+        (0.99..=1.01).contains(&ratio),
+        "C {tc} against Rust {tr} ticks a cycle: the library without its NEON kernels?"
+    );
 }
