@@ -19,8 +19,8 @@ void board_byte(char c);
 void board_timer_start(void);
 /* The low word of the global timer: differences of a few seconds' ticks are exact modulo 2^32. */
 static inline uint32_t board_now(void) { return *(volatile uint32_t *)0xf8f00200u; }
-/* Ends the program with `status` through semihosting (QEMU exits with it). */
-_Noreturn void board_exit(uint32_t status);
+/* The A32 semihosting trap. */
+#define BOARD_SEMIHOSTING_TRAP "svc 0x123456"
 #else
 /* The board name in RESULT, and what a tick counts. */
 #define BOARD_NAME "stm32f405"
@@ -35,8 +35,22 @@ void board_byte(char c);
 void board_timer_start(void);
 /* The current count of TIM2. */
 static inline uint32_t board_now(void) { return *(volatile uint32_t *)0x40000024u; }
-/* Ends the program with `status` through semihosting (QEMU exits with it). */
-_Noreturn void board_exit(uint32_t status);
+/* The Thumb (M-profile) semihosting trap. */
+#define BOARD_SEMIHOSTING_TRAP "bkpt 0xab"
 #endif
+
+/* Ends the program with `status` through semihosting (QEMU exits with it): SYS_EXIT_EXTENDED with
+ * ADP_Stopped_ApplicationExit and the status as its subcode. Without a semihosting host it sleeps. */
+static inline _Noreturn void board_exit(uint32_t status) {
+    static uint32_t block[2];
+    block[0] = 0x20026u;
+    block[1] = status;
+    register uint32_t r0 __asm__("r0") = 0x20u;
+    register uint32_t *r1 __asm__("r1") = block;
+    __asm__ volatile(BOARD_SEMIHOSTING_TRAP : "+r"(r0) : "r"(r1) : "memory");
+    for (;;) {
+        __asm__ volatile("wfe");
+    }
+}
 
 #endif

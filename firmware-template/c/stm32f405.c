@@ -49,19 +49,6 @@ void board_timer_start(void) {
     REG(TIM2 + 0x00) = 1;          /* CR1.CEN */
 }
 
-_Noreturn void board_exit(uint32_t status) {
-    /* SYS_EXIT_EXTENDED with ADP_Stopped_ApplicationExit and the status as its subcode. */
-    static uint32_t block[2];
-    block[0] = 0x20026u;
-    block[1] = status;
-    register uint32_t r0 __asm__("r0") = 0x20u;
-    register uint32_t *r1 __asm__("r1") = block;
-    __asm__ volatile("bkpt 0xab" : "+r"(r0) : "r"(r1) : "memory");
-    for (;;) {
-        __asm__ volatile("wfe");
-    }
-}
-
 extern uint32_t _sidata, _sdata, _edata, _sbss, _ebss, _estack;
 int main(void);
 

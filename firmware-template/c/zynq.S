@@ -114,7 +114,7 @@ _start:
     isb
 
     bl    main
-    bl    board_exit                  @ main's status in r0
+    bl    fault_exit                  @ exits with main's status, in r0
 9:  wfe
     b     9b
 

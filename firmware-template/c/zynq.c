@@ -1,7 +1,7 @@
 /* Peripherals of the Zynq-7000 (Cortex-A9) for the C firmware, programmed exactly as
- * firmware-template/src/zynq/{uart,timer,semihosting}.rs: the Cadence UART0 for text, the MPCore
- * global timer for timing, and the semihosting exit. The startup (vector table, stacks, VFP/NEON,
- * .bss, MMU and L1 caches) is zynq.S; the memory map zynq.ld. */
+ * firmware-template/src/zynq/{uart,timer}.rs: the Cadence UART0 for text and the MPCore global timer
+ * for timing (the semihosting exit is board.h's). The startup (vector table, stacks, VFP/NEON, .bss,
+ * MMU and L1 caches) is zynq.S; the memory map zynq.ld. */
 #include <stdint.h>
 
 #include "board.h"
@@ -36,20 +36,6 @@ void board_byte(char c) {
 
 void board_timer_start(void) { REG(GLOBAL_TIMER + 0x08) = 1; /* enable, prescaler 0 */ }
 
-_Noreturn void board_exit(uint32_t status) {
-    /* SYS_EXIT_EXTENDED with ADP_Stopped_ApplicationExit and the status as its subcode; `svc
-     * 0x123456` is the A32 semihosting trap. */
-    static uint32_t block[2];
-    block[0] = 0x20026u;
-    block[1] = status;
-    register uint32_t r0 __asm__("r0") = 0x20u;
-    register uint32_t *r1 __asm__("r1") = block;
-    __asm__ volatile("svc 0x123456" : "+r"(r0) : "r"(r1) : "memory");
-    for (;;) {
-        __asm__ volatile("wfe");
-    }
-}
-
-/* Every exception is a failure here (the firmware polls, it takes no interrupt): zynq.S's handlers
- * exit with the Rust firmware's statuses (src/zynq/rt.rs). */
+/* The exit of zynq.S: with main's status, or an exception's (the firmware polls and takes no
+ * interrupt; the handlers use the Rust firmware's statuses, src/zynq/rt.rs). */
 _Noreturn void fault_exit(uint32_t status) { board_exit(status); }
