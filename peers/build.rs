@@ -8,7 +8,8 @@
 //!   spec). `PEERS_PROBLEMS=paper,hover` limits the set (default: all four).
 //! - the generated solvers the crate's features ask for: `ours` (`ctrl`, the spec as shipped: the
 //!   interior-point method, the FGM for `paper`) and `active_set` (`ctrl_as`, the same spec with
-//!   `method = "active_set"`: a copy written to OUT_DIR by [`active_set_spec`]).
+//!   `method = "active_set"`: a copy written to OUT_DIR by [`active_set_spec`]; on the M4F in f32 with
+//!   `target = "cortex-m4f"`, the variant of `codegen/tests/m4f.rs`).
 
 use serde_json::Value;
 use std::fmt::Write as _;
@@ -83,7 +84,7 @@ fn main() {
             println!("cargo::rerun-if-changed=../specs/paper-limits.toml");
             Some(table(&limits, "[mpc.region]"))
         };
-        let mut written = active_set_spec(&text);
+        let mut written = active_set_spec(&text, m4);
         if let Some(region) = region {
             written.push_str("\n# peers/build.rs: specs/paper-limits.toml's region.\n");
             written.push_str(&region);
@@ -189,8 +190,10 @@ struct Solvers {
 
 /// The spec with `method = "active_set"` in place of its own: the `method` line rewritten,
 /// `iterations` certified (`"auto"`), and the first-order methods' keys (`step`, `tolerance`) dropped
-/// (the FGM's `paper`). Everything else (model, weights, bounds, rows, region, scalar) is the spec's.
-fn active_set_spec(text: &str) -> String {
+/// (the FGM's `paper`). On the Cortex-M4F (`m4`), which has no f64 hardware, it is the variant of
+/// `codegen/tests/m4f.rs`: `scalar = "f32"` and `target = "cortex-m4f"` (the period checked at build
+/// time). Everything else (model, weights, bounds, rows, region) is the spec's.
+fn active_set_spec(text: &str, m4: bool) -> String {
     let mut out = String::from(
         "# peers/build.rs: the spec with method = \"active_set\" in place of its own.\n",
     );
@@ -201,6 +204,10 @@ fn active_set_spec(text: &str) -> String {
             in_mpc = t.starts_with("[mpc]");
         }
         let key = t.split('=').next().unwrap_or("").trim();
+        if m4 && key == "scalar" && t.starts_with("scalar") {
+            out.push_str("target = \"cortex-m4f\"\nscalar = \"f32\"\n");
+            continue;
+        }
         if in_mpc && t.contains('=') && !t.starts_with('#') {
             match key {
                 "method" => {
