@@ -25,6 +25,14 @@ pub(crate) enum Command {
         /// Print the certificate as JSON, under stable names.
         #[arg(long)]
         json: bool,
+        /// Draw the dual active-set method's cold iteration count over two parameters of `[mpc.region]`
+        /// into FILE (SVG), every other parameter at the region's centre.
+        #[arg(long, value_name = "FILE")]
+        plot: Option<PathBuf>,
+        /// The two parameters of `--plot`, by name (`x0[0]`, `r[1]`, `u_prev[0]`, `d[0]`) or index into θ;
+        /// default the first two states.
+        #[arg(long, value_name = "A,B", requires = "plot")]
+        plot_axes: Option<String>,
     },
     /// Print the module `mpc!` generates from a spec, formatted as a person would read it.
     Emit {

@@ -25,6 +25,8 @@ pub(crate) enum Error {
     CTarget(PathBuf, String),
     /// `dump-qp` was given states or a reference it cannot use (the message says which).
     Dump(String),
+    /// `check --plot FILE` could not draw (the message says why).
+    Plot(PathBuf, String),
     /// The spec has mistakes: `rendered` is every diagnostic drawn against the source by
     /// `codegen::render`, exactly as the macro's error carries them.
     Spec {
@@ -48,6 +50,7 @@ impl Display for Error {
             Error::Write(path, _) => write!(f, "cannot write `{}`", path.display()),
             Error::Stdout(_) => f.write_str("cannot write to standard output"),
             Error::Dump(why) => write!(f, "cannot dump the QP: {why}"),
+            Error::Plot(file, why) => write!(f, "cannot draw `{}`: {why}", file.display()),
             Error::CTarget(dir, why) => {
                 write!(f, "cannot write the C crate `{}`: {why}", dir.display())
             }
@@ -66,9 +69,11 @@ impl StdError for Error {
         match self {
             Error::Read(_, e) | Error::ReadStdin(e) => Some(e),
             Error::Write(_, e) | Error::Stdout(e) => Some(e),
-            Error::SameFile { .. } | Error::Spec { .. } | Error::Dump(_) | Error::CTarget(..) => {
-                None
-            }
+            Error::SameFile { .. }
+            | Error::Spec { .. }
+            | Error::Dump(_)
+            | Error::CTarget(..)
+            | Error::Plot(..) => None,
         }
     }
 }

@@ -7,11 +7,13 @@ mod dump;
 mod emit;
 mod error;
 mod input;
+mod plot;
 #[cfg(test)]
 mod test;
 
 use crate::app::{Cli, Command};
 use crate::error::{Error, Result};
+use crate::plot::GRID;
 use clap::Parser;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -28,10 +30,38 @@ fn main() -> ExitCode {
 
 fn try_main() -> Result<()> {
     match Cli::parse().command {
-        Command::Check { spec, json } => {
+        Command::Check {
+            spec,
+            json,
+            plot,
+            plot_axes,
+        } => {
             let loaded = Loaded::read(&spec)?;
             let generated = loaded.generate("controller")?;
             loaded.print_warnings(&generated.warnings);
+            if let Some(file) = &plot {
+                let d = plot::draw(&loaded.source, &generated, plot_axes.as_deref(), file)
+                    .map_err(|why| Error::Plot(file.clone(), why))?;
+                eprintln!(
+                    "mpcc: drew {} ({GRID} × {GRID} cold solves over {} × {}): {}-{} changes of the working set, the cold cap {}{}{}",
+                    file.display(),
+                    d.axes[0],
+                    d.axes[1],
+                    d.range.0,
+                    d.range.1,
+                    d.cap,
+                    if d.infeasible > 0 {
+                        format!(", {} infeasible cells (grey)", d.infeasible)
+                    } else {
+                        String::new()
+                    },
+                    if d.above_cap > 0 {
+                        format!(", {} cells ABOVE the cap", d.above_cap)
+                    } else {
+                        String::new()
+                    },
+                );
+            }
             let text = if json {
                 check::json(&loaded.shown, &generated)
             } else {

@@ -68,8 +68,10 @@ Arguments:
   <SPEC>  The TOML controller spec: a regular file of at most 1 MiB, or `-` for standard input
 
 Options:
-      --json  Print the certificate as JSON, under stable names
-  -h, --help  Print help
+      --json             Print the certificate as JSON, under stable names
+      --plot <FILE>      Draw the dual active-set method's cold iteration count over two parameters of `[mpc.region]` into FILE (SVG), every other parameter at the region's centre
+      --plot-axes <A,B>  The two parameters of `--plot`, by name (`x0[0]`, `r[1]`, `u_prev[0]`, `d[0]`) or index into θ; default the first two states
+  -h, --help             Print help
 "
     );
 }
@@ -196,6 +198,66 @@ fn check_names_the_move_blocks() {
         serde_json::json!([1, 1, 1, 1, 6])
     );
     assert!(json("specs/paper.toml").get("move_blocks").is_none());
+}
+
+/// `check --plot`: the active set's cold count over two parameters as SVG; every cell within the build's
+/// cold cap (an independent check of it on the slice); the wrong method or axes are errors.
+#[test]
+fn check_plots_the_cold_count() {
+    let dir = scratch("plot");
+    let file = dir.join("pendulum.svg");
+    let shown = file.to_str().unwrap();
+    let o = mpcc(&[
+        "check",
+        "specs/pendulum.toml",
+        "--plot",
+        shown,
+        "--plot-axes",
+        "x0[0],2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("mpcc: drew "))
+        .unwrap_or_else(|| panic!("no summary in\n{err}"));
+    assert!(line.contains("over x0[0] × x0[2]"), "{line}");
+    assert!(!line.contains("ABOVE"), "{line}");
+    // "…: LO-HI changes of the working set, the cold cap CAP"
+    let numbers = |s: &str| -> Vec<usize> {
+        s.split(|c: char| !c.is_ascii_digit())
+            .filter_map(|w| w.parse().ok())
+            .collect()
+    };
+    let range = numbers(line.split("): ").nth(1).unwrap());
+    let (hi, cap) = (range[1], range[2]);
+    assert!(hi >= 1 && hi <= cap, "{line}");
+    let svg = std::fs::read_to_string(&file).unwrap();
+    assert!(
+        svg.starts_with("<svg") && svg.contains("x0[2]"),
+        "not the picture"
+    );
+    let o = mpcc(&["check", "specs/paper.toml", "--plot", shown]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("this spec is solved by `fgm`"),
+        "{}",
+        stderr(&o)
+    );
+    let o = mpcc(&[
+        "check",
+        "specs/pendulum.toml",
+        "--plot",
+        shown,
+        "--plot-axes",
+        "x0[0],x0[0]",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("two different parameters"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
