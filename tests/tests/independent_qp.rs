@@ -11,7 +11,8 @@
 //! table: `x_min`/`x_max` at x_1 … x_N, moves at k = 0 … N−1 from u₋₁, a `[[mpc.constraint]]` row with a
 //! nonzero `au` at k = 0 … N−1 on (x_k, u_k), an `ax`-only row at k = 1 … N, decided per row; soft ones
 //! with one slack per component / row shared by every stage and both sides, cost w·σ + ½·10⁻³·w·σ².
-//! A back-off (docs/spec.md, "Back-off") pulls each finite bound in by its margin first; a `"<z>sigma"`
+//! Under a control horizon or move blocking (docs/spec.md) the plan's variables are one input per block,
+//! u_k that of step k's block. A back-off (docs/spec.md, "Back-off") pulls each finite bound in by its margin first; a `"<z>sigma"`
 //! margin is z·√(a·P∞·aᵀ) with P∞ the filter's steady-state a priori covariance, formed here from the
 //! `[kalman]` definitions (eq. 3's white acceleration, or `q` sampled by Van Loan's exponential for a
 //! continuous model; the disturbance's random walk appended) by the Riccati recursion to convergence.
@@ -87,6 +88,9 @@ struct Independent {
     nx: usize,
     nu: usize,
     N: usize,
+    /// The free input that drives each step k (docs/spec.md, "A control horizon", "Move blocking"):
+    /// block j of the blocks' lengths holds its steps; the QP's variables are one input per block.
+    block_of_step: Vec<usize>,
     A: DMatrix<f64>,
     B: DMatrix<f64>,
     /// C_z (nz × nx), the identity without `outputs`.
@@ -393,10 +397,19 @@ impl Independent {
                 }
             }
         }
+        let block_of_step = spec
+            .mpc
+            .blocks
+            .iter()
+            .enumerate()
+            .flat_map(|(j, &steps)| std::iter::repeat_n(j, steps))
+            .collect::<Vec<_>>();
+        assert_eq!(block_of_step.len(), N, "the blocks cover the horizon");
         Independent {
             nx,
             nu,
             N,
+            block_of_step,
             A,
             B,
             Cz,
@@ -417,12 +430,15 @@ impl Independent {
         }
     }
 
+    /// The QP's plan variables: one input per move block (N of them without blocking).
     fn n(&self) -> usize {
-        self.N * self.nu
+        (self.block_of_step.last().map_or(0, |b| b + 1)) * self.nu
     }
 
+    /// u_k: the input of step k's block.
     fn u(&self, U: &DVector<f64>, k: usize) -> DVector<f64> {
-        U.rows(k * self.nu, self.nu).into_owned()
+        U.rows(self.block_of_step[k] * self.nu, self.nu)
+            .into_owned()
     }
 
     /// x_0 … x_N of x_{k+1} = A x_k + B (u_k + d).
@@ -1093,7 +1109,7 @@ fn oracle_check(
         .expect("a constrained method's step");
     if fallback == Fallback::Solved {
         fig.oracle_solved += 1;
-        let e = plan_error(&mpc.plan(), star, ind);
+        let e = plan_error(mpc.free_plan(), star, ind);
         fig.oracle = fig.oracle.max(e);
         if e > accuracy {
             let limits = p.qp.ipm_limits();
