@@ -108,26 +108,11 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
     choice::resolve(spec).map(|(_, problem)| problem)
 }
 
-/// `blocks` cut at `horizon` steps: the first blocks that fit, the one that crosses it shortened (MATLAB's
-/// truncation of a blocking vector).
-fn truncated(blocks: &[usize], horizon: usize) -> Vec<usize> {
-    let mut out = Vec::new();
-    let mut left = horizon;
-    for &b in blocks {
-        if left == 0 {
-            break;
-        }
-        out.push(b.min(left));
-        left -= b.min(left);
-    }
-    out
-}
-
 /// The changes to a spec refused for its period that the compiler prices by building them, each with its
 /// estimated cycles a step: every other method that takes the spec (written explicitly: `auto` does not
 /// weigh the active set in f64 without f64 hardware), a control horizon of half the horizon, and half the
-/// horizon (both with the resolved method). A change whose lowering fails, or that the build's budget refuses, is listed with the
-/// reason instead; so is one with ADMM, whose certificate (ρ tuned over its sample, thousands of
+/// horizon (both with the resolved method, the move blocks cut as MATLAB cuts them). A change whose
+/// lowering fails, or that the build's budget refuses, is listed with the reason instead; so is one with ADMM, whose certificate (ρ tuned over its sample, thousands of
 /// iterations a case) would cost this refusal up to a minute each (`choice::CANDIDATES`).
 ///
 /// `candidates` are what `auto` weighed ([`Problem::candidates`]): a method that failed there is listed
@@ -153,7 +138,7 @@ fn alternatives(resolved: &Spec, candidates: &[choice::Candidate]) -> Vec<target
     if horizon >= 4 {
         let mut s = resolved.clone();
         s.mpc.horizon = horizon / 2;
-        s.mpc.blocks = truncated(&mpc.blocks, horizon / 2);
+        s.mpc.blocks = mpc_spec::truncated_blocks(&mpc.blocks, horizon / 2);
         variants.push((format!("`horizon = {}`", horizon / 2), s));
     }
     variants

@@ -1289,10 +1289,7 @@ fn check_blocks(raw: &Raw, horizon: usize, diags: &mut Diagnostics) -> Option<Ve
         let mut kept = Vec::new();
         for &b in &blocks.value {
             if sum + b > horizon {
-                let mut truncated = kept.clone();
-                if sum < horizon {
-                    truncated.push(horizon - sum);
-                }
+                let truncated = crate::truncated_blocks(&blocks.value, horizon);
                 let list = |v: &[usize]| {
                     v.iter()
                         .map(|b| b.to_string())

@@ -426,6 +426,21 @@ impl Mpc {
     }
 }
 
+/// `blocks` cut at `horizon` steps: the blocks that fit, the one that crosses it shortened (MATLAB's
+/// truncation of a blocking vector whose sum exceeds the prediction horizon).
+pub fn truncated_blocks(blocks: &[usize], horizon: usize) -> Vec<usize> {
+    let mut out = Vec::new();
+    let mut left = horizon;
+    for &b in blocks {
+        if left == 0 {
+            break;
+        }
+        out.push(b.min(left));
+        left -= b.min(left);
+    }
+    out
+}
+
 /// The move blocks of a control horizon Nc ≤ N: Nc − 1 blocks of one step, then one holding the last
 /// N − Nc + 1 steps (N blocks of one for Nc = N).
 pub fn held_after(horizon: usize, control_horizon: usize) -> Vec<usize> {
