@@ -124,7 +124,10 @@ pub(super) struct Block<'a> {
     pub(super) positions: &'a [usize],
     /// See `starts`.
     pub(super) values: &'a [Real],
-    /// The Gram matrix G = M̂·M̂ᵀ of the normalised rows, its lower triangle packed by rows.
+    /// The Gram matrix G = M̂·M̂ᵀ of the normalised rows, its lower triangle packed by columns: column
+    /// j holds `G[j..nc][j]` from `j·nc − j·(j − 1)/2` ([`Block::column`]), so that the scan walks the
+    /// long part of a working entry's column contiguously (the bounds, which come first, are most of
+    /// the working sets).
     pub(super) gram: &'a [Real],
     /// Z = R⁻¹·M̂ᵀ by columns: column c at c·n (z = z_free − Z_W·λ).
     pub(super) z_cols: &'a [Real],
@@ -143,11 +146,17 @@ impl Block<'_> {
         self.sides.len()
     }
 
+    /// Where column j of G's packed lower triangle begins.
+    #[inline(always)]
+    fn column(&self, j: usize) -> usize {
+        j * (2 * self.nc() + 1 - j) / 2
+    }
+
     /// `G[i][j]`.
     #[inline(always)]
     fn g(&self, i: usize, j: usize) -> Real {
         let (a, b) = if i >= j { (i, j) } else { (j, i) };
-        at(self.gram, a * (a + 1) / 2 + b)
+        at(self.gram, self.column(b) + (a - b))
     }
 }
 
@@ -524,8 +533,8 @@ impl Run<'_, '_, '_> {
     }
 
     /// The most violated inactive side: (constraint, upper, violation). The slacks μ = −G_{:,W}·λ
-    /// are summed a working entry at a time along G's packed storage (row w up to the diagonal, then
-    /// down column w), in the working set's order.
+    /// are summed a working entry at a time along G's packed storage (column w from the diagonal down,
+    /// contiguous, then row w before the diagonal), in the working set's order.
     fn scan(&mut self) -> Option<(usize, bool, Real)> {
         let (k, nc, gram) = (self.k, self.b.nc(), self.b.gram);
         let mu = self.w.mu.get_mut(..nc)?;
@@ -535,22 +544,22 @@ impl Run<'_, '_, '_> {
         let set = self.w.set.get(..k).unwrap_or(&[]);
         for (wi, lambda) in set.iter().zip(self.w.lambda.iter()) {
             let (wi, lambda) = (*wi, *lambda);
-            let base = wi * (wi + 1) / 2;
             let Some((head, tail)) = mu.split_at_mut_checked(wi) else {
                 continue;
             };
-            if let Some(row) = gram.get(base..base + head.len()) {
-                for (m, g) in head.iter_mut().zip(row) {
+            let base = self.b.column(wi);
+            if let Some(column) = gram.get(base..base + tail.len()) {
+                for (m, g) in tail.iter_mut().zip(column) {
                     *m -= *g * lambda;
                 }
             }
-            // Column wi from the diagonal down: G[c][wi] at c·(c + 1)/2 + wi.
-            let mut index = base + wi;
-            for (c, m) in tail.iter_mut().enumerate() {
+            // Row wi before the diagonal: G[wi][c] is column c's entry wi, at column(c) + wi − c.
+            let mut index = wi;
+            for (c, m) in head.iter_mut().enumerate() {
                 if let Some(g) = gram.get(index) {
                     *m -= *g * lambda;
                 }
-                index += wi + c + 1;
+                index += nc - c - 1;
             }
         }
         let mut best: Option<(usize, bool, Real)> = None;

@@ -60,7 +60,7 @@ pub struct Packed {
     pub positions: Vec<usize>,
     /// See `starts`.
     pub values: Vec<f64>,
-    /// G's lower triangle packed by rows.
+    /// G's lower triangle packed by columns (column j holds `G[j..nc][j]`).
     pub gram: Vec<f64>,
     /// Z by columns.
     pub z_cols: Vec<f64>,
@@ -400,7 +400,7 @@ fn block(
         positions: Vec::new(),
         values: Vec::new(),
         gram: (0..nc)
-            .flat_map(|i| (0..=i).map(move |j| (i, j)))
+            .flat_map(|j| (j..nc).map(move |i| (i, j)))
             .map(|(i, j)| G[(i, j)])
             .collect(),
         z_cols: (0..nc)
