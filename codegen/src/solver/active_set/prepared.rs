@@ -54,10 +54,13 @@ pub struct Packed {
     pub r: Vec<f64>,
     /// Per constraint, its index into the QP's sides: a bound on variable j is j, row r is n + r.
     pub sides: Vec<usize>,
-    /// Constraint c's coefficients are `values[starts[c]..starts[c + 1]]` at `positions[…]`.
+    /// Constraint c's coefficients are runs of consecutive positions, `runs[starts[c]..starts[c + 1]]`
+    /// (their first positions) with `lens[…]`, their values one after another in `values`.
     pub starts: Vec<usize>,
     /// See `starts`.
-    pub positions: Vec<usize>,
+    pub runs: Vec<usize>,
+    /// See `starts`.
+    pub lens: Vec<usize>,
     /// See `starts`.
     pub values: Vec<f64>,
     /// G's lower triangle packed by columns (column j holds `G[j..nc][j]`).
@@ -85,7 +88,8 @@ impl Block {
             sides: &p.sides,
             scale: &self.scale,
             starts: &p.starts,
-            positions: &p.positions,
+            runs: &p.runs,
+            lens: &p.lens,
             values: &p.values,
             gram: &p.gram,
             z_cols: &p.z_cols,
@@ -103,7 +107,8 @@ impl Block {
             sides: &p.sides,
             scale,
             starts: &p.starts,
-            positions: &p.positions,
+            runs: &p.runs,
+            lens: &p.lens,
             values,
             gram,
             z_cols,
@@ -397,7 +402,8 @@ fn block(
             .collect(),
         sides: Vec::with_capacity(nc),
         starts: vec![0],
-        positions: Vec::new(),
+        runs: Vec::new(),
+        lens: Vec::new(),
         values: Vec::new(),
         gram: (0..nc)
             .flat_map(|j| (j..nc).map(move |i| (i, j)))
@@ -415,11 +421,20 @@ fn block(
             Row::Bound(j) => j,
             Row::General(r) => n + r,
         });
+        let first = packed.runs.len();
         for &(p, v) in coefficients {
-            packed.positions.push(p);
+            match (packed.runs.last(), packed.lens.last_mut()) {
+                (Some(&start), Some(len)) if packed.runs.len() > first && start + *len == p => {
+                    *len += 1
+                }
+                _ => {
+                    packed.runs.push(p);
+                    packed.lens.push(1);
+                }
+            }
             packed.values.push(v);
         }
-        packed.starts.push(packed.positions.len());
+        packed.starts.push(packed.runs.len());
     }
     let round = |v: &[f64]| v.iter().map(|x| *x as f32).collect::<Vec<f32>>();
     packed.f32 = [
