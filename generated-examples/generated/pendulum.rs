@@ -1035,14 +1035,11 @@ pub mod pendulum {
         sides: &'a [usize],
         /// Per constraint, s = ‖R⁻ᵀ·a‖, the norm its row had before it was normalised.
         scale: &'a [Real],
-        /// Constraint c's nonzero coefficients are runs of consecutive positions, `runs[starts[c]..starts[c
-        /// + 1]]` (their first positions in the block) with `lens[…]`; their values follow one another in
-        /// `values`, constraint after constraint.
+        /// Constraint c's nonzero coefficients are `values[starts[c]..starts[c + 1]]` at the block's
+        /// positions `positions[…]`.
         starts: &'a [usize],
         /// See `starts`.
-        runs: &'a [usize],
-        /// See `starts`.
-        lens: &'a [usize],
+        positions: &'a [usize],
         /// See `starts`.
         values: &'a [Real],
         /// The Gram matrix G = M̂·M̂ᵀ of the normalised rows, its lower triangle packed by columns: column
@@ -1569,35 +1566,26 @@ pub mod pendulum {
         let z: &[Real] = z;
         let ends = b.starts.get(1..).unwrap_or(&[]);
         let sides = b.sides.iter().zip(b.scale).zip(ends);
-        let (mut start, mut next) = (at_index(b.starts, 0), 0);
+        let mut start = at_index(b.starts, 0);
         for ((lo, hi), ((side, s), end)) in w
             .lo
             .iter_mut()
             .zip(w.hi.iter_mut())
             .zip(sides)
         {
-            let (Some(runs), Some(lens)) = (
-                b.runs.get(start..*end),
-                b.lens.get(start..*end),
+            let (Some(positions), Some(values)) = (
+                b.positions.get(start..*end),
+                b.values.get(start..*end),
             ) else {
                 return false;
             };
-            let (mut a, first) = (0.0, next);
-            for (p, l) in runs.iter().zip(lens) {
-                let (Some(values), Some(z)) = (
-                    b.values.get(next..next + *l),
-                    z.get(*p..*p + *l),
-                ) else {
-                    return false;
-                };
-                for (v, zk) in values.iter().zip(z) {
-                    a += *v * *zk;
-                }
-                next += *l;
+            let mut a = 0.0;
+            for (p, v) in positions.iter().zip(values) {
+                a += *v * at(z, *p);
             }
             *lo = (at(lower, *side) - a) / *s;
             *hi = (at(upper, *side) - a) / *s;
-            tally.offsets(next - first + 2);
+            tally.offsets(values.len() + 2);
             start = *end;
         }
         true
@@ -2488,8 +2476,7 @@ pub mod pendulum {
             sides: &SIDES_0,
             scale: &SCALE_0,
             starts: &STARTS_0,
-            runs: &RUNS_0,
-            lens: &LENS_0,
+            positions: &POSITIONS_0,
             values: &VALUES_0,
             gram: &GRAM_0,
             z_cols: &Z_COLS_0,
@@ -2533,9 +2520,13 @@ pub mod pendulum {
         0.09719024903080575f64,
         0.10866161388753823f64,
     ];
-    const STARTS_0: [usize; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15];
-    const RUNS_0: [usize; 15] = [0, 1, 2, 3, 4, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0];
-    const LENS_0: [usize; 15] = [1, 1, 1, 1, 1, 1, 2, 3, 4, 5, 5, 5, 5, 5, 5];
+    const STARTS_0: [usize; 16] = [
+        0, 1, 2, 3, 4, 5, 6, 8, 11, 15, 20, 25, 30, 35, 40, 45,
+    ];
+    const POSITIONS_0: [usize; 45] = [
+        0, 1, 2, 3, 4, 0, 0, 1, 0, 1, 2, 0, 1, 2, 3, 0, 1, 2, 3, 4, 0, 1, 2, 3, 4, 0, 1,
+        2, 3, 4, 0, 1, 2, 3, 4, 0, 1, 2, 3, 4, 0, 1, 2, 3, 4,
+    ];
     const VALUES_0: [Real; 45] = [
         1f64,
         1f64,

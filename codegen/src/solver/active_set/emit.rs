@@ -818,30 +818,36 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
     let mut block_items = Vec::new();
     for (b, block) in m.prepared.blocks.iter().enumerate() {
         let name = |s: &str| Ident::new(&format!("{s}_{b}"), Span::call_site());
-        let [vars, r, sides, scale, starts, runs, lens, values, gram, z_cols] = [
-            "VARS", "R", "SIDES", "SCALE", "STARTS", "RUNS", "LENS", "VALUES", "GRAM", "Z_COLS",
+        let [vars, r, sides, scale, starts, positions, values, gram, z_cols] = [
+            "VARS",
+            "R",
+            "SIDES",
+            "SCALE",
+            "STARTS",
+            "POSITIONS",
+            "VALUES",
+            "GRAM",
+            "Z_COLS",
         ]
         .map(name);
         let pk = &block.packed;
         let len = |n: usize| Literal::usize_unsuffixed(n);
-        let (l_vars, l_r, l_sides, l_starts, l_runs, l_values, l_gram, l_z) = (
+        let (l_vars, l_r, l_sides, l_starts, l_pos, l_gram, l_z) = (
             len(block.vars.len()),
             len(pk.r.len()),
             len(pk.sides.len()),
             len(pk.starts.len()),
-            len(pk.runs.len()),
-            len(pk.values.len()),
+            len(pk.positions.len()),
             len(pk.gram.len()),
             len(pk.z_cols.len()),
         );
-        let (t_vars, t_r, t_sides, t_scale, t_starts, t_runs, t_lens, t_values, t_gram, t_z) = (
+        let (t_vars, t_r, t_sides, t_scale, t_starts, t_pos, t_values, t_gram, t_z) = (
             index_table(&block.vars),
             real_table(num, pk.r.iter().copied()),
             index_table(&pk.sides),
             real_table(num, block.scale.iter().copied()),
             index_table(&pk.starts),
-            index_table(&pk.runs),
-            index_table(&pk.lens),
+            index_table(&pk.positions),
             real_table(num, pk.values.iter().copied()),
             real_table(num, pk.gram.iter().copied()),
             real_table(num, pk.z_cols.iter().copied()),
@@ -858,9 +864,8 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
             const #sides: [usize; #l_sides] = #t_sides;
             const #scale: [Real; #l_sides] = #t_scale;
             const #starts: [usize; #l_starts] = #t_starts;
-            const #runs: [usize; #l_runs] = #t_runs;
-            const #lens: [usize; #l_runs] = #t_lens;
-            const #values: [Real; #l_values] = #t_values;
+            const #positions: [usize; #l_pos] = #t_pos;
+            const #values: [Real; #l_pos] = #t_values;
             const #gram: [Real; #l_gram] = #t_gram;
             const #z_cols: [Real; #l_z] = #t_z;
         });
@@ -872,8 +877,7 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
                 sides: &#sides,
                 scale: &#scale,
                 starts: &#starts,
-                runs: &#runs,
-                lens: &#lens,
+                positions: &#positions,
                 values: &#values,
                 gram: &#gram,
                 z_cols: &#z_cols,

@@ -117,14 +117,11 @@ pub(super) struct Block<'a> {
     pub(super) sides: &'a [usize],
     /// Per constraint, s = ‖R⁻ᵀ·a‖, the norm its row had before it was normalised.
     pub(super) scale: &'a [Real],
-    /// Constraint c's nonzero coefficients are runs of consecutive positions, `runs[starts[c]..starts[c
-    /// + 1]]` (their first positions in the block) with `lens[…]`; their values follow one another in
-    /// `values`, constraint after constraint.
+    /// Constraint c's nonzero coefficients are `values[starts[c]..starts[c + 1]]` at the block's
+    /// positions `positions[…]`.
     pub(super) starts: &'a [usize],
     /// See `starts`.
-    pub(super) runs: &'a [usize],
-    /// See `starts`.
-    pub(super) lens: &'a [usize],
+    pub(super) positions: &'a [usize],
     /// See `starts`.
     pub(super) values: &'a [Real],
     /// The Gram matrix G = M̂·M̂ᵀ of the normalised rows, its lower triangle packed by columns: column
@@ -684,24 +681,20 @@ pub(super) fn offsets(
     let z: &[Real] = z;
     let ends = b.starts.get(1..).unwrap_or(&[]);
     let sides = b.sides.iter().zip(b.scale).zip(ends);
-    let (mut start, mut next) = (at_index(b.starts, 0), 0);
+    let mut start = at_index(b.starts, 0);
     for ((lo, hi), ((side, s), end)) in w.lo.iter_mut().zip(w.hi.iter_mut()).zip(sides) {
-        let (Some(runs), Some(lens)) = (b.runs.get(start..*end), b.lens.get(start..*end)) else {
+        let (Some(positions), Some(values)) =
+            (b.positions.get(start..*end), b.values.get(start..*end))
+        else {
             return false;
         };
-        let (mut a, first) = (0.0, next);
-        for (p, l) in runs.iter().zip(lens) {
-            let (Some(values), Some(z)) = (b.values.get(next..next + *l), z.get(*p..*p + *l)) else {
-                return false;
-            };
-            for (v, zk) in values.iter().zip(z) {
-                a += *v * *zk;
-            }
-            next += *l;
+        let mut a = 0.0;
+        for (p, v) in positions.iter().zip(values) {
+            a += *v * at(z, *p);
         }
         *lo = (at(lower, *side) - a) / *s;
         *hi = (at(upper, *side) - a) / *s;
-        tally.offsets(next - first + 2);
+        tally.offsets(values.len() + 2);
         start = *end;
     }
     true

@@ -54,13 +54,10 @@ pub struct Packed {
     pub r: Vec<f64>,
     /// Per constraint, its index into the QP's sides: a bound on variable j is j, row r is n + r.
     pub sides: Vec<usize>,
-    /// Constraint c's coefficients are runs of consecutive positions, `runs[starts[c]..starts[c + 1]]`
-    /// (their first positions) with `lens[…]`, their values one after another in `values`.
+    /// Constraint c's coefficients are `values[starts[c]..starts[c + 1]]` at `positions[…]`.
     pub starts: Vec<usize>,
     /// See `starts`.
-    pub runs: Vec<usize>,
-    /// See `starts`.
-    pub lens: Vec<usize>,
+    pub positions: Vec<usize>,
     /// See `starts`.
     pub values: Vec<f64>,
     /// G's lower triangle packed by columns (column j holds `G[j..nc][j]`).
@@ -88,8 +85,7 @@ impl Block {
             sides: &p.sides,
             scale: &self.scale,
             starts: &p.starts,
-            runs: &p.runs,
-            lens: &p.lens,
+            positions: &p.positions,
             values: &p.values,
             gram: &p.gram,
             z_cols: &p.z_cols,
@@ -107,8 +103,7 @@ impl Block {
             sides: &p.sides,
             scale,
             starts: &p.starts,
-            runs: &p.runs,
-            lens: &p.lens,
+            positions: &p.positions,
             values,
             gram,
             z_cols,
@@ -402,8 +397,7 @@ fn block(
             .collect(),
         sides: Vec::with_capacity(nc),
         starts: vec![0],
-        runs: Vec::new(),
-        lens: Vec::new(),
+        positions: Vec::new(),
         values: Vec::new(),
         gram: (0..nc)
             .flat_map(|j| (j..nc).map(move |i| (i, j)))
@@ -421,20 +415,11 @@ fn block(
             Row::Bound(j) => j,
             Row::General(r) => n + r,
         });
-        let first = packed.runs.len();
         for &(p, v) in coefficients {
-            match (packed.runs.last(), packed.lens.last_mut()) {
-                (Some(&start), Some(len)) if packed.runs.len() > first && start + *len == p => {
-                    *len += 1
-                }
-                _ => {
-                    packed.runs.push(p);
-                    packed.lens.push(1);
-                }
-            }
+            packed.positions.push(p);
             packed.values.push(v);
         }
-        packed.starts.push(packed.runs.len());
+        packed.starts.push(packed.positions.len());
     }
     let round = |v: &[f64]| v.iter().map(|x| *x as f32).collect::<Vec<f32>>();
     packed.f32 = [
