@@ -129,7 +129,8 @@ pub(super) struct Block<'a> {
     /// long part of a working entry's column contiguously (the bounds, which come first, are most of
     /// the working sets).
     pub(super) gram: &'a [Real],
-    /// Z = R⁻¹·M̂ᵀ by columns: column c at c·n (z = z_free − Z_W·λ).
+    /// Z = R⁻¹·M̂ᵀ by columns: column c at c·n (z = z_free − Z_W·λ); empty for a block with many
+    /// constraints a variable, which recovers z as z_free − H⁻¹·Σ_W (λ_c / s_c)·a_c instead.
     pub(super) z_cols: &'a [Real],
     /// Where the block's warm start begins in the warm-start storage (n + 1 entries).
     pub(super) warm_at: usize,
@@ -618,29 +619,11 @@ impl Run<'_, '_, '_> {
     }
 }
 
-/// The block's offsets for the QP's linear term `f` and sides `lower`/`upper` (indexed as the block's
-/// `sides`): z_free = −H_bb⁻¹·f_b (Rᵀ·y = −f_b, R·z = y, both along R's packed rows), then per
-/// constraint the scaled sides (side − aᵀz_free) / s. False where the tables and the storage disagree
-/// in size (not reached: both are sized from the same blocks).
-pub(super) fn offsets(
-    b: &Block,
-    f: &[Real],
-    lower: &[Real],
-    upper: &[Real],
-    w: &mut Work,
-    tally: &mut Tally,
-) -> bool {
-    let n = b.n();
-    let Some(z) = w.z_free.get_mut(..n) else {
-        return false;
-    };
-    let Some(r) = b.r.get(..n * (n + 1) / 2) else {
-        return false;
-    };
-    for (zi, v) in z.iter_mut().zip(b.vars) {
-        *zi = -at(f, *v);
-    }
-    // Rᵀ·y = −f_b by columns of Rᵀ (R's rows): y_i, then its terms taken from the later entries, in
+/// `z` ← H_bb⁻¹·z: Rᵀ·y = z by columns of Rᵀ (R's rows), then R·x = y by rows from the last, `r` R
+/// packed by rows. False if `r` is shorter than R.
+fn h_inverse(r: &[Real], z: &mut [Real]) -> bool {
+    let n = z.len();
+    // Rᵀ·y = z by columns of Rᵀ (R's rows): y_i, then its terms taken from the later entries, in
     // the order a row-by-row substitution takes them.
     let mut rest = r;
     let mut zs: &mut [Real] = z;
@@ -676,6 +659,34 @@ pub(super) fn offsets(
         }
         *zi = s / *rii;
         rest = head;
+    }
+    true
+}
+
+/// The block's offsets for the QP's linear term `f` and sides `lower`/`upper` (indexed as the block's
+/// `sides`): z_free = −H_bb⁻¹·f_b (Rᵀ·y = −f_b, R·z = y, both along R's packed rows), then per
+/// constraint the scaled sides (side − aᵀz_free) / s. False where the tables and the storage disagree
+/// in size (not reached: both are sized from the same blocks).
+pub(super) fn offsets(
+    b: &Block,
+    f: &[Real],
+    lower: &[Real],
+    upper: &[Real],
+    w: &mut Work,
+    tally: &mut Tally,
+) -> bool {
+    let n = b.n();
+    let Some(z) = w.z_free.get_mut(..n) else {
+        return false;
+    };
+    let Some(r) = b.r.get(..n * (n + 1) / 2) else {
+        return false;
+    };
+    for (zi, v) in z.iter_mut().zip(b.vars) {
+        *zi = -at(f, *v);
+    }
+    if !h_inverse(r, z) {
+        return false;
     }
     tally.offsets(n * (n + 1));
     let z: &[Real] = z;
@@ -940,20 +951,47 @@ pub(super) fn solve(
         if block_ended.severity() > ended.severity() {
             ended = block_ended;
         }
-        // z_b = z_free − Z_W·λ, a column of Z at a time (in the working set's order), in z_free.
+        // z_b = z_free − Z_W·λ, a column of Z at a time (in the working set's order), in z_free; without
+        // Z, Z_W·λ = H⁻¹·Σ_W (λ_c / s_c)·a_c.
         let n = b.n();
         let z_b = w.z_free.get_mut(..n).unwrap_or(&mut []);
-        for (c, lambda) in w.set.iter().zip(w.lambda.iter()).take(k) {
-            if let Some(column) = b.z_cols.get(c * n..c * n + n) {
-                for (v, zc) in z_b.iter_mut().zip(column) {
-                    *v -= *lambda * *zc;
+        if b.z_cols.is_empty() {
+            let v = w.tmp.get_mut(..n).unwrap_or(&mut []);
+            for x in v.iter_mut() {
+                *x = 0.0;
+            }
+            let mut coefficients = 0;
+            for (c, lambda) in w.set.iter().zip(w.lambda.iter()).take(k) {
+                let weight = *lambda / at(b.scale, *c);
+                let (start, end) = (at_index(b.starts, *c), at_index(b.starts, *c + 1));
+                let row = b.positions.get(start..end).unwrap_or(&[]);
+                for (p, a) in row.iter().zip(b.values.get(start..end).unwrap_or(&[])) {
+                    if let Some(x) = v.get_mut(*p) {
+                        *x += weight * *a;
+                    }
+                }
+                coefficients += row.len();
+            }
+            if !h_inverse(b.r.get(..n * (n + 1) / 2).unwrap_or(&[]), v) {
+                ended = Ended::NumericalFailure;
+            }
+            for (zi, x) in z_b.iter_mut().zip(v.iter()) {
+                *zi -= *x;
+            }
+            tally.recover(coefficients + n * (n + 1));
+        } else {
+            for (c, lambda) in w.set.iter().zip(w.lambda.iter()).take(k) {
+                if let Some(column) = b.z_cols.get(c * n..c * n + n) {
+                    for (v, zc) in z_b.iter_mut().zip(column) {
+                        *v -= *lambda * *zc;
+                    }
                 }
             }
+            tally.recover(n * k);
         }
         for (v, p) in z_b.iter().zip(b.vars) {
             put(z, *p, *v);
         }
-        tally.recover(n * k);
         for i in 0..k {
             let code = 2 * at_index(w.set, i) + usize::from(at_flag(w.upper, i));
             put(warm, b.warm_at + i, code);

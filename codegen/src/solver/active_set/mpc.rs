@@ -192,14 +192,23 @@ pub fn macs_per_iteration(prepared: &Prepared) -> usize {
 }
 
 /// Multiply-adds of what runs once per solve: the offsets (two triangular solves and a sparse row per
-/// constraint) and the recovery of z, per block.
+/// constraint) and the recovery of z, per block (a column of Z per working entry, or without Z the
+/// working rows' coefficients, at most those of the n + 1 longest rows, and two triangular solves).
 pub fn macs_once(prepared: &Prepared) -> usize {
     prepared
         .blocks
         .iter()
         .map(|b| {
             let n = b.n();
-            n * (n + 1) + b.coefficients.iter().map(|c| c.len() + 2).sum::<usize>() + n * (n + 1)
+            let offsets = n * (n + 1) + b.coefficients.iter().map(|c| c.len() + 2).sum::<usize>();
+            let recovery = if b.packed.z_cols.is_empty() {
+                let mut lengths: Vec<usize> = b.coefficients.iter().map(Vec::len).collect();
+                lengths.sort_unstable_by(|x, y| y.cmp(x));
+                lengths.iter().take(n + 1).sum::<usize>() + n * (n + 1)
+            } else {
+                n * (n + 1)
+            };
+            offsets + recovery
         })
         .sum()
 }

@@ -62,7 +62,7 @@ pub struct Packed {
     pub values: Vec<f64>,
     /// G's lower triangle packed by columns (column j holds `G[j..nc][j]`).
     pub gram: Vec<f64>,
-    /// Z by columns.
+    /// Z by columns, or empty where the kernel recovers z with two triangular solves instead.
     pub z_cols: Vec<f64>,
     /// Where the block's warm start begins in the warm-start storage.
     pub warm_at: usize,
@@ -389,6 +389,8 @@ fn block(
             Z[(i, k)] = s / R[(i, i)];
         }
     }
+    /// A block with at least this many constraints a variable keeps no Z ([`Packed::z_cols`]).
+    const Z_DROPPED_FROM: usize = 4;
     let n = qp.H.nrows();
     let mut packed = Packed {
         r: (0..nb)
@@ -403,10 +405,17 @@ fn block(
             .flat_map(|j| (j..nc).map(move |i| (i, j)))
             .map(|(i, j)| G[(i, j)])
             .collect(),
-        z_cols: (0..nc)
-            .flat_map(|c| (0..nb).map(move |p| (p, c)))
-            .map(|(p, c)| Z[(p, c)])
-            .collect(),
+        // Z pays where it is small against what it saves: a word of it saves n/nc multiply-adds of a
+        // solve's recovery (the kernel's two triangular solves without it), so a block with many
+        // constraints a variable (hover's 160 for 40) recovers z without Z, and stores a fifth less.
+        z_cols: if nc < Z_DROPPED_FROM * nb {
+            (0..nc)
+                .flat_map(|c| (0..nb).map(move |p| (p, c)))
+                .map(|(p, c)| Z[(p, c)])
+                .collect()
+        } else {
+            Vec::new()
+        },
         warm_at: 0,
         f32: Default::default(),
     };
