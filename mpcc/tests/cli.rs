@@ -207,14 +207,17 @@ fn check_plots_the_cold_count() {
     let dir = scratch("plot");
     let file = dir.join("pendulum.svg");
     let shown = file.to_str().unwrap();
-    let o = mpcc(&[
-        "check",
-        "specs/pendulum.toml",
-        "--plot",
-        shown,
-        "--plot-axes",
-        "x0[0],2",
-    ]);
+    let pendulum_over = |axes: &str| {
+        mpcc(&[
+            "check",
+            "specs/pendulum.toml",
+            "--plot",
+            shown,
+            "--plot-axes",
+            axes,
+        ])
+    };
+    let o = pendulum_over("x0[0],2");
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
     let line = err
@@ -244,14 +247,7 @@ fn check_plots_the_cold_count() {
         "{}",
         stderr(&o)
     );
-    let o = mpcc(&[
-        "check",
-        "specs/pendulum.toml",
-        "--plot",
-        shown,
-        "--plot-axes",
-        "x0[0],x0[0]",
-    ]);
+    let o = pendulum_over("x0[0],x0[0]");
     assert_eq!(o.status.code(), Some(1));
     assert!(
         stderr(&o).contains("two different parameters"),

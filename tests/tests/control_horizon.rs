@@ -319,66 +319,61 @@ fn generated_matches_the_oracle() {
 
 flight_sim::linear_mpc_controller!(struct Pendulum(pendulum), filter, NZ);
 
-/// One flight of the pendulum of module `$m` (controller `$ctrl`, spec `$text`) per seed 1-5 and noise
-/// (the spec's process and measurement noise, then its measurement noise alone) on
-/// `flight_sim::fly_linear`, the plant sampled by the compiler: from rest, the cart's position p stepped
-/// to 1 m at t = 0, 10 s. Each flight's (seed, with the process noise, max true |θ|, max |u|, max |p − 1|
-/// from 5 s on), printed as it goes.
-macro_rules! fly_pendulum {
-    ($m:ident, $ctrl:ident, $text:expr) => {{
-        use codegen::linalg::array;
-        use flight_sim::{fly_linear, lower_factor, LinearNoiseConfig, LinearPlant, LinearScenario};
-        let spec = mpc_spec::load($text).unwrap();
-        let p = codegen::lower(&spec).unwrap();
-        let filter = p.filter.as_ref().expect("the spec has a filter");
-        assert_eq!(($m::NX, $m::NU, $m::NY), (4, 1, 2));
-        let measurement_sigma = core::array::from_fn(|i| filter.Rn[(i, i)].sqrt());
-        let process = Some(lower_factor(&array(&filter.Qn)).expect("a covariance"));
-        let mut flights = Vec::new();
-        for seed in 1..=5 {
-            for process_factor in [process, None] {
-                let mut plant =
-                    LinearPlant::<4, 1, 2>::new(array(&p.F), array(&p.G), array(&p.C), [0.0; 4]);
-                let scenario = LinearScenario {
-                    seed,
-                    cycles: (10.0 / p.dt).round() as usize,
-                    dt: p.dt,
-                    noise: LinearNoiseConfig {
-                        process_factor,
-                        measurement_sigma,
-                    },
-                };
-                let mut controller = $ctrl::new(&[0.0; 4]);
-                let (mut theta, mut u, mut late) = (0.0_f64, 0.0_f64, 0.0_f64);
-                fly_linear(
-                    &mut plant,
-                    &mut controller,
-                    &|_t: f64| [1.0, 0.0],
-                    &$m::CZ,
-                    &scenario,
-                    |_| [0.0; 1],
-                    |s, _| {
-                        theta = theta.max(s.state[2].abs());
-                        u = u.max(s.command[0].abs());
-                        if s.t >= 5.0 {
-                            late = late.max((s.state[0] - 1.0).abs());
-                        }
-                    },
-                );
-                let noise = if process_factor.is_some() {
-                    "the spec's noise"
-                } else {
-                    "measurement noise alone"
-                };
-                eprintln!(
-                    "{}, seed {seed}, {noise}: max |θ| {theta:.5} rad, max |u| {u:.4}, |p − 1| after 5 s {late:.5} m",
-                    stringify!($m)
-                );
-                flights.push((seed, process_factor.is_some(), theta, u, late));
-            }
+/// The published pendulum's flights on `flight_sim::fly_linear`, the plant sampled by the compiler: per
+/// seed 1-5 and noise (the spec's process and measurement noise, then its measurement noise alone), from
+/// rest, the cart's position p stepped to 1 m at t = 0, 10 s. Each flight's (seed, with the process
+/// noise, max true |θ|, max |u|, max |p − 1| from 5 s on), printed as it goes.
+fn fly_pendulum(spec: &mpc_spec::Spec) -> Vec<(u64, bool, f64, f64, f64)> {
+    use codegen::linalg::array;
+    use flight_sim::{fly_linear, lower_factor, LinearNoiseConfig, LinearPlant, LinearScenario};
+    let p = codegen::lower(spec).unwrap();
+    let filter = p.filter.as_ref().expect("the spec has a filter");
+    assert_eq!((pendulum::NX, pendulum::NU, pendulum::NY), (4, 1, 2));
+    let measurement_sigma = core::array::from_fn(|i| filter.Rn[(i, i)].sqrt());
+    let process = Some(lower_factor(&array(&filter.Qn)).expect("a covariance"));
+    let mut flights = Vec::new();
+    for seed in 1..=5 {
+        for process_factor in [process, None] {
+            let mut plant =
+                LinearPlant::<4, 1, 2>::new(array(&p.F), array(&p.G), array(&p.C), [0.0; 4]);
+            let scenario = LinearScenario {
+                seed,
+                cycles: (10.0 / p.dt).round() as usize,
+                dt: p.dt,
+                noise: LinearNoiseConfig {
+                    process_factor,
+                    measurement_sigma,
+                },
+            };
+            let mut controller = Pendulum::new(&[0.0; 4]);
+            let (mut theta, mut u, mut late) = (0.0_f64, 0.0_f64, 0.0_f64);
+            fly_linear(
+                &mut plant,
+                &mut controller,
+                &|_t: f64| [1.0, 0.0],
+                &pendulum::CZ,
+                &scenario,
+                |_| [0.0; 1],
+                |s, _| {
+                    theta = theta.max(s.state[2].abs());
+                    u = u.max(s.command[0].abs());
+                    if s.t >= 5.0 {
+                        late = late.max((s.state[0] - 1.0).abs());
+                    }
+                },
+            );
+            let noise = if process_factor.is_some() {
+                "the spec's noise"
+            } else {
+                "measurement noise alone"
+            };
+            eprintln!(
+                "pendulum, seed {seed}, {noise}: max |θ| {theta:.5} rad, max |u| {u:.4}, |p − 1| after 5 s {late:.5} m"
+            );
+            flights.push((seed, process_factor.is_some(), theta, u, late));
         }
-        (spec, flights)
-    }};
+    }
+    flights
 }
 
 /// Issue 34's flight of the published pendulum (`specs/pendulum.toml`: N = 10, Nc = 5, `qf = "lqr"`,
@@ -390,7 +385,8 @@ macro_rules! fly_pendulum {
 ///   better ([`no_controller_holds_p_within_2_percent_under_the_process_noise`]).
 #[test]
 fn the_published_pendulum_steps_a_metre_within_its_bounds() {
-    let (spec, flights) = fly_pendulum!(pendulum, Pendulum, PENDULUM);
+    let spec = mpc_spec::load(PENDULUM).unwrap();
+    let flights = fly_pendulum(&spec);
     let theta_max = spec.mpc.constraints.x_max[2];
     let u_max = spec.mpc.u_max[0];
     for &(seed, process, theta, u, late) in &flights {
