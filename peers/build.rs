@@ -6,10 +6,11 @@
 //! - `problems.rs` in OUT_DIR: for each dumped problem (`data/<name>.json`, written by
 //!   `scripts/peers.sh dump`), its QP data as statics and its generated controller (`mpc!` on the same
 //!   spec). `PEERS_PROBLEMS=paper,hover` limits the set (default: all four).
-//! - the generated solvers the crate's features ask for: `ours` (`ctrl`, the spec as shipped: the
-//!   interior-point method, the FGM for `paper`) and `active_set` (`ctrl_as`, the same spec with
-//!   `method = "active_set"`: a copy written to OUT_DIR by [`active_set_spec`]; on the M4F in f32 with
-//!   `target = "cortex-m4f"`, the variant of `codegen/tests/m4f.rs`).
+//! - the generated solvers the crate's features ask for: `ours` (`ctrl`, the interior-point method: the
+//!   spec as shipped where it writes `method = "ipm"`, else a copy with that line written to OUT_DIR by
+//!   [`with_method`]; the FGM for `paper`) and `active_set` (`ctrl_as`, the same spec with `method =
+//!   "active_set"`, a copy; on the M4F in f32 with `target = "cortex-m4f"`, the variant of
+//!   `codegen/tests/m4f.rs`).
 
 use serde_json::Value;
 use std::fmt::Write as _;
@@ -84,14 +85,23 @@ fn main() {
             println!("cargo::rerun-if-changed=../specs/paper-limits.toml");
             Some(table(&limits, "[mpc.region]"))
         };
-        let mut written = active_set_spec(&text, m4);
+        let mut written = with_method(&text, "active_set", m4);
         if let Some(region) = region {
             written.push_str("\n# peers/build.rs: specs/paper-limits.toml's region.\n");
             written.push_str(&region);
         }
         fs::write(&copy, written).expect("writing the active-set spec");
         let copy = copy.to_str().expect("a UTF-8 OUT_DIR").to_owned();
-        problem(&mut code, name, module, spec, &copy, solvers, &dump);
+        // The interior-point side of a constrained spec whose `auto` picks the active set: a copy
+        // with `method = "ipm"`.
+        let ours = if text.contains("[mpc.region]") && !has_method(&text) {
+            let ipm = out.join(format!("{name}-ipm.toml"));
+            fs::write(&ipm, with_method(&text, "ipm", false)).expect("writing the IPM spec");
+            ipm.to_str().expect("a UTF-8 OUT_DIR").to_owned()
+        } else {
+            spec.to_owned()
+        };
+        problem(&mut code, name, module, &ours, &copy, solvers, &dump);
         names.push(module);
     }
     let _ = writeln!(
@@ -188,18 +198,19 @@ struct Solvers {
     active_set: bool,
 }
 
-/// The spec with `method = "active_set"` in place of its own: the `method` line rewritten,
-/// `iterations` certified (`"auto"`), and the first-order methods' keys (`step`, `tolerance`) dropped
-/// (the FGM's `paper`). On the Cortex-M4F (`m4`), which has no f64 hardware, it is the variant of
-/// `codegen/tests/m4f.rs`: `scalar = "f32"` and `target = "cortex-m4f"` (the period checked at build
-/// time). Everything else (model, weights, bounds, rows, region) is the spec's.
-fn active_set_spec(text: &str, m4: bool) -> String {
-    let mut out = String::from(
-        "# peers/build.rs: the spec with method = \"active_set\" in place of its own.\n",
-    );
+/// The spec with `method` in place of its own (or after `[mpc]` where it has none, `auto`): the
+/// `method` line rewritten, `iterations` certified (`"auto"`), and the first-order methods' keys
+/// (`step`, `tolerance`) dropped (the FGM's `paper`). With `m4` (the active set on the Cortex-M4F, which
+/// has no f64 hardware) it is the variant of `codegen/tests/m4f.rs`: `scalar = "f32"` and `target =
+/// "cortex-m4f"` (the period checked at build time). Everything else (model, weights, bounds, rows,
+/// region) is the spec's.
+fn with_method(text: &str, method: &str, m4: bool) -> String {
+    let mut out = format!("# peers/build.rs: the spec with method = \"{method}\" in place of its own.\n");
+    let line = format!("method = \"{method}\"\n");
+    let has_method = has_method(text);
     let mut in_mpc = false;
-    for line in text.lines() {
-        let t = line.trim_start();
+    for text_line in text.lines() {
+        let t = text_line.trim_start();
         if t.starts_with('[') {
             in_mpc = t.starts_with("[mpc]");
         }
@@ -211,7 +222,7 @@ fn active_set_spec(text: &str, m4: bool) -> String {
         if in_mpc && t.contains('=') && !t.starts_with('#') {
             match key {
                 "method" => {
-                    out.push_str("method = \"active_set\"\n");
+                    out.push_str(&line);
                     continue;
                 }
                 "iterations" => {
@@ -222,10 +233,19 @@ fn active_set_spec(text: &str, m4: bool) -> String {
                 _ => {}
             }
         }
-        out.push_str(line);
+        out.push_str(text_line);
         out.push('\n');
+        if t.starts_with("[mpc]") && !has_method {
+            out.push_str(&line);
+        }
     }
     out
+}
+
+/// Whether the spec writes a `method` line (else `auto` chooses).
+fn has_method(text: &str) -> bool {
+    text.lines()
+        .any(|l| l.trim_start().starts_with("method") && l.contains('='))
 }
 
 /// The table `header` of a spec's text, to the next table.

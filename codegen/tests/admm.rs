@@ -535,7 +535,7 @@ fn the_certificate_tunes_rho_and_samples_the_region() {
     for (name, text) in names {
         for scalar in scalars {
             let src = text
-                .replace("method = \"ipm\"", "method = \"admm\"")
+                .replacen("\n[mpc]\n", "\n[mpc]\nmethod = \"admm\"\n", 1)
                 .replace("scalar = \"f64\"", &format!("scalar = \"{scalar}\""))
                 .replace("scalar = \"f32\"", &format!("scalar = \"{scalar}\""));
             let spec = mpc_spec::load(&src).unwrap();

@@ -140,11 +140,17 @@ fn shipped_specs_under_auto() {
             continue;
         }
         // Where auto now chooses the dual active-set method, the previous release's choice (without it)
-        // is what the spec wrote: `mpcc check` names it.
+        // was the interior-point method, which these specs wrote until they left the choice to auto:
+        // `mpcc check` names it.
         if chosen == Method::ActiveSet {
             assert_eq!(
+                written,
+                Method::Auto,
+                "{name}: a shipped spec that auto serves writes no method"
+            );
+            assert_eq!(
                 codegen::choice::previous_choice(&p.candidates),
-                Some(written),
+                Some(Method::Ipm),
                 "{name}"
             );
         }
@@ -215,8 +221,8 @@ fn the_cheapest_candidate_that_reaches_accuracy_wins() {
     );
 }
 
-/// The interior-point method's form of its normal system for every shipped spec that uses the method,
-/// pinned: the Riccati form where it is available for the problem and counts fewer multiply-adds per
+/// The interior-point method's form of its normal system for every shipped constrained spec (with
+/// `method = "ipm"` written where `auto` picks the dual active set), pinned: the Riccati form where it is available for the problem and counts fewer multiply-adds per
 /// iteration (hover: a box on every state, sparse dynamics), the condensed form otherwise. The
 /// quadcopter's Riccati form is available but dearer (three rows a stage), as are paper-limits' and
 /// paper-geofence's (soft rows: the slacks' Schur complement; and the condensed form splits into the
@@ -263,6 +269,11 @@ fn shipped_specs_normal_system_form() {
         ),
     ];
     for (name, src, form, available, counted) in specs {
+        let src = &if src.contains("\nmethod = ") {
+            src.to_string()
+        } else {
+            src.replacen("\n[mpc]\n", "\n[mpc]\nmethod = \"ipm\"\n", 1)
+        };
         let p = lower(&load(src).unwrap()).unwrap();
         assert_eq!(p.qp.method, Method::Ipm, "{name}");
         let c = Choice::of(&p.qp);

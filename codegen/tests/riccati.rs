@@ -8,7 +8,8 @@ use codegen::lower::Qp;
 use codegen::riccati::{Choice, Form, Stages};
 use nalgebra::{DMatrix, DVector};
 
-const HOVER: &str = include_str!("../../specs/hover.toml");
+/// specs/hover.toml with `method = "ipm"` (its `auto` picks the dual active set).
+const HOVER: &str = include_str!("../../tests/specs/ipm/hover.toml");
 
 /// A double integrator with a state bound, a row on (x_k, u_k) and a row on x_{k+1} only, so that the
 /// stage Hessians have their cross terms S̃_k:
@@ -232,7 +233,7 @@ fn the_emitted_module_has_the_chosen_forms_kernels() {
     ] {
         assert_eq!(count(&hover, item), n, "hover: `{item}`");
     }
-    let quadcopter = emitted(include_str!("../../specs/quadcopter.toml"));
+    let quadcopter = emitted(include_str!("../../tests/specs/ipm/quadcopter.toml"));
     for (item, n) in [
         ("fn factor (", 1),
         ("fn ldl (", 1),

@@ -247,9 +247,9 @@ pub mod pendulum {
         plan: [Real; NP],
         /// The last solve's working sets, block by block (CAP entries each, `warm_len` of them used):
         /// twice the constraint, plus one at its upper side.
-        warm_set: [usize; NWARM],
+        warm_set: [u32; NWARM],
         /// The used entries of each block's working set.
-        warm_len: [usize; NBLOCKS],
+        warm_len: [u32; NBLOCKS],
         /// Whether the working sets are a warm start (false after `new`, `reset` or a fallback).
         warm: bool,
         /// The kernel's storage, kept here rather than on the stack.
@@ -517,7 +517,7 @@ pub mod pendulum {
     /// and per constraint its scaled sides and marks.
     #[derive(Clone, Debug, PartialEq)]
     struct Storage {
-        set: [usize; CAP],
+        set: [u32; CAP],
         upper: [bool; CAP],
         lambda: [Real; CAP],
         star: [Real; CAP],
@@ -952,6 +952,15 @@ pub mod pendulum {
             None => 0,
         }
     }
+    /// `v[i]` of the working set or the warm start (stored as u32, so that the state's layout is the same on
+    /// every target), or 0 past its end.
+    #[inline(always)]
+    fn at_entry(v: &[u32], i: usize) -> usize {
+        match v.get(i) {
+            Some(x) => *x as usize,
+            None => 0,
+        }
+    }
     /// `v[i]` of a flag table, or false past its end.
     #[inline(always)]
     fn at_flag(v: &[bool], i: usize) -> bool {
@@ -1079,7 +1088,7 @@ pub mod pendulum {
     /// constraint the scaled sides and marks.
     struct Work<'a> {
         /// The working set's constraints, in the factor's order.
-        set: &'a mut [usize],
+        set: &'a mut [u32],
         /// Whether each is active at its upper side.
         upper: &'a mut [bool],
         /// Their multipliers (≥ 0 at an upper side, ≤ 0 at a lower one).
@@ -1129,7 +1138,7 @@ pub mod pendulum {
     impl Run<'_, '_, '_> {
         /// The side of working entry i.
         fn side(&self, i: usize) -> Real {
-            let c = at_index(self.w.set, i);
+            let c = at_entry(self.w.set, i);
             if at_flag(self.w.upper, i) { at(self.w.hi, c) } else { at(self.w.lo, c) }
         }
         /// `L[i][j]`.
@@ -1160,7 +1169,7 @@ pub mod pendulum {
                 let Some(ri) = cur.first_mut() else {
                     break;
                 };
-                let mut s = b.g(*wi, c);
+                let mut s = b.g(*wi as usize, c);
                 if let Some(li) = before.get(i * cap..i * cap + i) {
                     for (a, x) in li.iter().zip(done.iter()) {
                         s -= *a * *x;
@@ -1230,7 +1239,7 @@ pub mod pendulum {
                 return;
             }
             let pivot = self.ldl_push(c);
-            put(self.w.set, self.k, c);
+            put(self.w.set, self.k, c as u32);
             put(self.w.upper, self.k, upper);
             put(self.w.lambda, self.k, lambda);
             put(self.w.active, c, true);
@@ -1242,7 +1251,7 @@ pub mod pendulum {
         }
         /// Removes working entry `i` without touching the singular mark or the pivots' guard.
         fn take(&mut self, i: usize) -> (usize, bool, Real) {
-            let c = at_index(self.w.set, i);
+            let c = at_entry(self.w.set, i);
             let upper = at_flag(self.w.upper, i);
             let lambda = at(self.w.lambda, i);
             self.ldl_remove(i);
@@ -1301,14 +1310,14 @@ pub mod pendulum {
         fn refactor(&mut self) {
             let old = self.k;
             for i in 0..old {
-                put(self.w.active, at_index(self.w.set, i), false);
+                put(self.w.active, at_entry(self.w.set, i), false);
             }
             self.k = 0;
             self.reuse = 0;
             self.singular = false;
             for i in 0..old {
                 let (c, upper, lambda) = (
-                    at_index(self.w.set, i),
+                    at_entry(self.w.set, i),
                     at_flag(self.w.upper, i),
                     at(self.w.lambda, i),
                 );
@@ -1426,7 +1435,7 @@ pub mod pendulum {
             }
             let set = self.w.set.get(..k).unwrap_or(&[]);
             for (wi, lambda) in set.iter().zip(self.w.lambda.iter()) {
-                let (wi, lambda) = (*wi, *lambda);
+                let (wi, lambda) = (*wi as usize, *lambda);
                 let Some((head, tail)) = mu.split_at_mut_checked(wi) else {
                     continue;
                 };
@@ -1479,10 +1488,10 @@ pub mod pendulum {
         fn refine(&mut self) {
             let k = self.k;
             for i in 0..k {
-                let wi = at_index(self.w.set, i);
+                let wi = at_entry(self.w.set, i);
                 let mut s = 0.0;
                 for j in 0..k {
-                    s += self.b.g(wi, at_index(self.w.set, j)) * at(self.w.lambda, j);
+                    s += self.b.g(wi, at_entry(self.w.set, j)) * at(self.w.lambda, j);
                 }
                 let r = s + self.side(i);
                 put(self.w.tmp, i, r);
@@ -1612,7 +1621,7 @@ pub mod pendulum {
     fn solve_block(
         b: &Block,
         w: &mut Work,
-        warm: &[usize],
+        warm: &[u32],
         warm_len: usize,
         max_iterations: usize,
         tol: &Tolerances,
@@ -1649,7 +1658,7 @@ pub mod pendulum {
             return (Ended::Infeasible, 0);
         }
         for e in 0..warm_len {
-            let code = at_index(warm, e);
+            let code = at_entry(warm, e);
             let (c, upper) = (code / 2, code % 2 == 1);
             let exists = c < nc
                 && if upper {
@@ -1765,7 +1774,7 @@ pub mod pendulum {
                     }
                     None => {
                         let last = run.k.saturating_sub(1);
-                        let c = at_index(run.w.set, last);
+                        let c = at_entry(run.w.set, last);
                         let side = run.side(last);
                         if at(run.w.lambda, last) == 0.0
                             && run.added_violation <= tol.infeasible * (1.0 + side.abs())
@@ -1801,8 +1810,8 @@ pub mod pendulum {
         lower: &[Real],
         upper: &[Real],
         w: &mut Work,
-        warm: &mut [usize],
-        warm_len: &mut [usize],
+        warm: &mut [u32],
+        warm_len: &mut [u32],
         max_iterations: usize,
         tol: &Tolerances,
         tally: &mut Tally,
@@ -1826,7 +1835,7 @@ pub mod pendulum {
                 b,
                 w,
                 start,
-                at_index(warm_len, index),
+                at_entry(warm_len, index),
                 max_iterations.saturating_sub(iterations),
                 tol,
                 tally,
@@ -1845,10 +1854,11 @@ pub mod pendulum {
                 }
                 let mut coefficients = 0;
                 for (c, lambda) in w.set.iter().zip(w.lambda.iter()).take(k) {
-                    let weight = *lambda / at(b.scale, *c);
+                    let c = *c as usize;
+                    let weight = *lambda / at(b.scale, c);
                     let (start, end) = (
-                        at_index(b.starts, *c),
-                        at_index(b.starts, *c + 1),
+                        at_index(b.starts, c),
+                        at_index(b.starts, c + 1),
                     );
                     let row = b.positions.get(start..end).unwrap_or(&[]);
                     for (p, a) in row.iter().zip(b.values.get(start..end).unwrap_or(&[]))
@@ -1868,6 +1878,7 @@ pub mod pendulum {
                 tally.recover(coefficients + n * (n + 1));
             } else {
                 for (c, lambda) in w.set.iter().zip(w.lambda.iter()).take(k) {
+                    let c = *c as usize;
                     if let Some(column) = b.z_cols.get(c * n..c * n + n) {
                         for (v, zc) in z_b.iter_mut().zip(column) {
                             *v -= *lambda * *zc;
@@ -1880,10 +1891,10 @@ pub mod pendulum {
                 put(z, *p, *v);
             }
             for i in 0..k {
-                let code = 2 * at_index(w.set, i) + usize::from(at_flag(w.upper, i));
-                put(warm, b.warm_at + i, code);
+                let code = 2 * at_entry(w.set, i) + usize::from(at_flag(w.upper, i));
+                put(warm, b.warm_at + i, code as u32);
             }
-            put(warm_len, index, k);
+            put(warm_len, index, k as u32);
             each(index, w, k, block_iterations);
         }
         (ended, iterations)
@@ -3161,11 +3172,11 @@ pub mod pendulum {
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 2528;
         /// Bytes of `Mpc`.
-        pub const BYTES_STATE_MPC: usize = 2072;
+        pub const BYTES_STATE_MPC: usize = 2016;
         /// Bytes of `Kalman`.
         pub const BYTES_STATE_KALMAN: usize = 88;
         /// Bytes of `Controller`, all the state carried between cycles.
-        pub const BYTES_STATE: usize = 2280;
+        pub const BYTES_STATE: usize = 2224;
         /// Multiply-adds of the filter's update and predict, unrolled in the code.
         pub const MACS_FILTER: usize = 33;
         /// The a priori bound J(U_k) − J* ≤ C·ρᵏ·(J(U_0) − J*): (C, ρ); `None` for a step above 1/L.

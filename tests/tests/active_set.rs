@@ -1,6 +1,7 @@
-//! `method = "active_set"`: generated dual active-set controllers (`tests/specs/active-set/`: the shipped
-//! constrained specs with their method changed, the quadcopter in f32 as well, and the small
-//! linear plant with every kind of row, weighted moves and a disturbance model):
+//! `method = "active_set"`: generated dual active-set controllers (the shipped specs whose `auto` picks it,
+//! `specs/quadcopter.toml`, `specs/hover.toml` and `specs/afti16.toml`; in `tests/specs/active-set/` the
+//! other constrained specs with their method changed, the quadcopter in f32, and the small linear plant
+//! with every kind of row, weighted moves and a disturbance model):
 //! - against the oracle (`codegen::solver::active_set::mpc::control_step`, the same kernel in f64),
 //!   warm-started runs inside the region and 1.5× beyond it: the same working sets, so the plans differ
 //!   by the rounding of the data alone (≤ 1e-9 of the span in an f64 module, 0 in most runs; an f32
@@ -20,20 +21,20 @@ use nalgebra::DVector;
 #[path = "../benches/exact.rs"]
 mod exact;
 
-mpc_macros::mpc!(mod quadcopter = "specs/active-set/quadcopter.toml");
+mpc_macros::mpc!(mod quadcopter = "../specs/quadcopter.toml");
 mpc_macros::mpc!(mod quadcopter32 = "specs/active-set/quadcopter-f32.toml");
-mpc_macros::mpc!(mod hover = "specs/active-set/hover.toml");
+mpc_macros::mpc!(mod hover = "../specs/hover.toml");
 mpc_macros::mpc!(mod paper_limits = "specs/active-set/paper-limits.toml");
 mpc_macros::mpc!(mod paper_geofence = "specs/active-set/paper-geofence.toml");
-mpc_macros::mpc!(mod afti16 = "specs/active-set/afti16.toml");
+mpc_macros::mpc!(mod afti16 = "../specs/afti16.toml");
 mpc_macros::mpc!(mod linear = "specs/active-set/linear.toml");
 
-const QUADCOPTER: &str = include_str!("../specs/active-set/quadcopter.toml");
+const QUADCOPTER: &str = include_str!("../../specs/quadcopter.toml");
 const QUADCOPTER32: &str = include_str!("../specs/active-set/quadcopter-f32.toml");
-const HOVER: &str = include_str!("../specs/active-set/hover.toml");
+const HOVER: &str = include_str!("../../specs/hover.toml");
 const PAPER_LIMITS: &str = include_str!("../specs/active-set/paper-limits.toml");
 const PAPER_GEOFENCE: &str = include_str!("../specs/active-set/paper-geofence.toml");
-const AFTI16: &str = include_str!("../specs/active-set/afti16.toml");
+const AFTI16: &str = include_str!("../../specs/afti16.toml");
 const LINEAR: &str = include_str!("../specs/active-set/linear.toml");
 
 /// What a run of a generated controller against the oracle and Clarabel showed.

@@ -1,5 +1,7 @@
 //! State, output and rate constraints solved by the fixed-iteration interior-point method, on the three
-//! shipped constrained specs (`specs/quadcopter.toml`, `specs/hover.toml`, `specs/paper-limits.toml`):
+//! shipped constrained specs (`specs/paper-limits.toml`, and `specs/quadcopter.toml` and
+//! `specs/hover.toml` as the copies `tests/specs/ipm/` with `method = "ipm"`: their `auto` picks the dual
+//! active set, which `tests/tests/active_set.rs` holds to the same rules):
 //! - the generated controller against the oracle (the same method over nalgebra), warm-started runs;
 //! - every solve of the certified count against Clarabel, the exact reference: ≥ 50 cold cases that
 //!   Clarabel solves (some saturating, some starting at 95 % of a bound) and a 200-step warm closed loop
@@ -17,8 +19,8 @@ use nalgebra::DVector;
 #[path = "../benches/exact.rs"]
 mod exact;
 
-mpc_macros::mpc!(mod quadcopter = "../specs/quadcopter.toml");
-mpc_macros::mpc!(mod hover = "../specs/hover.toml");
+mpc_macros::mpc!(mod quadcopter = "specs/ipm/quadcopter.toml");
+mpc_macros::mpc!(mod hover = "specs/ipm/hover.toml");
 mpc_macros::mpc!(mod paper_limits = "../specs/paper-limits.toml");
 mpc_macros::mpc!(mod linear_riccati = "specs/linear-riccati.toml");
 mpc_macros::mpc!(mod linear_riccati_soft = "specs/linear-riccati-soft.toml");
@@ -29,11 +31,43 @@ mod short {
 }
 use short::truncated;
 
-const QUADCOPTER: &str = include_str!("../../specs/quadcopter.toml");
-const HOVER: &str = include_str!("../../specs/hover.toml");
+const QUADCOPTER: &str = include_str!("../specs/ipm/quadcopter.toml");
+const HOVER: &str = include_str!("../specs/ipm/hover.toml");
 const PAPER_LIMITS: &str = include_str!("../../specs/paper-limits.toml");
 const LINEAR_RICCATI: &str = include_str!("../specs/linear-riccati.toml");
 const LINEAR_RICCATI_SOFT: &str = include_str!("../specs/linear-riccati-soft.toml");
+
+/// The copies are the shipped specs with one line, `method = "ipm"`, after `[mpc]` (and their title).
+#[test]
+fn the_ipm_copies_are_the_shipped_specs_with_the_method_line() {
+    for (copy, shipped) in [
+        (QUADCOPTER, include_str!("../../specs/quadcopter.toml")),
+        (HOVER, include_str!("../../specs/hover.toml")),
+    ] {
+        let mut expected = String::new();
+        for line in shipped.lines() {
+            expected.push_str(line);
+            expected.push('\n');
+            if line.trim() == "[mpc]" {
+                expected.push_str("method = \"ipm\"\n");
+            }
+        }
+        let (title, body) = copy.split_once('\n').unwrap();
+        assert!(
+            title.starts_with("# tests/tests/constrained.rs: specs/"),
+            "{title}"
+        );
+        assert_eq!(
+            body, expected,
+            "{title}: regenerate the copy from the shipped spec"
+        );
+        assert_eq!(
+            problem(shipped).qp.method,
+            mpc_spec::Method::ActiveSet,
+            "{title}: `auto` no longer picks the active set; the copy is not needed"
+        );
+    }
+}
 
 /// Compares a generated MPC with the oracle over warm-started sequences from drawn states and
 /// references (inside the region and 1.5× beyond); returns the worst plan difference over the span.

@@ -300,9 +300,9 @@ fn api(m: &Method, reach_code: &TokenStream, coordinate_code: &TokenStream) -> T
         point_fields: quote! {
             /// The last solve's working sets, block by block (CAP entries each, `warm_len` of them used):
             /// twice the constraint, plus one at its upper side.
-            warm_set: [usize; NWARM],
+            warm_set: [u32; NWARM],
             /// The used entries of each block's working set.
-            warm_len: [usize; NBLOCKS],
+            warm_len: [u32; NBLOCKS],
             /// Whether the working sets are a warm start (false after `new`, `reset` or a fallback).
             warm: bool,
             /// The kernel's storage, kept here rather than on the stack.
@@ -329,7 +329,7 @@ fn api(m: &Method, reach_code: &TokenStream, coordinate_code: &TokenStream) -> T
         /// and per constraint its scaled sides and marks.
         #[derive(Clone, Debug, PartialEq)]
         struct Storage {
-            set: [usize; CAP],
+            set: [u32; CAP],
             upper: [bool; CAP],
             lambda: [Real; CAP],
             star: [Real; CAP],

@@ -28,6 +28,16 @@ fn at_index(v: &[usize], i: usize) -> usize {
     }
 }
 
+/// `v[i]` of the working set or the warm start (stored as u32, so that the state's layout is the same on
+/// every target), or 0 past its end.
+#[inline(always)]
+fn at_entry(v: &[u32], i: usize) -> usize {
+    match v.get(i) {
+        Some(x) => *x as usize,
+        None => 0,
+    }
+}
+
 /// `v[i]` of a flag table, or false past its end.
 #[inline(always)]
 fn at_flag(v: &[bool], i: usize) -> bool {
@@ -166,7 +176,7 @@ impl Block<'_> {
 /// constraint the scaled sides and marks.
 pub(super) struct Work<'a> {
     /// The working set's constraints, in the factor's order.
-    pub(super) set: &'a mut [usize],
+    pub(super) set: &'a mut [u32],
     /// Whether each is active at its upper side.
     pub(super) upper: &'a mut [bool],
     /// Their multipliers (≥ 0 at an upper side, ≤ 0 at a lower one).
@@ -218,7 +228,7 @@ struct Run<'w, 'a, 'b> {
 impl Run<'_, '_, '_> {
     /// The side of working entry i.
     fn side(&self, i: usize) -> Real {
-        let c = at_index(self.w.set, i);
+        let c = at_entry(self.w.set, i);
         if at_flag(self.w.upper, i) {
             at(self.w.hi, c)
         } else {
@@ -255,7 +265,7 @@ impl Run<'_, '_, '_> {
             let Some(ri) = cur.first_mut() else {
                 break;
             };
-            let mut s = b.g(*wi, c);
+            let mut s = b.g(*wi as usize, c);
             if let Some(li) = before.get(i * cap..i * cap + i) {
                 for (a, x) in li.iter().zip(done.iter()) {
                     s -= *a * *x;
@@ -331,7 +341,7 @@ impl Run<'_, '_, '_> {
             return;
         }
         let pivot = self.ldl_push(c);
-        put(self.w.set, self.k, c);
+        put(self.w.set, self.k, c as u32);
         put(self.w.upper, self.k, upper);
         put(self.w.lambda, self.k, lambda);
         put(self.w.active, c, true);
@@ -344,7 +354,7 @@ impl Run<'_, '_, '_> {
 
     /// Removes working entry `i` without touching the singular mark or the pivots' guard.
     fn take(&mut self, i: usize) -> (usize, bool, Real) {
-        let c = at_index(self.w.set, i);
+        let c = at_entry(self.w.set, i);
         let upper = at_flag(self.w.upper, i);
         let lambda = at(self.w.lambda, i);
         self.ldl_remove(i);
@@ -407,7 +417,7 @@ impl Run<'_, '_, '_> {
     fn refactor(&mut self) {
         let old = self.k;
         for i in 0..old {
-            put(self.w.active, at_index(self.w.set, i), false);
+            put(self.w.active, at_entry(self.w.set, i), false);
         }
         self.k = 0;
         self.reuse = 0;
@@ -415,7 +425,7 @@ impl Run<'_, '_, '_> {
         // Entry i is read before the rebuilt set (never longer than i) writes there.
         for i in 0..old {
             let (c, upper, lambda) = (
-                at_index(self.w.set, i),
+                at_entry(self.w.set, i),
                 at_flag(self.w.upper, i),
                 at(self.w.lambda, i),
             );
@@ -544,7 +554,7 @@ impl Run<'_, '_, '_> {
         }
         let set = self.w.set.get(..k).unwrap_or(&[]);
         for (wi, lambda) in set.iter().zip(self.w.lambda.iter()) {
-            let (wi, lambda) = (*wi, *lambda);
+            let (wi, lambda) = (*wi as usize, *lambda);
             let Some((head, tail)) = mu.split_at_mut_checked(wi) else {
                 continue;
             };
@@ -591,10 +601,10 @@ impl Run<'_, '_, '_> {
     fn refine(&mut self) {
         let k = self.k;
         for i in 0..k {
-            let wi = at_index(self.w.set, i);
+            let wi = at_entry(self.w.set, i);
             let mut s = 0.0;
             for j in 0..k {
-                s += self.b.g(wi, at_index(self.w.set, j)) * at(self.w.lambda, j);
+                s += self.b.g(wi, at_entry(self.w.set, j)) * at(self.w.lambda, j);
             }
             let r = s + self.side(i);
             put(self.w.tmp, i, r);
@@ -723,7 +733,7 @@ pub(super) fn offsets(
 fn solve_block(
     b: &Block,
     w: &mut Work,
-    warm: &[usize],
+    warm: &[u32],
     warm_len: usize,
     max_iterations: usize,
     tol: &Tolerances,
@@ -760,7 +770,7 @@ fn solve_block(
         return (Ended::Infeasible, 0);
     }
     for e in 0..warm_len {
-        let code = at_index(warm, e);
+        let code = at_entry(warm, e);
         let (c, upper) = (code / 2, code % 2 == 1);
         let exists = c < nc
             && if upper {
@@ -877,7 +887,7 @@ fn solve_block(
                 }
                 None => {
                     let last = run.k.saturating_sub(1);
-                    let c = at_index(run.w.set, last);
+                    let c = at_entry(run.w.set, last);
                     let side = run.side(last);
                     if at(run.w.lambda, last) == 0.0
                         && run.added_violation <= tol.infeasible * (1.0 + side.abs())
@@ -916,8 +926,8 @@ pub(super) fn solve(
     lower: &[Real],
     upper: &[Real],
     w: &mut Work,
-    warm: &mut [usize],
-    warm_len: &mut [usize],
+    warm: &mut [u32],
+    warm_len: &mut [u32],
     max_iterations: usize,
     tol: &Tolerances,
     tally: &mut Tally,
@@ -941,7 +951,7 @@ pub(super) fn solve(
             b,
             w,
             start,
-            at_index(warm_len, index),
+            at_entry(warm_len, index),
             max_iterations.saturating_sub(iterations),
             tol,
             tally,
@@ -962,8 +972,9 @@ pub(super) fn solve(
             }
             let mut coefficients = 0;
             for (c, lambda) in w.set.iter().zip(w.lambda.iter()).take(k) {
-                let weight = *lambda / at(b.scale, *c);
-                let (start, end) = (at_index(b.starts, *c), at_index(b.starts, *c + 1));
+                let c = *c as usize;
+                let weight = *lambda / at(b.scale, c);
+                let (start, end) = (at_index(b.starts, c), at_index(b.starts, c + 1));
                 let row = b.positions.get(start..end).unwrap_or(&[]);
                 for (p, a) in row.iter().zip(b.values.get(start..end).unwrap_or(&[])) {
                     if let Some(x) = v.get_mut(*p) {
@@ -981,6 +992,7 @@ pub(super) fn solve(
             tally.recover(coefficients + n * (n + 1));
         } else {
             for (c, lambda) in w.set.iter().zip(w.lambda.iter()).take(k) {
+                let c = *c as usize;
                 if let Some(column) = b.z_cols.get(c * n..c * n + n) {
                     for (v, zc) in z_b.iter_mut().zip(column) {
                         *v -= *lambda * *zc;
@@ -993,10 +1005,10 @@ pub(super) fn solve(
             put(z, *p, *v);
         }
         for i in 0..k {
-            let code = 2 * at_index(w.set, i) + usize::from(at_flag(w.upper, i));
-            put(warm, b.warm_at + i, code);
+            let code = 2 * at_entry(w.set, i) + usize::from(at_flag(w.upper, i));
+            put(warm, b.warm_at + i, code as u32);
         }
-        put(warm_len, index, k);
+        put(warm_len, index, k as u32);
         each(index, w, k, block_iterations);
     }
     (ended, iterations)

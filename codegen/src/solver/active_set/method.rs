@@ -142,7 +142,7 @@ impl Solver for ActiveSet {
     /// per constraint of the largest block its marks, slack and scaled sides), and the solve's `Data`.
     fn state_fields(&self, p: &Problem, _plan: &Plan) -> crate::plan::StateFields {
         let real = crate::numeric::Numeric(p.scalar).bytes();
-        let word = std::mem::size_of::<usize>();
+        let index = std::mem::size_of::<u32>();
         let Some(prepared) = prepare(&p.qp) else {
             return crate::solver::constrained::state_fields(p, real, &[]);
         };
@@ -155,7 +155,7 @@ impl Solver for ActiveSet {
             .unwrap_or(0);
         let cap = n_max + 1;
         let storage = crate::plan::layout(&[
-            (cap * word, word),
+            (cap * index, index),
             (cap, 1),
             (6 * cap * real, real),
             (cap * cap * real, real),
@@ -172,8 +172,8 @@ impl Solver for ActiveSet {
             p,
             real,
             &[
-                (prepared.warm_len() * word, word),
-                (prepared.blocks.len() * word, word),
+                (prepared.warm_len() * index, index),
+                (prepared.blocks.len() * index, index),
                 storage,
                 data,
             ],

@@ -322,7 +322,7 @@ impl Tally {
 /// The kernel's storage for the largest of `blocks`, in the kernel's scalar `T`.
 struct Storage<T> {
     cap: usize,
-    set: Vec<usize>,
+    set: Vec<u32>,
     upper: Vec<bool>,
     real: [Vec<T>; 6],
     l: Vec<T>,
@@ -462,7 +462,7 @@ macro_rules! kernel_solve {
                 let block = &prepared.blocks[b];
                 outcome.block_iterations[b] = changes;
                 for i in 0..k {
-                    let c = w.set[i];
+                    let c = w.set[i] as usize;
                     let side = if w.upper[i] { Side::Upper } else { Side::Lower };
                     let sign = if w.upper[i] { 1.0 } else { -1.0 };
                     outcome.working_set.0.push(Active {
@@ -536,8 +536,8 @@ pub fn solve_in(
     }
     // The warm start, split by block, in the kernel's code: twice the constraint, plus one at an upper
     // side.
-    let mut warm = vec![0; prepared.warm_len()];
-    let mut warm_len = vec![0; nblocks];
+    let mut warm = vec![0u32; prepared.warm_len()];
+    let mut warm_len = vec![0u32; nblocks];
     for a in start.map(|s| s.0.as_slice()).unwrap_or(&[]) {
         let index = match a.row {
             Row::Bound(i) if i < n => i,
@@ -546,9 +546,10 @@ pub fn solve_in(
         };
         if let Some((b, c)) = prepared.place[index] {
             let block = &prepared.blocks[b];
-            if warm_len[b] <= block.n() {
-                warm[block.packed.warm_at + warm_len[b]] =
-                    2 * c + usize::from(a.side == Side::Upper);
+            let len = warm_len[b] as usize;
+            if len <= block.n() {
+                warm[block.packed.warm_at + len] =
+                    (2 * c + usize::from(a.side == Side::Upper)) as u32;
                 warm_len[b] += 1;
             }
         }
