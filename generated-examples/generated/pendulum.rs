@@ -1061,6 +1061,9 @@ pub mod pendulum {
         z_cols: &'a [Real],
         /// Where the block's warm start begins in the warm-start storage (n + 1 entries).
         warm_at: usize,
+        /// Whether the f32 kernel refines z and checks the rows on it: a block with soft rows' slacks,
+        /// whose multipliers reach the rows' weights.
+        refine: bool,
     }
     impl Block<'_> {
         /// The number of variables.
@@ -1798,6 +1801,154 @@ pub mod pendulum {
         *k_out = run.k;
         (ended, iterations)
     }
+    /// z_b −= Z_W·c in `z_free` for the working set's coefficients c (λ, or with `star` the refinement's
+    /// in `star`), a column of Z at a time (in the working set's order); without Z, Z_W·c = H⁻¹·Σ_W (c_i /
+    /// s_c)·a_c in `tmp`. False where H⁻¹ fails.
+    fn recover(
+        b: &Block,
+        w: &mut Work,
+        k: usize,
+        star: bool,
+        tally: &mut Tally,
+    ) -> bool {
+        let n = b.n();
+        let coefficients: &[Real] = if star { &*w.star } else { &*w.lambda };
+        let z_b = w.z_free.get_mut(..n).unwrap_or(&mut []);
+        if b.z_cols.is_empty() {
+            let v = w.tmp.get_mut(..n).unwrap_or(&mut []);
+            for x in v.iter_mut() {
+                *x = 0.0;
+            }
+            let mut count = 0;
+            for (c, coefficient) in w.set.iter().zip(coefficients.iter()).take(k) {
+                let c = *c as usize;
+                let weight = *coefficient / at(b.scale, c);
+                let (start, end) = (at_index(b.starts, c), at_index(b.starts, c + 1));
+                let row = b.positions.get(start..end).unwrap_or(&[]);
+                for (p, a) in row.iter().zip(b.values.get(start..end).unwrap_or(&[])) {
+                    if let Some(x) = v.get_mut(*p) {
+                        *x += weight * *a;
+                    }
+                }
+                count += row.len();
+            }
+            let solved = h_inverse(b.r.get(..n * (n + 1) / 2).unwrap_or(&[]), v);
+            for (zi, x) in z_b.iter_mut().zip(v.iter()) {
+                *zi -= *x;
+            }
+            tally.recover(count + n * (n + 1));
+            solved
+        } else {
+            for (c, coefficient) in w.set.iter().zip(coefficients.iter()).take(k) {
+                let c = *c as usize;
+                if let Some(column) = b.z_cols.get(c * n..c * n + n) {
+                    for (v, zc) in z_b.iter_mut().zip(column) {
+                        *v -= *coefficient * *zc;
+                    }
+                }
+            }
+            tally.recover(n * k);
+            true
+        }
+    }
+    /// Restarts of a block after its solve when a row is violated on z itself (f32).
+    const PRIMAL_RESTARTS: usize = 1;
+    /// The rows violated on the block's z (in `z_free`), outside the working set, beyond the primal
+    /// tolerance in the scan's normalised units: their warm-start codes (twice the constraint, plus one at
+    /// an upper side) written to `out`, as many as it holds; returns how many.
+    fn violated_on_z(
+        b: &Block,
+        w: &Work,
+        lower: &[Real],
+        upper: &[Real],
+        tol: &Tolerances,
+        tally: &mut Tally,
+        out: &mut [u32],
+    ) -> usize {
+        let z_b = w.z_free.get(..b.n()).unwrap_or(&[]);
+        let mut found = 0;
+        for c in 0..b.nc() {
+            if found >= out.len() {
+                break;
+            }
+            if at_flag(w.active, c) {
+                continue;
+            }
+            let (start, end) = (at_index(b.starts, c), at_index(b.starts, c + 1));
+            let (positions, values) = (
+                b.positions.get(start..end).unwrap_or(&[]),
+                b.values.get(start..end).unwrap_or(&[]),
+            );
+            let mut a = 0.0;
+            for (p, v) in positions.iter().zip(values) {
+                a += *v * at(z_b, *p);
+            }
+            tally.recover(values.len());
+            let side = at_index(b.sides, c);
+            let s = at(b.scale, c);
+            let (lo, hi) = (at(lower, side), at(upper, side));
+            let code = if (a - hi) / s > tol.primal * (1.0 + hi.abs() / s) {
+                2 * c + 1
+            } else if (lo - a) / s > tol.primal * (1.0 + lo.abs() / s) {
+                2 * c
+            } else {
+                continue;
+            };
+            put(out, found, code as u32);
+            found += 1;
+        }
+        found
+    }
+    /// One step of primal iterative refinement on the working rows: their residuals r = (side − a·z)/s
+    /// from the QP's own sides (z is of the size of the plan, so these are exact to its round-off), x =
+    /// G_WW⁻¹·r with the factor, and z += Z_W·x: z then meets the working rows to round-off.
+    fn refine_primal(
+        b: &Block,
+        w: &mut Work,
+        k: usize,
+        lower: &[Real],
+        upper: &[Real],
+        tol: &Tolerances,
+        tally: &mut Tally,
+    ) -> bool {
+        let n = b.n();
+        for i in 0..k {
+            let c = at_entry(w.set, i);
+            let side = at_index(b.sides, c);
+            let bound = if at_flag(w.upper, i) {
+                at(upper, side)
+            } else {
+                at(lower, side)
+            };
+            let (start, end) = (at_index(b.starts, c), at_index(b.starts, c + 1));
+            let (positions, values) = (
+                b.positions.get(start..end).unwrap_or(&[]),
+                b.values.get(start..end).unwrap_or(&[]),
+            );
+            let mut a = 0.0;
+            for (p, v) in positions.iter().zip(values) {
+                a += *v * at(w.z_free.get(..n).unwrap_or(&[]), *p);
+            }
+            put(w.tmp, i, (bound - a) / at(b.scale, c));
+            tally.recover(values.len() + 2);
+        }
+        let mut run = Run {
+            b,
+            w,
+            tol,
+            tally,
+            k,
+            reuse: 0,
+            singular: false,
+            added_violation: 0.0,
+        };
+        run.ldl_solve(0, true);
+        for (x, lambda) in run.w.star.iter_mut().zip(run.w.lambda.iter_mut()).take(k) {
+            *lambda -= *x;
+            *x = -*x;
+        }
+        recover(b, w, k, true, tally)
+    }
     /// Solves the QP min ½zᵀHz + fᵀz s.t. lower ≤ (z, A·z) ≤ upper block by block, each from its warm start
     /// in `warm` (a block's at its `warm_at`, `warm_len[b]` entries), with at most `max_iterations` changes
     /// of the working set over all blocks. Writes z (z = z_free − Z_W·λ per block) and each block's final
@@ -1826,67 +1977,75 @@ pub mod pendulum {
                 put(warm_len, index, 0);
                 continue;
             }
-            let start = match warm.get(b.warm_at..) {
-                Some(s) => s,
-                None => &[],
-            };
             let mut k = 0;
-            let (block_ended, block_iterations) = solve_block(
-                b,
-                w,
-                start,
-                at_entry(warm_len, index),
-                max_iterations.saturating_sub(iterations),
-                tol,
-                tally,
-                &mut k,
-            );
+            let mut block_iterations = 0;
+            let mut restarts = 0;
+            let block_ended = loop {
+                let start = match warm.get(b.warm_at..) {
+                    Some(s) => s,
+                    None => &[],
+                };
+                let (block_ended, changes) = solve_block(
+                    b,
+                    w,
+                    start,
+                    at_entry(warm_len, index),
+                    max_iterations.saturating_sub(iterations + block_iterations),
+                    tol,
+                    tally,
+                    &mut k,
+                );
+                block_iterations += changes;
+                if !recover(b, w, k, false, tally) {
+                    break Ended::NumericalFailure;
+                }
+                if Real::EPSILON > 1e-10 && b.refine && block_ended == Ended::Solved {
+                    if k > 0 && !refine_primal(b, w, k, lower, upper, tol, tally) {
+                        break Ended::NumericalFailure;
+                    }
+                    if restarts < PRIMAL_RESTARTS && k <= b.n() {
+                        let mut largest: Real = 0.0;
+                        for i in 0..k {
+                            largest = largest.max(at(w.lambda, i).abs());
+                        }
+                        let wrong = tol.dual * (1.0 + largest);
+                        let mut kept = 0;
+                        for i in 0..k {
+                            let (upper, lambda) = (at_flag(w.upper, i), at(w.lambda, i));
+                            if (upper && lambda < -wrong) || (!upper && lambda > wrong) {
+                                continue;
+                            }
+                            let code = 2 * at_entry(w.set, i) + usize::from(upper);
+                            put(warm, b.warm_at + kept, code as u32);
+                            kept += 1;
+                        }
+                        let room = warm
+                            .get_mut(b.warm_at + kept..b.warm_at + b.n() + 1)
+                            .unwrap_or(&mut []);
+                        let added = violated_on_z(b, w, lower, upper, tol, tally, room);
+                        if kept < k || added > 0 {
+                            if let Some(start) = warm
+                                .get_mut(b.warm_at..b.warm_at + kept + added)
+                            {
+                                start.rotate_right(added);
+                            }
+                            put(warm_len, index, (kept + added) as u32);
+                            restarts += 1;
+                            if !offsets(b, f, lower, upper, w, tally) {
+                                break Ended::NumericalFailure;
+                            }
+                            continue;
+                        }
+                    }
+                }
+                break block_ended;
+            };
             iterations += block_iterations;
             if block_ended.severity() > ended.severity() {
                 ended = block_ended;
             }
             let n = b.n();
             let z_b = w.z_free.get_mut(..n).unwrap_or(&mut []);
-            if b.z_cols.is_empty() {
-                let v = w.tmp.get_mut(..n).unwrap_or(&mut []);
-                for x in v.iter_mut() {
-                    *x = 0.0;
-                }
-                let mut coefficients = 0;
-                for (c, lambda) in w.set.iter().zip(w.lambda.iter()).take(k) {
-                    let c = *c as usize;
-                    let weight = *lambda / at(b.scale, c);
-                    let (start, end) = (
-                        at_index(b.starts, c),
-                        at_index(b.starts, c + 1),
-                    );
-                    let row = b.positions.get(start..end).unwrap_or(&[]);
-                    for (p, a) in row.iter().zip(b.values.get(start..end).unwrap_or(&[]))
-                    {
-                        if let Some(x) = v.get_mut(*p) {
-                            *x += weight * *a;
-                        }
-                    }
-                    coefficients += row.len();
-                }
-                if !h_inverse(b.r.get(..n * (n + 1) / 2).unwrap_or(&[]), v) {
-                    ended = Ended::NumericalFailure;
-                }
-                for (zi, x) in z_b.iter_mut().zip(v.iter()) {
-                    *zi -= *x;
-                }
-                tally.recover(coefficients + n * (n + 1));
-            } else {
-                for (c, lambda) in w.set.iter().zip(w.lambda.iter()).take(k) {
-                    let c = *c as usize;
-                    if let Some(column) = b.z_cols.get(c * n..c * n + n) {
-                        for (v, zc) in z_b.iter_mut().zip(column) {
-                            *v -= *lambda * *zc;
-                        }
-                    }
-                }
-                tally.recover(n * k);
-            }
             for (v, p) in z_b.iter().zip(b.vars) {
                 put(z, *p, *v);
             }
@@ -2532,6 +2691,7 @@ pub mod pendulum {
             gram: &GRAM_0,
             z_cols: &Z_COLS_0,
             warm_at: 0,
+            refine: false,
         },
     ];
     /// Block 0: 5 unknowns, 15 constraints.

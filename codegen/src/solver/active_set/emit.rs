@@ -870,6 +870,7 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
             const #z_cols: [Real; #l_z] = #t_z;
         });
         let warm_at = Literal::usize_unsuffixed(pk.warm_at);
+        let refine = pk.refine;
         block_items.push(quote! {
             Block {
                 vars: &#vars,
@@ -882,6 +883,7 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
                 gram: &#gram,
                 z_cols: &#z_cols,
                 warm_at: #warm_at,
+                refine: #refine,
             }
         });
     }

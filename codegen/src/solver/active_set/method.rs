@@ -1,7 +1,7 @@
 //! The dual active-set method behind [`Solver`].
 #![allow(non_snake_case)]
 
-use super::mpc::{control_step, macs_once, macs_per_iteration, prepare, Caps};
+use super::mpc::{control_step, macs_f32_checks, macs_once, macs_per_iteration, prepare, Caps};
 use crate::certify::evidence::{Evidence, Exact};
 use crate::certify::sampling;
 use crate::emit::sections::Sections;
@@ -61,10 +61,15 @@ impl Solver for ActiveSet {
     }
 
     /// The worst pass of the iteration (a scan of every constraint against a full working set, a change
-    /// of the factor, its solve), and the offsets and recovery of z once per solve.
+    /// of the factor, its solve), and the offsets and recovery of z once per solve (in f32 with the
+    /// primal refinement, the check on z and its restart).
     fn macs(&self, p: &Problem, _plan: &Plan) -> (usize, usize) {
         prepare(&p.qp).map_or((0, 0), |prepared| {
-            (macs_per_iteration(&prepared), macs_once(&prepared))
+            let checks = match p.scalar {
+                Scalar::F32 => macs_f32_checks(&prepared),
+                Scalar::F64 => 0,
+            };
+            (macs_per_iteration(&prepared), macs_once(&prepared) + checks)
         })
     }
 

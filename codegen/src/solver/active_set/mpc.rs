@@ -26,7 +26,12 @@ use nalgebra::DVector;
 pub fn prepare(qp: &Qp) -> Option<Prepared> {
     let n = qp.Nc * qp.u_min.len();
     let structure = mpc_qp(qp, &DVector::zeros(n), &DVector::zeros(qp.rows.len()));
-    Prepared::new(&structure).ok()
+    let mut prepared = Prepared::new(&structure).ok()?;
+    // The slacks follow the plan's n variables.
+    for b in &mut prepared.blocks {
+        b.packed.refine = b.vars.iter().any(|v| *v >= n);
+    }
+    Some(prepared)
 }
 
 /// The changes of the working set a control step may make.
@@ -189,6 +194,35 @@ pub fn macs_per_iteration(prepared: &Prepared) -> usize {
         })
         .max()
         .unwrap_or(0)
+}
+
+/// Multiply-adds the f32 kernel adds once per solve in a block with slacks ([`prepare`]): the primal
+/// refinement on the working rows (their residuals, a solve with the factor, a recovery of z), the
+/// check of every row on z, and the one restart they may call for (the offsets again, the working set
+/// pushed back into the factor, the refinement again); the changes after it are within the count.
+pub fn macs_f32_checks(prepared: &Prepared) -> usize {
+    prepared
+        .blocks
+        .iter()
+        .filter(|b| b.packed.refine)
+        .map(|b| {
+            let (n, k) = (b.n(), b.n() + 1);
+            let mut lengths: Vec<usize> = b.coefficients.iter().map(Vec::len).collect();
+            let rows: usize = lengths.iter().sum();
+            lengths.sort_unstable_by(|x, y| y.cmp(x));
+            let working: usize = lengths.iter().take(k).map(|l| l + 2).sum();
+            let recovery = if b.packed.z_cols.is_empty() {
+                working + n * (n + 1)
+            } else {
+                n * k
+            };
+            let refinement = working + k * k + recovery;
+            let offsets = n * (n + 1) + rows + 2 * lengths.len();
+            // The push of side j: its Gram entries and a substitution along L's rows, then its pivot.
+            let pushes: usize = (0..k).map(|j| j + j * j.saturating_sub(1) / 2 + 1).sum();
+            2 * refinement + rows + offsets + pushes
+        })
+        .sum()
 }
 
 /// Multiply-adds of what runs once per solve: the offsets (two triangular solves and a sparse row per

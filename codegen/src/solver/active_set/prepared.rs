@@ -66,6 +66,9 @@ pub struct Packed {
     pub z_cols: Vec<f64>,
     /// Where the block's warm start begins in the warm-start storage.
     pub warm_at: usize,
+    /// Whether the f32 kernel refines z and checks the rows on it (a block with slack variables:
+    /// set by the MPC's `prepare`, which knows them).
+    pub refine: bool,
     /// The real tables rounded to f32, for the f32 kernel: R, the scales, the values, G and Z.
     pub f32: [Vec<f32>; 5],
 }
@@ -90,6 +93,7 @@ impl Block {
             gram: &p.gram,
             z_cols: &p.z_cols,
             warm_at: p.warm_at,
+            refine: p.refine,
         }
     }
 
@@ -108,6 +112,7 @@ impl Block {
             gram,
             z_cols,
             warm_at: p.warm_at,
+            refine: p.refine,
         }
     }
 }
@@ -417,6 +422,7 @@ fn block(
             Vec::new()
         },
         warm_at: 0,
+        refine: false,
         f32: Default::default(),
     };
     for (row, coefficients) in &rows {
