@@ -118,6 +118,11 @@ fn shipped_specs_under_auto() {
             include_str!("../../specs/paper-limits.toml"),
             Method::Ipm,
         ),
+        (
+            "paper-geofence",
+            include_str!("../../specs/paper-geofence.toml"),
+            Method::ActiveSet,
+        ),
     ];
     for (name, src, expected) in specs {
         let written = load(src).unwrap().mpc.method;

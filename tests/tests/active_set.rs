@@ -1,5 +1,6 @@
 //! `method = "active_set"`: generated dual active-set controllers (the shipped specs whose `auto` picks it,
-//! `specs/quadcopter.toml`, `specs/hover.toml` and `specs/afti16.toml`; in `tests/specs/active-set/` the
+//! `specs/quadcopter.toml`, `specs/hover.toml`, `specs/afti16.toml` and `specs/paper-geofence.toml`; in
+//! `tests/specs/active-set/` the
 //! other constrained specs with their method changed, the quadcopter in f32, and the small linear plant
 //! with every kind of row, weighted moves and a disturbance model):
 //! - against the oracle (`codegen::solver::active_set::mpc::control_step`, the same kernel in f64),
@@ -25,7 +26,7 @@ mpc_macros::mpc!(mod quadcopter = "../specs/quadcopter.toml");
 mpc_macros::mpc!(mod quadcopter32 = "specs/active-set/quadcopter-f32.toml");
 mpc_macros::mpc!(mod hover = "../specs/hover.toml");
 mpc_macros::mpc!(mod paper_limits = "specs/active-set/paper-limits.toml");
-mpc_macros::mpc!(mod paper_geofence = "specs/active-set/paper-geofence.toml");
+mpc_macros::mpc!(mod paper_geofence = "../specs/paper-geofence.toml");
 mpc_macros::mpc!(mod afti16 = "../specs/afti16.toml");
 mpc_macros::mpc!(mod linear = "specs/active-set/linear.toml");
 
@@ -33,7 +34,7 @@ const QUADCOPTER: &str = include_str!("../../specs/quadcopter.toml");
 const QUADCOPTER32: &str = include_str!("../specs/active-set/quadcopter-f32.toml");
 const HOVER: &str = include_str!("../../specs/hover.toml");
 const PAPER_LIMITS: &str = include_str!("../specs/active-set/paper-limits.toml");
-const PAPER_GEOFENCE: &str = include_str!("../specs/active-set/paper-geofence.toml");
+const PAPER_GEOFENCE: &str = include_str!("../../specs/paper-geofence.toml");
 const AFTI16: &str = include_str!("../../specs/afti16.toml");
 const LINEAR: &str = include_str!("../specs/active-set/linear.toml");
 

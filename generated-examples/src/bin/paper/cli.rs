@@ -10,7 +10,7 @@ use clap::{Parser, ValueEnum};
 /// MPC of `specs/paper-offset-free.toml` (its own filter estimates a disturbance), and reproduces
 /// Table 2 (tracking and control-signal metrics), Table 3 (step responses) and the gust test, and
 /// flies a wind scenario (mean wind plus Dryden-like gusts) and a constrained scenario, the flight with
-/// the interior-point MPC of `specs/paper-geofence.toml` (a speed limit and a wall at y = 8 m that the
+/// the dual active-set MPC of `specs/paper-geofence.toml` (a speed limit and a wall at y = 8 m that the
 /// square and the circle cross).
 ///
 /// Prints the tables as Markdown and writes them as CSV, `summary.json`, per-cycle traces and
@@ -88,7 +88,7 @@ pub struct Args {
     pub wind_speed: f64,
 
     /// Do not fly the geofence scenario (`specs/paper-geofence.toml`: the flight with the speed limit
-    /// |v_i| ≤ 2 m/s and the wall y ≤ 8 m, on the interior-point method).
+    /// |v_i| ≤ 2 m/s and the wall y ≤ 8 m, on the dual active-set method).
     #[arg(long)]
     pub no_geofence: bool,
 

@@ -8,7 +8,7 @@
 //! `specs/paper-offset-free.toml`, whose own filter also estimates a disturbance (issue 8). It
 //! reports Table 2, Table 3, the gust and wind figures and how far each MPC's command is from the
 //! exact optimum of its own QP, as Markdown, CSV, `summary.json`, per-cycle traces and SVG plots.
-//! The geofence scenario (issue 18) flies the same flight with the interior-point MPC of
+//! The geofence scenario (issue 18) flies the same flight with the dual active-set MPC of
 //! `specs/paper-geofence.toml`, a speed limit and a wall, and reports the plan's and the true
 //! state's violations of each constraint.
 //!
@@ -99,7 +99,7 @@ fn try_main(args: Args) -> Result<(), String> {
         kinds.len()
     ));
     let first = seeds[0];
-    // The geofence flights (the interior-point method: the slowest runs) alongside the others.
+    // The geofence flights (a constrained solve a cycle: the slowest runs) alongside the others.
     let (runs, fences): (Vec<Run>, Vec<run::GeofenceRun>) = rayon::join(
         || {
             jobs.par_iter()

@@ -377,7 +377,7 @@ fn geofence(out: &mut String, summary: &Value) {
     let _ = writeln!(
         out,
         "\n#### Geofence: `{}`, the flight with the wall y ≤ {} m, |v_i| ≤ {} m/s and z ≥ {} m \
-         (soft, interior-point method)\n",
+         (soft, dual active-set method)\n",
         cfg["spec"].as_str().unwrap_or(""),
         cfg["wall_y_m"],
         cfg["speed_limit_m_s"],
@@ -429,9 +429,9 @@ fn geofence(out: &mut String, summary: &Value) {
     let _ = writeln!(
         out,
         "\nSolved plans within `accuracy` of the unavoidable, every cycle of every seed: {} (worst \
-         excess / tolerance {}). Fallbacks (residuals above the method's limits: the plan is the \
+         excess / tolerance {}). Fallbacks (a solve that did not end at the optimum: the plan is the \
          previous one shifted): {} in a flight of {} cycles, the largest final dual residual among them \
-         {}. `SolverStatus`: `softened` at most {} (the largest of the plan's three; it agrees with the \
+         {} (the active set reports none: 0). `SolverStatus`: `softened` at most {} (the largest of the plan's three; it agrees with the \
          prediction to {}), `violation` {} (the spec has no hard row), at most {} iterations. Tracking \
          RMSE [x, y, z] {} m; computation per step {} µs mean, {} µs max (this host).",
         if ratio <= 1.0 { "yes" } else { "no" },

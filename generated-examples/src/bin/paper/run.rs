@@ -32,7 +32,7 @@ flight_sim::mpc_controller!(
 );
 flight_sim::mpc_controller!(
     /// `specs/paper-geofence.toml`: `paper-limits.toml` (the speed limit and the floor) plus the wall
-    /// y ≤ 8 m, all soft, on the interior-point method.
+    /// y ≤ 8 m, all soft, on the dual active-set method (`auto`'s choice).
     pub struct GeofenceMpc(generated_examples::paper_geofence)
 );
 flight_sim::generated_kalman!(

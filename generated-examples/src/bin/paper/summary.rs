@@ -106,7 +106,7 @@ fn worst(w: &WorstOf) -> Value {
 pub fn geofence_config() -> Value {
     json!({
         "spec": "specs/paper-geofence.toml",
-        "method": "ipm",
+        "method": "active_set",
         "wall": "y ≤ wall_y_m on the predicted positions y_1 … y_N, soft (exact L1 penalty)",
         "wall_y_m": fence::WALL_Y,
         "wall_backoff": "the plan holds y ≤ wall_y_m − wall_backoff_m: the spec's `backoff = \"3sigma\"`, 3 standard deviations of the filter's steady-state error in y",
