@@ -799,6 +799,19 @@ pub mod hover {
         refine: bool,
     }
     impl Block<'_> {
+        /// aᵀz for constraint c's coefficients over the block's z, and how many they are.
+        fn row_times(&self, c: usize, z: &[Real]) -> (Real, usize) {
+            let (start, end) = (at_index(self.starts, c), at_index(self.starts, c + 1));
+            let (positions, values) = (
+                self.positions.get(start..end).unwrap_or(&[]),
+                self.values.get(start..end).unwrap_or(&[]),
+            );
+            let mut a = 0.0;
+            for (p, v) in positions.iter().zip(values) {
+                a += *v * at(z, *p);
+            }
+            (a, values.len())
+        }
         /// The number of variables.
         fn n(&self) -> usize {
             self.vars.len()
@@ -1607,16 +1620,8 @@ pub mod hover {
             if at_flag(w.active, c) {
                 continue;
             }
-            let (start, end) = (at_index(b.starts, c), at_index(b.starts, c + 1));
-            let (positions, values) = (
-                b.positions.get(start..end).unwrap_or(&[]),
-                b.values.get(start..end).unwrap_or(&[]),
-            );
-            let mut a = 0.0;
-            for (p, v) in positions.iter().zip(values) {
-                a += *v * at(z_b, *p);
-            }
-            tally.recover(values.len());
+            let (a, len) = b.row_times(c, z_b);
+            tally.recover(len);
             let side = at_index(b.sides, c);
             let s = at(b.scale, c);
             let (lo, hi) = (at(lower, side), at(upper, side));
@@ -1653,17 +1658,9 @@ pub mod hover {
             } else {
                 at(lower, side)
             };
-            let (start, end) = (at_index(b.starts, c), at_index(b.starts, c + 1));
-            let (positions, values) = (
-                b.positions.get(start..end).unwrap_or(&[]),
-                b.values.get(start..end).unwrap_or(&[]),
-            );
-            let mut a = 0.0;
-            for (p, v) in positions.iter().zip(values) {
-                a += *v * at(w.z_free.get(..n).unwrap_or(&[]), *p);
-            }
+            let (a, len) = b.row_times(c, w.z_free.get(..n).unwrap_or(&[]));
             put(w.tmp, i, (bound - a) / at(b.scale, c));
-            tally.recover(values.len() + 2);
+            tally.recover(len + 2);
         }
         let mut run = Run {
             b,
