@@ -824,3 +824,59 @@ fn f32_kernel_refines_z_where_soft_rows_make_the_multipliers_large() {
     assert!(worst <= 0.1 * qp.accuracy, "{worst:e}");
     assert!(worst_exact <= 0.1 * qp.accuracy, "{worst_exact:e}");
 }
+
+/// The sampled certificate's witness (`Evidence::cold_witness`, the state and constant reference that
+/// `mpcc dump-qp --witness` hands a board to replay against the bound) is a case that needs the
+/// sample's worst cold count: its QP formed here from the named parameters and the lowered matrices
+/// (f = F_x·x0 − F_r·r + F_u·u₋₁, the rows' offsets), solved cold by the kernel, makes exactly
+/// `cold_worst` changes and no case of the sample more.
+#[test]
+fn the_sampled_witness_needs_the_worst_cold_count() {
+    let src = include_str!("../../specs/quadcopter.toml").replacen(
+        "[mpc]\n",
+        "[mpc]\nmethod = \"active_set\"\n",
+        1,
+    );
+    let g = codegen::generate_from_source(&src, &Default::default()).unwrap();
+    let p = &g.problem;
+    let qp = &p.qp;
+    let e = g
+        .certificate
+        .sampled
+        .as_ref()
+        .expect("a sampled certificate");
+    let names = codegen::sampling::parameter_names(p);
+    assert_eq!(
+        e.cold_witness.iter().map(|(n, _)| n).collect::<Vec<_>>(),
+        names.iter().collect::<Vec<_>>(),
+        "the witness names θ in order"
+    );
+    let value = |name: &str| e.cold_witness.iter().find(|(n, _)| n == name).unwrap().1;
+    let x0 = DVector::from_fn(p.nx, |i, _| value(&format!("x0[{i}]")));
+    let r = DVector::from_fn(qp.nz, |i, _| value(&format!("r[{i}]")));
+    assert!(!p.keeps_last_input() && p.nd() == 0, "θ is (x0, r) here");
+    let window = DVector::from_fn(qp.N * qp.nz, |i, _| r[i % qp.nz]);
+    let last = qp.rest_input();
+    let f = &qp.Fx * &x0 - &qp.Fr * window + &qp.Fu * &last;
+    let offset = qp.rows.offset(&x0, &DVector::zeros(0), &last);
+    let prepared = codegen::solver::active_set::mpc::prepare(qp).unwrap();
+    let offsets = prepared.offsets(&mpc_qp(qp, &f, &offset)).unwrap();
+    let out = solve_in(
+        &prepared,
+        &offsets,
+        None,
+        10 * e.cold_worst,
+        &codegen::solver::active_set::Tolerances::of(Scalar::F64),
+        Scalar::F64,
+    );
+    assert_eq!(out.status, Status::Solved);
+    println!(
+        "quadcopter: the witness needs {} changes, the sample's cold worst {}",
+        out.iterations, e.cold_worst
+    );
+    assert_eq!(out.iterations, e.cold_worst);
+    assert!(
+        e.cold_worst > e.cold_median,
+        "the witness is the worst case"
+    );
+}

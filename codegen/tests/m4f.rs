@@ -130,9 +130,12 @@ fn hover_on_the_m4f_is_accepted_with_the_active_set_in_f32() {
 /// there, or a multiplier of the wrong sign after the refinement, restarts the block once), so its
 /// certificate reaches `accuracy` (it did not before). The step is then priced at the sample's worst
 /// cold case (230 changes at the region's corners, plus the margin) at the full working set's pass:
-/// just over the 12.8 ms period, and refused (the build's hint prices `horizon = 7` to fit).
+/// over the 12.8 ms period, and refused (the build's hint prices `horizon = 7` to fit). The board agrees:
+/// that case replayed on the emulated STM32F405 (`scripts/witness.sh --board netduinoplus2
+/// paper-limits`) took 3,028,662 instructions, 141 % of the period at one a cycle, so the estimate must
+/// stay above that.
 #[test]
-fn paper_limits_on_the_m4f_reaches_its_accuracy_in_f32_and_is_refused_just_over_its_period() {
+fn paper_limits_on_the_m4f_reaches_its_accuracy_in_f32_and_is_refused_over_its_period() {
     let src = on_m4f(PAPER_LIMITS);
     let spec = mpc_spec::load(&src).unwrap();
     let (resolved, p) = codegen::choice::resolve(&spec).unwrap();
@@ -151,7 +154,11 @@ fn paper_limits_on_the_m4f_reaches_its_accuracy_in_f32_and_is_refused_just_over_
     let step = codegen::target::StepCost::of(&resolved, &p, &resources);
     assert_eq!(step.solver_scalar, mpc_spec::Scalar::F32);
     let load = step.load().expect("the M4F has a clock");
-    assert!(load > 1.0 && load < 1.05, "{load}");
+    let witness = 3_028_662.0 / step.period_cycles.expect("a clock");
+    assert!(
+        load > witness && load < 2.0,
+        "{load} against the witness's {witness}"
+    );
     // The refusal, as `generate` gives it (without its priced hint, which would certify every change
     // again: `a_refusal_prices_the_cheaper_changes` covers the hint).
     let d = codegen::target::check_period(&resolved, &step).expect_err("over its period");
@@ -235,6 +242,8 @@ fn a_refusal_prices_the_cheaper_changes() {
     let written = src.replace("[mpc]\n", "[mpc]\nmethod = \"active_set\"\n");
     let g = generate_from_source(&written, &Opt::default()).expect("fits");
     assert_eq!(g.problem.qp.method, Method::ActiveSet);
+    // The hint prints three significant digits: within half a unit of the third (5e-3 relative at
+    // worst, where the leading digit is 1).
     let relative = (g.step.cycles - active_set).abs() / g.step.cycles;
-    assert!(relative < 1e-3, "{} against {active_set}", g.step.cycles);
+    assert!(relative <= 5e-3, "{} against {active_set}", g.step.cycles);
 }

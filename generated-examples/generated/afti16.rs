@@ -34,8 +34,10 @@ pub mod afti16 {
     pub const U_REST: [Real; NU] = [0f64, 0f64];
     /// Tracked outputs z = C_z·x (`[mpc] outputs`): the reference window has NZ columns.
     pub const NZ: usize = 2;
-    /// Changes of the working set a cold solve may make: [`ITERATIONS`], the sampled count (block 0 depends on 7 parameters, above the 3 the exact count partitions (codegen::budget::EXACT_DIMENSION)). A warm solve that runs out restarts cold, so a step makes at most ITERATIONS + COLD_ITERATIONS = 54 changes.
+    /// Changes of the working set a cold solve (the first, or after a warm one ran out) may make: [`ITERATIONS`], the sampled count (block 0 depends on 7 parameters, above the 3 the exact count partitions (codegen::budget::EXACT_DIMENSION)).
     pub const COLD_ITERATIONS: usize = 27;
+    /// Changes of the working set a warm solve (from the previous working set) may make: the margin of [`COLD_ITERATIONS`] (a tenth, at least 2), at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = 30 changes, which `report::MACS_PER_CYCLE` and the build's period check price.
+    pub const WARM_ITERATIONS: usize = 3;
     /// Entries of the plan, N·NU.
     pub const NP: usize = N * NU;
     /// The QP's unknowns z: the plan, then one slack per soft constraint component.
@@ -182,7 +184,7 @@ pub mod afti16 {
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct SolverStatus {
         /// Changes of the working set (sides added or removed) over all blocks, of the warm solve and
-        /// of its cold restart: at most [`ITERATIONS`] + [`COLD_ITERATIONS`]. A solve that needs more falls back.
+        /// of its cold restart: at most [`WARM_ITERATIONS`] + [`COLD_ITERATIONS`]. A solve that needs more falls back.
         pub iterations: u32,
         /// ‖G z + s − h‖∞ relative to the data's scale, at the end.
         pub primal_residual: f64,
@@ -233,7 +235,7 @@ pub mod afti16 {
     /// Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and
     /// Idnani's, as DAQP) on the condensed QP in f64, in 1 independent block(s), with the Cholesky
     /// factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve
-    /// starts from the previous working set and stops at the optimum or after [`ITERATIONS`] changes,
+    /// starts from the previous working set and stops at the optimum or after [`WARM_ITERATIONS`] changes,
     /// then restarts cold with at most [`COLD_ITERATIONS`]; a solve that does not reach the optimum
     /// falls back to the held plan ([`Fallback::WarmStart`]).
     /// Certified by sampling, not proved: 66 cold cases (16 corners) and 200 warm closed-loop steps of `[mpc.region]` needed at most 24 (cold) and 21 (warm) iterations to reach `accuracy`; `report::SAMPLED_*` has the rest.
@@ -392,7 +394,7 @@ pub mod afti16 {
             }
             let mut work = self.work.work();
             let (ended, iterations) = {
-                let cap = if warm { ITERATIONS } else { COLD_ITERATIONS };
+                let cap = if warm { WARM_ITERATIONS } else { COLD_ITERATIONS };
                 let (ended, iterations) = solve(
                     &BLOCKS,
                     f,
@@ -6153,6 +6155,8 @@ pub mod afti16 {
         pub const EXACT_PARAMETERS: Option<usize> = Some(8);
         /// A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).
         pub const COLD_ITERATIONS: Option<usize> = Some(27);
+        /// A warm solve's cap: the margin of COLD_ITERATIONS (a tenth, at least 2), at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.
+        pub const WARM_ITERATIONS: Option<usize> = Some(3);
         /// ρ(F − G·K_LQR).
         pub const LQR_SPECTRAL_RADIUS: f64 = 0.99952209612099f64;
         /// λmin of P solving (F − GK)ᵀP(F − GK) − P = −I.
@@ -6174,7 +6178,7 @@ pub mod afti16 {
         /// Multiply-adds of one solver iteration.
         pub const MACS_PER_ITERATION: usize = 2310;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
-        pub const MACS_PER_CYCLE: usize = 64217;
+        pub const MACS_PER_CYCLE: usize = 71147;
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 4808;
         /// Bytes of `Mpc`.

@@ -71,6 +71,10 @@ pub(crate) enum Command {
         /// Replay these states instead of a closed loop: one state per line, `#` comments.
         #[arg(long, value_name = "FILE", conflicts_with_all = ["x0", "steps"])]
         states: Option<PathBuf>,
+        /// One step: the worst cold case of the spec's sampled certificate (its x0 and constant
+        /// reference, `mpcc check`'s "the worst cold case"), for a board to replay against the bound.
+        #[arg(long, conflicts_with_all = ["x0", "reference", "steps", "states"])]
+        witness: bool,
         /// Write the JSON to FILE instead of printing it.
         #[arg(short, long, value_name = "FILE")]
         output: Option<PathBuf>,

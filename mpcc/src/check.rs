@@ -107,20 +107,24 @@ fn exact_lines(x: &codegen::evidence::Exact, lines: &mut Vec<(String, String)>) 
         ));
     }
     if x.complete {
-        let witness: Vec<String> = x
-            .witness
-            .iter()
-            .map(|(name, v)| format!("{name} = {v:.4}"))
-            .collect();
         lines.push((
             "witness (every block at its worst)".to_string(),
-            witness.join(", "),
+            named(&x.witness),
         ));
     }
     lines.push((
         "a reference window varying over the horizon".to_string(),
         "covered by the sample only".to_string(),
     ));
+}
+
+/// A parameter by name: `x0[0] = 1.0000, r[0] = -2.5000`.
+fn named(theta: &[(String, f64)]) -> String {
+    theta
+        .iter()
+        .map(|(name, v)| format!("{name} = {v:.4}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The certificate as JSON, pretty-printed, with a final newline.
@@ -219,6 +223,24 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
         .find(|(title, _)| *title == codegen::certificate::section::BOUND)
     {
         lines.insert(0, ("gap Δ_k = J(U_k) − J*".to_string(), form));
+    }
+    if let Some(e) = c.sampled.as_ref().filter(|e| !e.cold_witness.is_empty()) {
+        if let Some((_, lines)) = sections
+            .iter_mut()
+            .find(|(title, _)| *title == codegen::certificate::section::SAMPLED)
+        {
+            let at = lines
+                .iter()
+                .position(|(label, _)| label == "iterations needed cold: worst")
+                .map_or(lines.len(), |i| i + 1);
+            lines.insert(
+                at,
+                (
+                    "the worst cold case (`mpcc dump-qp --witness`)".to_string(),
+                    named(&e.cold_witness),
+                ),
+            );
+        }
     }
     if let Some(x) = &c.exact {
         if let Some((_, lines)) = sections

@@ -48,6 +48,40 @@ pub(crate) fn read_states(text: &str) -> Result<Vec<Vec<f64>>, String> {
         .collect()
 }
 
+/// The state and constant reference of the sampled certificate's worst cold case
+/// (`Evidence::cold_witness`). The dump replays a state under a constant reference from the
+/// controller's own last input, so a witness that also sets u₋₁ or a disturbance cannot be replayed.
+pub(crate) fn witness(
+    p: &Problem,
+    sampled: Option<&codegen::evidence::Evidence>,
+) -> Result<(Vec<f64>, Vec<f64>), String> {
+    let Some(e) = sampled.filter(|e| !e.cold_witness.is_empty()) else {
+        return Err(
+            "`--witness`: the spec's method has no sampled certificate (a constrained method on `[mpc.region]`)"
+                .to_string(),
+        );
+    };
+    let mut x0 = vec![0.0; p.nx];
+    let mut reference = vec![0.0; p.qp.nz];
+    for (name, v) in &e.cold_witness {
+        let index = |prefix: &str| {
+            name.strip_prefix(prefix)
+                .and_then(|rest| rest.strip_suffix(']'))
+                .and_then(|i| i.parse::<usize>().ok())
+        };
+        match (index("x0["), index("r[")) {
+            (Some(i), _) if i < x0.len() => x0[i] = *v,
+            (_, Some(i)) if i < reference.len() => reference[i] = *v,
+            _ => {
+                return Err(format!(
+                    "`--witness`: the worst cold case sets `{name}` = {v}, which a dump cannot replay (it carries x0 and a constant reference, with the controller's own last input)"
+                ))
+            }
+        }
+    }
+    Ok((x0, reference))
+}
+
 fn matrix(M: &DMatrix<f64>) -> Value {
     Value::Array(
         (0..M.nrows())

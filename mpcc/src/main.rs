@@ -111,9 +111,21 @@ fn try_main() -> Result<()> {
             reference,
             steps,
             states,
+            witness,
             output,
         } => {
             let loaded = Loaded::read(&spec)?;
+            if witness {
+                let generated = loaded.generate("controller")?;
+                loaded.print_warnings(&generated.warnings);
+                let (x0, reference) =
+                    dump::witness(&generated.problem, generated.certificate.sampled.as_ref())
+                        .map_err(Error::Dump)?;
+                let states = dump::States::Given(vec![x0]);
+                let value = dump::dump(&loaded.shown, &generated.problem, &states, &reference)
+                    .map_err(Error::Dump)?;
+                return write_dump(&value, output);
+            }
             let parsed =
                 mpc_spec::load(&loaded.source).map_err(|diags| loaded.spec_error(&diags))?;
             let problem = codegen::lower(&parsed).map_err(|diags| loaded.spec_error(&diags))?;
@@ -136,12 +148,17 @@ fn try_main() -> Result<()> {
             let reference = list(&reference, problem.qp.nz)?;
             let value =
                 dump::dump(&loaded.shown, &problem, &states, &reference).map_err(Error::Dump)?;
-            let text = format!("{value}\n");
-            match output {
-                None => print(&text),
-                Some(path) => std::fs::write(&path, text).map_err(|e| Error::Write(path, e)),
-            }
+            write_dump(&value, output)
         }
+    }
+}
+
+/// Writes a dump to `output`, or prints it.
+fn write_dump(value: &serde_json::Value, output: Option<PathBuf>) -> Result<()> {
+    let text = format!("{value}\n");
+    match output {
+        None => print(&text),
+        Some(path) => std::fs::write(&path, text).map_err(|e| Error::Write(path, e)),
     }
 }
 

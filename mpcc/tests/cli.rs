@@ -909,3 +909,53 @@ fn the_pendulum_fits_both_boards_with_the_active_set() {
         assert!(cycles < period, "{spec} ({scalar}): {step}");
     }
 }
+
+/// `dump-qp --witness` dumps one step at the sampled certificate's worst cold case: the state and the
+/// constant reference that `check --json` names in `sampled.cold_witness`, with the step's exact
+/// solution; a spec whose witness sets u₋₁ (the pendulum's move bounds) or without a sampled
+/// certificate (the FGM's paper) is refused, naming why.
+#[test]
+fn dump_qp_witness_is_the_certificates_worst_cold_case() {
+    let o = mpcc(&["check", "specs/quadcopter.toml", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let check: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let witness: Vec<(String, f64)> = check["sampled"]["cold_witness"]
+        .as_array()
+        .expect("the witness")
+        .iter()
+        .map(|p| (p[0].as_str().unwrap().to_owned(), p[1].as_f64().unwrap()))
+        .collect();
+    let o = mpcc(&["dump-qp", "specs/quadcopter.toml", "--witness"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dump: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let steps = dump["steps"].as_array().unwrap();
+    assert_eq!(steps.len(), 1);
+    let nz = dump["nz"].as_u64().unwrap() as usize;
+    let x0 = steps[0]["x0"].as_array().unwrap();
+    let reference = dump["reference"].as_array().unwrap();
+    assert_eq!(witness.len(), x0.len() + nz);
+    for (name, v) in &witness {
+        let (what, i) = name.trim_end_matches(']').split_once('[').unwrap();
+        let i: usize = i.parse().unwrap();
+        let dumped = match what {
+            "x0" => &x0[i],
+            "r" => &reference[i],
+            _ => panic!("{name}"),
+        };
+        assert_eq!(dumped.as_f64().unwrap(), *v, "{name}");
+    }
+    assert!(!steps[0]["z_star"].as_array().unwrap().is_empty());
+
+    let o = mpcc(&["dump-qp", "specs/pendulum.toml", "--witness"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("sets `u_prev[0]`"), "{}", stderr(&o));
+    let o = mpcc(&["dump-qp", "specs/paper.toml", "--witness"]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("no sampled certificate"),
+        "{}",
+        stderr(&o)
+    );
+    let o = mpcc(&["dump-qp", "specs/paper.toml", "--witness", "--steps", "3"]);
+    assert!(!o.status.success(), "--witness conflicts with --steps");
+}

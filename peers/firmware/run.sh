@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
 # The peers replay under QEMU, and the code and data each solver adds to the image.
 #
-#   peers/firmware/run.sh [--board zynq|netduinoplus2] [--solver ours|daqp|active_set] [--sizes] [PROBLEM ...]
+#   peers/firmware/run.sh [--board zynq|netduinoplus2] [--solver ours|daqp|active_set] [--sizes] [--data DIR] [PROBLEM ...]
 #
+# --data DIR replays the dumps in DIR (absolute, or relative to peers/) instead of peers/data/: the
+# certificates' worst cold cases of scripts/witness.sh, say.
 # PROBLEMs: paper paper-limits quadcopter hover (default: all). Zynq runs them in one image; the
 # STM32F405 one image per problem (its 1 MiB of flash holds one problem's dump). Each run prints
 # the firmware's RESULT lines (also appended to target/peers-<board>.results) and a table.
 # Solvers: ours (the spec's own method: the IPM, the FGM for paper), active_set (the same spec with
 # method = "active_set", peers/build.rs; on the STM32F405 in f32 with target = "cortex-m4f" and a
-# clock of 1 GHz, since paper-limits' bound is 101 % of its period at the board's 168 MHz),
+# clock of 1 GHz, since paper-limits' estimate is 172 % of its period at the board's 168 MHz),
 # daqp (in single precision on the STM32F405); all three by default; --solver a,b builds those alone.
 # The generated solvers' per-solve instructions go to target/peers-<board>.solves (SOLVES lines, this
 # run's only) for peers/examples/macs.rs.
@@ -29,6 +31,7 @@ while [[ $# -gt 0 ]]; do
     case "$1" in
         --board) board="$2"; shift 2 ;;
         --sizes) sizes=1; shift ;;
+        --data) export PEERS_DATA="$2"; shift 2 ;;
         --solver) solver=(--no-default-features --features "$2"); shift 2 ;;
         *) problems+=("$1"); shift ;;
     esac

@@ -364,7 +364,8 @@ impl Certificate {
                 field("exact.parameters", "EXACT_PARAMETERS", "The dimension of the parameter: x0, the constant reference, u₋₁ where kept, d.", EXACT, "parameter dimension (all blocks)", IfPresent, count(x.map(|x| x.parameters))),
                 field("exact.lps", "", "", EXACT, "feasibility LPs solved", IfPresent, count(x.map(|x| x.lps))),
                 field("exact.seconds", "", "", EXACT, "time the partition took", Seconds, MaybeReal(x.map(|x| x.seconds))),
-                field("cold_iterations", "COLD_ITERATIONS", "A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).", EXACT, "cap of a cold solve (warm ITERATIONS, then cold)", IfPresent, count(self.cold_iterations)),
+                field("cold_iterations", "COLD_ITERATIONS", "A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).", EXACT, "cap of a cold solve (first, or after a warm one)", IfPresent, count(self.cold_iterations)),
+                field("warm_iterations", "WARM_ITERATIONS", "A warm solve's cap: the margin of COLD_ITERATIONS (a tenth, at least 2), at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.", EXACT, "cap of a warm solve (then a cold restart)", IfPresent, count(self.cold_iterations.map(|cold| crate::certify::sampling::margin(cold).min(self.iterations)))),
             ];
             fields.splice(at..at, exact);
         }
@@ -933,7 +934,10 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
     };
     Resources {
         macs_per_iteration: per_iteration,
-        macs_per_cycle: qp.iterations * per_iteration + once_per_solve + gradient_map + macs_filter,
+        macs_per_cycle: plan.solver.iterations_per_step(qp) * per_iteration
+            + once_per_solve
+            + gradient_map
+            + macs_filter,
         macs_once_per_solve: once_per_solve,
         macs_filter,
         bytes_constants: (gradient_map_constants + filter_constants) * size,

@@ -38,6 +38,10 @@ pub struct Evidence {
     pub sequences: usize,
     /// The most iterations a cold case needed.
     pub cold_worst: usize,
+    /// The parameter of the first cold case that needed `cold_worst`, by name (`x0[i]`, `r[i]` for the
+    /// constant reference, `u_prev[i]` where the last input is kept, `d[i]`): the state a board replays
+    /// to measure the worst cold solve against the bound (`mpcc dump-qp --witness`).
+    pub cold_witness: Vec<(String, f64)>,
     /// The median a cold case needed.
     pub cold_median: usize,
     /// The most iterations a warm step needed.

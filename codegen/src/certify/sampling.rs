@@ -74,6 +74,34 @@ pub(crate) struct Case {
     pub(crate) last: DVector<f64>,
 }
 
+/// The names of the parameter θ = (x₀, r, u₋₁ where kept, d) of `p`'s cases, in that order: the
+/// sample's witness and the exact count's parameters (`solver::active_set::exact`).
+pub fn parameter_names(p: &Problem) -> Vec<String> {
+    let nlast = if p.keeps_last_input() { p.nu } else { 0 };
+    let named = |what: &'static str, n: usize| (0..n).map(move |i| format!("{what}[{i}]"));
+    named("x0", p.nx)
+        .chain(named("r", p.qp.nz))
+        .chain(named("u_prev", nlast))
+        .chain(named("d", p.nd()))
+        .collect()
+}
+
+impl Case {
+    /// θ of this case, named as [`parameter_names`].
+    fn theta(&self, p: &Problem) -> Vec<(String, f64)> {
+        let last = if p.keeps_last_input() {
+            self.last.as_slice()
+        } else {
+            &[]
+        };
+        let values = self.x0.iter().chain(self.reference.iter().take(p.qp.nz));
+        parameter_names(p)
+            .into_iter()
+            .zip(values.chain(last).chain(self.d.iter()).copied())
+            .collect()
+    }
+}
+
 /// What the certificate needs of a method: its iterates on one control step's QP ([`mpc_qp`]), and
 /// its control step as the emitted controller runs it. One adapter per method, in its folder
 /// (`solver/<method>/sampled.rs`).
@@ -366,6 +394,7 @@ fn certify_spending<M: Sampled>(
     let mut infeasible_cases = 0;
     let mut unresolved_cases = 0;
     let mut cold_runs = Vec::new();
+    let mut cold_witness = Vec::new();
     let cold = method.cold(qp);
     let cold_case = |c: &Case, meter: &Meter| {
         let (f, offset) = data(p, c);
@@ -398,7 +427,8 @@ fn certify_spending<M: Sampled>(
         };
         Part { spends, outcome }
     };
-    for outcome in in_order(&cases, cold_case, spent, (spec, method, "a cold case"))? {
+    let outcomes = in_order(&cases, cold_case, spent, (spec, method, "a cold case"))?;
+    for (c, outcome) in cases.iter().zip(outcomes) {
         let (run, k, exact, offset) = match outcome {
             Ok(solved) => solved,
             Err(Status::Infeasible) => {
@@ -410,6 +440,9 @@ fn certify_spending<M: Sampled>(
                 continue;
             }
         };
+        if cold_counts.iter().all(|worst| k > *worst) {
+            cold_witness = c.theta(p);
+        }
         cold_counts.push(k);
         cold_runs.push((run, exact, offset));
     }
@@ -500,6 +533,7 @@ fn certify_spending<M: Sampled>(
         warm_steps: warm.counts.len(),
         sequences,
         cold_worst,
+        cold_witness,
         cold_median: median(&mut cold_counts),
         warm_worst: warm.counts.iter().copied().max().unwrap_or(0),
         warm_median: median(&mut warm_counts),

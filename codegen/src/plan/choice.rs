@@ -151,8 +151,8 @@ fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
         unavailable: None,
         iterations: qp.iterations,
         macs_per_iteration,
-        macs_per_solve: qp.iterations * macs_per_iteration + once,
-        cycles_per_solve: (qp.iterations * macs_per_iteration + once) as f64
+        macs_per_solve: plan.solver.iterations_per_step(qp) * macs_per_iteration + once,
+        cycles_per_solve: (plan.solver.iterations_per_step(qp) * macs_per_iteration + once) as f64
             * plan.solver.cycles_per_mac(
                 super::machine::machine(spec.codegen.target),
                 spec.codegen.scalar,

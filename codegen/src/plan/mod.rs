@@ -135,6 +135,13 @@ pub trait Solver: Debug + Sync {
     /// Estimated cycles per multiply-add of its iterations on `machine`, in a module of `scalar`.
     fn cycles_per_mac(&self, machine: &Machine, scalar: Scalar, qp: &Qp) -> f64;
 
+    /// The most iterations one control step runs, which the cost model prices: the certified count,
+    /// `qp.iterations`, unless a step may run more (the dual active set's warm solve and its cold
+    /// restart).
+    fn iterations_per_step(&self, qp: &Qp) -> usize {
+        qp.iterations
+    }
+
     /// Multiply-adds of one iteration, and of what runs once per solve besides the iterations (ADMM's final
     /// residuals and infeasibility test, the interior-point method's cold start).
     fn macs(&self, p: &Problem, plan: &Plan) -> (usize, usize);

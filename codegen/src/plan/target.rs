@@ -57,7 +57,7 @@ pub struct StepCost {
     pub machine: Machine,
     /// The solver, in words (ADMM's form named where it is the residual one).
     pub solver: &'static str,
-    /// The solver's iterations per step.
+    /// The solver's iterations per step, at most ([`super::Solver::iterations_per_step`]).
     pub iterations: usize,
     /// Multiply-adds of one iteration.
     pub macs_per_iteration: usize,
@@ -95,7 +95,8 @@ impl StepCost {
         }
         let solver = super::of(p.qp.method);
         let solver_scalar = solver.scalar(p.scalar);
-        let solver_macs = p.qp.iterations * r.macs_per_iteration + r.macs_once_per_solve;
+        let iterations = solver.iterations_per_step(&p.qp);
+        let solver_macs = iterations * r.macs_per_iteration + r.macs_once_per_solve;
         let other_macs = r.macs_per_cycle.saturating_sub(solver_macs);
         let solver_cycles_per_mac = solver.cycles_per_mac(&machine, p.scalar, &p.qp);
         let solver_cycles = solver_macs as f64 * solver_cycles_per_mac;
@@ -107,7 +108,7 @@ impl StepCost {
         StepCost {
             machine,
             solver: solver.name(&p.qp),
-            iterations: p.qp.iterations,
+            iterations,
             macs_per_iteration: r.macs_per_iteration,
             solver_macs,
             solver_scalar,

@@ -231,22 +231,27 @@ fn constants(m: &Method) -> TokenStream {
     let ntheta = lit(Theta::of(m.p).len);
     let caps = super::mpc::Caps::of(qp);
     let cold = lit(caps.cold);
+    let warm = lit(caps.warm);
+    let warm_doc = format!(
+        " Changes of the working set a warm solve (from the previous working set) may make: the margin of [`COLD_ITERATIONS`] (a tenth, at least 2), at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = {} changes, which `report::MACS_PER_CYCLE` and the build's period check price.",
+        caps.per_step()
+    );
     let exact = qp.evidence.as_ref().and_then(|e| e.exact.as_ref());
     let cold_doc = match exact {
         Some(x) if x.complete => format!(
-            " Changes of the working set a cold solve may make: the exact cold count over `[mpc.region]` ({}, proved for constant reference windows; `report::EXACT_*`), or [`ITERATIONS`] if larger. A warm solve that runs out restarts cold, so a step makes at most ITERATIONS + COLD_ITERATIONS = {} changes.",
+            " Changes of the working set a cold solve (the first, or after a warm one ran out) may make: the exact cold count over `[mpc.region]` ({}, proved for constant reference windows; `report::EXACT_*`), or [`ITERATIONS`] if larger.",
             x.cold_worst,
-            caps.per_step()
         ),
         _ => format!(
-            " Changes of the working set a cold solve may make: [`ITERATIONS`], the sampled count ({}). A warm solve that runs out restarts cold, so a step makes at most ITERATIONS + COLD_ITERATIONS = {} changes.",
+            " Changes of the working set a cold solve (the first, or after a warm one ran out) may make: [`ITERATIONS`], the sampled count ({}).",
             exact.map_or("`certificate = \"sampled\"`", |x| x.note.as_deref().unwrap_or("the exact count did not complete")),
-            caps.per_step()
         ),
     };
     quote! {
         #[doc = #cold_doc]
         pub const COLD_ITERATIONS: usize = #cold;
+        #[doc = #warm_doc]
+        pub const WARM_ITERATIONS: usize = #warm;
         /// Entries of the plan, N·NU.
         pub const NP: usize = #plan_steps * NU;
         /// The QP's unknowns z: the plan, then one slack per soft constraint component.
@@ -280,14 +285,14 @@ fn api(m: &Method, reach_code: &TokenStream, coordinate_code: &TokenStream) -> T
         "dual active-set method",
         &[
             " Changes of the working set (sides added or removed) over all blocks, of the warm solve and",
-            " of its cold restart: at most [`ITERATIONS`] + [`COLD_ITERATIONS`]. A solve that needs more falls back.",
+            " of its cold restart: at most [`WARM_ITERATIONS`] + [`COLD_ITERATIONS`]. A solve that needs more falls back.",
         ],
     );
     let evidence_doc = evidence_doc(m.p.qp.evidence.as_ref(), "");
     let blocks = m.prepared.blocks.len();
     let real_name = m.num.numeric().name();
     let doc = format!(
-        " Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and\n Idnani's, as DAQP) on the condensed QP in {real_name}, in {blocks} independent block(s), with the Cholesky\n factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve\n starts from the previous working set and stops at the optimum or after [`ITERATIONS`] changes,\n then restarts cold with at most [`COLD_ITERATIONS`]; a solve that does not reach the optimum\n falls back to the held plan ([`Fallback::WarmStart`])."
+        " Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and\n Idnani's, as DAQP) on the condensed QP in {real_name}, in {blocks} independent block(s), with the Cholesky\n factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve\n starts from the previous working set and stops at the optimum or after [`WARM_ITERATIONS`] changes,\n then restarts cold with at most [`COLD_ITERATIONS`]; a solve that does not reach the optimum\n falls back to the held plan ([`Fallback::WarmStart`])."
     );
     let doc: Vec<&str> = doc.split('\n').collect();
     let entry = entry(m.p);
@@ -552,7 +557,7 @@ fn checked(
             #zero_rows
             let mut work = self.work.work();
             #empty_check {
-                let cap = if warm { ITERATIONS } else { COLD_ITERATIONS };
+                let cap = if warm { WARM_ITERATIONS } else { COLD_ITERATIONS };
                 let (ended, iterations) = solve(
                     &BLOCKS, f, lower, upper, &mut work, &mut self.warm_set, &mut self.warm_len, cap,
                     &TOLERANCES, &mut Tally, z, |_, _, _, _| {},

@@ -98,28 +98,25 @@ impl Parameters {
         let qp = &p.qp;
         let (nx, nz, nd) = (p.nx, qp.nz, p.nd());
         let nlast = if p.keeps_last_input() { p.nu } else { 0 };
-        let mut names = Vec::new();
-        let (mut lo, mut hi) = (Vec::new(), Vec::new());
-        for i in 0..nx {
-            names.push(format!("x0[{i}]"));
-            lo.push(region.x_min[i]);
-            hi.push(region.x_max[i]);
-        }
-        for i in 0..nz {
-            names.push(format!("r[{i}]"));
-            lo.push(region.reference_min[i]);
-            hi.push(region.reference_max[i]);
-        }
-        for i in 0..nlast {
-            names.push(format!("u_prev[{i}]"));
-            lo.push(qp.u_min[i]);
-            hi.push(qp.u_max[i]);
-        }
-        for i in 0..nd {
-            names.push(format!("d[{i}]"));
-            lo.push(-qp.u_max[i]);
-            hi.push(-qp.u_min[i]);
-        }
+        let names = crate::certify::sampling::parameter_names(p);
+        let last_lo = &qp.u_min.as_slice()[..nlast];
+        let last_hi = &qp.u_max.as_slice()[..nlast];
+        let d_lo = (0..nd).map(|i| -qp.u_max[i]);
+        let d_hi = (0..nd).map(|i| -qp.u_min[i]);
+        let lo: Vec<f64> = region.x_min[..nx]
+            .iter()
+            .chain(&region.reference_min[..nz])
+            .chain(last_lo)
+            .copied()
+            .chain(d_lo)
+            .collect();
+        let hi: Vec<f64> = region.x_max[..nx]
+            .iter()
+            .chain(&region.reference_max[..nz])
+            .chain(last_hi)
+            .copied()
+            .chain(d_hi)
+            .collect();
         Parameters {
             names,
             lo,

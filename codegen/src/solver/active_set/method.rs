@@ -50,14 +50,22 @@ impl Solver for ActiveSet {
         super::TITLE
     }
 
-    /// Scalar code over tables with indices: in f64 the interior-point method's figure, in f32 ADMM's
-    /// (scaled by the soft-float ratio in f64 without f64 hardware), until the emulated boards have
-    /// measured this method's own.
+    /// The machine's figure, measured on the emulated boards at the certificates' worst cold cases
+    /// ([`Machine::cycles_per_mac_active_set`]); in f64 without f64 hardware scaled by the soft-float
+    /// ratio (such a spec is not weighed by `auto`, [`Solver::not_weighed`]).
     fn cycles_per_mac(&self, machine: &Machine, scalar: Scalar, _qp: &Qp) -> f64 {
-        match scalar {
-            Scalar::F64 => machine.cycles_per_mac_ipm,
-            Scalar::F32 => machine.cycles_per_mac_admm,
-        }
+        let soft_float = match scalar {
+            Scalar::F64 if !machine.f64_in_hardware => {
+                machine.cycles_per_mac_f64 / machine.cycles_per_mac_f32
+            }
+            _ => 1.0,
+        };
+        machine.cycles_per_mac_active_set * soft_float
+    }
+
+    /// A warm solve that runs out restarts cold: `WARM_ITERATIONS + COLD_ITERATIONS`.
+    fn iterations_per_step(&self, qp: &Qp) -> usize {
+        Caps::of(qp).per_step()
     }
 
     /// The worst pass of the iteration (a scan of every constraint against a full working set, a change

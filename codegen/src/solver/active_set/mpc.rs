@@ -3,10 +3,11 @@
 //!
 //! A step solves the QP of [`mpc_qp`] (relaxed where the controller is recovering, as the other
 //! constrained methods do) from the previous step's working set, with at most [`Caps::warm`] changes
-//! of the working set (the sampled count). A warm solve that runs out of changes (or cycles) restarts
-//! cold in the same step with at most [`Caps::cold`]: the exact cold count where the certificate is
-//! exact ([`Caps::of`]), so that within the region, for a constant reference window, a step ends at the
-//! optimum after at most `warm + cold` changes. A solve that still ends anywhere but at the optimum
+//! of the working set (the margin of the cold cap). A warm solve that runs out of changes (or cycles)
+//! restarts cold in the same step with at most [`Caps::cold`]: the sampled count, or the exact cold
+//! count where the certificate is exact and larger ([`Caps::of`]), so that within the region, for a
+//! constant reference window, a step ends at the optimum after at most `warm + cold` changes: the
+//! certified count plus a margin, which the build prices ([`Caps::per_step`]). A solve that still ends anywhere but at the optimum
 //! falls back: a truncated dual iterate is not primal feasible, so its plan is not used; the plan is the
 //! previous one shifted by one step with the rest input appended, projected onto the box
 //! ([`held_plan`]), and the next solve starts cold. The warm start is the previous working set as it was, not shifted in time: on the shipped
@@ -37,26 +38,30 @@ pub fn prepare(qp: &Qp) -> Option<Prepared> {
 /// The changes of the working set a control step may make.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Caps {
-    /// A solve from the previous working set: the count certified (`ITERATIONS`).
+    /// A solve from the previous working set (`WARM_ITERATIONS`): the margin of `cold`
+    /// ([`crate::certify::sampling::margin`], a tenth, at least 2), at most the certified count. A warm
+    /// solve needs a change or two at the median; one that needs more restarts cold, so a step's worst
+    /// case is the cold cap plus this margin, not twice the cold cap.
     pub warm: usize,
-    /// A cold solve, first or after a warm one ran out: at least `warm`, and at least the exact cold
-    /// count where the certificate has one (`COLD_ITERATIONS`).
+    /// A cold solve, first or after a warm one ran out (`COLD_ITERATIONS`): the certified count
+    /// (`ITERATIONS`), or the exact cold count where the certificate has one and it is larger.
     pub cold: usize,
 }
 
 impl Caps {
-    /// The caps of `qp` as certified: `qp.iterations` warm, and cold the larger of it and the exact
-    /// count where the partition completed.
+    /// The caps of `qp` as certified: cold the larger of `qp.iterations` and the exact count where the
+    /// partition completed, warm its margin.
     pub fn of(qp: &Qp) -> Caps {
         let exact = qp.evidence.as_ref().map_or(0, |e| e.exact_cold());
         Caps::with(qp.iterations, exact)
     }
 
-    /// `warm` changes warm, and cold the larger of `warm` and `exact`.
-    pub fn with(warm: usize, exact: usize) -> Caps {
+    /// Cold the larger of `count` and `exact`; warm its margin, at most `count`.
+    pub fn with(count: usize, exact: usize) -> Caps {
+        let cold = count.max(exact);
         Caps {
-            warm,
-            cold: warm.max(exact),
+            warm: crate::certify::sampling::margin(cold).min(count),
+            cold,
         }
     }
 

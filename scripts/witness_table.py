@@ -1,0 +1,31 @@
+"""The table of scripts/witness.sh: each problem's witness replayed (the SOLVES lines of
+peers/firmware/run.sh) against the estimate of a cold solve in its `mpcc check --json`.
+
+    python3 scripts/witness_table.py DIR SOLVES PROBLEM...
+
+Exits 1 where a measured solve exceeds its estimate."""
+import json, sys
+out, solves, problems = sys.argv[1], sys.argv[2], sys.argv[3:]
+measured = {}
+for line in open(solves):
+    if line.startswith("SOLVES "):
+        v = json.loads(line[7:])
+        if v["solver"] == "active_set":
+            measured[v["problem"]] = (v["instructions"][0], v["iterations"][0])
+print("| problem | witness: changes (cold cap) | measured instructions | estimate of a cold solve, cycles | estimate / measured | estimate of a step (warm cap + cold cap), cycles |")
+print("|---|---|---|---|---|---|")
+worst = 0.0
+for p in problems:
+    c = json.load(open(f"{out}/{p}.check.json"))
+    step = c["control_step"]
+    cold = c.get("cold_iterations") or step["iterations"]
+    # The solver's cycles at the cold cap, and the rest of the step (the gradient map, the filter).
+    solver = (cold * step["macs_per_iteration"] + c["macs_once_per_solve"]) * step["solver_cycles_per_mac"]
+    estimate = solver + (step["cycles"] - step["solver_cycles"])
+    instructions, changes = measured[p]
+    ratio = estimate / instructions
+    worst = max(worst, 1 / ratio)
+    print(f"| {p} | {changes} ({cold}) | {instructions:,} | {estimate:,.0f} | {ratio:.2f}× | {step['cycles']:,.0f} |")
+if worst > 1:
+    print(f"witness.sh: a measured cold solve exceeds its estimate (by {worst:.2f}×)", file=sys.stderr)
+    sys.exit(1)
