@@ -39,7 +39,7 @@ pub fn with_method(text: &str, method: &str, m4: bool) -> String {
         let key = t.split('=').next().unwrap_or("").trim();
         if m4 && key == "scalar" && t.starts_with("scalar") {
             // The replay counts instructions, which the clock does not change; a clock above the
-            // STM32F405's keeps the build's period check (paper-limits: its estimate is 172 % of 12.8 ms)
+            // STM32F405's keeps the build's period check (paper-limits: its estimate is 161 % of 12.8 ms)
             // from refusing what is to be measured.
             out.push_str("target = \"cortex-m4f\"\nclock_hz = 1e9\nscalar = \"f32\"\n");
             continue;

@@ -270,12 +270,10 @@ fn the_build_carries_the_exact_count_and_a_warm_solve_restarts_cold() {
     assert_eq!(exact.regions, count.regions);
     let caps = Caps::of(&p.qp);
     assert_eq!(caps.cold, p.qp.iterations.max(count.worst));
-    // The warm cap is the cold cap's margin (a tenth, at least 2), at most the count.
-    assert_eq!(
-        caps.warm,
-        codegen::sampling::margin(caps.cold).min(p.qp.iterations)
-    );
-    assert!(caps.warm < caps.cold, "{caps:?}");
+    // The warm cap is the sample's warm-started need plus its margin, at most the count.
+    let e = p.qp.evidence.as_ref().unwrap();
+    let warm = e.warm_started_worst + codegen::sampling::margin(e.warm_started_worst);
+    assert_eq!(caps.warm, warm.min(p.qp.iterations));
     let spec = mpc_spec::load(SMALL).unwrap();
     let plan = codegen::plan(&spec, &p).unwrap();
     let c = codegen::certify(&p, &plan);

@@ -34,8 +34,8 @@ pub mod hover {
     pub const U_REST: [Real; NU] = [0f64, 0f64, 0f64, 0f64];
     /// Changes of the working set a cold solve (the first, or after a warm one ran out) may make: [`ITERATIONS`], the sampled count (block 0 depends on 24 parameters, above the 3 the exact count partitions (codegen::budget::EXACT_DIMENSION)).
     pub const COLD_ITERATIONS: usize = 47;
-    /// Changes of the working set a warm solve (from the previous working set) may make: the margin of [`COLD_ITERATIONS`] (a tenth, at least 2), at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = 52 changes, which `report::MACS_PER_CYCLE` and the build's period check price.
-    pub const WARM_ITERATIONS: usize = 5;
+    /// Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed (11) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = 60 changes, which `report::MACS_PER_CYCLE` and the build's period check price.
+    pub const WARM_ITERATIONS: usize = 13;
     /// Entries of the plan, N·NU.
     pub const NP: usize = N * NU;
     /// The QP's unknowns z: the plan, then one slack per soft constraint component.
@@ -30577,8 +30577,8 @@ pub mod hover {
         pub const EXACT_PARAMETERS: Option<usize> = Some(24);
         /// A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).
         pub const COLD_ITERATIONS: Option<usize> = Some(47);
-        /// A warm solve's cap: the margin of COLD_ITERATIONS (a tenth, at least 2), at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.
-        pub const WARM_ITERATIONS: Option<usize> = Some(5);
+        /// A warm solve's cap: the most a warm-started step of the sample needed plus its margin, at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.
+        pub const WARM_ITERATIONS: Option<usize> = Some(13);
         /// ρ(F − G·K_LQR).
         pub const LQR_SPECTRAL_RADIUS: f64 = 0.8827387020097792f64;
         /// λmin of P solving (F − GK)ᵀP(F − GK) − P = −I.
@@ -30600,7 +30600,7 @@ pub mod hover {
         /// Multiply-adds of one solver iteration.
         pub const MACS_PER_ITERATION: usize = 11131;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
-        pub const MACS_PER_CYCLE: usize = 588288;
+        pub const MACS_PER_CYCLE: usize = 677336;
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 13520;
         /// Bytes of `Mpc`.

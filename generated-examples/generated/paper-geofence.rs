@@ -38,8 +38,8 @@ pub mod paper_geofence {
     pub const U_REST: [Real; NU] = [0f64, 0f64, 0f64];
     /// Changes of the working set a cold solve (the first, or after a warm one ran out) may make: [`ITERATIONS`], the sampled count (block 0 depends on 4 parameters, above the 3 the exact count partitions (codegen::budget::EXACT_DIMENSION)).
     pub const COLD_ITERATIONS: usize = 255;
-    /// Changes of the working set a warm solve (from the previous working set) may make: the margin of [`COLD_ITERATIONS`] (a tenth, at least 2), at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = 281 changes, which `report::MACS_PER_CYCLE` and the build's period check price.
-    pub const WARM_ITERATIONS: usize = 26;
+    /// Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed (6) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = 263 changes, which `report::MACS_PER_CYCLE` and the build's period check price.
+    pub const WARM_ITERATIONS: usize = 8;
     /// Entries of the plan, N·NU.
     pub const NP: usize = N * NU;
     /// The QP's unknowns z: the plan, then one slack per soft constraint component.
@@ -21932,8 +21932,8 @@ pub mod paper_geofence {
         pub const EXACT_PARAMETERS: Option<usize> = Some(12);
         /// A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).
         pub const COLD_ITERATIONS: Option<usize> = Some(255);
-        /// A warm solve's cap: the margin of COLD_ITERATIONS (a tenth, at least 2), at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.
-        pub const WARM_ITERATIONS: Option<usize> = Some(26);
+        /// A warm solve's cap: the most a warm-started step of the sample needed plus its margin, at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.
+        pub const WARM_ITERATIONS: Option<usize> = Some(8);
         /// ρ(F − G·K_LQR).
         pub const LQR_SPECTRAL_RADIUS: f64 = 0.9390546005837024f64;
         /// λmin of P solving (F − GK)ᵀP(F − GK) − P = −I.
@@ -21955,7 +21955,7 @@ pub mod paper_geofence {
         /// Multiply-adds of one solver iteration.
         pub const MACS_PER_ITERATION: usize = 2088;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
-        pub const MACS_PER_CYCLE: usize = 591037;
+        pub const MACS_PER_CYCLE: usize = 553453;
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 2304;
         /// Bytes of `Mpc`.

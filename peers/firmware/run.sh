@@ -10,7 +10,7 @@
 # the firmware's RESULT lines (also appended to target/peers-<board>.results) and a table.
 # Solvers: ours (the spec's own method: the IPM, the FGM for paper), active_set (the same spec with
 # method = "active_set", peers/build.rs; on the STM32F405 in f32 with target = "cortex-m4f" and a
-# clock of 1 GHz, since paper-limits' estimate is 172 % of its period at the board's 168 MHz),
+# clock of 1 GHz, since paper-limits' estimate is 161 % of its period at the board's 168 MHz),
 # daqp (in single precision on the STM32F405); all three by default; --solver a,b builds those alone.
 # The generated solvers' per-solve instructions go to target/peers-<board>.solves (SOLVES lines, this
 # run's only) for peers/examples/macs.rs.

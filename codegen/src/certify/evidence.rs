@@ -46,6 +46,10 @@ pub struct Evidence {
     pub cold_median: usize,
     /// The most iterations a warm step needed.
     pub warm_worst: usize,
+    /// The most a step started from the previous step's solution needed: the warm steps after each
+    /// sequence's first, which starts cold (the dual active set's warm cap, `WARM_ITERATIONS`, is this
+    /// plus its margin).
+    pub warm_started_worst: usize,
     /// The median a warm step needed.
     pub warm_median: usize,
     /// The iterations per control step: `iterations` as written, or the worst observed plus the margin.

@@ -536,6 +536,7 @@ fn certify_spending<M: Sampled>(
         cold_witness,
         cold_median: median(&mut cold_counts),
         warm_worst: warm.counts.iter().copied().max().unwrap_or(0),
+        warm_started_worst: warm.warm_started_worst,
         warm_median: median(&mut warm_counts),
         iterations: count,
         auto: fixed.is_none(),
@@ -631,6 +632,8 @@ pub(crate) fn draw_sample(spec: &Spec, p: &Problem, region: &Region) -> Sample {
 #[derive(Default)]
 struct Warm {
     counts: Vec<usize>,
+    /// The most any step after its sequence's first (which starts cold) needed: the warm-started need.
+    warm_started_worst: usize,
     worst_error: f64,
     worst_violation: f64,
     /// Per step, the relative (primal, dual) residuals after each iteration.
@@ -737,6 +740,7 @@ fn warm_sequences<M: Sampled>(
     let what = (spec, method, "a warm closed-loop step");
     let mut warm = Warm::default();
     for sequence in in_order(starts, sequence, spent, what)? {
+        warm.warm_started_worst = warm.warm_started_worst.max(sequence.warm_started_worst);
         warm.counts.extend(sequence.counts);
         warm.series.extend(sequence.series);
         warm.worst_error = warm.worst_error.max(sequence.worst_error);
@@ -798,6 +802,9 @@ fn warm_sequence<M: Sampled>(
                 }
             }
         };
+        if !warm.counts.is_empty() {
+            warm.warm_started_worst = warm.warm_started_worst.max(k);
+        }
         warm.counts.push(k);
         warm.series.push(series(&run));
         let step = method.control_step(qp, &f, &offset, &start, &plan, count);

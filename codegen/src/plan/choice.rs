@@ -149,7 +149,7 @@ fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
     Candidate {
         method: spec.mpc.method,
         unavailable: None,
-        iterations: qp.iterations,
+        iterations: plan.solver.iterations_per_step(qp),
         macs_per_iteration,
         macs_per_solve: plan.solver.iterations_per_step(qp) * macs_per_iteration + once,
         cycles_per_solve: (plan.solver.iterations_per_step(qp) * macs_per_iteration + once) as f64

@@ -233,7 +233,8 @@ fn constants(m: &Method) -> TokenStream {
     let cold = lit(caps.cold);
     let warm = lit(caps.warm);
     let warm_doc = format!(
-        " Changes of the working set a warm solve (from the previous working set) may make: the margin of [`COLD_ITERATIONS`] (a tenth, at least 2), at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = {} changes, which `report::MACS_PER_CYCLE` and the build's period check price.",
+        " Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed ({}) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = {} changes, which `report::MACS_PER_CYCLE` and the build's period check price.",
+        qp.evidence.as_ref().map_or(0, |e| e.warm_started_worst),
         caps.per_step()
     );
     let exact = qp.evidence.as_ref().and_then(|e| e.exact.as_ref());

@@ -3,11 +3,11 @@
 //!
 //! A step solves the QP of [`mpc_qp`] (relaxed where the controller is recovering, as the other
 //! constrained methods do) from the previous step's working set, with at most [`Caps::warm`] changes
-//! of the working set (the margin of the cold cap). A warm solve that runs out of changes (or cycles)
-//! restarts cold in the same step with at most [`Caps::cold`]: the sampled count, or the exact cold
-//! count where the certificate is exact and larger ([`Caps::of`]), so that within the region, for a
-//! constant reference window, a step ends at the optimum after at most `warm + cold` changes: the
-//! certified count plus a margin, which the build prices ([`Caps::per_step`]). A solve that still ends anywhere but at the optimum
+//! of the working set (the sample's warm-started need plus its margin). A warm solve that runs out of
+//! changes (or cycles) restarts cold in the same step with at most [`Caps::cold`]: the sampled count,
+//! or the exact cold count where the certificate is exact and larger ([`Caps::of`]), so that within
+//! the region, for a constant reference window, a step ends at the optimum after at most
+//! `warm + cold` changes, which the build prices ([`Caps::per_step`]). A solve that still ends anywhere but at the optimum
 //! falls back: a truncated dual iterate is not primal feasible, so its plan is not used; the plan is the
 //! previous one shifted by one step with the rest input appended, projected onto the box
 //! ([`held_plan`]), and the next solve starts cold. The warm start is the previous working set as it was, not shifted in time: on the shipped
@@ -38,30 +38,42 @@ pub fn prepare(qp: &Qp) -> Option<Prepared> {
 /// The changes of the working set a control step may make.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Caps {
-    /// A solve from the previous working set (`WARM_ITERATIONS`): the margin of `cold`
-    /// ([`crate::certify::sampling::margin`], a tenth, at least 2), at most the certified count. A warm
-    /// solve needs a change or two at the median; one that needs more restarts cold, so a step's worst
-    /// case is the cold cap plus this margin, not twice the cold cap.
+    /// A solve from the previous working set (`WARM_ITERATIONS`): the most a warm-started step of the
+    /// sample needed plus its margin ([`warm_cap`]), at most the certified count. A warm solve needs a
+    /// change or two at the median; one that needs more restarts cold, so a step's worst case is the
+    /// cold cap plus this, not twice the cold cap.
     pub warm: usize,
     /// A cold solve, first or after a warm one ran out (`COLD_ITERATIONS`): the certified count
     /// (`ITERATIONS`), or the exact cold count where the certificate has one and it is larger.
     pub cold: usize,
 }
 
+/// The warm cap for a sample whose warm-started steps needed at most `warm_started_worst` changes:
+/// that plus its margin ([`crate::certify::sampling::margin`]).
+pub fn warm_cap(warm_started_worst: usize) -> usize {
+    warm_started_worst + crate::certify::sampling::margin(warm_started_worst)
+}
+
 impl Caps {
     /// The caps of `qp` as certified: cold the larger of `qp.iterations` and the exact count where the
-    /// partition completed, warm its margin.
+    /// partition completed; warm the sample's warm-started need plus its margin, at most
+    /// `qp.iterations` (`qp.iterations` without a sample).
     pub fn of(qp: &Qp) -> Caps {
-        let exact = qp.evidence.as_ref().map_or(0, |e| e.exact_cold());
-        Caps::with(qp.iterations, exact)
+        let e = qp.evidence.as_ref();
+        let exact = e.map_or(0, |e| e.exact_cold());
+        let warm = e.map_or(qp.iterations, |e| warm_cap(e.warm_started_worst));
+        Caps {
+            warm: warm.min(qp.iterations),
+            cold: qp.iterations.max(exact),
+        }
     }
 
-    /// Cold the larger of `count` and `exact`; warm its margin, at most `count`.
-    pub fn with(count: usize, exact: usize) -> Caps {
-        let cold = count.max(exact);
+    /// `warm` changes warm, and cold the larger of `warm` and `exact` (the sample runs its warm steps
+    /// so: their needs, not these caps, set the count and `WARM_ITERATIONS`).
+    pub fn with(warm: usize, exact: usize) -> Caps {
         Caps {
-            warm: crate::certify::sampling::margin(cold).min(count),
-            cold,
+            warm,
+            cold: warm.max(exact),
         }
     }
 
