@@ -470,8 +470,10 @@ fn target_lines(step: &codegen::target::StepCost) -> Vec<(String, String)> {
     let (cost, period) = match (step.period_cycles, step.load()) {
         (Some(cycles), Some(load)) => (
             format!(
-                "{:.3e} cycles, of which the solver {:.3e} ({solver}, {} cycles each)",
+                "{:.3e} cycles ({:.3e} instructions at {} cycles each), of which the solver {:.3e} ({solver}, {} cycles each)",
                 step.cycles,
+                step.cycles / m.cycles_per_instruction,
+                codegen::target::significant(m.cycles_per_instruction, 3),
                 step.solver_cycles,
                 codegen::target::significant(step.solver_cycles_per_mac, 3)
             ),

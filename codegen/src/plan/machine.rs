@@ -40,13 +40,16 @@ pub struct Machine {
     /// statements over one scratch array, fewer instructions a multiply-add than the dense factor's
     /// triangular solves.
     pub cycles_per_mac_admm_stages: f64,
+    /// Estimated cycles per instruction (the emulated boards count instructions; `plan::target`'s table
+    /// says where each figure comes from): 1.5 on the A9, 1 on the M4F (a lower bound), 1 on the host.
+    pub cycles_per_instruction: f64,
     /// Estimated cycles per multiply-add of the dual active-set method's cost model (its worst pass at a
     /// full working set, `solver::active_set::mpc::macs_per_iteration`, and its once-per-solve part),
     /// in the scalar it runs in on this machine (f32 on the Cortex-M4F, f64 on the A9; the A9's f32 is
     /// taken as the same: VFP's single and double instructions count alike and the kernel uses no NEON).
     /// Set from the boards: the sampled certificate's worst cold case of paper, paper-limits, quadcopter
-    /// and hover replayed by `scripts/witness.sh --board zynq|netduinoplus2` (instructions, at one a
-    /// cycle), the largest instructions per modelled multiply-add of the four plus 10-11 %.
+    /// and hover replayed by `scripts/witness.sh --board zynq|netduinoplus2`, the largest instructions
+    /// per modelled multiply-add of the four plus 10-11 %, times [`Machine::cycles_per_instruction`].
     pub cycles_per_mac_active_set: f64,
 }
 
@@ -64,6 +67,7 @@ pub const HOST: Machine = Machine {
     cycles_per_mac_ipm: 1.0,
     cycles_per_mac_admm: 1.0,
     cycles_per_mac_admm_stages: 1.0,
+    cycles_per_instruction: 1.0,
     cycles_per_mac_active_set: 1.0,
 };
 
@@ -82,9 +86,10 @@ pub const CORTEX_A9: Machine = Machine {
     cycles_per_mac_ipm: 10.3,
     cycles_per_mac_admm: 6.6,
     cycles_per_mac_admm_stages: 4.8,
-    // Instructions a modelled multiply-add at the witnesses: paper-limits 5.06, paper (f32) 4.33,
-    // hover 2.65, quadcopter 2.60 (BENCHMARKS.md, "The worst cold case on the boards").
-    cycles_per_mac_active_set: 5.6,
+    cycles_per_instruction: 1.5,
+    // 5.6 instructions a modelled multiply-add × 1.5: at the witnesses paper-limits 5.06, paper (f32)
+    // 4.33, hover 2.65, quadcopter 2.60 (BENCHMARKS.md, "The worst cold case on the boards").
+    cycles_per_mac_active_set: 8.4,
 };
 
 /// The STM32F405's Cortex-M4F: a single-precision FPU (FPv4-SP), no SIMD for floats (the M4's SIMD is
@@ -100,8 +105,9 @@ pub const CORTEX_M4F: Machine = Machine {
     cycles_per_mac_ipm: 311.0,
     cycles_per_mac_admm: 4.0,
     cycles_per_mac_admm_stages: 3.0,
-    // f32, instructions a modelled multiply-add at the witnesses: paper-limits 5.59, paper 5.18, hover
-    // 3.62, quadcopter 2.88 (BENCHMARKS.md, "The worst cold case on the boards").
+    cycles_per_instruction: 1.0,
+    // f32, 6.2 instructions a modelled multiply-add × 1: at the witnesses paper-limits 5.59, paper 5.18,
+    // hover 3.62, quadcopter 2.88 (BENCHMARKS.md, "The worst cold case on the boards").
     cycles_per_mac_active_set: 6.2,
 };
 

@@ -23,6 +23,8 @@
 //! | cortex-m4f | f32, ADMM | 12,003,230 (`firmware-template/specs/quadcopter-m4f.toml`) | 3,060,790 | 3.92 | 1 | 4.0 |
 //! | cortex-a9 | f32, ADMM, x-update stage by stage | 9,312,850 (`firmware-template/specs/quadcopter-m4f.toml`, on the VFP) | 2,942,646 | 3.16 | 1.5 | 4.8 |
 //! | cortex-m4f | f32, ADMM, x-update stage by stage | 8,526,738 (`firmware-template/specs/quadcopter-m4f.toml`) | 2,942,646 | 2.90 | 1 | 3.0 |
+//! | cortex-a9 | f64, dual active set | 2,687,980 (paper-limits' worst cold case, a cold solve) | 531,266 at the cold cap | 5.06 → 5.6 | 1.5 | 8.4 |
+//! | cortex-m4f | f32, dual active set | 3,028,662 (paper-limits' worst cold case, a cold solve) | 542,095 at the cold cap | 5.59 → 6.2 | 1 | 6.2 |
 //!
 //! The instruction counts are those of benchmarks/NOTES.md: "Runtime hardening" (both boards' `paper.toml` with
 //! screening) and "Firmware (emulated Zynq-7000)" and "Firmware (emulated Cortex-M4F)" (the f64 rows). Under QEMU they are instructions, not cycles: the A9's 1.5 cycles
@@ -41,7 +43,13 @@
 //! x-update went stage by stage (commit 6fd3446); the stage-wise rows from after it, which the firmware
 //! tests now check. ADMM in f64 is taken at its f32 figure where f64 is in
 //! hardware (the same scalar instructions on the VFP) and scaled by the soft-float ratio where it is not
-//! (derived, not measured).
+//! (derived, not measured). The dual active set's rows are the largest of four witnesses per board (paper,
+//! paper-limits, quadcopter, hover: the sampled certificate's worst cold case replayed by
+//! `scripts/witness.sh --board zynq|netduinoplus2`, instructions over the multiply-adds its model prices
+//! at the cold cap, `COLD_ITERATIONS` × the worst pass plus the once-per-solve part), raised by 10-11 %, so
+//! that the estimate of each witness's solve is at or above the instructions it took (BENCHMARKS.md, "The
+//! worst cold case on the boards"). The A9's f32 is taken as its f64 (the kernel uses no NEON), and f64
+//! without f64 hardware as the f32 figure times the soft-float ratio (derived, not measured).
 
 use crate::certify::certificate::Resources;
 use crate::lower::problem::Problem;
