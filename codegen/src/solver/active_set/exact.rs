@@ -99,24 +99,20 @@ impl Parameters {
         let (nx, nz, nd) = (p.nx, qp.nz, p.nd());
         let nlast = if p.keeps_last_input() { p.nu } else { 0 };
         let names = crate::certify::sampling::parameter_names(p);
-        let last_lo = &qp.u_min.as_slice()[..nlast];
-        let last_hi = &qp.u_max.as_slice()[..nlast];
-        let d_lo = (0..nd).map(|i| -qp.u_max[i]);
-        let d_hi = (0..nd).map(|i| -qp.u_min[i]);
-        let lo: Vec<f64> = region.x_min[..nx]
-            .iter()
-            .chain(&region.reference_min[..nz])
-            .chain(last_lo)
-            .copied()
-            .chain(d_lo)
-            .collect();
-        let hi: Vec<f64> = region.x_max[..nx]
-            .iter()
-            .chain(&region.reference_max[..nz])
-            .chain(last_hi)
-            .copied()
-            .chain(d_hi)
-            .collect();
+        // One corner of θ's box: the states' and references' bounds, the last input's, and the
+        // disturbance's, which is the input's negated (d's box is [−u_max, −u_min]).
+        let corner =
+            |x: &[f64], r: &[f64], u: &DVector<f64>, opposite: &DVector<f64>| -> Vec<f64> {
+                x[..nx]
+                    .iter()
+                    .chain(&r[..nz])
+                    .chain(&u.as_slice()[..nlast])
+                    .copied()
+                    .chain((0..nd).map(|i| -opposite[i]))
+                    .collect()
+            };
+        let lo = corner(&region.x_min, &region.reference_min, &qp.u_min, &qp.u_max);
+        let hi = corner(&region.x_max, &region.reference_max, &qp.u_max, &qp.u_min);
         Parameters {
             names,
             lo,
