@@ -48,11 +48,7 @@ pub struct Caps {
     pub cold: usize,
 }
 
-/// The warm cap for a sample whose warm-started steps needed at most `warm_started_worst` changes:
-/// that plus its margin ([`crate::certify::sampling::margin`]).
-pub fn warm_cap(warm_started_worst: usize) -> usize {
-    warm_started_worst + crate::certify::sampling::margin(warm_started_worst)
-}
+pub use crate::certify::sampling::warm_cap;
 
 impl Caps {
     /// The caps of `qp` as certified: cold the larger of `qp.iterations` and the exact count where the
