@@ -9,8 +9,9 @@
 # peers/witness/<board>/ (one step: the state and constant reference of the sample's worst cold case),
 # and `mpcc check --json` of it (on the Zynq with `target = "cortex-a9"` added, the copy's own
 # elsewhere) for the estimate. Then peers/firmware/run.sh replays the dumps, each solve a cold one (a
-# fresh controller), and a table compares the instructions measured with the estimate: the solver's
-# cycles at the cold cap (COLD_ITERATIONS changes) plus the rest of the step, at one instruction a cycle.
+# fresh controller), and a table (scripts/witness_table.py) compares the instructions measured with the
+# estimate: the solver's cycles at the cold cap (COLD_ITERATIONS changes) plus the rest of the step, over
+# the target's cycles per instruction.
 # Needs what peers/firmware/run.sh needs.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"

@@ -365,7 +365,7 @@ impl Certificate {
                 field("exact.lps", "", "", EXACT, "feasibility LPs solved", IfPresent, count(x.map(|x| x.lps))),
                 field("exact.seconds", "", "", EXACT, "time the partition took", Seconds, MaybeReal(x.map(|x| x.seconds))),
                 field("cold_iterations", "COLD_ITERATIONS", "A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).", EXACT, "cap of a cold solve (first, or after a warm one)", IfPresent, count(self.cold_iterations)),
-                field("warm_iterations", "WARM_ITERATIONS", "A warm solve's cap: the most a warm-started step of the sample needed plus its margin, at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.", EXACT, "cap of a warm solve (then a cold restart)", IfPresent, count(self.cold_iterations.map(|_| crate::certify::sampling::warm_cap(e.warm_started_worst).min(self.iterations)))),
+                field("warm_iterations", "WARM_ITERATIONS", "A warm solve's cap: the most a warm-started step of the sample needed plus its margin, at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.", EXACT, "cap of a warm solve (then a cold restart)", IfPresent, count(self.cold_iterations.map(|_| e.warm_cap()))),
             ];
             fields.splice(at..at, exact);
         }

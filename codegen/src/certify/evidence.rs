@@ -84,6 +84,13 @@ pub struct Evidence {
 }
 
 impl Evidence {
+    /// The dual active set's warm cap (`WARM_ITERATIONS`): the most a warm-started step needed plus its
+    /// margin ([`crate::certify::sampling::margin`]), at most `iterations`.
+    pub fn warm_cap(&self) -> usize {
+        let needed = self.warm_started_worst;
+        (needed + crate::certify::sampling::margin(needed)).min(self.iterations)
+    }
+
     /// The exact cold count where the partition completed, else 0: what a cold solve's cap
     /// (`COLD_ITERATIONS`, [`crate::solver::active_set::mpc::Caps`]) must reach besides `iterations`.
     pub fn exact_cold(&self) -> usize {

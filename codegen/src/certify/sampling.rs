@@ -65,12 +65,6 @@ pub fn margin(worst: usize) -> usize {
     worst.div_ceil(10).max(2)
 }
 
-/// The dual active set's warm cap (`WARM_ITERATIONS`) for a sample whose warm-started steps needed at
-/// most `warm_started_worst` changes: that plus its [`margin`].
-pub fn warm_cap(warm_started_worst: usize) -> usize {
-    warm_started_worst + margin(warm_started_worst)
-}
-
 /// A case's data: the state, the reference (per stage), the disturbance, the last input.
 #[derive(Clone)]
 pub(crate) struct Case {

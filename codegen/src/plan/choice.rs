@@ -141,6 +141,7 @@ fn unavailable(method: Method, why: String) -> Candidate {
 fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
     let qp = &p.qp;
     let (macs_per_iteration, once) = plan.solver.macs(p, plan);
+    let iterations = plan.solver.iterations_per_step(qp);
     let (certified, reaches_accuracy) = match (&qp.evidence, spec.mpc.iterations) {
         (Some(e), _) => ("sampled", Some(e.worst_needed <= e.iterations)),
         (None, Iterations::Auto) => ("a priori", None),
@@ -149,10 +150,10 @@ fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
     Candidate {
         method: spec.mpc.method,
         unavailable: None,
-        iterations: plan.solver.iterations_per_step(qp),
+        iterations,
         macs_per_iteration,
-        macs_per_solve: plan.solver.iterations_per_step(qp) * macs_per_iteration + once,
-        cycles_per_solve: (plan.solver.iterations_per_step(qp) * macs_per_iteration + once) as f64
+        macs_per_solve: iterations * macs_per_iteration + once,
+        cycles_per_solve: (iterations * macs_per_iteration + once) as f64
             * plan.solver.cycles_per_mac(
                 super::machine::machine(spec.codegen.target),
                 spec.codegen.scalar,

@@ -39,7 +39,7 @@ pub fn prepare(qp: &Qp) -> Option<Prepared> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Caps {
     /// A solve from the previous working set (`WARM_ITERATIONS`): the most a warm-started step of the
-    /// sample needed plus its margin ([`warm_cap`]), at most the certified count. A warm solve needs a
+    /// sample needed plus its margin (`Evidence::warm_cap`), at most the certified count. A warm solve needs a
     /// change or two at the median; one that needs more restarts cold, so a step's worst case is the
     /// cold cap plus this, not twice the cold cap.
     pub warm: usize,
@@ -48,8 +48,6 @@ pub struct Caps {
     pub cold: usize,
 }
 
-pub use crate::certify::sampling::warm_cap;
-
 impl Caps {
     /// The caps of `qp` as certified: cold the larger of `qp.iterations` and the exact count where the
     /// partition completed; warm the sample's warm-started need plus its margin, at most
@@ -57,9 +55,8 @@ impl Caps {
     pub fn of(qp: &Qp) -> Caps {
         let e = qp.evidence.as_ref();
         let exact = e.map_or(0, |e| e.exact_cold());
-        let warm = e.map_or(qp.iterations, |e| warm_cap(e.warm_started_worst));
         Caps {
-            warm: warm.min(qp.iterations),
+            warm: e.map_or(qp.iterations, |e| e.warm_cap()).min(qp.iterations),
             cold: qp.iterations.max(exact),
         }
     }
