@@ -15,6 +15,12 @@ pub struct Region {
     pub reference_max: Vec<f64>,
 }
 
+/// `iterations = "auto"`: the worst count observed plus 10 %, at least 2 (here, beside the data it
+/// sizes, so that this plain-data module imports nothing; [`crate::certify::sampling`] applies it).
+pub fn margin(worst: usize) -> usize {
+    worst.div_ceil(10).max(2)
+}
+
 /// What the sample showed.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Evidence {
@@ -85,10 +91,10 @@ pub struct Evidence {
 
 impl Evidence {
     /// The dual active set's warm cap (`WARM_ITERATIONS`): the most a warm-started step needed plus its
-    /// margin ([`crate::certify::sampling::margin`]), at most `iterations`.
+    /// [`margin`], at most `iterations`.
     pub fn warm_cap(&self) -> usize {
         let needed = self.warm_started_worst;
-        (needed + crate::certify::sampling::margin(needed)).min(self.iterations)
+        (needed + margin(needed)).min(self.iterations)
     }
 
     /// The exact cold count where the partition completed, else 0: what a cold solve's cap

@@ -60,10 +60,7 @@ pub const UNRESOLVED_WARNING: usize = 2;
 /// The seed of the sample: the same spec gives the same evidence on every machine.
 pub const SEED: u64 = 17;
 
-/// `iterations = "auto"`: the worst count observed plus 10 %, at least 2.
-pub fn margin(worst: usize) -> usize {
-    worst.div_ceil(10).max(2)
-}
+pub use crate::certify::evidence::margin;
 
 /// A case's data: the state, the reference (per stage), the disturbance, the last input.
 #[derive(Clone)]
