@@ -40,8 +40,12 @@ pub mod pendulum {
     pub const NZ: usize = 2;
     /// Changes of the working set a cold solve (the first, or after a warm one ran out) may make: [`ITERATIONS`], the sampled count (block 0 depends on 6 parameters, above the 3 the exact count partitions (codegen::budget::EXACT_DIMENSION)).
     pub const COLD_ITERATIONS: usize = 9;
-    /// Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed (6) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = 17 changes, which `report::MACS_PER_CYCLE` and the build's period check price.
+    /// Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed (6) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = 17 changes (and spends at most what [`WARM_WORK`] and [`COLD_WORK`] allow).
     pub const WARM_ITERATIONS: usize = 8;
+    /// The work a cold solve may spend before it stops changing the working set and falls back: the most a cold case of the sample spent (7948) plus its margin (see [`WARM_WORK`]).
+    pub const COLD_WORK: usize = 8743;
+    /// The work a warm solve may spend before it stops changing the working set (then restarts cold): the most a warm-started step of the sample spent (6009) plus its margin. Work is the kernel's multiply-adds and scanned rows weighed by their cost on the boards, in tenths of a multiply-add of the factor's loops (`WORK_MULTIPLY_ADD`); `report::MACS_PER_CYCLE` and the build's period check price the budgets, which make the bound hold on every path.
+    pub const WARM_WORK: usize = 6610;
     /// Entries of the plan, N·NU.
     pub const NP: usize = CONTROL_HORIZON * NU;
     /// The QP's unknowns z: the plan, then one slack per soft constraint component.
@@ -239,8 +243,8 @@ pub mod pendulum {
     /// Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and
     /// Idnani's, as DAQP) on the condensed QP in f64, in 1 independent block(s), with the Cholesky
     /// factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve
-    /// starts from the previous working set and stops at the optimum or after [`WARM_ITERATIONS`] changes,
-    /// then restarts cold with at most [`COLD_ITERATIONS`]; a solve that does not reach the optimum
+    /// starts from the previous working set and stops at the optimum or after [`WARM_ITERATIONS`] changes
+    /// or [`WARM_WORK`] work, then restarts cold with at most [`COLD_ITERATIONS`] and [`COLD_WORK`]; a solve that does not reach the optimum
     /// falls back to the held plan ([`Fallback::WarmStart`]).
     /// Certified by sampling, not proved: 66 cold cases (16 corners) and 200 warm closed-loop steps of `[mpc.region]` needed at most 7 (cold) and 6 (warm) iterations to reach `accuracy`; `report::SAMPLED_*` has the rest.
     #[derive(Clone, Debug, PartialEq)]
@@ -398,7 +402,11 @@ pub mod pendulum {
             }
             let mut work = self.work.work();
             let (ended, iterations) = {
-                let cap = if warm { WARM_ITERATIONS } else { COLD_ITERATIONS };
+                let (cap, budget) = if warm {
+                    (WARM_ITERATIONS, WARM_WORK)
+                } else {
+                    (COLD_ITERATIONS, COLD_WORK)
+                };
                 let (ended, iterations) = solve(
                     &BLOCKS,
                     f,
@@ -409,7 +417,7 @@ pub mod pendulum {
                     &mut self.warm_len,
                     cap,
                     &TOLERANCES,
-                    &mut Tally,
+                    &mut Tally::new(budget),
                     z,
                     |_, _, _, _| {},
                 );
@@ -426,7 +434,7 @@ pub mod pendulum {
                         &mut self.warm_len,
                         COLD_ITERATIONS,
                         &TOLERANCES,
-                        &mut Tally,
+                        &mut Tally::new(COLD_WORK),
                         z,
                         |_, _, _, _| {},
                     );
@@ -920,24 +928,74 @@ pub mod pendulum {
             );
         (hard, soft)
     }
-    /// The reference's count of multiply-adds, which the controller does not keep.
-    struct Tally;
-    impl Tally {
-        #[inline(always)]
-        fn offsets(&mut self, _: usize) {}
-        #[inline(always)]
-        fn scan(&mut self, _: usize) {}
-        #[inline(always)]
-        fn factor(&mut self, _: usize) {}
-        #[inline(always)]
-        fn solve(&mut self, _: usize) {}
-        #[inline(always)]
-        fn step(&mut self, _: usize) {}
-        #[inline(always)]
-        fn recover(&mut self, _: usize) {}
-        #[inline(always)]
-        fn pass(&mut self) {}
+    /// A solve's work against its budget ([`WARM_WORK`], [`COLD_WORK`]): the kernel's multiply-adds
+    /// and scanned rows, weighed as the build's reference weighs them.
+    struct Tally {
+        spent: usize,
+        budget: usize,
     }
+    impl Tally {
+        fn new(budget: usize) -> Self {
+            Tally { spent: 0, budget }
+        }
+        #[inline(always)]
+        fn add(&mut self, n: usize, weight: usize) {
+            self.spent = self.spent.saturating_add(n.saturating_mul(weight));
+        }
+        #[inline(always)]
+        fn offsets(&mut self, n: usize) {
+            self.add(n, WORK_SWEEP);
+        }
+        #[inline(always)]
+        fn scan(&mut self, n: usize) {
+            self.add(n, WORK_SCAN);
+        }
+        #[inline(always)]
+        fn factor(&mut self, n: usize) {
+            self.add(n, WORK_MULTIPLY_ADD);
+        }
+        #[inline(always)]
+        fn solve(&mut self, n: usize) {
+            self.add(n, WORK_MULTIPLY_ADD);
+        }
+        #[inline(always)]
+        fn step(&mut self, n: usize) {
+            self.add(n, WORK_MULTIPLY_ADD);
+        }
+        #[inline(always)]
+        fn recover(&mut self, n: usize) {
+            self.add(n, WORK_SWEEP);
+        }
+        #[inline(always)]
+        fn rows(&mut self, n: usize) {
+            self.add(n, WORK_ROW);
+        }
+        #[inline(always)]
+        fn pass(&mut self) {
+            self.add(1, WORK_PASS);
+        }
+        #[inline(always)]
+        fn exhausted(&self) -> bool {
+            self.spent > self.budget
+        }
+    }
+    /// The kernel's work, which `Tally` counts and a solve's budget caps, in tenths of a multiply-add of
+    /// the factor's loops: each multiply-add there (the factor, the solves with it, the steps) weighs
+    /// [`WORK_MULTIPLY_ADD`], one of the offsets' or the recovery's [`WORK_SWEEP`], one of the scan's
+    /// column updates (a tight loop) [`WORK_SCAN`], each row a scan visits (its slack cleared, its two
+    /// sides compared) [`WORK_ROW`] and each pass of the iteration (its tests and bookkeeping)
+    /// [`WORK_PASS`]. The weights are the boards' (`docs/methods.md`, "The worst case on the boards"): the
+    /// instructions of the certificates' heaviest cold cases follow this sum within 4 % on the Cortex-A9
+    /// and 6 % on the Cortex-M4F, where the multiply-adds alone spread over 2.2×.
+    const WORK_MULTIPLY_ADD: usize = 10;
+    /// See [`WORK_MULTIPLY_ADD`].
+    const WORK_SWEEP: usize = 5;
+    /// See [`WORK_MULTIPLY_ADD`].
+    const WORK_SCAN: usize = 1;
+    /// See [`WORK_MULTIPLY_ADD`].
+    const WORK_ROW: usize = 45;
+    /// See [`WORK_MULTIPLY_ADD`].
+    const WORK_PASS: usize = 200;
     /// `v[i]`, or 0 past its end.
     #[inline(always)]
     fn at(v: &[Real], i: usize) -> Real {
@@ -1500,6 +1558,7 @@ pub mod pendulum {
                 }
             }
             self.tally.scan(scanned * k);
+            self.tally.rows(nc);
             best
         }
         /// One step of iterative refinement of λ on the working set: r = G_WW·λ + d_W, λ −= (L·D·Lᵀ)⁻¹·r.
@@ -1709,7 +1768,7 @@ pub mod pendulum {
                     break Ended::NumericalFailure;
                 }
                 if let Some((i, alpha)) = run.blocking() {
-                    if iterations >= max_iterations {
+                    if iterations >= max_iterations || run.tally.exhausted() {
                         break Ended::IterationLimit;
                     }
                     run.step_and_remove(i, alpha);
@@ -1759,7 +1818,7 @@ pub mod pendulum {
                             refined = true;
                             run.refine();
                             if let Some((c, upper, violation)) = run.scan() {
-                                if iterations >= max_iterations {
+                                if iterations >= max_iterations || run.tally.exhausted() {
                                     break Ended::IterationLimit;
                                 }
                                 run.add(c, upper, violation);
@@ -1772,7 +1831,7 @@ pub mod pendulum {
                         break Ended::Solved;
                     }
                     Some((c, upper, violation)) => {
-                        if iterations >= max_iterations {
+                        if iterations >= max_iterations || run.tally.exhausted() {
                             run.tally.pass();
                             break Ended::IterationLimit;
                         }
@@ -1784,7 +1843,7 @@ pub mod pendulum {
                 run.singular_direction();
                 match run.blocking() {
                     Some((i, alpha)) => {
-                        if iterations >= max_iterations {
+                        if iterations >= max_iterations || run.tally.exhausted() {
                             break Ended::IterationLimit;
                         }
                         run.step_and_remove(i, alpha);
@@ -3306,6 +3365,10 @@ pub mod pendulum {
         pub const EXACT_PARAMETERS: Option<usize> = Some(7);
         /// A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).
         pub const COLD_ITERATIONS: Option<usize> = Some(9);
+        /// A warm solve's budget of work: the most a warm-started step of the sample spent plus its margin. Work is the kernel's multiply-adds and scanned rows weighed by their cost on the boards, in tenths of a multiply-add of the factor's loops.
+        pub const WARM_WORK: Option<usize> = Some(6610);
+        /// A cold solve's budget of work: the most a cold case of the sample spent plus its margin (absent where the exact count caps the cold solve).
+        pub const COLD_WORK: Option<usize> = Some(8743);
         /// A warm solve's cap: the most a warm-started step of the sample needed plus its margin, at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.
         pub const WARM_ITERATIONS: Option<usize> = Some(8);
         /// ρ(F − G·K_LQR).
@@ -3329,7 +3392,7 @@ pub mod pendulum {
         /// Multiply-adds of one solver iteration.
         pub const MACS_PER_ITERATION: usize = 234;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
-        pub const MACS_PER_CYCLE: usize = 4686;
+        pub const MACS_PER_CYCLE: usize = 2660;
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 2528;
         /// Bytes of `Mpc`.

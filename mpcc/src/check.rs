@@ -236,7 +236,7 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             lines.insert(
                 at,
                 (
-                    "the worst cold case (`mpcc dump-qp --witness`)".to_string(),
+                    "the heaviest cold case (`mpcc dump-qp --witness`)".to_string(),
                     named(&e.cold_witness),
                 ),
             );
@@ -382,19 +382,26 @@ fn candidate_lines(c: &Certificate) -> Vec<(String, String)> {
                         Some(false) => ", misses `accuracy` on the sample",
                         None => "",
                     };
-                    // What runs once per solve besides the iterations (a cold start, final residuals).
-                    let once = k
-                        .macs_per_solve
-                        .saturating_sub(k.iterations * k.macs_per_iteration);
-                    let once = if once > 0 {
-                        format!(" + {once} once")
+                    let at_worst = k.iterations * k.macs_per_iteration;
+                    if k.macs_per_solve < at_worst {
+                        // The dual active set: its budgets of work bind before its changes do.
+                        format!(
+                            "{} iterations ({}{reach}) at most, priced by its budgets of work: {} multiply-adds of its factor's loops a solve (at {} a pass: {at_worst})",
+                            k.iterations, k.certified, k.macs_per_solve, k.macs_per_iteration
+                        )
                     } else {
-                        String::new()
-                    };
-                    format!(
-                        "{} iterations ({}{reach}) × {}{once} = {} multiply-adds a solve",
-                        k.iterations, k.certified, k.macs_per_iteration, k.macs_per_solve
-                    )
+                        // What runs once per solve besides the iterations (a cold start, final residuals).
+                        let once = k.macs_per_solve - at_worst;
+                        let once = if once > 0 {
+                            format!(" + {once} once")
+                        } else {
+                            String::new()
+                        };
+                        format!(
+                            "{} iterations ({}{reach}) × {}{once} = {} multiply-adds a solve",
+                            k.iterations, k.certified, k.macs_per_iteration, k.macs_per_solve
+                        )
+                    }
                 }
             };
             (what, value)
@@ -461,12 +468,14 @@ fn target_lines(step: &codegen::target::StepCost) -> Vec<(String, String)> {
     let clock = m.clock_hz.map_or("no fixed clock".to_string(), |hz| {
         format!("{:.0} MHz", hz / 1e6)
     });
-    let solver = format!(
-        "{} iterations × {} multiply-adds in {}",
-        step.iterations,
-        step.macs_per_iteration,
-        step.solver_scalar.name(),
-    );
+    let solver = step.budgeted().unwrap_or_else(|| {
+        format!(
+            "{} iterations × {} multiply-adds in {}",
+            step.iterations,
+            step.macs_per_iteration,
+            step.solver_scalar.name(),
+        )
+    });
     let (cost, period) = match (step.period_cycles, step.load()) {
         (Some(cycles), Some(load)) => (
             format!(

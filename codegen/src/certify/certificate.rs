@@ -65,8 +65,11 @@ pub struct MpcLoop {
 pub struct Resources {
     /// Multiply-adds of one solver iteration.
     pub macs_per_iteration: usize,
-    /// Multiply-adds of one control cycle (filter update and predict, gradient map, every iteration).
+    /// Multiply-adds of one control cycle (filter update and predict, gradient map, the solve).
     pub macs_per_cycle: usize,
+    /// Multiply-adds of one control step's solve as the cost model prices it
+    /// ([`crate::plan::Solver::macs_per_step`]), in the solver's scalar.
+    pub macs_per_solve: usize,
     /// Multiply-adds the solver does once a solve besides its iterations (the interior-point method's
     /// cold start, which every solve computes; ADMM's final residuals), in the solver's scalar.
     pub macs_once_per_solve: usize,
@@ -141,6 +144,12 @@ pub struct Certificate {
     /// Changes of the working set one control step of the dual active-set method makes at most: a warm
     /// solve of `iterations` that runs out, then a cold restart of `cold_iterations`.
     pub cold_iterations: Option<usize>,
+    /// The dual active set's budgets of work, warm solve then cold (`WARM_WORK`, `COLD_WORK`; the cold
+    /// one absent where the exact count caps the cold solve).
+    pub work_budgets: Option<(usize, Option<usize>)>,
+    /// The multiply-adds the cost model prices for a cold solve alone, where a step may hold two
+    /// ([`crate::plan::Solver::macs_per_cold_solve`]): the figure a board's worst cold case is held to.
+    pub cold_solve_macs: Option<usize>,
     /// `[mpc] accuracy`.
     pub accuracy: f64,
     /// The interior-point method's form of its normal system, with the multiply-adds of an iteration in
@@ -365,6 +374,9 @@ impl Certificate {
                 field("exact.lps", "", "", EXACT, "feasibility LPs solved", IfPresent, count(x.map(|x| x.lps))),
                 field("exact.seconds", "", "", EXACT, "time the partition took", Seconds, MaybeReal(x.map(|x| x.seconds))),
                 field("cold_iterations", "COLD_ITERATIONS", "A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).", EXACT, "cap of a cold solve (first, or after a warm one)", IfPresent, count(self.cold_iterations)),
+                field("warm_work", "WARM_WORK", "A warm solve's budget of work: the most a warm-started step of the sample spent plus its margin. Work is the kernel's multiply-adds and scanned rows weighed by their cost on the boards, in tenths of a multiply-add of the factor's loops.", EXACT, "budget of work of a warm solve", IfPresent, count(self.work_budgets.map(|w| w.0))),
+                field("cold_work", "COLD_WORK", "A cold solve's budget of work: the most a cold case of the sample spent plus its margin (absent where the exact count caps the cold solve).", EXACT, "budget of work of a cold solve", IfPresent, count(self.work_budgets.and_then(|w| w.1))),
+                field("cold_solve_macs", "", "", EXACT, "multiply-adds priced for a cold solve (of the factor's loops)", IfPresent, count(self.cold_solve_macs)),
                 field("warm_iterations", "WARM_ITERATIONS", "A warm solve's cap: the most a warm-started step of the sample needed plus its margin, at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.", EXACT, "cap of a warm solve (then a cold restart)", IfPresent, count(self.cold_iterations.map(|_| e.warm_cap()))),
             ];
             fields.splice(at..at, exact);
@@ -702,6 +714,12 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
             qp.iterations
                 .max(qp.evidence.as_ref().map_or(0, |e| e.exact_cold()))
         }),
+        work_budgets: qp
+            .evidence
+            .as_ref()
+            .filter(|_| qp.method == mpc_spec::Method::ActiveSet)
+            .map(|e| (e.warm_work_cap(), e.cold_work_cap())),
+        cold_solve_macs: plan.solver.macs_per_cold_solve(p, plan),
         accuracy: qp.accuracy,
         normal_form: plan.solver.normal_form(qp),
         admm_structure: plan.solver.admm_structure(qp),
@@ -897,7 +915,6 @@ fn emitted_terms(p: &Problem, plan: &Plan, r: &Resources) -> (usize, usize) {
 
 fn resources(p: &Problem, plan: &Plan) -> Resources {
     let num = Numeric(p.scalar);
-    let qp = &p.qp;
     // ADMM's final residuals and infeasibility test; the interior-point method's cold start, which the
     // emitted method computes on every solve (its control flow does not depend on the data).
     let (per_iteration, once_per_solve) = plan.solver.macs(p, plan);
@@ -932,12 +949,11 @@ fn resources(p: &Problem, plan: &Plan) -> Resources {
             layout(&[&[flag, array(p.nu, flag)], &fields.status[..]].concat()),
         ]),
     };
+    let macs_per_solve = plan.solver.macs_per_step(p, plan);
     Resources {
         macs_per_iteration: per_iteration,
-        macs_per_cycle: plan.solver.iterations_per_step(qp) * per_iteration
-            + once_per_solve
-            + gradient_map
-            + macs_filter,
+        macs_per_cycle: macs_per_solve + gradient_map + macs_filter,
+        macs_per_solve,
         macs_once_per_solve: once_per_solve,
         macs_filter,
         bytes_constants: (gradient_map_constants + filter_constants) * size,

@@ -44,12 +44,19 @@ pub struct Evidence {
     pub sequences: usize,
     /// The most iterations a cold case needed.
     pub cold_worst: usize,
-    /// The parameter of the first cold case that needed `cold_worst`, by name (`x0[i]`, `r[i]` for the
+    /// The parameter of the first cold case that spent `cold_work_worst` (for a method that does not
+    /// count work, that needed `cold_worst`), by name (`x0[i]`, `r[i]` for the
     /// constant reference, `u_prev[i]` where the last input is kept, `d[i]`): the state a board replays
     /// to measure the worst cold solve against the bound (`mpcc dump-qp --witness`).
     pub cold_witness: Vec<(String, f64)>,
     /// The median a cold case needed.
     pub cold_median: usize,
+    /// The most work a cold case's solve spent, for a method that counts it (the dual active set's
+    /// [`crate::solver::active_set::Macs::work`]; 0 for the others).
+    pub cold_work_worst: usize,
+    /// The most work a warm-started step's solve spent (the steps after each sequence's first), as
+    /// `cold_work_worst`.
+    pub warm_started_work_worst: usize,
     /// The most iterations a warm step needed.
     pub warm_worst: usize,
     /// The most a step started from the previous step's solution needed: the warm steps after each
@@ -95,6 +102,21 @@ impl Evidence {
     pub fn warm_cap(&self) -> usize {
         let needed = self.warm_started_worst;
         (needed + margin(needed)).min(self.iterations)
+    }
+
+    /// The dual active set's budget of work for a warm solve (`WARM_WORK`): the most a warm-started
+    /// step spent plus its [`margin`].
+    pub fn warm_work_cap(&self) -> usize {
+        let spent = self.warm_started_work_worst;
+        spent + margin(spent)
+    }
+
+    /// The dual active set's budget of work for a cold solve (`COLD_WORK`): the most a cold case spent
+    /// plus its [`margin`]; none where the exact cold count completed (the partition counts changes,
+    /// not work, and the cold cap is its proof).
+    pub fn cold_work_cap(&self) -> Option<usize> {
+        let spent = self.cold_work_worst;
+        (self.exact_cold() == 0).then(|| spent + margin(spent))
     }
 
     /// The exact cold count where the partition completed, else 0: what a cold solve's cap

@@ -171,6 +171,9 @@ pub struct Iterate {
     pub gap: f64,
     /// Whether the method failed here (its plan is then not judged).
     pub failed: bool,
+    /// The work of the solve this iterate belongs to, for a method that counts it (the dual active
+    /// set's [`crate::solver::active_set::Macs::work`], the same on each of a solve's iterates); else 0.
+    pub work: usize,
 }
 
 /// One control step of a sampled method.
@@ -193,6 +196,7 @@ pub fn plain_iterate(z: DVector<f64>) -> Iterate {
         dual: 0.0,
         gap: 0.0,
         failed: false,
+        work: 0,
     }
 }
 
@@ -392,6 +396,9 @@ fn certify_spending<M: Sampled>(
     let mut unresolved_cases = 0;
     let mut cold_runs = Vec::new();
     let mut cold_witness = Vec::new();
+    // The heaviest cold case so far: (work, changes), the work first where the method counts it.
+    let mut heaviest = None;
+    let mut cold_work_worst = 0;
     let cold = method.cold(qp);
     let cold_case = |c: &Case, meter: &Meter| {
         let (f, offset) = data(p, c);
@@ -437,9 +444,12 @@ fn certify_spending<M: Sampled>(
                 continue;
             }
         };
-        if cold_counts.iter().all(|worst| k > *worst) {
+        let work = run.last().map_or(0, |i| i.work);
+        if heaviest.is_none_or(|h| (work, k) > h) {
+            heaviest = Some((work, k));
             cold_witness = c.theta(p);
         }
+        cold_work_worst = cold_work_worst.max(work);
         cold_counts.push(k);
         cold_runs.push((run, exact, offset));
     }
@@ -532,6 +542,8 @@ fn certify_spending<M: Sampled>(
         cold_worst,
         cold_witness,
         cold_median: median(&mut cold_counts),
+        cold_work_worst,
+        warm_started_work_worst: warm.warm_started_work_worst,
         warm_worst: warm.counts.iter().copied().max().unwrap_or(0),
         warm_started_worst: warm.warm_started_worst,
         warm_median: median(&mut warm_counts),
@@ -631,6 +643,8 @@ struct Warm {
     counts: Vec<usize>,
     /// The most any step after its sequence's first (which starts cold) needed: the warm-started need.
     warm_started_worst: usize,
+    /// The most work such a step spent ([`Iterate::work`]).
+    warm_started_work_worst: usize,
     worst_error: f64,
     worst_violation: f64,
     /// Per step, the relative (primal, dual) residuals after each iteration.
@@ -738,6 +752,9 @@ fn warm_sequences<M: Sampled>(
     let mut warm = Warm::default();
     for sequence in in_order(starts, sequence, spent, what)? {
         warm.warm_started_worst = warm.warm_started_worst.max(sequence.warm_started_worst);
+        warm.warm_started_work_worst = warm
+            .warm_started_work_worst
+            .max(sequence.warm_started_work_worst);
         warm.counts.extend(sequence.counts);
         warm.series.extend(sequence.series);
         warm.worst_error = warm.worst_error.max(sequence.worst_error);
@@ -801,6 +818,8 @@ fn warm_sequence<M: Sampled>(
         };
         if !warm.counts.is_empty() {
             warm.warm_started_worst = warm.warm_started_worst.max(k);
+            let work = run.last().map_or(0, |i| i.work);
+            warm.warm_started_work_worst = warm.warm_started_work_worst.max(work);
         }
         warm.counts.push(k);
         warm.series.push(series(&run));

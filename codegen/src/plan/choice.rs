@@ -140,8 +140,9 @@ fn unavailable(method: Method, why: String) -> Candidate {
 
 fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
     let qp = &p.qp;
-    let (macs_per_iteration, once) = plan.solver.macs(p, plan);
+    let (macs_per_iteration, _) = plan.solver.macs(p, plan);
     let iterations = plan.solver.iterations_per_step(qp);
+    let macs_per_solve = plan.solver.macs_per_step(p, plan);
     let (certified, reaches_accuracy) = match (&qp.evidence, spec.mpc.iterations) {
         (Some(e), _) => ("sampled", Some(e.worst_needed <= e.iterations)),
         (None, Iterations::Auto) => ("a priori", None),
@@ -152,8 +153,8 @@ fn candidate(spec: &Spec, p: &Problem, plan: &crate::Plan) -> Candidate {
         unavailable: None,
         iterations,
         macs_per_iteration,
-        macs_per_solve: iterations * macs_per_iteration + once,
-        cycles_per_solve: (iterations * macs_per_iteration + once) as f64
+        macs_per_solve,
+        cycles_per_solve: macs_per_solve as f64
             * plan.solver.cycles_per_mac(
                 super::machine::machine(spec.codegen.target),
                 spec.codegen.scalar,

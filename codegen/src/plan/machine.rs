@@ -43,13 +43,15 @@ pub struct Machine {
     /// Estimated cycles per instruction (the emulated boards count instructions; `plan::target`'s table
     /// says where each figure comes from): 1.5 on the A9, 1 on the M4F (a lower bound), 1 on the host.
     pub cycles_per_instruction: f64,
-    /// Estimated cycles per multiply-add of the dual active-set method's cost model (its worst pass at a
-    /// full working set, `solver::active_set::mpc::macs_per_iteration`, and its once-per-solve part),
-    /// in the scalar it runs in on this machine (f32 on the Cortex-M4F, f64 on the A9; the A9's f32 is
-    /// taken as the same: VFP's single and double instructions count alike and the kernel uses no NEON).
-    /// Set from the boards: the sampled certificate's worst cold case of paper, paper-limits, quadcopter
-    /// and hover replayed by `scripts/witness.sh --board zynq|netduinoplus2`, the largest instructions
-    /// per modelled multiply-add of the four plus 10-11 %, times [`Machine::cycles_per_instruction`].
+    /// Estimated cycles per unit of the dual active-set method's cost model: a multiply-add of its
+    /// factor's loops, a tenth of its work (`solver::active_set::Macs::work`, the multiply-adds and
+    /// scanned rows weighed by their cost), which its budgets of work cap
+    /// (`solver::active_set::method`'s `macs_per_step`), in the scalar it runs in on this machine (f32
+    /// on the Cortex-M4F, f64 on the A9; the A9's f32 is taken as the same: VFP's single and double
+    /// instructions count alike and the kernel uses no NEON). Set from the boards: the sampled
+    /// certificate's heaviest cold case of paper, paper-limits, quadcopter and hover replayed by
+    /// `scripts/witness.sh --board zynq|netduinoplus2`, the largest instructions per unit of the four
+    /// plus 10 %, times [`Machine::cycles_per_instruction`].
     pub cycles_per_mac_active_set: f64,
 }
 
@@ -68,7 +70,10 @@ pub const HOST: Machine = Machine {
     cycles_per_mac_admm: 1.0,
     cycles_per_mac_admm_stages: 1.0,
     cycles_per_instruction: 1.0,
-    cycles_per_mac_active_set: 1.0,
+    // The A9's figure over its interior-point one (42.7 / 10.3), so that `auto` ranks the active set
+    // against the interior-point method on the host as on the A9: its unit, a multiply-add of the
+    // factor's loops, is several instructions more than the others' multiply-adds.
+    cycles_per_mac_active_set: 4.1,
 };
 
 /// The Zynq-7000's Cortex-A9: VFPv3 with 32 double registers (f64 in hardware) and NEON (f32 only). The
@@ -87,9 +92,10 @@ pub const CORTEX_A9: Machine = Machine {
     cycles_per_mac_admm: 6.6,
     cycles_per_mac_admm_stages: 4.8,
     cycles_per_instruction: 1.5,
-    // 5.6 instructions a modelled multiply-add × 1.5: at the witnesses paper-limits 5.06, paper (f32)
-    // 4.33, hover 2.65, quadcopter 2.60 (BENCHMARKS.md, "The worst cold case on the boards").
-    cycles_per_mac_active_set: 8.4,
+    // 28.5 instructions a multiply-add of the factor's loops (a tenth of the work) × 1.5: at the
+    // heaviest cold cases paper-limits 25.9, hover 25.8, quadcopter 25.3, paper (f32) 24.9, plus 10 %
+    // (BENCHMARKS.md, "The worst cold case on the boards").
+    cycles_per_mac_active_set: 42.7,
 };
 
 /// The STM32F405's Cortex-M4F: a single-precision FPU (FPv4-SP), no SIMD for floats (the M4's SIMD is
@@ -106,9 +112,10 @@ pub const CORTEX_M4F: Machine = Machine {
     cycles_per_mac_admm: 4.0,
     cycles_per_mac_admm_stages: 3.0,
     cycles_per_instruction: 1.0,
-    // f32, 6.2 instructions a modelled multiply-add × 1: at the witnesses paper-limits 5.59, paper 5.18,
-    // hover 3.62, quadcopter 2.88 (BENCHMARKS.md, "The worst cold case on the boards").
-    cycles_per_mac_active_set: 6.2,
+    // f32, 32.6 instructions a multiply-add of the factor's loops (a tenth of the work) × 1: at the
+    // heaviest cold cases paper 29.6, paper-limits 28.5, hover 28.0, quadcopter 27.8, plus 10 %
+    // (BENCHMARKS.md, "The worst cold case on the boards").
+    cycles_per_mac_active_set: 32.6,
 };
 
 /// What the compiler knows of `target`.

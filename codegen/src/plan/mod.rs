@@ -146,6 +146,20 @@ pub trait Solver: Debug + Sync {
     /// residuals and infeasibility test, the interior-point method's cold start).
     fn macs(&self, p: &Problem, plan: &Plan) -> (usize, usize);
 
+    /// The multiply-adds the cost model prices for one control step's solve: its
+    /// [`Solver::iterations_per_step`] at [`Solver::macs`]' per iteration, and the once-per-solve part
+    /// (the dual active set prices its budgets of work instead).
+    fn macs_per_step(&self, p: &Problem, plan: &Plan) -> usize {
+        let (per_iteration, once) = self.macs(p, plan);
+        self.iterations_per_step(&p.qp) * per_iteration + once
+    }
+
+    /// The part of [`Solver::macs_per_step`] a cold solve alone may spend, for a method whose step
+    /// may hold two solves (the dual active set's warm solve and its cold restart); else `None`.
+    fn macs_per_cold_solve(&self, _p: &Problem, _plan: &Plan) -> Option<usize> {
+        None
+    }
+
     /// Why `method = "auto"` does not weigh it for `spec`, given whether an earlier candidate can be used;
     /// `None`: it is weighed.
     fn not_weighed(&self, spec: &Spec, earlier_usable: bool) -> Option<String>;

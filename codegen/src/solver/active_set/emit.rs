@@ -233,10 +233,35 @@ fn constants(m: &Method) -> TokenStream {
     let cold = lit(caps.cold);
     let warm = lit(caps.warm);
     let warm_doc = format!(
-        " Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed ({}) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = {} changes, which `report::MACS_PER_CYCLE` and the build's period check price.",
+        " Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed ({}) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = {} changes (and spends at most what [`WARM_WORK`] and [`COLD_WORK`] allow).",
         qp.evidence.as_ref().map_or(0, |e| e.warm_started_worst),
         caps.per_step()
     );
+    let budget = |work: usize| {
+        if work == super::UNLIMITED_WORK {
+            quote!(usize::MAX)
+        } else {
+            let work = lit(work);
+            quote!(#work)
+        }
+    };
+    let (warm_work, cold_work) = (budget(caps.warm_work), budget(caps.cold_work));
+    let evidence = qp.evidence.as_ref();
+    let warm_work_doc = match evidence {
+        Some(e) => format!(
+            " The work a warm solve may spend before it stops changing the working set (then restarts cold): the most a warm-started step of the sample spent ({}) plus its margin. Work is the kernel's multiply-adds and scanned rows weighed by their cost on the boards, in tenths of a multiply-add of the factor's loops (`WORK_MULTIPLY_ADD`); `report::MACS_PER_CYCLE` and the build's period check price the budgets, which make the bound hold on every path.",
+            e.warm_started_work_worst
+        ),
+        None => " The work a warm solve may spend: no budget without a sampled certificate.".to_string(),
+    };
+    let cold_work_doc = match evidence {
+        Some(e) if caps.cold_work != super::UNLIMITED_WORK => format!(
+            " The work a cold solve may spend before it stops changing the working set and falls back: the most a cold case of the sample spent ({}) plus its margin (see [`WARM_WORK`]).",
+            e.cold_work_worst
+        ),
+        Some(_) => " The work a cold solve may spend: no budget, the exact cold count caps its changes ([`COLD_ITERATIONS`]).".to_string(),
+        None => " The work a cold solve may spend: no budget without a sampled certificate.".to_string(),
+    };
     let exact = qp.evidence.as_ref().and_then(|e| e.exact.as_ref());
     let cold_doc = match exact {
         Some(x) if x.complete => format!(
@@ -253,6 +278,10 @@ fn constants(m: &Method) -> TokenStream {
         pub const COLD_ITERATIONS: usize = #cold;
         #[doc = #warm_doc]
         pub const WARM_ITERATIONS: usize = #warm;
+        #[doc = #cold_work_doc]
+        pub const COLD_WORK: usize = #cold_work;
+        #[doc = #warm_work_doc]
+        pub const WARM_WORK: usize = #warm_work;
         /// Entries of the plan, N·NU.
         pub const NP: usize = #plan_steps * NU;
         /// The QP's unknowns z: the plan, then one slack per soft constraint component.
@@ -293,7 +322,7 @@ fn api(m: &Method, reach_code: &TokenStream, coordinate_code: &TokenStream) -> T
     let blocks = m.prepared.blocks.len();
     let real_name = m.num.numeric().name();
     let doc = format!(
-        " Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and\n Idnani's, as DAQP) on the condensed QP in {real_name}, in {blocks} independent block(s), with the Cholesky\n factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve\n starts from the previous working set and stops at the optimum or after [`WARM_ITERATIONS`] changes,\n then restarts cold with at most [`COLD_ITERATIONS`]; a solve that does not reach the optimum\n falls back to the held plan ([`Fallback::WarmStart`])."
+        " Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and\n Idnani's, as DAQP) on the condensed QP in {real_name}, in {blocks} independent block(s), with the Cholesky\n factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve\n starts from the previous working set and stops at the optimum or after [`WARM_ITERATIONS`] changes\n or [`WARM_WORK`] work, then restarts cold with at most [`COLD_ITERATIONS`] and [`COLD_WORK`]; a solve that does not reach the optimum\n falls back to the held plan ([`Fallback::WarmStart`])."
     );
     let doc: Vec<&str> = doc.split('\n').collect();
     let entry = entry(m.p);
@@ -558,17 +587,18 @@ fn checked(
             #zero_rows
             let mut work = self.work.work();
             #empty_check {
-                let cap = if warm { WARM_ITERATIONS } else { COLD_ITERATIONS };
+                let (cap, budget) =
+                    if warm { (WARM_ITERATIONS, WARM_WORK) } else { (COLD_ITERATIONS, COLD_WORK) };
                 let (ended, iterations) = solve(
                     &BLOCKS, f, lower, upper, &mut work, &mut self.warm_set, &mut self.warm_len, cap,
-                    &TOLERANCES, &mut Tally, z, |_, _, _, _| {},
+                    &TOLERANCES, &mut Tally::new(budget), z, |_, _, _, _| {},
                 );
                 // A warm solve that ran out (or cycled) restarts cold: its count is certified.
                 if warm & ((ended == Ended::IterationLimit) | (ended == Ended::Cycling)) {
                     self.warm_len = [0; NBLOCKS];
                     let (ended, cold) = solve(
                         &BLOCKS, f, lower, upper, &mut work, &mut self.warm_set, &mut self.warm_len,
-                        COLD_ITERATIONS, &TOLERANCES, &mut Tally, z, |_, _, _, _| {},
+                        COLD_ITERATIONS, &TOLERANCES, &mut Tally::new(COLD_WORK), z, |_, _, _, _| {},
                     );
                     (ended, iterations + cold)
                 } else {
@@ -716,24 +746,57 @@ fn kernels(m: &Method) -> TokenStream {
             (hard, soft)
         }
 
-        /// The reference's count of multiply-adds, which the controller does not keep.
-        struct Tally;
+        /// A solve's work against its budget ([`WARM_WORK`], [`COLD_WORK`]): the kernel's multiply-adds
+        /// and scanned rows, weighed as the build's reference weighs them.
+        struct Tally {
+            spent: usize,
+            budget: usize,
+        }
 
         impl Tally {
+            fn new(budget: usize) -> Self {
+                Tally { spent: 0, budget }
+            }
             #[inline(always)]
-            fn offsets(&mut self, _: usize) {}
+            fn add(&mut self, n: usize, weight: usize) {
+                self.spent = self.spent.saturating_add(n.saturating_mul(weight));
+            }
             #[inline(always)]
-            fn scan(&mut self, _: usize) {}
+            fn offsets(&mut self, n: usize) {
+                self.add(n, WORK_SWEEP);
+            }
             #[inline(always)]
-            fn factor(&mut self, _: usize) {}
+            fn scan(&mut self, n: usize) {
+                self.add(n, WORK_SCAN);
+            }
             #[inline(always)]
-            fn solve(&mut self, _: usize) {}
+            fn factor(&mut self, n: usize) {
+                self.add(n, WORK_MULTIPLY_ADD);
+            }
             #[inline(always)]
-            fn step(&mut self, _: usize) {}
+            fn solve(&mut self, n: usize) {
+                self.add(n, WORK_MULTIPLY_ADD);
+            }
             #[inline(always)]
-            fn recover(&mut self, _: usize) {}
+            fn step(&mut self, n: usize) {
+                self.add(n, WORK_MULTIPLY_ADD);
+            }
             #[inline(always)]
-            fn pass(&mut self) {}
+            fn recover(&mut self, n: usize) {
+                self.add(n, WORK_SWEEP);
+            }
+            #[inline(always)]
+            fn rows(&mut self, n: usize) {
+                self.add(n, WORK_ROW);
+            }
+            #[inline(always)]
+            fn pass(&mut self) {
+                self.add(1, WORK_PASS);
+            }
+            #[inline(always)]
+            fn exhausted(&self) -> bool {
+                self.spent > self.budget
+            }
         }
 
         #kernel

@@ -1,7 +1,9 @@
 //! The dual active-set method behind [`Solver`].
 #![allow(non_snake_case)]
 
-use super::mpc::{control_step, macs_f32_checks, macs_once, macs_per_iteration, prepare, Caps};
+use super::mpc::{
+    control_step, macs_f32_checks, macs_once, macs_per_iteration, prepare, Caps, SolveWork,
+};
 use crate::certify::evidence::{Evidence, Exact};
 use crate::certify::sampling;
 use crate::emit::sections::Sections;
@@ -13,6 +15,25 @@ use crate::solver::stepping::{StepData, Stepping};
 use mpc_spec::{Certificate, Diagnostic, Diagnostics, Method, Scalar, Spec};
 use nalgebra::DVector;
 use std::sync::Arc;
+
+/// `work(caps, solve)` of `p`'s [`Caps`] and [`SolveWork`], in multiply-adds of the factor's loops
+/// (the work's tenths over ten).
+fn priced(p: &Problem, work: impl Fn(Caps, SolveWork) -> usize) -> usize {
+    use super::kernel64::WORK_MULTIPLY_ADD;
+    prepare(&p.qp).map_or(0, |prepared| {
+        work(Caps::of(&p.qp), SolveWork::of(&prepared, p.scalar)).div_ceil(WORK_MULTIPLY_ADD)
+    })
+}
+
+/// Multiply-adds once per solve: the offsets and the recovery of z, and in f32 the primal refinement,
+/// the check on z and its restart.
+fn once_per_solve(p: &Problem, prepared: &super::Prepared) -> usize {
+    let checks = match p.scalar {
+        Scalar::F32 => macs_f32_checks(prepared),
+        Scalar::F64 => 0,
+    };
+    macs_once(prepared) + checks
+}
 
 /// The exact count `x` against the sample's cold cases, which draw the same parameters (x₀ in the
 /// region, a constant reference, u₋₁ and d in their boxes): in f64, a cold case needing more than the
@@ -50,17 +71,21 @@ impl Solver for ActiveSet {
         super::TITLE
     }
 
-    /// The machine's figure, measured on the emulated boards at the certificates' worst cold cases
-    /// ([`Machine::cycles_per_mac_active_set`]); in f64 without f64 hardware scaled by the soft-float
-    /// ratio (such a spec is not weighed by `auto`, [`Solver::not_weighed`]).
+    /// The machine's figure, measured on the emulated boards at the certificates' heaviest cold cases
+    /// ([`Machine::cycles_per_mac_active_set`], per multiply-add of the factor's loops: a tenth of the
+    /// work). In f64 without f64 hardware, plus what software floating point adds to one multiply-add:
+    /// a tenth of the work holds at most one (the scan's column update weighs one tenth; the factor's
+    /// multiply-add ten, a scanned row with its handful of float operations 45), the rest of its
+    /// instructions being integer work. Not measured on a board: such a spec is not weighed by `auto`
+    /// ([`Solver::not_weighed`]).
     fn cycles_per_mac(&self, machine: &Machine, scalar: Scalar, _qp: &Qp) -> f64 {
         let soft_float = match scalar {
             Scalar::F64 if !machine.f64_in_hardware => {
-                machine.cycles_per_mac_f64 / machine.cycles_per_mac_f32
+                machine.cycles_per_mac_f64 - machine.cycles_per_mac_f32
             }
-            _ => 1.0,
+            _ => 0.0,
         };
-        machine.cycles_per_mac_active_set * soft_float
+        machine.cycles_per_mac_active_set + soft_float
     }
 
     /// A warm solve that runs out restarts cold: `WARM_ITERATIONS + COLD_ITERATIONS`.
@@ -73,12 +98,20 @@ impl Solver for ActiveSet {
     /// primal refinement, the check on z and its restart).
     fn macs(&self, p: &Problem, _plan: &Plan) -> (usize, usize) {
         prepare(&p.qp).map_or((0, 0), |prepared| {
-            let checks = match p.scalar {
-                Scalar::F32 => macs_f32_checks(&prepared),
-                Scalar::F64 => 0,
-            };
-            (macs_per_iteration(&prepared), macs_once(&prepared) + checks)
+            (macs_per_iteration(&prepared), once_per_solve(p, &prepared))
         })
+    }
+
+    /// The step's work ([`Caps::work_per_step`]: per solve the lesser of its budget of work plus a pass
+    /// and its changes at the worst pass, and the work after the budget's last test), in multiply-adds
+    /// of the factor's loops (the work's tenths over ten).
+    fn macs_per_step(&self, p: &Problem, _plan: &Plan) -> usize {
+        priced(p, |caps, solve| caps.work_per_step(solve))
+    }
+
+    /// The cold solve's part of [`Solver::macs_per_step`].
+    fn macs_per_cold_solve(&self, p: &Problem, _plan: &Plan) -> Option<usize> {
+        Some(priced(p, |caps, solve| caps.work_per_cold_solve(solve)))
     }
 
     /// In f64 without f64 hardware it would run in software floating point.

@@ -272,6 +272,10 @@ pub struct Macs {
     pub step: usize,
     /// z = z_free − Z_W·λ.
     pub recover: usize,
+    /// Rows visited by the scans (each row's slack cleared and its sides compared): not multiply-adds.
+    pub rows: usize,
+    /// Passes of the iteration: not multiply-adds.
+    pub passes: usize,
 }
 
 impl Macs {
@@ -279,18 +283,47 @@ impl Macs {
     pub fn total(&self) -> usize {
         self.offsets + self.scan + self.factor + self.solve + self.step + self.recover
     }
+
+    /// The kernel's work, which a solve's budget caps: the multiply-adds and rows weighted by what each
+    /// costs on the boards, in tenths of a multiply-add of the factor's loops (`kernel.rs`,
+    /// `WORK_MULTIPLY_ADD`).
+    pub fn work(&self) -> usize {
+        use kernel64::{WORK_MULTIPLY_ADD, WORK_PASS, WORK_ROW, WORK_SCAN, WORK_SWEEP};
+        (self.factor + self.solve + self.step) * WORK_MULTIPLY_ADD
+            + (self.offsets + self.recover) * WORK_SWEEP
+            + self.scan * WORK_SCAN
+            + self.rows * WORK_ROW
+            + self.passes * WORK_PASS
+    }
 }
+
+/// A solve's budget of work ([`Macs::work`]) without a cap.
+pub const UNLIMITED_WORK: usize = usize::MAX;
 
 /// The kernel's counter of multiply-adds (the emitted module's counts nothing): by kind, and per pass
 /// of the iteration.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub(crate) struct Tally {
     macs: Macs,
     per_pass: Vec<usize>,
     mark: usize,
+    budget: usize,
 }
 
 impl Tally {
+    /// A tally whose solve stops changing the working set once its work exceeds `budget`.
+    fn with_budget(budget: usize) -> Tally {
+        Tally {
+            macs: Macs::default(),
+            per_pass: Vec::new(),
+            mark: 0,
+            budget,
+        }
+    }
+    /// Whether the work so far exceeds the budget: the kernel then makes no more changes.
+    fn exhausted(&self) -> bool {
+        self.macs.work() > self.budget
+    }
     fn offsets(&mut self, n: usize) {
         self.macs.offsets += n;
     }
@@ -309,8 +342,12 @@ impl Tally {
     fn recover(&mut self, n: usize) {
         self.macs.recover += n;
     }
+    fn rows(&mut self, n: usize) {
+        self.macs.rows += n;
+    }
     /// Ends a pass of the iteration: its multiply-adds since the last (offsets and recovery apart).
     fn pass(&mut self) {
+        self.macs.passes += 1;
         let total = self.macs.scan + self.macs.factor + self.macs.solve + self.macs.step;
         if total > self.mark {
             self.per_pass.push(total - self.mark);
@@ -512,6 +549,27 @@ pub fn solve_in(
     tol: &Tolerances,
     scalar: Scalar,
 ) -> Outcome {
+    solve_within(
+        prepared,
+        offsets,
+        start,
+        (max_iterations, UNLIMITED_WORK),
+        tol,
+        scalar,
+    )
+}
+
+/// [`solve_in`] with a budget of work besides the changes, `(max_iterations, budget)`: no change of
+/// the working set is made once the solve's work ([`Macs::work`]) exceeds `budget`, and the solve
+/// then ends [`Status::IterationLimit`] as it does when the changes run out.
+pub fn solve_within(
+    prepared: &Prepared,
+    offsets: &Offsets,
+    start: Option<&WorkingSet>,
+    (max_iterations, budget): (usize, usize),
+    tol: &Tolerances,
+    scalar: Scalar,
+) -> Outcome {
     let nblocks = prepared.blocks.len();
     let (n, m) = (prepared.n, prepared.m);
     let mut outcome = Outcome {
@@ -554,7 +612,7 @@ pub fn solve_in(
             }
         }
     }
-    let mut tally = Tally::default();
+    let mut tally = Tally::with_budget(budget);
     let (ended, iterations, z) = match scalar {
         Scalar::F64 => kernel_solve!(
             kernel64,

@@ -3,11 +3,15 @@
 //!
 //! A step solves the QP of [`mpc_qp`] (relaxed where the controller is recovering, as the other
 //! constrained methods do) from the previous step's working set, with at most [`Caps::warm`] changes
-//! of the working set (the sample's warm-started need plus its margin). A warm solve that runs out of
-//! changes (or cycles) restarts cold in the same step with at most [`Caps::cold`]: the sampled count,
-//! or the exact cold count where the certificate is exact and larger ([`Caps::of`]), so that within
-//! the region, for a constant reference window, a step ends at the optimum after at most
-//! `warm + cold` changes, which the build prices ([`Caps::per_step`]). A solve that still ends anywhere but at the optimum
+//! of the working set (the sample's warm-started need plus its margin) and [`Caps::warm_work`] work
+//! (the kernel's multiply-adds and scanned rows weighed by their cost on the boards,
+//! [`super::Macs::work`]: the sample's warm-started most plus its margin). A warm solve that runs out
+//! (or cycles) restarts cold in the same step with at most [`Caps::cold`] changes, the sampled count
+//! or the exact cold count where the certificate is exact and larger ([`Caps::of`]), and
+//! [`Caps::cold_work`]. Within the region, for a constant reference window, a step ends at the
+//! optimum after at most `warm + cold` changes; the build prices the work the budgets allow
+//! ([`Caps::work_per_step`]), which follows a path's own cost where the changes at the worst pass
+//! would price every change at a full working set. A solve that still ends anywhere but at the optimum
 //! falls back: a truncated dual iterate is not primal feasible, so its plan is not used; the plan is the
 //! previous one shifted by one step with the rest input appended, projected onto the box
 //! ([`held_plan`]), and the next solve starts cold. The warm start is the previous working set as it was, not shifted in time: on the shipped
@@ -15,7 +19,9 @@
 //! prints both).
 #![allow(non_snake_case)]
 
-use super::{solve_in, Outcome, Prepared, Status as Ended, Tolerances, WorkingSet};
+use super::{
+    solve_within, Outcome, Prepared, Status as Ended, Tolerances, WorkingSet, UNLIMITED_WORK,
+};
 use crate::lower::problem::Qp;
 use crate::solver::constrained::Fallback;
 use crate::solver::ipm::{held_plan, mpc_qp, relaxed, violations};
@@ -35,7 +41,8 @@ pub fn prepare(qp: &Qp) -> Option<Prepared> {
     Some(prepared)
 }
 
-/// The changes of the working set a control step may make.
+/// The changes of the working set a control step may make, and the work ([`super::Macs::work`]) each
+/// solve may spend.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Caps {
     /// A solve from the previous working set (`WARM_ITERATIONS`): the most a warm-started step of the
@@ -46,27 +53,40 @@ pub struct Caps {
     /// A cold solve, first or after a warm one ran out (`COLD_ITERATIONS`): the certified count
     /// (`ITERATIONS`), or the exact cold count where the certificate has one and it is larger.
     pub cold: usize,
+    /// The warm solve's budget of work (`WARM_WORK`): the most a warm-started step of the sample spent
+    /// plus its margin (`Evidence::warm_work_cap`); [`UNLIMITED_WORK`] without a sample.
+    pub warm_work: usize,
+    /// The cold solve's budget of work (`COLD_WORK`): the most a cold case of the sample spent plus
+    /// its margin (`Evidence::cold_work_cap`); [`UNLIMITED_WORK`] without a sample, or where the exact
+    /// cold count sets the cold cap (the partition counts changes, not work).
+    pub cold_work: usize,
 }
 
 impl Caps {
     /// The caps of `qp` as certified: cold the larger of `qp.iterations` and the exact count where the
     /// partition completed; warm the sample's warm-started need plus its margin, at most
-    /// `qp.iterations` (`qp.iterations` without a sample).
+    /// `qp.iterations` (`qp.iterations` without a sample); the budgets of work the sample's.
     pub fn of(qp: &Qp) -> Caps {
         let e = qp.evidence.as_ref();
         let exact = e.map_or(0, |e| e.exact_cold());
+        let cold = qp.iterations.max(exact);
         Caps {
             warm: e.map_or(qp.iterations, |e| e.warm_cap()).min(qp.iterations),
-            cold: qp.iterations.max(exact),
+            cold,
+            warm_work: e.map_or(UNLIMITED_WORK, |e| e.warm_work_cap()),
+            cold_work: e.and_then(|e| e.cold_work_cap()).unwrap_or(UNLIMITED_WORK),
         }
     }
 
-    /// `warm` changes warm, and cold the larger of `warm` and `exact` (the sample runs its warm steps
-    /// so: their needs, not these caps, set the count and `WARM_ITERATIONS`).
+    /// `warm` changes warm, and cold the larger of `warm` and `exact`, without budgets of work (the
+    /// sample runs its warm steps so: their needs, not these caps, set the count, `WARM_ITERATIONS` and
+    /// the budgets).
     pub fn with(warm: usize, exact: usize) -> Caps {
         Caps {
             warm,
             cold: warm.max(exact),
+            warm_work: UNLIMITED_WORK,
+            cold_work: UNLIMITED_WORK,
         }
     }
 
@@ -74,6 +94,55 @@ impl Caps {
     /// the cold restart.
     pub fn per_step(&self) -> usize {
         self.warm + self.cold
+    }
+
+    /// The most work one control step spends ([`super::Macs::work`]): a warm solve, then the cold
+    /// restart, each [`SolveWork::at_most`] its caps.
+    pub fn work_per_step(&self, solve: SolveWork) -> usize {
+        let warm = solve.at_most(self.warm, self.warm_work);
+        warm.saturating_add(self.work_per_cold_solve(solve))
+    }
+
+    /// The most work a cold solve spends: [`Caps::work_per_step`]'s cold part.
+    pub fn work_per_cold_solve(&self, solve: SolveWork) -> usize {
+        solve.at_most(self.cold, self.cold_work)
+    }
+}
+
+/// What a solve's work is bounded from ([`super::Macs::work`]).
+#[derive(Clone, Copy, Debug)]
+pub struct SolveWork {
+    /// The worst pass of the iteration ([`work_per_pass`]).
+    pub pass: usize,
+    /// The offsets, before the first change ([`macs_once`]'s first part).
+    pub before: usize,
+    /// After the budget's last test: the recovery of z and in f32 the checks on it
+    /// ([`work_after_budget`]).
+    pub after: usize,
+}
+
+impl SolveWork {
+    /// The work of the prepared QP's solves in `scalar`.
+    pub fn of(prepared: &Prepared, scalar: mpc_spec::Scalar) -> SolveWork {
+        use super::kernel64::WORK_SWEEP;
+        SolveWork {
+            pass: work_per_pass(prepared),
+            before: (macs_once(prepared) - macs_recovery(prepared)) * WORK_SWEEP,
+            after: work_after_budget(prepared, scalar),
+        }
+    }
+
+    /// The most work a solve of at most `changes` changes and `budget` work spends: the lesser of
+    /// its budget plus the pass that may start just under it and the offsets and `changes` passes,
+    /// then what follows the last test.
+    pub fn at_most(&self, changes: usize, budget: usize) -> usize {
+        let passes = changes
+            .saturating_mul(self.pass)
+            .saturating_add(self.before);
+        budget
+            .saturating_add(self.pass)
+            .min(passes)
+            .saturating_add(self.after)
     }
 }
 
@@ -129,16 +198,17 @@ pub fn control_step(
     let tolerances = Tolerances::of(scalar);
     let outcome = match prepared.offsets(&problem) {
         Ok(offsets) => {
-            let run = |start, cap| solve_in(prepared, &offsets, start, cap, &tolerances, scalar);
+            let run =
+                |start, cap| solve_within(prepared, &offsets, start, cap, &tolerances, scalar);
             let cap = if start.is_some() {
-                caps.warm
+                (caps.warm, caps.warm_work)
             } else {
-                caps.cold
+                (caps.cold, caps.cold_work)
             };
             let first = run(start, cap);
             let ran_out = matches!(first.status, Ended::IterationLimit | Ended::Cycling);
             if start.is_some() && ran_out {
-                let mut restart = run(None, caps.cold);
+                let mut restart = run(None, (caps.cold, caps.cold_work));
                 restart.iterations += first.iterations;
                 for (b, k) in restart
                     .block_iterations
@@ -191,19 +261,55 @@ fn failed(n: usize) -> Outcome {
     }
 }
 
-/// Multiply-adds of the worst pass of the iteration (one change of the working set) over the blocks:
-/// a scan of every constraint against a full working set, an addition to the factor, a removal, the
-/// solve with the factor and the step.
+/// The worst pass of a block's iteration (one change of the working set, at a full working set of
+/// n + 1): the scan's multiply-adds (a column of G per working entry), the rows it visits, and the
+/// multiply-adds of an addition to the factor, a removal, the solve with the factor and the step.
+fn worst_pass(b: &super::Block) -> (usize, usize, usize) {
+    let (n, nc) = (b.n() + 1, b.rows.len());
+    (
+        nc * n,
+        nc,
+        n * n / 2 + 2 * n + n * n + 5 * n + n * n + 2 * n,
+    )
+}
+
+/// Multiply-adds of the worst pass of the iteration over the blocks (`worst_pass`).
 pub fn macs_per_iteration(prepared: &Prepared) -> usize {
     prepared
         .blocks
         .iter()
         .map(|b| {
-            let (n, nc) = (b.n() + 1, b.rows.len());
-            nc * n + n * n / 2 + 2 * n + n * n + 5 * n + n * n + 2 * n
+            let (scan, _, factor) = worst_pass(b);
+            scan + factor
         })
         .max()
         .unwrap_or(0)
+}
+
+/// The work ([`super::Macs::work`]) of the worst pass over the blocks (`worst_pass`), two ends of a
+/// pass counted (a change and the test after it).
+pub fn work_per_pass(prepared: &Prepared) -> usize {
+    use super::kernel64::{WORK_MULTIPLY_ADD, WORK_PASS, WORK_ROW, WORK_SCAN};
+    prepared
+        .blocks
+        .iter()
+        .map(|b| {
+            let (scan, rows, factor) = worst_pass(b);
+            scan * WORK_SCAN + rows * WORK_ROW + factor * WORK_MULTIPLY_ADD + 2 * WORK_PASS
+        })
+        .max()
+        .unwrap_or(0)
+}
+
+/// The work a solve may spend after its last test of the budget: the recovery of z, and in f32 the
+/// primal refinement, the check on z and its restart ([`macs_f32_checks`], weighed as the factor's).
+pub fn work_after_budget(prepared: &Prepared, scalar: mpc_spec::Scalar) -> usize {
+    use super::kernel64::{WORK_MULTIPLY_ADD, WORK_SWEEP};
+    let checks = match scalar {
+        mpc_spec::Scalar::F32 => macs_f32_checks(prepared),
+        mpc_spec::Scalar::F64 => 0,
+    };
+    macs_recovery(prepared) * WORK_SWEEP + checks * WORK_MULTIPLY_ADD
 }
 
 /// Multiply-adds the f32 kernel adds once per solve in a block with slacks ([`prepare`]): the primal
@@ -244,15 +350,26 @@ pub fn macs_once(prepared: &Prepared) -> usize {
         .iter()
         .map(|b| {
             let n = b.n();
-            let offsets = n * (n + 1) + b.coefficients.iter().map(|c| c.len() + 2).sum::<usize>();
-            let recovery = if b.packed.z_cols.is_empty() {
+            n * (n + 1) + b.coefficients.iter().map(|c| c.len() + 2).sum::<usize>()
+        })
+        .sum::<usize>()
+        + macs_recovery(prepared)
+}
+
+/// Multiply-adds of the recovery of z, [`macs_once`]'s second part.
+pub fn macs_recovery(prepared: &Prepared) -> usize {
+    prepared
+        .blocks
+        .iter()
+        .map(|b| {
+            let n = b.n();
+            if b.packed.z_cols.is_empty() {
                 let mut lengths: Vec<usize> = b.coefficients.iter().map(Vec::len).collect();
                 lengths.sort_unstable_by(|x, y| y.cmp(x));
                 lengths.iter().take(n + 1).sum::<usize>() + n * (n + 1)
             } else {
                 n * (n + 1)
-            };
-            offsets + recovery
+            }
         })
         .sum()
 }

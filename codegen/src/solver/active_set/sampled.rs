@@ -78,13 +78,15 @@ impl Sampled for ActiveSet {
         } else {
             iterations + 1
         };
+        let work = out.macs.work();
         (0..=iterations)
             .map(|k| {
-                if k < reached {
+                let iterate = if k < reached {
                     failed()
                 } else {
                     plain_iterate(out.z.clone())
-                }
+                };
+                Iterate { work, ..iterate }
             })
             .collect()
     }

@@ -60,6 +60,7 @@ fn admm_iterate(r: &crate::solver::admm::AdmmResult) -> Iterate {
         dual: r.dual_residual,
         gap: r.gap,
         failed: r.status == crate::solver::admm::Status::NumericalFailure,
+        work: 0,
     }
 }
 

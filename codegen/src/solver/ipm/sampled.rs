@@ -85,5 +85,6 @@ fn interior_iterate(r: &IpmResult) -> Iterate {
         dual: r.dual_residual,
         gap: r.relative_gap,
         failed: r.status == Status::NumericalFailure,
+        work: 0,
     }
 }
