@@ -895,3 +895,31 @@ fn the_sampled_witness_is_the_heaviest_cold_case() {
     assert_eq!(starved.status, Status::IterationLimit);
     assert!(starved.iterations < out.iterations);
 }
+
+/// The kinds of work the kernel counts are the table's, so that the emitted `Tally` (written from
+/// `WORK_KINDS`) weighs every call the kernel makes, as the build's `Macs::work` does.
+#[test]
+fn every_kind_of_work_the_kernel_counts_is_weighed() {
+    use codegen::solver::active_set::{KERNEL_SOURCE, WORK_KINDS};
+    let mut called = std::collections::BTreeSet::new();
+    for (i, _) in KERNEL_SOURCE.match_indices("tally.") {
+        let name: String = KERNEL_SOURCE[i + "tally.".len()..]
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        if name != "exhausted" {
+            called.insert(name);
+        }
+    }
+    let weighed: std::collections::BTreeSet<String> = WORK_KINDS
+        .iter()
+        .map(|(kind, _, _)| kind.to_string())
+        .collect();
+    assert_eq!(called, weighed);
+    for (kind, constant, weight) in WORK_KINDS {
+        assert!(
+            KERNEL_SOURCE.contains(&format!("const {constant}: usize = {weight};")),
+            "{kind}: {constant} = {weight}"
+        );
+    }
+}

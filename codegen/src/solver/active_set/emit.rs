@@ -651,6 +651,28 @@ fn kernels(m: &Method) -> TokenStream {
         .replace("pub(super) ", "")
         .parse()
         .unwrap_or_default();
+    // The tally's methods, one per kind of work, each adding its weight (`WORK_KINDS`).
+    let tally_kinds = super::WORK_KINDS.iter().map(|(kind, weight, _)| {
+        let (kind, weight) = (
+            Ident::new(kind, Span::call_site()),
+            Ident::new(weight, Span::call_site()),
+        );
+        if kind == "pass" {
+            quote! {
+                #[inline(always)]
+                fn #kind(&mut self) {
+                    self.add(1, #weight);
+                }
+            }
+        } else {
+            quote! {
+                #[inline(always)]
+                fn #kind(&mut self, n: usize) {
+                    self.add(n, #weight);
+                }
+            }
+        }
+    });
     quote! {
         /// The rest plan: U_REST at every step.
         const fn rest_plan() -> [Real; NP] {
@@ -761,38 +783,7 @@ fn kernels(m: &Method) -> TokenStream {
             fn add(&mut self, n: usize, weight: usize) {
                 self.spent = self.spent.saturating_add(n.saturating_mul(weight));
             }
-            #[inline(always)]
-            fn offsets(&mut self, n: usize) {
-                self.add(n, WORK_SWEEP);
-            }
-            #[inline(always)]
-            fn scan(&mut self, n: usize) {
-                self.add(n, WORK_SCAN);
-            }
-            #[inline(always)]
-            fn factor(&mut self, n: usize) {
-                self.add(n, WORK_MULTIPLY_ADD);
-            }
-            #[inline(always)]
-            fn solve(&mut self, n: usize) {
-                self.add(n, WORK_MULTIPLY_ADD);
-            }
-            #[inline(always)]
-            fn step(&mut self, n: usize) {
-                self.add(n, WORK_MULTIPLY_ADD);
-            }
-            #[inline(always)]
-            fn recover(&mut self, n: usize) {
-                self.add(n, WORK_SWEEP);
-            }
-            #[inline(always)]
-            fn rows(&mut self, n: usize) {
-                self.add(n, WORK_ROW);
-            }
-            #[inline(always)]
-            fn pass(&mut self) {
-                self.add(1, WORK_PASS);
-            }
+            #(#tally_kinds)*
             #[inline(always)]
             fn exhausted(&self) -> bool {
                 self.spent > self.budget

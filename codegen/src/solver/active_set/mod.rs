@@ -285,17 +285,47 @@ impl Macs {
     }
 
     /// The kernel's work, which a solve's budget caps: the multiply-adds and rows weighted by what each
-    /// costs on the boards, in tenths of a multiply-add of the factor's loops (`kernel.rs`,
-    /// `WORK_MULTIPLY_ADD`).
+    /// costs on the boards ([`WORK_KINDS`]), in tenths of a multiply-add of the factor's loops.
     pub fn work(&self) -> usize {
-        use kernel64::{WORK_MULTIPLY_ADD, WORK_PASS, WORK_ROW, WORK_SCAN, WORK_SWEEP};
-        (self.factor + self.solve + self.step) * WORK_MULTIPLY_ADD
-            + (self.offsets + self.recover) * WORK_SWEEP
-            + self.scan * WORK_SCAN
-            + self.rows * WORK_ROW
-            + self.passes * WORK_PASS
+        WORK_KINDS
+            .iter()
+            .map(|(kind, _, weight)| self.of_kind(kind) * weight)
+            .sum()
+    }
+
+    /// The count of one kind of [`WORK_KINDS`].
+    fn of_kind(&self, kind: &str) -> usize {
+        match kind {
+            "offsets" => self.offsets,
+            "scan" => self.scan,
+            "factor" => self.factor,
+            "solve" => self.solve,
+            "step" => self.step,
+            "recover" => self.recover,
+            "rows" => self.rows,
+            "pass" => self.passes,
+            _ => 0,
+        }
     }
 }
+
+/// Each kind of the kernel's work, as `kernel.rs` counts it (`tally.<kind>(n)`; `tally.pass()` one at a
+/// time), with the constant of `kernel.rs` that weighs it and its value: [`Macs::work`] sums over this
+/// table, and the emitted module's `Tally` is written from it, so that the budget the controller
+/// enforces is the work the build sampled.
+pub const WORK_KINDS: [(&str, &str, usize); 8] = {
+    use kernel64::{WORK_MULTIPLY_ADD, WORK_PASS, WORK_ROW, WORK_SCAN, WORK_SWEEP};
+    [
+        ("offsets", "WORK_SWEEP", WORK_SWEEP),
+        ("scan", "WORK_SCAN", WORK_SCAN),
+        ("factor", "WORK_MULTIPLY_ADD", WORK_MULTIPLY_ADD),
+        ("solve", "WORK_MULTIPLY_ADD", WORK_MULTIPLY_ADD),
+        ("step", "WORK_MULTIPLY_ADD", WORK_MULTIPLY_ADD),
+        ("recover", "WORK_SWEEP", WORK_SWEEP),
+        ("rows", "WORK_ROW", WORK_ROW),
+        ("pass", "WORK_PASS", WORK_PASS),
+    ]
+};
 
 /// A solve's budget of work ([`Macs::work`]) without a cap.
 pub const UNLIMITED_WORK: usize = usize::MAX;
