@@ -386,8 +386,8 @@ fn candidate_lines(c: &Certificate) -> Vec<(String, String)> {
                     if k.macs_per_solve < at_worst {
                         // The dual active set: its budgets of work bind before its changes do.
                         format!(
-                            "{} iterations ({}{reach}) at most, priced by its budgets of work: {} multiply-adds of its factor's loops a solve (at {} a pass: {at_worst})",
-                            k.iterations, k.certified, k.macs_per_solve, k.macs_per_iteration
+                            "{} iterations ({}{reach}) at most, priced by its budgets of work: {} multiply-adds of its factor's loops a solve ({} × {} = {at_worst} at the worst pass)",
+                            k.iterations, k.certified, k.macs_per_solve, k.iterations, k.macs_per_iteration
                         )
                     } else {
                         // What runs once per solve besides the iterations (a cold start, final residuals).
