@@ -2,7 +2,7 @@
 # Builds firmware-template with a controller spec baked in, runs it on the emulated board and exits
 # with the firmware's own status (0: the closed loop flew and passed its checks).
 #
-#   scripts/firmware.sh [--board zynq|netduinoplus2] [--cycles N] [--linear] [--build-only] [--elf-out PATH] [SPEC]
+#   scripts/firmware.sh [--board zynq|netduinoplus2] [--cycles N] [--linear [--start X0] [--reference R]] [--build-only] [--elf-out PATH] [SPEC]
 #
 # Boards: zynq (default; Zynq-7000, Cortex-A9, QEMU xilinx-zynq-a9, target armv7a-none-eabihf) and
 # netduinoplus2 (alias stm32f405; Cortex-M4F, QEMU netduinoplus2, target thumbv7em-none-eabihf).
@@ -15,6 +15,10 @@
 # 100 cycles unless --cycles); it is on by itself when SPEC's model is `type = "linear"`. For a SPEC
 # with a [kalman] (e.g. specs/paper.toml with --linear) the controller measures C x through its filter;
 # for a SPEC with `[mpc] outputs` the reference is of the tracked outputs, the first at 1.
+# --start X0 and --reference R (comma-separated numbers, NX and NR of them; built in: FIRMWARE_START,
+# FIRMWARE_REFERENCE) start the linear flight at X0 and hold the reference at R: with --cycles 1 the
+# flight is one cold solve there, e.g. a certificate's heaviest cold case (`mpcc check --json`,
+# `sampled.cold_witness`; tests/tests/firmware/witness.rs).
 # --elf-out copies the built ELF to PATH. One invocation at a time builds (a lock file in the
 # template's target/), since all share the template's build directory and spec-override file.
 # Missing tools (qemu-system-arm, nightly's rust-src) are installed when possible.
@@ -22,7 +26,7 @@
 # Environment: FIRMWARE_TIMEOUT (seconds for the emulated run, default 600).
 set -euo pipefail
 
-usage() { sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,26p' "$0" | sed 's/^# \{0,1\}//'; }
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 template="$root/firmware-template"
@@ -32,6 +36,8 @@ elf_out=""
 spec=""
 cycles=""
 linear=0
+start=""
+reference=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --board) [ $# -ge 2 ] || { usage >&2; exit 2; }; board=$2; shift 2 ;;
@@ -40,6 +46,10 @@ while [ $# -gt 0 ]; do
         --cycles) [ $# -ge 2 ] || { usage >&2; exit 2; }; cycles=$2; shift 2 ;;
         --cycles=*) cycles=${1#*=}; shift ;;
         --linear) linear=1; shift ;;
+        --start) [ $# -ge 2 ] || { usage >&2; exit 2; }; start=$2; shift 2 ;;
+        --start=*) start=${1#*=}; shift ;;
+        --reference) [ $# -ge 2 ] || { usage >&2; exit 2; }; reference=$2; shift 2 ;;
+        --reference=*) reference=${1#*=}; shift ;;
         --elf-out) [ $# -ge 2 ] || { usage >&2; exit 2; }; elf_out=$(realpath -m "$2"); shift 2 ;;
         -h|--help) usage; exit 0 ;;
         -*) echo "firmware.sh: unknown option $1" >&2; usage >&2; exit 2 ;;
@@ -87,6 +97,9 @@ if [ -n "$spec" ]; then
     # A linear model: the plant the firmware flies is the spec's own (src/linear.rs).
     grep -Eq '^[[:space:]]*type[[:space:]]*=[[:space:]]*"linear"' "$spec" && linear=1
 fi
+if [ "$linear" != 1 ] && [ -n "$start$reference" ]; then
+    echo "firmware.sh: --start and --reference are the linear flight's (--linear)" >&2; exit 2
+fi
 if [ "$linear" = 1 ]; then
     [ -n "$spec" ] || { echo "firmware.sh: --linear needs a SPEC with a linear model" >&2; exit 2; }
     features=(--features spec-override,linear)
@@ -99,8 +112,11 @@ fi
 cd "$template"
 # The outer toolchain (RUSTUP_TOOLCHAIN, exported by rustup to children) would override the
 # template's rust-toolchain.toml, and outer RUSTFLAGS would replace its target flags.
-cargo_=(env -u RUSTUP_TOOLCHAIN -u RUSTFLAGS -u CARGO_TARGET_DIR -u CARGO_BUILD_TARGET -u FIRMWARE_CYCLES)
+cargo_=(env -u RUSTUP_TOOLCHAIN -u RUSTFLAGS -u CARGO_TARGET_DIR -u CARGO_BUILD_TARGET -u FIRMWARE_CYCLES
+    -u FIRMWARE_START -u FIRMWARE_REFERENCE)
 [ -z "$cycles" ] || cargo_+=("FIRMWARE_CYCLES=$cycles")
+[ -z "$start" ] || cargo_+=("FIRMWARE_START=$start")
+[ -z "$reference" ] || cargo_+=("FIRMWARE_REFERENCE=$reference")
 cargo_+=(cargo +nightly)
 "${cargo_[@]}" build --release --target "$target" "${features[@]}"
 [ -z "$elf_out" ] || cp "target/$target/release/firmware" "$elf_out"

@@ -46,8 +46,37 @@ pub const CYCLES: usize = match option_env!("FIRMWARE_CYCLES") {
     None => 100,
 };
 
-/// The state the flight starts from: rest.
+/// The state the flight starts from: rest, unless `FIRMWARE_START` sets it (`scripts/firmware.sh
+/// --start`, e.g. a certificate's heaviest cold case, whose first cycle is then that cold solve).
 pub const START: [f64; NX] = [0.0; NX];
+
+/// `FIRMWARE_START` and `FIRMWARE_REFERENCE` as written at build time, comma-separated.
+const START_WRITTEN: Option<&str> = option_env!("FIRMWARE_START");
+const REFERENCE_WRITTEN: Option<&str> = option_env!("FIRMWARE_REFERENCE");
+
+/// `K` comma-separated numbers, or `None` if `text` is not that.
+fn numbers<const K: usize>(text: &str) -> Option<[f64; K]> {
+    let mut out = [0.0; K];
+    let mut parts = text.split(',');
+    for v in out.iter_mut() {
+        *v = parts.next()?.trim().parse().ok()?;
+    }
+    parts.next().is_none().then_some(out)
+}
+
+/// The start and the reference of the flight: [`START`] and [`REFERENCE`], or as written at build
+/// time; `Err` names a written value that is not NX (NR) numbers.
+fn start_and_reference() -> Result<([f64; NX], [f64; NR]), &'static str> {
+    let start = match START_WRITTEN {
+        Some(text) => numbers(text).ok_or("FIRMWARE_START is not NX comma-separated numbers")?,
+        None => START,
+    };
+    let reference = match REFERENCE_WRITTEN {
+        Some(text) => numbers(text).ok_or("FIRMWARE_REFERENCE is not NR comma-separated numbers")?,
+        None => REFERENCE,
+    };
+    Ok((start, reference))
+}
 
 /// What the reference is of: the state, or the tracked outputs `C_z x` of a spec with `outputs`.
 #[cfg(not(feature = "linear-outputs"))]
@@ -121,13 +150,14 @@ fn dt() -> f64 {
     cast::<ctrl::Real, f64, 1>(&[ctrl::DT])[0]
 }
 
-/// The model the controller predicts with, in f64: F, G, and what the controller measures.
-fn plant() -> LinearPlant<NX, NU, NY> {
+/// The model the controller predicts with, in f64: F, G, and what the controller measures, from
+/// `start`.
+fn plant(start: [f64; NX]) -> LinearPlant<NX, NU, NY> {
     LinearPlant::new(
         ctrl::F.map(|row| cast(&row)),
         ctrl::G.map(|row| cast(&row)),
         measured(),
-        START,
+        start,
     )
 }
 
@@ -165,13 +195,13 @@ fn measured() -> [[f64; NX]; NY] {
 
 /// A new controller: state feedback needs no start; a filter starts from the plant's state.
 #[cfg(not(feature = "linear-filter"))]
-fn controller() -> ctrl::Controller {
+fn controller(_start: &[f64; NX]) -> ctrl::Controller {
     ctrl::Controller::new()
 }
 
 #[cfg(feature = "linear-filter")]
-fn controller() -> ctrl::Controller {
-    ctrl::Controller::new(cast(&START))
+fn controller(start: &[f64; NX]) -> ctrl::Controller {
+    ctrl::Controller::new(cast(start))
 }
 
 /// A command's scalars as the raw bits of the controller's `Real` (f32 or f64, in a u64). The
@@ -189,10 +219,17 @@ fn bits(u: &[f64; NU]) -> [u64; NU] {
 /// Flies the loop, prints the summary and `RESULT`, exits 0 if it passed its checks.
 pub fn run() -> ! {
     let mut out = Serial::new();
+    let (start, reference) = match start_and_reference() {
+        Ok(written) => written,
+        Err(why) => {
+            out.str("firmware: ").str(why).str("\nflight FAILED\n");
+            board::exit(1)
+        }
+    };
     let timer = board::Timer::start();
     let calib_ticks = timed_loop(&timer, CALIB_ITERS);
     let mut timed = Timed {
-        controller: controller(),
+        controller: controller(&start),
         timer: &timer,
         ticks: Ticks::new(),
         stack: stack::CycleProbe::new(),
@@ -218,11 +255,19 @@ pub fn run() -> ! {
         .u64(ctrl::report::MACS_PER_CYCLE as u64)
         .str(" multiply-adds a cycle\nflying ")
         .u64(CYCLES as u64)
-        .str(" cycles from rest to ")
-        .str(REFERENCE_NAME)
+        .str(if START_WRITTEN.is_some() {
+            " cycles from FIRMWARE_START to "
+        } else {
+            " cycles from rest to "
+        })
+        .str(if REFERENCE_WRITTEN.is_some() {
+            "FIRMWARE_REFERENCE"
+        } else {
+            REFERENCE_NAME
+        })
         .str("\n");
 
-    let mut plant = plant();
+    let mut plant = plant(start);
     let tracked = tracked();
     let scenario = LinearScenario {
         seed: SEED,
@@ -235,7 +280,7 @@ pub fn run() -> ! {
     fly_linear(
         &mut plant,
         &mut timed,
-        &Setpoint(REFERENCE),
+        &Setpoint(reference),
         &tracked,
         &scenario,
         |_| [0.0; NU],

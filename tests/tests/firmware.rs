@@ -718,6 +718,10 @@ fn paper_limits_firmware_links_no_panicking_code() {
 #[path = "firmware/linear.rs"]
 mod linear;
 
+/// The dual active set's heaviest cold case on the Cortex-M4F against the build's bound (issue 33.3).
+#[path = "firmware/witness.rs"]
+mod witness;
+
 /// The C firmware: the linear mode in C over the C API, linked with arm-none-eabi-gcc (issue 35.2).
 #[path = "firmware/c.rs"]
 mod c;
