@@ -2,7 +2,7 @@
 #![allow(non_snake_case)]
 
 use super::mpc::{
-    control_step, macs_f32_checks, macs_once, macs_per_iteration, prepare, Caps, SolveWork,
+    control_step, macs_checks_in, macs_once, macs_per_iteration, prepare, Caps, SolveWork,
 };
 use crate::certify::evidence::{Evidence, Exact};
 use crate::certify::sampling;
@@ -28,11 +28,7 @@ fn priced(p: &Problem, work: impl Fn(Caps, SolveWork) -> usize) -> usize {
 /// Multiply-adds once per solve: the offsets and the recovery of z, and in f32 the primal refinement,
 /// the check on z and its restart.
 fn once_per_solve(p: &Problem, prepared: &super::Prepared) -> usize {
-    let checks = match p.scalar {
-        Scalar::F32 => macs_f32_checks(prepared),
-        Scalar::F64 => 0,
-    };
-    macs_once(prepared) + checks
+    macs_once(prepared) + macs_checks_in(prepared, p.scalar)
 }
 
 /// The exact count `x` against the sample's cold cases, which draw the same parameters (x₀ in the

@@ -114,7 +114,7 @@ impl Caps {
 pub struct SolveWork {
     /// The worst pass of the iteration ([`work_per_pass`]).
     pub pass: usize,
-    /// The offsets, before the first change ([`macs_once`]'s first part).
+    /// The offsets, before the first change ([`macs_offsets`]).
     pub before: usize,
     /// After the budget's last test: the recovery of z and in f32 the checks on it
     /// ([`work_after_budget`]).
@@ -127,7 +127,7 @@ impl SolveWork {
         use super::kernel64::WORK_SWEEP;
         SolveWork {
             pass: work_per_pass(prepared),
-            before: (macs_once(prepared) - macs_recovery(prepared)) * WORK_SWEEP,
+            before: macs_offsets(prepared) * WORK_SWEEP,
             after: work_after_budget(prepared, scalar),
         }
     }
@@ -305,11 +305,15 @@ pub fn work_per_pass(prepared: &Prepared) -> usize {
 /// primal refinement, the check on z and its restart ([`macs_f32_checks`], weighed as the factor's).
 pub fn work_after_budget(prepared: &Prepared, scalar: mpc_spec::Scalar) -> usize {
     use super::kernel64::{WORK_MULTIPLY_ADD, WORK_SWEEP};
-    let checks = match scalar {
+    macs_recovery(prepared) * WORK_SWEEP + macs_checks_in(prepared, scalar) * WORK_MULTIPLY_ADD
+}
+
+/// [`macs_f32_checks`] for a kernel in `scalar`: none in f64.
+pub fn macs_checks_in(prepared: &Prepared, scalar: mpc_spec::Scalar) -> usize {
+    match scalar {
         mpc_spec::Scalar::F32 => macs_f32_checks(prepared),
         mpc_spec::Scalar::F64 => 0,
-    };
-    macs_recovery(prepared) * WORK_SWEEP + checks * WORK_MULTIPLY_ADD
+    }
 }
 
 /// Multiply-adds the f32 kernel adds once per solve in a block with slacks ([`prepare`]): the primal
@@ -345,6 +349,11 @@ pub fn macs_f32_checks(prepared: &Prepared) -> usize {
 /// constraint) and the recovery of z, per block (a column of Z per working entry, or without Z the
 /// working rows' coefficients, at most those of the n + 1 longest rows, and two triangular solves).
 pub fn macs_once(prepared: &Prepared) -> usize {
+    macs_offsets(prepared) + macs_recovery(prepared)
+}
+
+/// Multiply-adds of the offsets, [`macs_once`]'s first part.
+pub fn macs_offsets(prepared: &Prepared) -> usize {
     prepared
         .blocks
         .iter()
@@ -352,8 +361,7 @@ pub fn macs_once(prepared: &Prepared) -> usize {
             let n = b.n();
             n * (n + 1) + b.coefficients.iter().map(|c| c.len() + 2).sum::<usize>()
         })
-        .sum::<usize>()
-        + macs_recovery(prepared)
+        .sum()
 }
 
 /// Multiply-adds of the recovery of z, [`macs_once`]'s second part.
