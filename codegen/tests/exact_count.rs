@@ -6,38 +6,14 @@
 //! `cargo test -p codegen --release --test exact_count -- --nocapture` prints the partitions.
 #![allow(non_snake_case)]
 
-use codegen::solver::active_set::exact::{exact_count, ExactCount, Limits};
+use codegen::solver::active_set::exact::{exact_count, path_work, ExactCount, Limits};
 use codegen::solver::active_set::{mpc::prepare, solve, Prepared};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 /// One axis of the paper's double integrator with an input box and a soft speed limit, the state
 /// over a box and the reference at 0: two parameters.
-const SMALL: &str = r#"
-[model]
-type = "double_integrator"
-axes = 1
-dt = 0.1
-[mpc]
-horizon = 6
-method = "active_set"
-iterations = "auto"
-accuracy = 1e-3
-q = [10, 1]
-r = [0.1]
-u_min = [-1]
-u_max = [1]
-x_min = [-inf, -1.0]
-x_max = [inf, 1.0]
-x_soft = 1e3
-[mpc.region]
-x_min = [-3, -1]
-x_max = [3, 1]
-reference_min = [0, 0]
-reference_max = [0, 0]
-[codegen]
-scalar = "f64"
-"#;
+const SMALL: &str = include_str!("../../tests/specs/active-set/exact-small.toml");
 
 fn setup(src: &str) -> (codegen::Problem, Prepared, ExactCount) {
     let spec = mpc_spec::load(src).unwrap();
@@ -66,6 +42,13 @@ fn kernel(
     let qp = count.parameters.qp(p, theta);
     let offsets = prepared.offsets(&qp).unwrap();
     solve(prepared, &offsets, None, 100_000).block_iterations
+}
+
+/// The kernel's work ([`codegen::solver::active_set::Macs::work`]), cold, at θ.
+fn work(p: &codegen::Problem, prepared: &Prepared, count: &ExactCount, theta: &[f64]) -> usize {
+    let qp = count.parameters.qp(p, theta);
+    let offsets = prepared.offsets(&qp).unwrap();
+    solve(prepared, &offsets, None, 100_000).macs.work()
 }
 
 fn report(name: &str, count: &ExactCount) {
@@ -134,6 +117,15 @@ fn cross_check(name: &str, src: &str, per_axis: usize, draws: usize) -> ExactCou
     report(name, &count);
     assert!(count.complete, "{name}: the partition did not complete");
     let at_witness = kernel(&p, &prepared, &count, &count.witness);
+    // The heaviest path: its witness spends exactly its work, and no point below spends more.
+    let paths = path_work(&p, &prepared, &count, mpc_spec::Scalar::F64).expect("the paths' work");
+    assert_eq!(paths.mismatches, 0, "{name}: a centre solved off its path");
+    assert_eq!(
+        work(&p, &prepared, &count, &paths.witness),
+        paths.cold_work,
+        "{name}: the heaviest path's witness"
+    );
+    let mut heaviest = 0;
     for (b, c) in count.blocks.iter().enumerate() {
         assert_eq!(c.lp_failures, 0, "{name} block {b}");
         assert_eq!(at_witness[b], c.worst, "{name} block {b}: the witness");
@@ -151,6 +143,13 @@ fn cross_check(name: &str, src: &str, per_axis: usize, draws: usize) -> ExactCou
                 .collect();
             let theta = count.parameters.theta(&c.parameters, &xi);
             let k = kernel(&p, &prepared, &count, &theta)[b];
+            let w = work(&p, &prepared, &count, &theta);
+            assert!(
+                w <= paths.cold_work,
+                "{name}: work {w} > {} at {theta:?}",
+                paths.cold_work
+            );
+            heaviest = heaviest.max(w);
             seen = seen.max(k);
             assert!(
                 k <= c.worst,
@@ -182,8 +181,19 @@ fn cross_check(name: &str, src: &str, per_axis: usize, draws: usize) -> ExactCou
         let total: usize = k.iter().sum();
         seen = seen.max(total);
         assert!(total <= count.worst);
+        let w = work(&p, &prepared, &count, &theta);
+        assert!(
+            w <= paths.cold_work,
+            "{name}: work {w} > {} at {theta:?}",
+            paths.cold_work
+        );
+        heaviest = heaviest.max(w);
     }
     println!("{name}: {draws} draws, most {seen} (exact {})", count.worst);
+    println!(
+        "{name}: the grid's and draws' heaviest work {heaviest} (the heaviest path {})",
+        paths.cold_work
+    );
     count
 }
 
@@ -268,7 +278,23 @@ fn the_build_carries_the_exact_count_and_a_warm_solve_restarts_cold() {
         exact.cold_worst
     );
     assert_eq!(exact.regions, count.regions);
+    // The heaviest path's work is carried, no sampled cold case spent more, and the cold solve's
+    // budget is it plus its margin.
+    let paths = path_work(&p, &prepared, &count, mpc_spec::Scalar::F64).unwrap();
+    assert_eq!(exact.cold_work, Some(paths.cold_work));
+    assert_eq!(exact.path_mismatches, 0);
+    let e = p.qp.evidence.as_ref().unwrap();
+    assert!(
+        e.cold_work_worst <= paths.cold_work,
+        "a sampled cold case spent {} > {}",
+        e.cold_work_worst,
+        paths.cold_work
+    );
     let caps = Caps::of(&p.qp);
+    assert_eq!(
+        caps.cold_work,
+        paths.cold_work + codegen::sampling::margin(paths.cold_work)
+    );
     assert_eq!(caps.cold, p.qp.iterations.max(count.worst));
     // The warm cap is the sample's warm-started need plus its margin, at most the count.
     let e = p.qp.evidence.as_ref().unwrap();

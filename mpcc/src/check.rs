@@ -112,6 +112,12 @@ fn exact_lines(x: &codegen::evidence::Exact, lines: &mut Vec<(String, String)>) 
             named(&x.witness),
         ));
     }
+    if x.complete && !x.work_witness.is_empty() {
+        lines.push((
+            "the heaviest path's witness".to_string(),
+            named(&x.work_witness),
+        ));
+    }
     lines.push((
         "a reference window varying over the horizon".to_string(),
         "covered by the sample only".to_string(),

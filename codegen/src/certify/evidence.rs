@@ -111,12 +111,17 @@ impl Evidence {
         spent + margin(spent)
     }
 
-    /// The dual active set's budget of work for a cold solve (`COLD_WORK`): the most a cold case spent
-    /// plus its [`margin`]; none where the exact cold count completed (the partition counts changes,
-    /// not work, and the cold cap is its proof).
+    /// The dual active set's budget of work for a cold solve (`COLD_WORK`): the most a cold case
+    /// spent, or where the exact count completed the larger of that and its heaviest path's work
+    /// ([`Exact::cold_work`]), plus its [`margin`] (for the work the path's values decide: a
+    /// refactorisation when a pivot gets small, the refinement at the optimum). `None` where the exact
+    /// count completed without the paths' work: its cold cap is then the proof.
     pub fn cold_work_cap(&self) -> Option<usize> {
-        let spent = self.cold_work_worst;
-        (self.exact_cold() == 0).then(|| spent + margin(spent))
+        let spent = match self.exact.as_ref().filter(|x| x.complete) {
+            Some(x) => x.cold_work?.max(self.cold_work_worst),
+            None => self.cold_work_worst,
+        };
+        Some(spent + margin(spent))
     }
 
     /// The exact cold count where the partition completed, else 0: what a cold solve's cap
@@ -165,6 +170,17 @@ pub struct Exact {
     pub block_worst: Vec<usize>,
     /// θ where every block attains its maximum (the Chebyshev centres of the worst regions), by name.
     pub witness: Vec<(String, f64)>,
+    /// The most work a cold solve spends over the region ([`crate::solver::active_set::Macs::work`], in
+    /// tenths of a multiply-add of the factor's loops): the maximum over the execution paths, each
+    /// region's path run by the kernel at its centre ([`crate::solver::active_set::exact::path_work`]).
+    /// `None` when the partition did not complete (or two blocks share a parameter).
+    pub cold_work: Option<usize>,
+    /// θ where the cold solve spends `cold_work`, by name (empty without it): the state a board replays
+    /// to measure the heaviest path against the bound.
+    pub work_witness: Vec<(String, f64)>,
+    /// Regions whose centre the kernel solved with another count of changes than the partition's (a
+    /// centre within round-off of a boundary); 0 on the shipped tests.
+    pub path_mismatches: usize,
     /// Seconds the partition took (not in the `report` module, which is reproducible).
     pub seconds: f64,
 }

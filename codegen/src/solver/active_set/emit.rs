@@ -254,11 +254,21 @@ fn constants(m: &Method) -> TokenStream {
         ),
         None => " The work a warm solve may spend: no budget without a sampled certificate.".to_string(),
     };
+    let exact_work = evidence
+        .and_then(|e| e.exact.as_ref())
+        .filter(|x| x.complete)
+        .and_then(|x| x.cold_work);
     let cold_work_doc = match evidence {
-        Some(e) if caps.cold_work != super::UNLIMITED_WORK => format!(
-            " The work a cold solve may spend before it stops changing the working set and falls back: the most a cold case of the sample spent ({}) plus its margin (see [`WARM_WORK`]).",
-            e.cold_work_worst
-        ),
+        Some(e) if caps.cold_work != super::UNLIMITED_WORK => match exact_work {
+            Some(w) => format!(
+                " The work a cold solve may spend before it stops changing the working set and falls back: the heaviest execution path of the exact partition ({w}; the sample's heaviest cold case {}), the larger plus its margin (see [`WARM_WORK`]).",
+                e.cold_work_worst
+            ),
+            None => format!(
+                " The work a cold solve may spend before it stops changing the working set and falls back: the most a cold case of the sample spent ({}) plus its margin (see [`WARM_WORK`]).",
+                e.cold_work_worst
+            ),
+        },
         Some(_) => " The work a cold solve may spend: no budget, the exact cold count caps its changes ([`COLD_ITERATIONS`]).".to_string(),
         None => " The work a cold solve may spend: no budget without a sampled certificate.".to_string(),
     };

@@ -57,7 +57,7 @@
 #![allow(non_snake_case)]
 
 use super::small_lp::Rows;
-use super::{Offsets, Prepared, Tolerances};
+use super::{solve_in, Offsets, Prepared, Status, Tolerances};
 use crate::certify::evidence::{Exact, Region};
 use crate::lower::problem::Problem;
 use crate::solver::ipm::mpc_qp;
@@ -273,6 +273,19 @@ pub struct ExactCount {
     pub complete: bool,
 }
 
+/// The work of the worst execution path of a complete partition ([`path_work`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathWork {
+    /// The most work ([`super::Macs::work`], offsets and recovery included) a cold solve spends over
+    /// the region: the work at θ's centre plus, per block, the most its paths add to it.
+    pub cold_work: usize,
+    /// θ with each block's parameters at the centre of its heaviest path's region.
+    pub witness: Vec<f64>,
+    /// Regions whose centre the kernel solved with another count of changes than the region's (a
+    /// centre within the kernel's tolerances of a boundary); their work is counted all the same.
+    pub mismatches: usize,
+}
+
 /// Per constraint of a block, its scaled lower and upper sides at fixed offsets, as the kernel's
 /// `offsets` forms them (z_free = −H_bb⁻¹·f_b, then (side − aᵀz_free)/s).
 fn scaled_sides(prepared: &Prepared, offsets: &Offsets, b: usize) -> (Vec<f64>, Vec<f64>) {
@@ -322,7 +335,11 @@ impl Limits {
 /// partition's result, or where it did not complete, the regions done and why.
 pub fn certify(p: &Problem, prepared: &Prepared, region: &Region, limits: Limits) -> Exact {
     let count = exact_count(p, prepared, region, limits);
+    let paths = path_work(p, prepared, &count, p.scalar);
     let names = &count.parameters.names;
+    let by_name = |theta: &[f64]| -> Vec<(String, f64)> {
+        names.iter().cloned().zip(theta.iter().copied()).collect()
+    };
     let note = count.blocks.iter().enumerate().find_map(|(b, c)| {
         if c.complete {
             None
@@ -366,11 +383,10 @@ pub fn certify(p: &Problem, prepared: &Prepared, region: &Region, limits: Limits
         lps: count.blocks.iter().map(|c| c.lps).sum(),
         cold_worst: count.worst,
         block_worst: count.blocks.iter().map(|c| c.worst).collect(),
-        witness: names
-            .iter()
-            .cloned()
-            .zip(count.witness.iter().copied())
-            .collect(),
+        witness: by_name(&count.witness),
+        cold_work: paths.as_ref().map(|w| w.cold_work),
+        work_witness: paths.as_ref().map_or(Vec::new(), |w| by_name(&w.witness)),
+        path_mismatches: paths.as_ref().map_or(0, |w| w.mismatches),
         seconds: count.seconds,
     }
 }
@@ -486,6 +502,68 @@ pub fn exact_count(
         witness,
         seconds: start.elapsed().as_secs_f64(),
     }
+}
+
+/// The work of every execution path of a complete partition, by the kernel in `scalar` run cold at
+/// each solved region's Chebyshev centre (inside the region, so it follows the region's sequence of
+/// working sets): what the exact count is in changes, in the work the boards pay for. The blocks are
+/// solved one after another with their own tallies and the offsets and the recovery of z cost the
+/// same at every θ, so the work at θ is the centre's plus each block's difference from it, and the
+/// worst over the region is the centre's plus the blocks' largest differences. `None` where the
+/// partition did not complete, two blocks share a parameter, or the kernel fails at a centre.
+pub fn path_work(
+    p: &Problem,
+    prepared: &Prepared,
+    count: &ExactCount,
+    scalar: mpc_spec::Scalar,
+) -> Option<PathWork> {
+    if !count.complete || !count.disjoint {
+        return None;
+    }
+    let parameters = &count.parameters;
+    let tolerances = Tolerances::of(scalar);
+    let work_at = |theta: &[f64]| {
+        let offsets = prepared.offsets(&parameters.qp(p, theta)).ok()?;
+        let outcome = solve_in(prepared, &offsets, None, MAX_DEPTH, &tolerances, scalar);
+        (outcome.status == Status::Solved)
+            .then(|| (outcome.macs.work(), outcome.block_iterations))
+    };
+    let centre = parameters.centre();
+    let (base, _) = work_at(&centre)?;
+    let mut cold_work = base;
+    let mut witness = centre;
+    let mut mismatches = 0;
+    for (b, block) in count.blocks.iter().enumerate() {
+        let paths: Vec<Option<(usize, bool, Vec<f64>)>> = block
+            .pieces
+            .par_iter()
+            .filter(|q| q.end == End::Solved)
+            .map(|q| {
+                let theta = parameters.theta(&block.parameters, &q.centre);
+                let (work, changes) = work_at(&theta)?;
+                Some((work, changes[b] == q.iterations, theta))
+            })
+            .collect();
+        let mut heaviest: Option<(usize, Vec<f64>)> = None;
+        for path in paths {
+            let (work, agrees, theta) = path?;
+            mismatches += usize::from(!agrees);
+            if heaviest.as_ref().is_none_or(|(w, _)| work > *w) {
+                heaviest = Some((work, theta));
+            }
+        }
+        if let Some((work, theta)) = heaviest.filter(|(w, _)| *w > base) {
+            cold_work += work - base;
+            for &j in &block.parameters {
+                witness[j] = theta[j];
+            }
+        }
+    }
+    Some(PathWork {
+        cold_work,
+        witness,
+        mismatches,
+    })
 }
 
 /// A polyhedron {ξ : aᵢ·ξ ≤ bᵢ} inside the box [−1, 1]^p, with a point and a bounding box.

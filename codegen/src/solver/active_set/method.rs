@@ -283,6 +283,9 @@ mod tests {
             cold_worst,
             block_worst: vec![cold_worst],
             witness: Vec::new(),
+            cold_work: None,
+            work_witness: Vec::new(),
+            path_mismatches: 0,
             seconds: 0.0,
         }
     }
