@@ -1,3 +1,8 @@
+//! `cargo run --release -p codegen --example active_rows_probe -- SPEC [DRAWS]`: which constraints the dual
+//! active-set method's optimum ever holds active over `[mpc.region]` (issue 33, rows pruned by proof): the
+//! kernel run cold on DRAWS parameters (default 16,384; every fourth a corner of the whole parameter box,
+//! the others uniform), counting the bounds and rows of A found in a final working set. A row never seen
+//! is a candidate for pruning, not a proof.
 use codegen::solver::active_set::exact::{exact_count, Limits};
 use codegen::solver::active_set::{mpc::prepare, solve, Row};
 use rand::{Rng, SeedableRng};
@@ -11,24 +16,56 @@ fn main() {
     let p = codegen::lower(&spec).expect("lowers");
     let region = codegen::sampling::resolve_region(&spec, &p, "probe").expect("a region");
     let prepared = prepare(&p.qp).expect("prepared");
-    let count = exact_count(&p, &prepared, &region, Limits { lps: 0, dimension: 64 });
+    let count = exact_count(
+        &p,
+        &prepared,
+        &region,
+        Limits {
+            lps: 0,
+            dimension: 64,
+        },
+    );
     let parameters = &count.parameters;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
     let mut rows = BTreeSet::new();
     let mut bounds = BTreeSet::new();
     for k in 0..draws {
         let mut theta = parameters.centre();
-        for j in 0..theta.len() {
+        for (j, t) in theta.iter_mut().enumerate() {
             let (lo, hi) = (parameters.lo[j], parameters.hi[j]);
             if lo < hi {
-                theta[j] = if k % 4 == 0 { if rng.gen_bool(0.5) { lo } else { hi } } else { rng.gen_range(lo..hi) };
+                *t = if k % 4 == 0 {
+                    if rng.gen_bool(0.5) {
+                        lo
+                    } else {
+                        hi
+                    }
+                } else {
+                    rng.gen_range(lo..hi)
+                };
             }
         }
-        let offsets = prepared.offsets(&parameters.qp(&p, &theta)).expect("finite offsets");
+        let offsets = prepared
+            .offsets(&parameters.qp(&p, &theta))
+            .expect("finite offsets");
         let outcome = solve(&prepared, &offsets, None, 100_000);
         for a in &outcome.working_set.0 {
-            match a.row { Row::General(r) => { rows.insert(r); } Row::Bound(i) => { bounds.insert(i); } }
+            match a.row {
+                Row::General(r) => {
+                    rows.insert(r);
+                }
+                Row::Bound(i) => {
+                    bounds.insert(i);
+                }
+            }
         }
     }
-    println!("n {} m {}: bounds ever active {} , rows ever active {} of {}", prepared.n, prepared.m, bounds.len(), rows.len(), prepared.m);
+    println!(
+        "n {} m {}: bounds ever active {} , rows ever active {} of {}",
+        prepared.n,
+        prepared.m,
+        bounds.len(),
+        rows.len(),
+        prepared.m
+    );
 }

@@ -17434,6 +17434,8 @@ pub mod quadcopter {
         pub const SAMPLED_WORST_VIOLATION: f64 = 0.000000000000791033905045424f64;
         /// Changes of the working set a cold solve makes at most over `[mpc.region]`, for a constant reference window: exact (absent when the partition did not complete).
         pub const EXACT_COLD_WORST: Option<usize> = None;
+        /// Work a cold solve spends at most over `[mpc.region]`, for a constant reference window: the heaviest execution path of the partition, each region's path run by the kernel at its centre (tenths of a multiply-add of the factor's loops; absent when the partition did not complete).
+        pub const EXACT_COLD_WORK: Option<usize> = None;
         /// Regions of the parameter box, each with one sequence of working sets (those done, when the partition did not complete).
         pub const EXACT_REGIONS: Option<usize> = Some(0);
         /// Regions where the hard rows admit no plan.
@@ -17446,7 +17448,7 @@ pub mod quadcopter {
         pub const COLD_ITERATIONS: Option<usize> = Some(61);
         /// A warm solve's budget of work: the most a warm-started step of the sample spent plus its margin. Work is the kernel's multiply-adds and scanned rows weighed by their cost on the boards, in tenths of a multiply-add of the factor's loops.
         pub const WARM_WORK: Option<usize> = Some(67507);
-        /// A cold solve's budget of work: the most a cold case of the sample spent plus its margin (absent where the exact count caps the cold solve).
+        /// A cold solve's budget of work: the most a cold case of the sample spent, or where the exact count completed the larger of that and EXACT_COLD_WORK, plus its margin.
         pub const COLD_WORK: Option<usize> = Some(532033);
         /// A warm solve's cap: the most a warm-started step of the sample needed plus its margin, at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.
         pub const WARM_ITERATIONS: Option<usize> = Some(18);

@@ -118,6 +118,15 @@ fn exact_lines(x: &codegen::evidence::Exact, lines: &mut Vec<(String, String)>) 
             named(&x.work_witness),
         ));
     }
+    if x.path_mismatches > 0 {
+        lines.push((
+            "centres the kernel solved off their region's path".to_string(),
+            format!(
+                "{} of {} (a decision within the kernel's tolerances, which the partition takes as zero: f32's are wider; their work is the kernel's own)",
+                x.path_mismatches, x.regions
+            ),
+        ));
+    }
     lines.push((
         "a reference window varying over the horizon".to_string(),
         "covered by the sample only".to_string(),
@@ -301,10 +310,24 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             emission_lines(c),
         ));
     }
-    sections.push((
-        "target (estimated cycles; [codegen] target)",
-        target_lines(&g.step),
-    ));
+    let mut target = target_lines(&g.step);
+    // The exact partition's heaviest path, priced alone: the bound over the region's paths.
+    let heaviest_path = c
+        .exact
+        .as_ref()
+        .filter(|x| x.complete)
+        .and_then(|x| x.cold_work);
+    if let (Some(work), Some(_)) = (heaviest_path, g.step.period_cycles) {
+        let cycles = g.step.cycles_with_solver(work.div_ceil(10));
+        target.push((
+            "a step whose solve is the exact count's heaviest path".to_string(),
+            format!(
+                "{cycles:.3e} cycles ({:.3e} instructions): the bound over the region's paths, cold",
+                cycles / g.step.machine.cycles_per_instruction
+            ),
+        ));
+    }
+    sections.push(("target (estimated cycles; [codegen] target)", target));
     let width = sections
         .iter()
         .flat_map(|(_, lines)| lines.iter().map(|(what, _)| what.chars().count()))

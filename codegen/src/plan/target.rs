@@ -133,6 +133,12 @@ impl StepCost {
         }
     }
 
+    /// The cycles of a step whose solver spends `solver_macs` multiply-adds instead of the priced ones
+    /// (one given solve: a witness, the exact partition's heaviest path), beside the rest of the step.
+    pub fn cycles_with_solver(&self, solver_macs: usize) -> f64 {
+        solver_macs as f64 * self.solver_cycles_per_mac + (self.cycles - self.solver_cycles)
+    }
+
     /// The solver's work in words, where its budgets of work price it below its iterations at the worst
     /// one's multiply-adds (the dual active set, [`super::Solver::macs_per_step`]); `None` otherwise,
     /// where it is iterations × multiply-adds each.

@@ -54,6 +54,14 @@
 //! blocks of 4), afti16 (7) and the pendulum (6) do not complete within minutes, so the build does not
 //! try blocks above 3 (BENCHMARKS.md, "The exact count"). The cost is the LPs: 60-100 per region,
 //! most of them the add rule's candidates and the regions' bounding boxes.
+//!
+//! **The worst case in work.** Each final region is an execution path. Where the partition completes,
+//! [`path_work`] runs the kernel in the target's scalar cold at every solved region's centre and takes
+//! the most work ([`super::Macs::work`], each kind of step weighed by its cost on the boards): the
+//! certificate's `exact.cold_work`, with the witness of that path. The cold solve's budget of work is
+//! then the larger of it and the sample's heaviest case, plus the margin; the build prices the step by
+//! the budgets as before, and `mpcc check` prints the heaviest path alone in cycles and instructions,
+//! the bound over the region's paths that `tests/tests/firmware/witness.rs` flies on both boards.
 #![allow(non_snake_case)]
 
 use super::small_lp::Rows;
@@ -282,7 +290,7 @@ pub struct PathWork {
     /// θ with each block's parameters at the centre of its heaviest path's region.
     pub witness: Vec<f64>,
     /// Regions whose centre the kernel solved with another count of changes than the region's (a
-    /// centre within the kernel's tolerances of a boundary); their work is counted all the same.
+    /// decision within the kernel's tolerances); their work is counted as the kernel ran it.
     pub mismatches: usize,
 }
 
@@ -525,8 +533,7 @@ pub fn path_work(
     let work_at = |theta: &[f64]| {
         let offsets = prepared.offsets(&parameters.qp(p, theta)).ok()?;
         let outcome = solve_in(prepared, &offsets, None, MAX_DEPTH, &tolerances, scalar);
-        (outcome.status == Status::Solved)
-            .then(|| (outcome.macs.work(), outcome.block_iterations))
+        (outcome.status == Status::Solved).then(|| (outcome.macs.work(), outcome.block_iterations))
     };
     let centre = parameters.centre();
     let (base, _) = work_at(&centre)?;
