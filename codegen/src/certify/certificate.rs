@@ -144,8 +144,8 @@ pub struct Certificate {
     /// Changes of the working set one control step of the dual active-set method makes at most: a warm
     /// solve of `iterations` that runs out, then a cold restart of `cold_iterations`.
     pub cold_iterations: Option<usize>,
-    /// The dual active set's budgets of work, warm solve then cold (`WARM_WORK`, `COLD_WORK`; the cold
-    /// one absent where the exact count caps the cold solve).
+    /// The dual active set's budgets of work, warm solve then cold (`WARM_WORK`, `COLD_WORK`;
+    /// [`crate::certify::evidence::Evidence::cold_work_cap`]).
     pub work_budgets: Option<(usize, Option<usize>)>,
     /// The multiply-adds the cost model prices for a cold solve alone, where a step may hold two
     /// ([`crate::plan::Solver::macs_per_cold_solve`]): the figure a board's worst cold case is held to.

@@ -269,7 +269,7 @@ fn constants(m: &Method) -> TokenStream {
                 e.cold_work_worst
             ),
         },
-        Some(_) => " The work a cold solve may spend: no budget, the exact cold count caps its changes ([`COLD_ITERATIONS`]).".to_string(),
+        Some(_) => " The work a cold solve may spend: no budget, the exact cold count caps its changes ([`COLD_ITERATIONS`]), its paths' work unknown.".to_string(),
         None => " The work a cold solve may spend: no budget without a sampled certificate.".to_string(),
     };
     let exact = qp.evidence.as_ref().and_then(|e| e.exact.as_ref());

@@ -56,9 +56,9 @@ pub struct Caps {
     /// The warm solve's budget of work (`WARM_WORK`): the most a warm-started step of the sample spent
     /// plus its margin (`Evidence::warm_work_cap`); [`UNLIMITED_WORK`] without a sample.
     pub warm_work: usize,
-    /// The cold solve's budget of work (`COLD_WORK`): the most a cold case of the sample spent plus
-    /// its margin (`Evidence::cold_work_cap`); [`UNLIMITED_WORK`] without a sample, or where the exact
-    /// cold count sets the cold cap (the partition counts changes, not work).
+    /// The cold solve's budget of work (`COLD_WORK`): the most a cold case of the sample spent, or
+    /// where the exact count completed the larger of that and its heaviest path's, plus the margin
+    /// (`Evidence::cold_work_cap`); [`UNLIMITED_WORK`] without a sample.
     pub cold_work: usize,
 }
 
