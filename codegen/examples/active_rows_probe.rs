@@ -4,28 +4,17 @@
 //! the others uniform), counting the bounds and rows of A found in a final working set. A row never seen
 //! is a candidate for pruning, not a proof; it also prints how many rows interval arithmetic proves
 //! redundant over the box (no plan within the bounds violates them at any parameter), which is one.
-use codegen::solver::active_set::exact::{exact_count, Limits};
-use codegen::solver::active_set::{mpc::prepare, solve, Row};
+mod probe;
+
+use codegen::solver::active_set::{solve, Row};
 use rand::{Rng, SeedableRng};
 use std::collections::BTreeSet;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let src = std::fs::read_to_string(&args[1]).expect("the spec");
     let draws: usize = args.get(2).map_or(1 << 14, |s| s.parse().expect("DRAWS"));
-    let spec = mpc_spec::load(&src).expect("a valid spec");
-    let p = codegen::lower(&spec).expect("lowers");
-    let region = codegen::sampling::resolve_region(&spec, &p, "probe").expect("a region");
-    let prepared = prepare(&p.qp).expect("prepared");
-    let count = exact_count(
-        &p,
-        &prepared,
-        &region,
-        Limits {
-            lps: 0,
-            dimension: 64,
-        },
-    );
+    // No LP: only the parameters each block depends on.
+    let (p, prepared, count) = probe::setup(&args[1]);
     let parameters = &count.parameters;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
     let mut rows = BTreeSet::new();

@@ -5,30 +5,18 @@
 //! parameters with different pairs lie in different regions, so the partition has at least as many regions
 //! as pairs seen (BENCHMARKS.md, "The exact count"). It prints the count at every power of two, and the
 //! most changes seen.
-use codegen::solver::active_set::exact::{exact_count, Limits};
-use codegen::solver::active_set::{mpc::prepare, solve};
+mod probe;
+
+use codegen::solver::active_set::solve;
 use rand::{Rng, SeedableRng};
 use std::collections::HashSet;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let src = std::fs::read_to_string(&args[1]).expect("the spec");
     let draws: usize = args.get(2).map_or(1 << 16, |s| s.parse().expect("DRAWS"));
     let block: usize = args.get(3).map_or(0, |s| s.parse().expect("BLOCK"));
-    let spec = mpc_spec::load(&src).expect("a valid spec");
-    let p = codegen::lower(&spec).expect("lowers");
-    let region = codegen::sampling::resolve_region(&spec, &p, "probe").expect("a region");
-    let prepared = prepare(&p.qp).expect("prepared");
     // No LP: only the parameters each block depends on.
-    let count = exact_count(
-        &p,
-        &prepared,
-        &region,
-        Limits {
-            lps: 0,
-            dimension: 64,
-        },
-    );
+    let (p, prepared, count) = probe::setup(&args[1]);
     let parameters = &count.parameters;
     let used = &count.blocks[block].parameters;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);

@@ -5,28 +5,17 @@
 //! uniform) are solved by the kernel cold and from the table's set at the nearest grid point, the two
 //! optima checked equal, and the worst and mean changes and work of each printed with the table's size
 //! (BENCHMARKS.md, "Seeding the cold solve").
-use codegen::solver::active_set::exact::{exact_count, Limits};
-use codegen::solver::active_set::{mpc::prepare, solve, WorkingSet};
+mod probe;
+
+use codegen::solver::active_set::{solve, WorkingSet};
 use rand::{Rng, SeedableRng};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let src = std::fs::read_to_string(&args[1]).expect("the spec");
     let g: usize = args.get(2).map_or(3, |s| s.parse().unwrap());
     let draws: usize = args.get(3).map_or(2000, |s| s.parse().unwrap());
-    let spec = mpc_spec::load(&src).expect("a valid spec");
-    let p = codegen::lower(&spec).expect("lowers");
-    let region = codegen::sampling::resolve_region(&spec, &p, "probe").expect("a region");
-    let prepared = prepare(&p.qp).expect("prepared");
-    let count = exact_count(
-        &p,
-        &prepared,
-        &region,
-        Limits {
-            lps: 0,
-            dimension: 64,
-        },
-    );
+    // No LP: only the parameters each block depends on.
+    let (p, prepared, count) = probe::setup(&args[1]);
     let par = &count.parameters;
     let nb = count.blocks.len();
     // Per block, the seed table over its parameters.

@@ -125,6 +125,16 @@ fn cross_check(name: &str, src: &str, per_axis: usize, draws: usize) -> ExactCou
         paths.cold_work,
         "{name}: the heaviest path's witness"
     );
+    // The kernel's work at θ, at most the heaviest path's.
+    let within_heaviest_path = |theta: &[f64]| {
+        let w = work(&p, &prepared, &count, theta);
+        assert!(
+            w <= paths.cold_work,
+            "{name}: work {w} > {} at {theta:?}",
+            paths.cold_work
+        );
+        w
+    };
     let mut heaviest = 0;
     for (b, c) in count.blocks.iter().enumerate() {
         assert_eq!(c.lp_failures, 0, "{name} block {b}");
@@ -143,13 +153,7 @@ fn cross_check(name: &str, src: &str, per_axis: usize, draws: usize) -> ExactCou
                 .collect();
             let theta = count.parameters.theta(&c.parameters, &xi);
             let k = kernel(&p, &prepared, &count, &theta)[b];
-            let w = work(&p, &prepared, &count, &theta);
-            assert!(
-                w <= paths.cold_work,
-                "{name}: work {w} > {} at {theta:?}",
-                paths.cold_work
-            );
-            heaviest = heaviest.max(w);
+            heaviest = heaviest.max(within_heaviest_path(&theta));
             seen = seen.max(k);
             assert!(
                 k <= c.worst,
@@ -181,13 +185,7 @@ fn cross_check(name: &str, src: &str, per_axis: usize, draws: usize) -> ExactCou
         let total: usize = k.iter().sum();
         seen = seen.max(total);
         assert!(total <= count.worst);
-        let w = work(&p, &prepared, &count, &theta);
-        assert!(
-            w <= paths.cold_work,
-            "{name}: work {w} > {} at {theta:?}",
-            paths.cold_work
-        );
-        heaviest = heaviest.max(w);
+        heaviest = heaviest.max(within_heaviest_path(&theta));
     }
     println!("{name}: {draws} draws, most {seen} (exact {})", count.worst);
     println!(
