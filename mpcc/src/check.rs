@@ -265,6 +265,21 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             exact_lines(x, lines);
         }
     }
+    let slack = c.sampled.as_ref().map_or(0, |e| e.slack_rows.len());
+    if slack > 0 {
+        if let Some((_, lines)) = sections
+            .iter_mut()
+            .find(|(title, _)| *title == codegen::certificate::section::EXACT)
+        {
+            lines.push((
+                "rows of A that cannot bind over the region".to_string(),
+                format!(
+                    "{slack} of {} (not scanned where a solve's data keep the proof: `sampled.slack_rows`)",
+                    g.problem.qp.rows.len()
+                ),
+            ));
+        }
+    }
     if !c.candidates.is_empty() {
         sections.insert(
             0,

@@ -94,6 +94,10 @@ pub struct Evidence {
     /// certificate carries it apart from the sample ([`crate::certificate::Certificate::exact`]).
     #[serde(skip)]
     pub exact: Option<Exact>,
+    /// The dual active-set method's rows of A proved unable to bind over the region
+    /// ([`crate::solver::active_set::slack_rows`]): last in their blocks, scanned only where a solve's
+    /// data fail the proof. Empty for the other methods.
+    pub slack_rows: Vec<usize>,
 }
 
 impl Evidence {

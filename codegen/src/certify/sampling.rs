@@ -558,6 +558,7 @@ fn certify_spending<M: Sampled>(
         rho: method.admm().map(|t| t.rho),
         admm_form: method.admm().map(|t| t.form),
         exact: None,
+        slack_rows: Vec::new(),
     })
 }
 

@@ -449,7 +449,8 @@ pub fn exact_count(
                 )
             })
             .collect();
-        // The block's parameters: those moving a finite side by more than round-off.
+        // The block's parameters: those moving a finite side it scans by more than round-off.
+        let core = prepared.blocks[b].packed.core;
         let scale = lo0
             .iter()
             .chain(&hi0)
@@ -460,7 +461,8 @@ pub fn exact_count(
                 let (dl, dh) = &columns[j];
                 dl.iter()
                     .zip(&lo0)
-                    .chain(dh.iter().zip(&hi0))
+                    .take(core)
+                    .chain(dh.iter().zip(&hi0).take(core))
                     .any(|(d, c)| c.is_finite() && d.abs() > 1e-12 * scale)
             })
             .collect();
@@ -479,8 +481,16 @@ pub fn exact_count(
         if used.len() > limits.dimension {
             return not_done(used);
         }
-        let lo = aff(&lo0, |c| &c.0);
-        let hi = aff(&hi0, |c| &c.1);
+        // Over the region the slack rows (from `core` on) cannot bind, and the kernel does not scan
+        // them: as if they had no side.
+        let scanned = |mut sides: Vec<Option<Aff>>| {
+            for side in sides.iter_mut().skip(core) {
+                *side = None;
+            }
+            sides
+        };
+        let lo = scanned(aff(&lo0, |c| &c.0));
+        let hi = scanned(aff(&hi0, |c| &c.1));
         let mut count = partition(prepared, b, lo, hi, used.len(), limits);
         count.witness = parameters.theta(&used, &count.witness);
         count.parameters = used;

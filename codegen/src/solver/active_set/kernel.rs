@@ -165,6 +165,15 @@ pub(super) struct Block<'a> {
     /// Whether the f32 kernel refines z and checks the rows on it: a block with soft rows' slacks,
     /// whose multipliers reach the rows' weights.
     pub(super) refine: bool,
+    /// The constraints a solve visits where the pruned ones are proved slack ([`Block::limit`]): the
+    /// bounds and the rows that may bind over the region; the rows after them cannot.
+    pub(super) core: usize,
+    /// Per pruned constraint (c ≥ `core`), the least and the most aᵀz over the bounds `z_box`: no
+    /// plan within those bounds violates its row where its lower side is at most the first and its
+    /// upper side at least the second.
+    pub(super) reach: &'a [Real],
+    /// Per variable of the block, the lower and the upper bound `reach` assumed.
+    pub(super) z_box: &'a [Real],
 }
 
 impl Block<'_> {
@@ -190,6 +199,32 @@ impl Block<'_> {
     /// The number of constraints.
     fn nc(&self) -> usize {
         self.sides.len()
+    }
+
+    /// The constraints this solve visits: [`Block::core`] where the bounds lie within `z_box` and
+    /// every pruned row's sides lie beyond its reach (no plan within the bounds violates it: the row
+    /// cannot bind), else all of them (the state or the reference is outside the region the pruning
+    /// was proved on).
+    fn limit(&self, lower: &[Real], upper: &[Real], tally: &mut Tally) -> usize {
+        let nc = self.nc();
+        if self.core >= nc {
+            return nc;
+        }
+        tally.offsets(self.n() + nc - self.core);
+        for (i, v) in self.vars.iter().enumerate() {
+            if at(lower, *v) < at(self.z_box, 2 * i) || at(upper, *v) > at(self.z_box, 2 * i + 1) {
+                return nc;
+            }
+        }
+        for c in self.core..nc {
+            let side = at_index(self.sides, c);
+            let j = 2 * (c - self.core);
+            let slack = at(lower, side) <= at(self.reach, j) && at(upper, side) >= at(self.reach, j + 1);
+            if !slack {
+                return nc;
+            }
+        }
+        self.core
     }
 
     /// Where column j of G's packed lower triangle begins.
@@ -258,6 +293,8 @@ struct Run<'w, 'a, 'b> {
     singular: bool,
     /// The violation the last added side had when it was added.
     added_violation: Real,
+    /// The constraints this solve visits ([`Block::limit`]).
+    limit: usize,
 }
 
 impl Run<'_, '_, '_> {
@@ -583,7 +620,8 @@ impl Run<'_, '_, '_> {
     /// contiguous, then row w before the diagonal), in the working set's order.
     fn scan(&mut self) -> Option<(usize, bool, Real)> {
         let (k, nc, gram) = (self.k, self.b.nc(), self.b.gram);
-        let mu = self.w.mu.get_mut(..nc)?;
+        // The constraints past the limit are neither scanned nor in the working set.
+        let mu = self.w.mu.get_mut(..self.limit)?;
         for m in mu.iter_mut() {
             *m = 0.0;
         }
@@ -629,7 +667,7 @@ impl Run<'_, '_, '_> {
             }
         }
         self.tally.scan(scanned * k);
-        self.tally.rows(nc);
+        self.tally.rows(self.limit);
         best
     }
 
@@ -720,6 +758,7 @@ pub(super) fn offsets(
     upper: &[Real],
     w: &mut Work,
     tally: &mut Tally,
+    limit: usize,
 ) -> bool {
     let n = b.n();
     let Some(z) = w.z_free.get_mut(..n) else {
@@ -739,7 +778,8 @@ pub(super) fn offsets(
     let ends = b.starts.get(1..).unwrap_or(&[]);
     let sides = b.sides.iter().zip(b.scale).zip(ends);
     let mut start = at_index(b.starts, 0);
-    for ((lo, hi), ((side, s), end)) in w.lo.iter_mut().zip(w.hi.iter_mut()).zip(sides) {
+    let scaled = w.lo.iter_mut().zip(w.hi.iter_mut()).zip(sides).take(limit);
+    for ((lo, hi), ((side, s), end)) in scaled {
         let (Some(positions), Some(values)) =
             (b.positions.get(start..*end), b.values.get(start..*end))
         else {
@@ -774,13 +814,13 @@ fn solve_block(
     max_iterations: usize,
     tol: &Tolerances,
     tally: &mut Tally,
-    k_out: &mut usize,
+    (limit, k_out): (usize, &mut usize),
 ) -> (Ended, usize) {
-    let nc = b.nc();
-    for c in 0..nc {
+    for c in 0..b.nc() {
         put(w.active, c, false);
         put(w.excluded, c, false);
     }
+    let nc = limit;
     let mut run = Run {
         b,
         w,
@@ -790,6 +830,7 @@ fn solve_block(
         reuse: 0,
         singular: false,
         added_violation: 0.0,
+        limit,
     };
     *k_out = 0;
     let mut broken = false;
@@ -1008,11 +1049,11 @@ fn violated_on_z(
     upper: &[Real],
     tol: &Tolerances,
     tally: &mut Tally,
-    out: &mut [u32],
+    (limit, out): (usize, &mut [u32]),
 ) -> usize {
     let z_b = w.z_free.get(..b.n()).unwrap_or(&[]);
     let mut found = 0;
-    for c in 0..b.nc() {
+    for c in 0..limit {
         if found >= out.len() {
             break;
         }
@@ -1071,6 +1112,7 @@ fn refine_primal(
         reuse: 0,
         singular: false,
         added_violation: 0.0,
+        limit: b.nc(),
     };
     run.ldl_solve(0, true);
     // λ* of the working set is λ − x (the residual is G_WW·(λ − λ*)); z moves by Z_W·x.
@@ -1104,7 +1146,8 @@ pub(super) fn solve(
     let mut ended = Ended::Solved;
     let mut iterations = 0;
     for (index, b) in blocks.iter().enumerate() {
-        if !offsets(b, f, lower, upper, w, tally) {
+        let limit = b.limit(lower, upper, tally);
+        if !offsets(b, f, lower, upper, w, tally, limit) {
             ended = Ended::NumericalFailure;
             put(warm_len, index, 0);
             continue;
@@ -1125,7 +1168,7 @@ pub(super) fn solve(
                 max_iterations.saturating_sub(iterations + block_iterations),
                 tol,
                 tally,
-                &mut k,
+                (limit, &mut k),
             );
             block_iterations += changes;
             // z_b = z_free − Z_W·λ, in z_free.
@@ -1162,7 +1205,7 @@ pub(super) fn solve(
                     let room = warm
                         .get_mut(b.warm_at + kept..b.warm_at + b.n() + 1)
                         .unwrap_or(&mut []);
-                    let added = violated_on_z(b, w, lower, upper, tol, tally, room);
+                    let added = violated_on_z(b, w, lower, upper, tol, tally, (limit, room));
                     if kept < k || added > 0 {
                         // The violated rows first: where one depends on the kept sides (a vertex
                         // the noise chose), the kept side it depends on is the one skipped.
@@ -1171,7 +1214,7 @@ pub(super) fn solve(
                         }
                         put(warm_len, index, (kept + added) as u32);
                         restarts += 1;
-                        if !offsets(b, f, lower, upper, w, tally) {
+                        if !offsets(b, f, lower, upper, w, tally, limit) {
                             break Ended::NumericalFailure;
                         }
                         continue;

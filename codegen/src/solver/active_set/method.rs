@@ -127,17 +127,19 @@ impl Solver for ActiveSet {
                 spec.spans.get("mpc.method"),
             ))
         })?;
+        // The rows that cannot bind over the region go last in their blocks, scanned only where a
+        // solve's data fail that proof; the exact count and the sample run the method so.
+        let region = sampling::resolve_region(spec, problem, super::TITLE)?;
+        let slack_rows = super::slack_rows::slack_rows(problem, &region);
+        let prepared = super::mpc::prepare_with(&problem.qp, &slack_rows).unwrap_or(prepared);
         // The exact cold count first: the sample's warm steps restart cold with it as their cap.
         let exact = match spec.mpc.region.certificate {
-            Certificate::Exact => {
-                let region = sampling::resolve_region(spec, problem, super::TITLE)?;
-                Some(super::exact::certify(
-                    problem,
-                    &prepared,
-                    &region,
-                    super::exact::Limits::BUILD,
-                ))
-            }
+            Certificate::Exact => Some(super::exact::certify(
+                problem,
+                &prepared,
+                &region,
+                super::exact::Limits::BUILD,
+            )),
             Certificate::Sampled => None,
         };
         let exact_cold = exact
@@ -147,6 +149,7 @@ impl Solver for ActiveSet {
         let method = super::sampled::ActiveSet::new(prepared, problem.scalar, exact_cold);
         let mut evidence = sampling::certify(spec, problem, &method, 0)?;
         evidence.exact = exact.map(|x| checked_by_sample(x, evidence.cold_worst, problem.scalar));
+        evidence.slack_rows = slack_rows;
         Ok(Some(evidence))
     }
 

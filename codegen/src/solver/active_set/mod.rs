@@ -32,6 +32,7 @@ pub mod method;
 pub mod mpc;
 pub mod prepared;
 pub mod sampled;
+pub mod slack_rows;
 pub mod small_lp;
 
 /// The method's title in the module's docs and diagnostics.

@@ -29,11 +29,19 @@ use mpc_spec::Scalar;
 use nalgebra::DVector;
 
 /// The method's build-time data of `qp`: the QP's constant structure prepared (its f and sides do not
-/// matter). `None` where a block of H is not positive definite, which lowering rules out.
+/// matter), with the rows its certificate proved slack over the region last in their blocks
+/// (`Evidence::slack_rows`). `None` where a block of H is not positive definite, which lowering rules
+/// out.
 pub fn prepare(qp: &Qp) -> Option<Prepared> {
+    let slack = qp.evidence.as_ref().map_or(&[][..], |e| &e.slack_rows[..]);
+    prepare_with(qp, slack)
+}
+
+/// [`prepare`] with the rows of A in `slack` last in their blocks ([`Prepared::with_slack_rows`]).
+pub fn prepare_with(qp: &Qp, slack: &[usize]) -> Option<Prepared> {
     let n = qp.Nc * qp.u_min.len();
     let structure = mpc_qp(qp, &DVector::zeros(n), &DVector::zeros(qp.rows.len()));
-    let mut prepared = Prepared::new(&structure).ok()?;
+    let mut prepared = Prepared::with_slack_rows(&structure, slack).ok()?;
     // The slacks follow the plan's n variables.
     for b in &mut prepared.blocks {
         b.packed.refine = b.vars.iter().any(|v| *v >= n);

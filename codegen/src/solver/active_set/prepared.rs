@@ -69,8 +69,34 @@ pub struct Packed {
     /// Whether the f32 kernel refines z and checks the rows on it (a block with slack variables:
     /// set by the MPC's `prepare`, which knows them).
     pub refine: bool,
+    /// The constraints the scan visits where the slack rows after them are proved so at run time
+    /// (the kernel's `Block::limit`): all of them but the block's rows in [`Prepared::with_slack_rows`]'s
+    /// list, which come last.
+    pub core: usize,
+    /// Per slack row (the constraints from `core` on), the least and the most aᵀz over `z_box`
+    /// ([`reach`]).
+    pub reach: Vec<f64>,
+    /// Per variable, the lower and the upper bound the reach assumed.
+    pub z_box: Vec<f64>,
     /// The real tables rounded to f32, for the f32 kernel: R, the scales, the values, G and Z.
     pub f32: [Vec<f32>; 5],
+    /// `reach` rounded outward and `z_box` to nearest, for the f32 kernel.
+    pub f32_proof: [Vec<f32>; 2],
+}
+
+/// The least and the most aᵀz of a row with `coefficients` (position in the block, value) for z within
+/// the bounds `z_min`, `z_max` of the block's variables, widened by a millionth of the largest term
+/// (so that the f32 tables, rounded outward, and the rounding of the data cannot turn the proof).
+pub fn reach(coefficients: &[(usize, f64)], z_min: &[f64], z_max: &[f64]) -> (f64, f64) {
+    let (mut lo, mut hi, mut largest) = (0.0f64, 0.0f64, 0.0f64);
+    for &(p, v) in coefficients {
+        let (a, b) = (v * z_min[p], v * z_max[p]);
+        lo += a.min(b);
+        hi += a.max(b);
+        largest = largest.max(a.abs()).max(b.abs());
+    }
+    let widen = 1e-6 * largest;
+    (lo - widen, hi + widen)
 }
 
 impl Block {
@@ -94,6 +120,9 @@ impl Block {
             z_cols: &p.z_cols,
             warm_at: p.warm_at,
             refine: p.refine,
+            core: p.core,
+            reach: &p.reach,
+            z_box: &p.z_box,
         }
     }
 
@@ -101,6 +130,7 @@ impl Block {
     pub(super) fn kernel32(&self) -> super::kernel32::Block<'_> {
         let p = &self.packed;
         let [r, scale, values, gram, z_cols] = &p.f32;
+        let [reach, z_box] = &p.f32_proof;
         super::kernel32::Block {
             vars: &self.vars,
             r,
@@ -113,6 +143,9 @@ impl Block {
             z_cols,
             warm_at: p.warm_at,
             refine: p.refine,
+            core: p.core,
+            reach,
+            z_box,
         }
     }
 }
@@ -176,6 +209,13 @@ impl Prepared {
     /// of H that is not positive definite (the method needs H ≻ 0; the MPC's H is, its slacks carrying a
     /// quadratic weight).
     pub fn new(qp: &InequalityQp) -> Result<Prepared, Error> {
+        Prepared::with_slack_rows(qp, &[])
+    }
+
+    /// [`Prepared::new`] with the rows of A in `slack` (proved never to bind over a region, by the
+    /// caller) placed last in their blocks: the kernel scans them only where its run-time check of the
+    /// proof fails ([`Packed::core`]).
+    pub fn with_slack_rows(qp: &InequalityQp, slack: &[usize]) -> Result<Prepared, Error> {
         let n = qp.H.nrows();
         let m = qp.A.nrows();
         if qp.H.ncols() != n
@@ -238,6 +278,7 @@ impl Prepared {
             }
         }
         let mut zero_rows = Vec::new();
+        let mut slack_of: Vec<Constraints> = vec![Vec::new(); vars.len()];
         for (r, support) in supports.iter().enumerate() {
             if !(qp.lower[r].is_finite() || qp.upper[r].is_finite()) {
                 continue;
@@ -247,18 +288,33 @@ impl Prepared {
                 continue;
             };
             let b = block_of[first];
-            place[n + r] = Some((b, rows[b].len()));
             let coefficients = support
                 .iter()
                 .map(|&j| (position[j], qp.A[(r, j)]))
                 .collect();
-            rows[b].push((Row::General(r), coefficients));
+            if slack.contains(&r) {
+                slack_of[b].push((Row::General(r), coefficients));
+            } else {
+                place[n + r] = Some((b, rows[b].len()));
+                rows[b].push((Row::General(r), coefficients));
+            }
+        }
+        let mut cores = Vec::with_capacity(vars.len());
+        for (b, (block_rows, slack_rows)) in rows.iter_mut().zip(slack_of).enumerate() {
+            cores.push(block_rows.len());
+            for (row, coefficients) in slack_rows {
+                if let Row::General(r) = row {
+                    place[n + r] = Some((b, block_rows.len()));
+                }
+                block_rows.push((row, coefficients));
+            }
         }
         let blocks = vars
             .into_iter()
             .zip(rows)
+            .zip(cores)
             .enumerate()
-            .map(|(b, (vars, rows))| block(qp, b, vars, rows))
+            .map(|(b, ((vars, rows), core))| block(qp, b, vars, rows, core))
             .collect::<Result<Vec<_>, _>>()?;
         let mut blocks = blocks;
         let mut warm_at = 0;
@@ -345,6 +401,7 @@ fn block(
     index: usize,
     vars: Vec<usize>,
     rows: Constraints,
+    core: usize,
 ) -> Result<Block, Error> {
     let nb = vars.len();
     let H = DMatrix::from_fn(nb, nb, |i, j| {
@@ -423,8 +480,25 @@ fn block(
         },
         warm_at: 0,
         refine: false,
+        core,
+        reach: Vec::new(),
+        // Read only where the block has slack rows.
+        z_box: if core < nc {
+            vars.iter()
+                .flat_map(|&v| [qp.z_min[v], qp.z_max[v]])
+                .collect()
+        } else {
+            Vec::new()
+        },
         f32: Default::default(),
+        f32_proof: Default::default(),
     };
+    let z_min: Vec<f64> = vars.iter().map(|&v| qp.z_min[v]).collect();
+    let z_max: Vec<f64> = vars.iter().map(|&v| qp.z_max[v]).collect();
+    for (_, coefficients) in rows.iter().skip(core) {
+        let (lo, hi) = reach(coefficients, &z_min, &z_max);
+        packed.reach.extend([lo, hi]);
+    }
     for (row, coefficients) in &rows {
         packed.sides.push(match *row {
             Row::Bound(j) => j,
@@ -444,6 +518,23 @@ fn block(
         round(&packed.gram),
         round(&packed.z_cols),
     ];
+    // Outward: the f32 reach covers the f64 one.
+    let outward = packed.reach.chunks(2).flat_map(|r| {
+        let (lo, hi) = (r[0] as f32, r[1] as f32);
+        [
+            if f64::from(lo) > r[0] {
+                lo.next_down()
+            } else {
+                lo
+            },
+            if f64::from(hi) < r[1] {
+                hi.next_up()
+            } else {
+                hi
+            },
+        ]
+    });
+    packed.f32_proof = [outward.collect(), round(&packed.z_box)];
     let (rows, coefficients) = rows.into_iter().unzip();
     Ok(Block {
         vars,
