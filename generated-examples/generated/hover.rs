@@ -36,10 +36,10 @@ pub mod hover {
     pub const COLD_ITERATIONS: usize = 47;
     /// Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed (11) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = 60 changes (and spends at most what [`WARM_WORK`] and [`COLD_WORK`] allow).
     pub const WARM_ITERATIONS: usize = 13;
-    /// The work a cold solve may spend before it stops changing the working set and falls back: the most a cold case of the sample spent (497688) plus its margin (see [`WARM_WORK`]).
-    pub const COLD_WORK: usize = 547457;
-    /// The work a warm solve may spend before it stops changing the working set (then restarts cold): the most a warm-started step of the sample spent (185570) plus its margin. Work is the kernel's multiply-adds and scanned rows weighed by their cost on the boards, in tenths of a multiply-add of the factor's loops (`WORK_MULTIPLY_ADD`); `report::MACS_PER_CYCLE` and the build's period check price the budgets, which make the bound hold on every path.
-    pub const WARM_WORK: usize = 204127;
+    /// The work a cold solve may spend before it stops changing the working set and falls back: the most a cold case of the sample spent (497488) plus its margin (see [`WARM_WORK`]).
+    pub const COLD_WORK: usize = 547237;
+    /// The work a warm solve may spend before it stops changing the working set (then restarts cold): the most a warm-started step of the sample spent (185370) plus its margin. Work is the kernel's multiply-adds and scanned rows weighed by their cost on the boards, in tenths of a multiply-add of the factor's loops (`WORK_MULTIPLY_ADD`); `report::MACS_PER_CYCLE` and the build's period check price the budgets, which make the bound hold on every path.
+    pub const WARM_WORK: usize = 203907;
     /// Entries of the plan, N·NU.
     pub const NP: usize = N * NU;
     /// The QP's unknowns z: the plan, then one slack per soft constraint component.
@@ -860,12 +860,11 @@ pub mod hover {
         /// The constraints a solve visits where the pruned ones are proved slack ([`Block::limit`]): the
         /// bounds and the rows that may bind over the region; the rows after them cannot.
         core: usize,
-        /// Per pruned constraint (c ≥ `core`), the least and the most aᵀz over the bounds `z_box`: no
-        /// plan within those bounds violates its row where its lower side is at most the first and its
+        /// Per slack constraint (c ≥ `core`), the least and the most aᵀz within the block's bounds (the
+        /// build's: the emitted module's are constants, and the reference's `Prepared::offsets` refuses
+        /// others): no plan within them violates its row where its lower side is at most the first and its
         /// upper side at least the second.
         reach: &'a [Real],
-        /// Per variable of the block, the lower and the upper bound `reach` assumed.
-        z_box: &'a [Real],
     }
     impl Block<'_> {
         /// aᵀz for constraint c's coefficients over the block's z, and how many they are.
@@ -889,23 +888,15 @@ pub mod hover {
         fn nc(&self) -> usize {
             self.sides.len()
         }
-        /// The constraints this solve visits: [`Block::core`] where the bounds lie within `z_box` and
-        /// every pruned row's sides lie beyond its reach (no plan within the bounds violates it: the row
-        /// cannot bind), else all of them (the state or the reference is outside the region the pruning
-        /// was proved on).
+        /// The constraints this solve visits: [`Block::core`] where every slack row's sides lie beyond its
+        /// reach (no plan within the bounds violates it: the row cannot bind), else all of them (the state
+        /// or the reference is outside the region the proof holds on, or the solve is a relaxed one).
         fn limit(&self, lower: &[Real], upper: &[Real], tally: &mut Tally) -> usize {
             let nc = self.nc();
             if self.core >= nc {
                 return nc;
             }
-            tally.offsets(self.n() + nc - self.core);
-            for (i, v) in self.vars.iter().enumerate() {
-                if at(lower, *v) < at(self.z_box, 2 * i)
-                    || at(upper, *v) > at(self.z_box, 2 * i + 1)
-                {
-                    return nc;
-                }
-            }
+            tally.offsets(nc - self.core);
             for c in self.core..nc {
                 let side = at_index(self.sides, c);
                 let j = 2 * (c - self.core);
@@ -13937,7 +13928,6 @@ pub mod hover {
             refine: false,
             core: 120,
             reach: &REACH_0,
-            z_box: &Z_BOX_0,
         },
     ];
     /// Block 0: 40 unknowns, 160 constraints.
@@ -30639,7 +30629,7 @@ pub mod hover {
         1.0000000000000002f64,
     ];
     const Z_COLS_0: [Real; 0] = [];
-    /// Block 0's rows from 120 on cannot bind over `[mpc.region]`: per row the least and the most aᵀz within the bounds `Z_BOX_0`; the scan skips them where the data keep every side beyond its reach.
+    /// Block 0's rows from 120 on cannot bind over `[mpc.region]`: per row the least and the most aᵀz within the bounds; the scan skips them where the data keep every side beyond its reach.
     const REACH_0: [Real; 80] = [
         -0.0014864003897500002f64,
         0.0014864003897500002f64,
@@ -30722,88 +30712,6 @@ pub mod hover {
         -2.19171297157235f64,
         2.19171297157235f64,
     ];
-    const Z_BOX_0: [Real; 80] = [
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-        -0.5f64,
-        0.5f64,
-    ];
     /// What the compiler proved and counted about this controller (see `codegen::certificate` for the
     /// bounds' forms). Every number is f64, computed once at compile time.
     pub mod report {
@@ -30855,9 +30763,9 @@ pub mod hover {
         /// A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).
         pub const COLD_ITERATIONS: Option<usize> = Some(47);
         /// A warm solve's budget of work: the most a warm-started step of the sample spent plus its margin. Work is the kernel's multiply-adds and scanned rows weighed by their cost on the boards, in tenths of a multiply-add of the factor's loops.
-        pub const WARM_WORK: Option<usize> = Some(204127);
+        pub const WARM_WORK: Option<usize> = Some(203907);
         /// A cold solve's budget of work: the most a cold case of the sample spent, or where the exact count completed the larger of that and EXACT_COLD_WORK, plus its margin.
-        pub const COLD_WORK: Option<usize> = Some(547457);
+        pub const COLD_WORK: Option<usize> = Some(547237);
         /// A warm solve's cap: the most a warm-started step of the sample needed plus its margin, at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.
         pub const WARM_ITERATIONS: Option<usize> = Some(13);
         /// ρ(F − G·K_LQR).
@@ -30881,7 +30789,7 @@ pub mod hover {
         /// Multiply-adds of one solver iteration.
         pub const MACS_PER_ITERATION: usize = 11131;
         /// Multiply-adds of one control cycle (filter, gradient map, every iteration).
-        pub const MACS_PER_CYCLE: usize = 91969;
+        pub const MACS_PER_CYCLE: usize = 91925;
         /// Bytes of coefficients inlined into the code.
         pub const BYTES_CONSTANTS: usize = 13520;
         /// Bytes of `Mpc`.

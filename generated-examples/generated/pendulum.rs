@@ -1127,12 +1127,11 @@ pub mod pendulum {
         /// The constraints a solve visits where the pruned ones are proved slack ([`Block::limit`]): the
         /// bounds and the rows that may bind over the region; the rows after them cannot.
         core: usize,
-        /// Per pruned constraint (c ≥ `core`), the least and the most aᵀz over the bounds `z_box`: no
-        /// plan within those bounds violates its row where its lower side is at most the first and its
+        /// Per slack constraint (c ≥ `core`), the least and the most aᵀz within the block's bounds (the
+        /// build's: the emitted module's are constants, and the reference's `Prepared::offsets` refuses
+        /// others): no plan within them violates its row where its lower side is at most the first and its
         /// upper side at least the second.
         reach: &'a [Real],
-        /// Per variable of the block, the lower and the upper bound `reach` assumed.
-        z_box: &'a [Real],
     }
     impl Block<'_> {
         /// aᵀz for constraint c's coefficients over the block's z, and how many they are.
@@ -1156,23 +1155,15 @@ pub mod pendulum {
         fn nc(&self) -> usize {
             self.sides.len()
         }
-        /// The constraints this solve visits: [`Block::core`] where the bounds lie within `z_box` and
-        /// every pruned row's sides lie beyond its reach (no plan within the bounds violates it: the row
-        /// cannot bind), else all of them (the state or the reference is outside the region the pruning
-        /// was proved on).
+        /// The constraints this solve visits: [`Block::core`] where every slack row's sides lie beyond its
+        /// reach (no plan within the bounds violates it: the row cannot bind), else all of them (the state
+        /// or the reference is outside the region the proof holds on, or the solve is a relaxed one).
         fn limit(&self, lower: &[Real], upper: &[Real], tally: &mut Tally) -> usize {
             let nc = self.nc();
             if self.core >= nc {
                 return nc;
             }
-            tally.offsets(self.n() + nc - self.core);
-            for (i, v) in self.vars.iter().enumerate() {
-                if at(lower, *v) < at(self.z_box, 2 * i)
-                    || at(upper, *v) > at(self.z_box, 2 * i + 1)
-                {
-                    return nc;
-                }
-            }
+            tally.offsets(nc - self.core);
             for c in self.core..nc {
                 let side = at_index(self.sides, c);
                 let j = 2 * (c - self.core);
@@ -2799,7 +2790,6 @@ pub mod pendulum {
             refine: false,
             core: 15,
             reach: &[],
-            z_box: &[],
         },
     ];
     /// Block 0: 5 unknowns, 15 constraints.

@@ -940,29 +940,25 @@ fn tables(m: &Method, data_tables: TokenStream) -> TokenStream {
             const #z_cols: [Real; #l_z] = #t_z;
         });
         // The slack rows' proof: their reach (in f32 rounded outward) and the bounds it assumed.
-        let (reach, z_box) = (name("REACH"), name("Z_BOX"));
+        let reach = name("REACH");
         let proof = if pk.core < pk.sides.len() {
             let reach_values: Vec<f64> = match num.0 {
-                Scalar::F32 => pk.f32_proof[0].iter().map(|v| f64::from(*v)).collect(),
+                Scalar::F32 => pk.f32_reach.iter().map(|v| f64::from(*v)).collect(),
                 Scalar::F64 => pk.reach.clone(),
             };
-            let (l_reach, l_box) = (len(reach_values.len()), len(pk.z_box.len()));
-            let (t_reach, t_box) = (
-                real_table(num, reach_values),
-                real_table(num, pk.z_box.iter().copied()),
-            );
+            let l_reach = len(reach_values.len());
+            let t_reach = real_table(num, reach_values);
             let doc = format!(
-                " Block {b}'s rows from {} on cannot bind over `[mpc.region]`: per row the least and the most aᵀz within the bounds `{z_box}`; the scan skips them where the data keep every side beyond its reach.",
+                " Block {b}'s rows from {} on cannot bind over `[mpc.region]`: per row the least and the most aᵀz within the bounds; the scan skips them where the data keep every side beyond its reach.",
                 pk.core
             );
             block_tables.extend(quote! {
                 #[doc = #doc]
                 const #reach: [Real; #l_reach] = #t_reach;
-                const #z_box: [Real; #l_box] = #t_box;
             });
-            quote!(reach: &#reach, z_box: &#z_box,)
+            quote!(reach: &#reach,)
         } else {
-            quote!(reach: &[], z_box: &[],)
+            quote!(reach: &[],)
         };
         let core = Literal::usize_unsuffixed(pk.core);
         let warm_at = Literal::usize_unsuffixed(pk.warm_at);

@@ -146,6 +146,9 @@ pub enum Error {
     },
     /// A constraint without a finite side when prepared has one now.
     Pattern(Row),
+    /// The bound of this variable lies outside the one its block's slack rows were proved within
+    /// ([`Prepared::with_slack_rows`]).
+    Bounds(usize),
 }
 
 impl fmt::Display for Error {
@@ -160,6 +163,10 @@ impl fmt::Display for Error {
             Error::Pattern(row) => write!(
                 f,
                 "{row:?} has a finite side but had none when the QP was prepared"
+            ),
+            Error::Bounds(v) => write!(
+                f,
+                "the bounds of z[{v}] lie outside those its block's slack rows were proved within"
             ),
         }
     }

@@ -76,12 +76,13 @@ pub struct Packed {
     /// Per slack row (the constraints from `core` on), the least and the most aᵀz over `z_box`
     /// ([`reach`]).
     pub reach: Vec<f64>,
-    /// Per variable, the lower and the upper bound the reach assumed.
+    /// Per variable, the lower and the upper bound the reach assumed (empty without slack rows):
+    /// [`Prepared::offsets`] refuses other bounds, which the kernel does not check.
     pub z_box: Vec<f64>,
     /// The real tables rounded to f32, for the f32 kernel: R, the scales, the values, G and Z.
     pub f32: [Vec<f32>; 5],
-    /// `reach` rounded outward and `z_box` to nearest, for the f32 kernel.
-    pub f32_proof: [Vec<f32>; 2],
+    /// `reach` rounded outward, for the f32 kernel.
+    pub f32_reach: Vec<f32>,
 }
 
 /// The least and the most aᵀz of a row with `coefficients` (position in the block, value) for z within
@@ -122,7 +123,6 @@ impl Block {
             refine: p.refine,
             core: p.core,
             reach: &p.reach,
-            z_box: &p.z_box,
         }
     }
 
@@ -130,7 +130,6 @@ impl Block {
     pub(super) fn kernel32(&self) -> super::kernel32::Block<'_> {
         let p = &self.packed;
         let [r, scale, values, gram, z_cols] = &p.f32;
-        let [reach, z_box] = &p.f32_proof;
         super::kernel32::Block {
             vars: &self.vars,
             r,
@@ -144,8 +143,7 @@ impl Block {
             warm_at: p.warm_at,
             refine: p.refine,
             core: p.core,
-            reach,
-            z_box,
+            reach: &p.f32_reach,
         }
     }
 }
@@ -353,6 +351,15 @@ impl Prepared {
         if bounds.iter().any(|b| b.iter().any(|v| v.is_nan())) {
             return Err(Error::NonFinite("a bound"));
         }
+        // A block's slack rows were proved within its bounds at build time.
+        for b in self.blocks.iter().filter(|b| !b.packed.z_box.is_empty()) {
+            for (i, &v) in b.vars.iter().enumerate() {
+                let (lo, hi) = (b.packed.z_box[2 * i], b.packed.z_box[2 * i + 1]);
+                if qp.z_min[v] < lo || qp.z_max[v] > hi {
+                    return Err(Error::Bounds(v));
+                }
+            }
+        }
         for (c, place) in self.place.iter().enumerate() {
             let finite = if c < n {
                 qp.z_min[c].is_finite() || qp.z_max[c].is_finite()
@@ -491,7 +498,7 @@ fn block(
             Vec::new()
         },
         f32: Default::default(),
-        f32_proof: Default::default(),
+        f32_reach: Vec::new(),
     };
     let z_min: Vec<f64> = vars.iter().map(|&v| qp.z_min[v]).collect();
     let z_max: Vec<f64> = vars.iter().map(|&v| qp.z_max[v]).collect();
@@ -534,7 +541,7 @@ fn block(
             },
         ]
     });
-    packed.f32_proof = [outward.collect(), round(&packed.z_box)];
+    packed.f32_reach = outward.collect();
     let (rows, coefficients) = rows.into_iter().unzip();
     Ok(Block {
         vars,
