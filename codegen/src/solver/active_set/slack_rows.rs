@@ -10,9 +10,10 @@
 //! Where the bounds themselves move with θ no row is dropped.
 //!
 //! **At run time.** The rows are not removed: they go last in their block ([`Prepared::with_slack_rows`]),
-//! and each solve checks the proof on its own data before it starts (the kernel's `Block::limit`: the
-//! bounds within the box the reach assumed, each side beyond its reach, a few comparisons a row). Where
-//! it holds the scan stops short of them; where it fails (the state or the reference outside the
+//! and each solve checks the proof on its own data before it starts (the kernel's `Block::limit`: each
+//! side beyond its row's reach, a comparison or two a row; the bounds are the build's, which the emitted
+//! module's constants are and the reference's `Prepared::offsets` checks). Where it holds the scan stops
+//! short of them; where it fails (the state or the reference outside the
 //! region, a relaxed recovery) the solve scans every row, as without the proof. Measured: hover drops 40
 //! of its 120 rows of A (its positions' and velocities' bounds, which its input box cannot reach from
 //! its region); paper-limits and the pendulum none (BENCHMARKS.md, "Two ways to cut the cold solve").
