@@ -9,7 +9,7 @@
 //! dropping it changes neither the feasible set nor the optimum, so the method need not scan it.
 //! Where the bounds themselves move with θ no row is dropped.
 //!
-//! **At run time.** The rows are not removed: they go last in their block ([`Prepared::with_slack_rows`]),
+//! **At run time.** The rows are not removed: they go last in their block ([`super::Prepared::with_slack_rows`]),
 //! and each solve checks the proof on its own data before it starts (the kernel's `Block::limit`: each
 //! side beyond its row's reach, a comparison or two a row; the bounds are the build's, which the emitted
 //! module's constants are and the reference's `Prepared::offsets` checks). Where it holds the scan stops
