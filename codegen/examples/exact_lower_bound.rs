@@ -16,7 +16,7 @@ fn main() {
     let draws: usize = args.get(2).map_or(1 << 16, |s| s.parse().expect("DRAWS"));
     let block: usize = args.get(3).map_or(0, |s| s.parse().expect("BLOCK"));
     // No LP: only the parameters each block depends on.
-    let (p, prepared, count) = probe::setup(&args[1]);
+    let (p, prepared, count, _) = probe::setup(&args[1]);
     let parameters = &count.parameters;
     let used = &count.blocks[block].parameters;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);

@@ -15,7 +15,7 @@ fn main() {
     let g: usize = args.get(2).map_or(3, |s| s.parse().unwrap());
     let draws: usize = args.get(3).map_or(2000, |s| s.parse().unwrap());
     // No LP: only the parameters each block depends on.
-    let (p, prepared, count) = probe::setup(&args[1]);
+    let (p, prepared, count, _) = probe::setup(&args[1]);
     let par = &count.parameters;
     let nb = count.blocks.len();
     // Per block, the seed table over its parameters.

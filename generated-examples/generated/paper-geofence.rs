@@ -1176,8 +1176,8 @@ pub mod paper_geofence {
         /// Whether the f32 kernel refines z and checks the rows on it: a block with soft rows' slacks,
         /// whose multipliers reach the rows' weights.
         refine: bool,
-        /// The constraints a solve visits where the pruned ones are proved slack ([`Block::limit`]): the
-        /// bounds and the rows that may bind over the region; the rows after them cannot.
+        /// The constraints a solve visits where the slack rows after them are proved so ([`Block::limit`]):
+        /// the bounds and the rows that may bind over the region; the rows after them cannot.
         core: usize,
         /// Per slack constraint (c ≥ `core`), the least and the most aᵀz within the block's bounds (the
         /// build's: the emitted module's are constants, and the reference's `Prepared::offsets` refuses

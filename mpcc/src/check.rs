@@ -257,20 +257,15 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
             );
         }
     }
-    if let Some(x) = &c.exact {
-        if let Some((_, lines)) = sections
-            .iter_mut()
-            .find(|(title, _)| *title == codegen::certificate::section::EXACT)
-        {
+    if let Some((_, lines)) = sections
+        .iter_mut()
+        .find(|(title, _)| *title == codegen::certificate::section::EXACT)
+    {
+        if let Some(x) = &c.exact {
             exact_lines(x, lines);
         }
-    }
-    let slack = c.sampled.as_ref().map_or(0, |e| e.slack_rows.len());
-    if slack > 0 {
-        if let Some((_, lines)) = sections
-            .iter_mut()
-            .find(|(title, _)| *title == codegen::certificate::section::EXACT)
-        {
+        let slack = c.sampled.as_ref().map_or(0, |e| e.slack_rows.len());
+        if slack > 0 {
             lines.push((
                 "rows of A that cannot bind over the region".to_string(),
                 format!(

@@ -121,17 +121,19 @@ impl Solver for ActiveSet {
     }
 
     fn certify(&self, spec: &Spec, problem: &Problem) -> Result<Option<Evidence>, Diagnostics> {
-        let prepared = prepare(&problem.qp).ok_or_else(|| {
+        let not_definite = || {
             Diagnostics::from(Diagnostic::new(
                 "the dual active-set method needs a positive definite Hessian, and a block of this one is not",
                 spec.spans.get("mpc.method"),
             ))
-        })?;
+        };
+        prepare(&problem.qp).ok_or_else(not_definite)?;
         // The rows that cannot bind over the region go last in their blocks, scanned only where a
         // solve's data fail that proof; the exact count and the sample run the method so.
         let region = sampling::resolve_region(spec, problem, super::TITLE)?;
         let slack_rows = super::slack_rows::slack_rows(problem, &region);
-        let prepared = super::mpc::prepare_with(&problem.qp, &slack_rows).unwrap_or(prepared);
+        let prepared =
+            super::mpc::prepare_with(&problem.qp, &slack_rows).ok_or_else(not_definite)?;
         // The exact cold count first: the sample's warm steps restart cold with it as their cap.
         let exact = match spec.mpc.region.certificate {
             Certificate::Exact => Some(super::exact::certify(
