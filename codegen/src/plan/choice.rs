@@ -52,10 +52,20 @@ pub fn previous_choice(candidates: &[Candidate]) -> Option<Method> {
 /// a written method, the cheapest candidate for `method = "auto"` (its [`Problem::candidates`] say what
 /// was weighed). Fails with the findings of the candidate that fits the spec best when none can be used.
 pub fn resolve(spec: &Spec) -> Result<(Spec, Problem), Diagnostics> {
+    resolve_weighed(spec).map(|(s, p, _)| (s, p))
+}
+
+/// What [`resolve_weighed`] returns: the chosen spec and problem, and the other candidates.
+pub type Weighed = (Spec, Problem, Vec<(Spec, Problem)>);
+
+/// [`resolve`], with the other candidates `auto` lowered and certified beside the chosen one, each as its
+/// own spec and problem (none for a written method): for a caller that needs a losing candidate's
+/// certificate without paying for it twice.
+pub fn resolve_weighed(spec: &Spec) -> Result<Weighed, Diagnostics> {
     if spec.mpc.method != Method::Auto {
         let mut problem = lower_and_certify(spec)?;
         problem.requested = spec.mpc.method_requested;
-        return Ok((spec.clone(), problem));
+        return Ok((spec.clone(), problem, Vec::new()));
     }
     let constrained = !spec.mpc.constraints.is_empty();
     let mut candidates = Vec::new();
@@ -115,13 +125,14 @@ pub fn resolve(spec: &Spec) -> Result<(Spec, Problem), Diagnostics> {
         }));
     };
     candidates[index].chosen = true;
-    let (s, mut p) = lowered
-        .into_iter()
-        .find(|(s, _)| s.mpc.method == chosen)
+    let at = lowered
+        .iter()
+        .position(|(s, _)| s.mpc.method == chosen)
         .expect("the chosen candidate was lowered");
+    let (s, mut p) = lowered.remove(at);
     p.requested = Method::Auto;
     p.candidates = candidates;
-    Ok((s, p))
+    Ok((s, p, lowered))
 }
 
 fn unavailable(method: Method, why: String) -> Candidate {
