@@ -5,6 +5,8 @@
 
 use codegen::ipm::{mpc_qp, InequalityQp};
 use codegen::{lower, oracle, Problem};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -132,9 +134,24 @@ pub fn spectral_radius(M: &DMatrix<f64>) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// A spec's text, parsed and lowered (the oracle's view of it).
+/// A spec's text, parsed and lowered (the oracle's view of it). Lowering certifies a constrained spec
+/// on its region (seconds for some), and the result is a function of the text alone, so each text is
+/// lowered once per test binary and cloned after: tests that run the same spec share it, and a second
+/// test asking while the first lowers waits for it.
 pub fn problem(text: &str) -> Problem {
-    lower(&mpc_spec::load(text).expect("valid spec")).expect("lowerable spec")
+    type Lowered = Arc<OnceLock<Problem>>;
+    static LOWERED: OnceLock<Mutex<HashMap<String, Lowered>>> = OnceLock::new();
+    let cell = LOWERED
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .entry(text.to_owned())
+        .or_default()
+        .clone();
+    cell.get_or_init(|| {
+        lower(&mpc_spec::load(text).expect("valid spec")).expect("lowerable spec")
+    })
+    .clone()
 }
 
 /// The data of one constrained solve: the state and a constant reference.
