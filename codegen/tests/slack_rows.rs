@@ -12,9 +12,14 @@ use rand_chacha::ChaCha8Rng;
 
 const HOVER: &str = include_str!("../../specs/hover.toml");
 
+/// Hover lowered and certified (once for the three tests: the certificate is what takes the time), and
+/// its parameters.
 fn hover() -> (codegen::Problem, Parameters) {
+    static LOWERED: std::sync::OnceLock<codegen::Problem> = std::sync::OnceLock::new();
     let spec = mpc_spec::load(HOVER).unwrap();
-    let p = codegen::lower(&spec).unwrap();
+    let p = LOWERED
+        .get_or_init(|| codegen::lower(&spec).unwrap())
+        .clone();
     let region = codegen::sampling::resolve_region(&spec, &p, "test").unwrap();
     let parameters = Parameters::of(&p, &region);
     (p, parameters)
