@@ -41,6 +41,18 @@ fn line_at(source: &str, span: &std::ops::Range<usize>) -> String {
     source[start..end].to_string()
 }
 
+/// The solver's plan and the step's estimated cost of `p`, lowered from `spec`, as `generate` prices it
+/// before its period check.
+fn step_of(
+    spec: &mpc_spec::Spec,
+    p: &codegen::Problem,
+) -> (codegen::Plan, codegen::target::StepCost) {
+    let plan = codegen::plan(spec, p).unwrap();
+    let (resources, _) = codegen::certificate::predicted(p, &plan);
+    let step = codegen::target::StepCost::of(spec, p, &resources);
+    (plan, step)
+}
+
 /// The one error the compiler gives for `src`.
 fn refusal(src: &str) -> Diagnostic {
     let Err(diags) = generate_from_source(src, &Opt::default()) else {
@@ -70,9 +82,7 @@ fn hover_on_the_m4f_takes_the_active_set_in_f32_and_its_admm_is_refused_on_its_p
     let e = p.qp.evidence.as_ref().expect("sampled");
     assert!(e.worst_needed <= e.iterations, "{e:?}");
     assert!(e.worst_error <= p.qp.accuracy, "{e:?}");
-    let plan = codegen::plan(&resolved, &p).unwrap();
-    let (resources, _) = codegen::certificate::predicted(&p, &plan);
-    let step = codegen::target::StepCost::of(&resolved, &p, &resources);
+    let (_, step) = step_of(&resolved, &p);
     assert_eq!(step.solver_scalar, mpc_spec::Scalar::F32);
     let load = step.load().expect("the M4F has a clock");
     assert!(load < 1.0, "{load}");
@@ -96,9 +106,7 @@ fn hover_on_the_m4f_takes_the_active_set_in_f32_and_its_admm_is_refused_on_its_p
     assert!(e.worst_needed <= e.iterations, "{e:?}");
     assert!(e.worst_error <= admm.qp.accuracy, "{e:?}");
     // The refusal, as `generate` gives it for `method = "admm"` (the same certificate).
-    let plan = codegen::plan(admm_spec, admm).unwrap();
-    let (resources, _) = codegen::certificate::predicted(admm, &plan);
-    let step = codegen::target::StepCost::of(admm_spec, admm, &resources);
+    let (_, step) = step_of(admm_spec, admm);
     let d = codegen::target::check_period(admm_spec, &step).expect_err("over its period");
     assert!(
         d.message.starts_with("a control step needs about ")
@@ -157,9 +165,7 @@ fn paper_limits_on_the_m4f_reaches_its_accuracy_in_f32_and_is_refused_over_its_p
         codegen::choice::previous_choice(&p.candidates),
         Some(Method::Admm)
     );
-    let plan = codegen::plan(&resolved, &p).unwrap();
-    let (resources, _) = codegen::certificate::predicted(&p, &plan);
-    let step = codegen::target::StepCost::of(&resolved, &p, &resources);
+    let (plan, step) = step_of(&resolved, &p);
     assert_eq!(step.solver_scalar, mpc_spec::Scalar::F32);
     let load = step.load().expect("the M4F has a clock");
     let measured = 3_120_411.0;
@@ -211,9 +217,7 @@ fn the_quadcopter_on_the_m4f_builds_with_admm_in_f32_within_its_period() {
     let (resolved, p, weighed) = codegen::choice::resolve_weighed(&spec).unwrap();
     // Under `auto` it is the dual active-set method in f32, within the period.
     assert_eq!(p.qp.method, Method::ActiveSet);
-    let plan = codegen::plan(&resolved, &p).unwrap();
-    let (resources, _) = codegen::certificate::predicted(&p, &plan);
-    let step = codegen::target::StepCost::of(&resolved, &p, &resources);
+    let (_, step) = step_of(&resolved, &p);
     assert!(step.load().expect("a clock") < 1.0);
     // ADMM, by the stage-wise ADMM's own figure on the M4F (3.0 cycles a multiply-add, the emulated
     // board's 2.90 instructions rounded up; `tests/tests/firmware/linear.rs` checks it against the
@@ -222,9 +226,7 @@ fn the_quadcopter_on_the_m4f_builds_with_admm_in_f32_within_its_period() {
         .iter()
         .find(|(_, q)| q.qp.method == Method::Admm)
         .expect("ADMM weighed");
-    let plan = codegen::plan(admm_spec, admm).unwrap();
-    let (resources, _) = codegen::certificate::predicted(admm, &plan);
-    let step = codegen::target::StepCost::of(admm_spec, admm, &resources);
+    let (_, step) = step_of(admm_spec, admm);
     assert_eq!(step.solver_scalar, mpc_spec::Scalar::F32);
     assert_eq!(
         step.solver_cycles_per_mac,
