@@ -199,6 +199,46 @@ fn paper_limits_on_the_m4f_reaches_its_accuracy_in_f32_and_is_refused_over_its_p
     );
 }
 
+/// paper-limits on the M4F with `restart = "continue"`: a solve that runs out of its budget falls back
+/// and the next step resumes from its working set instead of restarting cold, so every solve, cold or
+/// warm, spends at most the warm budget (the sample's warm-started most plus its margin). The step is
+/// one such solve, priced so, and fits the 12.8 ms period that the cold restart does not; the board's
+/// heaviest cold case (3,120,411 instructions) is then more than a step allows: from that corner the
+/// controller holds its plan for a few steps while the solve resumes (`tests/tests/active_set.rs`
+/// flies it).
+#[test]
+fn paper_limits_on_the_m4f_fits_its_period_when_a_solve_resumes_instead_of_restarting_cold() {
+    let src = on_m4f(PAPER_LIMITS).replacen(
+        "\n[mpc]\n",
+        "\n[mpc]\nmethod = \"active_set\"\nrestart = \"continue\"\n",
+        1,
+    );
+    let spec = mpc_spec::load(&src).unwrap();
+    assert_eq!(spec.mpc.restart, mpc_spec::Restart::Continue);
+    let (resolved, p) = codegen::choice::resolve(&spec).unwrap();
+    assert_eq!(p.qp.method, Method::ActiveSet);
+    let caps = codegen::solver::active_set::mpc::Caps::of(&p.qp);
+    assert!(caps.warm_work < caps.cold_work, "{caps:?}");
+    assert_eq!(caps.of_solve(false), (caps.cold, caps.warm_work));
+    assert_eq!(caps.of_solve(true), (caps.cold, caps.warm_work));
+    let (plan, step) = step_of(&resolved, &p);
+    // One solve a step: the step's solver is the cold solve's price, at the warm budget.
+    let per_step = plan.solver.macs_per_step(&p, &plan);
+    assert_eq!(Some(per_step), plan.solver.macs_per_cold_solve(&p, &plan));
+    let load = step.load().expect("the M4F has a clock");
+    assert!(load < 1.0, "{load}");
+    codegen::target::check_period(&resolved, &step).expect("within its period");
+    // The board's heaviest cold case would not fit one step: it resumes.
+    let measured = 3_120_411.0;
+    assert!(step.cycles < measured, "{} against {measured}", step.cycles);
+    // The same spec restarting cold is priced above its period (the test above).
+    let cold =
+        mpc_spec::load(&src.replace("restart = \"continue\"", "restart = \"cold\"")).unwrap();
+    let (cold_resolved, cold_p) = codegen::choice::resolve(&cold).unwrap();
+    let (_, cold_step) = step_of(&cold_resolved, &cold_p);
+    assert!(cold_step.load().unwrap() > 1.0);
+}
+
 /// The quadcopter on the M4F: `auto` takes the dual active set in f32, within its period, and ADMM in f32,
 /// weighed beside it, also fits: `firmware-template/specs/quadcopter-m4f.toml` writes `method = "admm"` and
 /// the firmware's linear mode flies it. ADMM's certificate is the one `auto` weighed (the same as the

@@ -367,6 +367,11 @@ fn check_mpc(raw: &Raw, nx: usize, nu: usize, diags: &mut Diagnostics) -> Option
             .admm_form
             .as_ref()
             .and_then(|f| AdmmForm::from_name(&f.value)),
+        restart: raw
+            .restart
+            .as_ref()
+            .and_then(|r| Restart::from_name(&r.value))
+            .unwrap_or_default(),
         outputs: outputs?,
         q: q?,
         r: r?,
@@ -687,6 +692,20 @@ fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut D
             )
             .label("how ADMM computes its x-update")
             .note("hint: remove `admm_form`, or write `method = \"admm\"` (or `\"auto\"`, which weighs ADMM with it)"),
+        );
+    }
+    if let Some(restart) = raw
+        .restart
+        .as_ref()
+        .filter(|r| method != Method::ActiveSet && r.value != Restart::Cold.name())
+    {
+        diags.push(
+            Diagnostic::new(
+                format!("`restart` is a setting of `method = \"active_set\"`, not of `method = \"{name}\"`"),
+                restart.span.clone(),
+            )
+            .label("what a warm active-set solve that runs out does")
+            .note("hint: remove `restart`, or write `method = \"active_set\"` (or `\"auto\"`, which weighs the active set with it)"),
         );
     }
     if let Some(certificate) = raw

@@ -26,6 +26,7 @@ pub const MPC_KEYS: &[&str] = &[
     "method",
     "step",
     "admm_form",
+    "restart",
     "q",
     "r",
     "qf",
@@ -85,6 +86,8 @@ pub const TIMES: &[&str] = crate::TimeDomain::NAMES;
 pub const METHODS: &[&str] = crate::Method::NAMES;
 /// Spellings of `[mpc] admm_form`: `auto` (the certificate's choice) or an [`crate::AdmmForm`].
 pub const ADMM_FORMS: &[&str] = &["auto", "direct", "residual"];
+/// Values of `[mpc] restart`.
+pub const RESTARTS: &[&str] = crate::Restart::NAMES;
 /// Values of `[mpc.region] certificate`.
 pub const CERTIFICATES: &[&str] = crate::Certificate::NAMES;
 /// Values of `[kalman] filter`.

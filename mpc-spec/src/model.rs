@@ -181,6 +181,22 @@ spelled! {
     }
 }
 
+spelled! {
+    /// What the dual active-set method does when a warm solve runs out of its changes or its budget of
+    /// work, `[mpc] restart`.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+    pub enum Restart {
+        /// Restart cold in the same step (the default): the step ends at the optimum wherever the
+        /// sampled (or exact) cold count holds, and is priced at a warm solve plus a cold one.
+        #[default]
+        Cold = "cold",
+        /// Fall back to the held plan and resume from the working set where the solve stopped at the
+        /// next step: no solve, cold or warm, spends more than the warm budget, and the step is priced
+        /// at one such solve. For a target whose period the cold restart does not fit.
+        Continue = "continue",
+    }
+}
+
 /// `[mpc] iterations`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Iterations {
@@ -388,6 +404,8 @@ pub struct Mpc {
     /// ADMM's x-update as written; `None`: the certificate's choice (direct, or residual where the
     /// direct form misses `accuracy` in f32).
     pub admm_form: Option<AdmmForm>,
+    /// The dual active-set method's answer to a warm solve that runs out, `restart` (cold by default).
+    pub restart: Restart,
     /// The tracked outputs z = C_z x, `outputs` (nz × nx); `None`: the whole state is tracked (C_z = I).
     pub outputs: Option<Matrix>,
     /// Stage weight on the tracked outputs, nz × nz (nz = nx without `outputs`).

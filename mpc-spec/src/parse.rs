@@ -76,6 +76,7 @@ pub struct Raw {
     pub method: Option<Located<String>>,
     pub step: Option<Located<Option<f64>>>,
     pub admm_form: Option<Located<String>>,
+    pub restart: Option<Located<String>>,
     pub q: Option<Located<MatrixInput>>,
     pub r: Option<Located<MatrixInput>>,
     /// `None` inside for `"lqr"`.
@@ -267,6 +268,9 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
         raw.admm_form = t
             .get("admm_form")
             .and_then(|v| p.choice(v, "mpc.admm_form", keys::ADMM_FORMS));
+        raw.restart = t
+            .get("restart")
+            .and_then(|v| p.choice(v, "mpc.restart", keys::RESTARTS));
         raw.q = p
             .required(t, "mpc", "q", &span)
             .and_then(|v| p.matrix_input(v, "mpc.q", false));

@@ -431,6 +431,40 @@ fn admm_form_is_admm_s_and_spelled() {
 }
 
 #[test]
+fn restart_is_the_active_set_s_and_spelled() {
+    let active_set = |extra: &str| with_method("method = \"active_set\"\n", extra);
+    assert_eq!(load(&active_set("")).unwrap().mpc.restart, Restart::Cold);
+    assert_eq!(
+        load(&active_set("restart = \"continue\"\n"))
+            .unwrap()
+            .mpc
+            .restart,
+        Restart::Continue
+    );
+    // `method = "auto"` weighs the active set with it; "cold", the default, fits any method.
+    let auto = with_method("", "restart = \"continue\"\nx_min = [-1, -1]\n");
+    assert_eq!(load(&auto).unwrap().mpc.restart, Restart::Continue);
+    assert_eq!(
+        load(&ipm("restart = \"cold\"\n")).unwrap().mpc.restart,
+        Restart::Cold
+    );
+    // Another method: located at the value, with the way out.
+    let (msg, at, note) = only_error(&ipm("restart = \"continue\"\n"));
+    assert_eq!(
+        msg,
+        "`restart` is a setting of `method = \"active_set\"`, not of `method = \"ipm\"`"
+    );
+    assert_eq!(at, "\"continue\"");
+    assert!(note.unwrap().contains("remove `restart`"));
+    // A misspelling names the choices.
+    let text = format!(
+        "{:?}",
+        load(&active_set("restart = \"warm\"\n")).unwrap_err()
+    );
+    assert!(text.contains("cold") && text.contains("continue"), "{text}");
+}
+
+#[test]
 fn auto_iterations_need_tolerance_or_a_region_for_first_order_methods() {
     let src = ipm("").replace("iterations = 20", "iterations = \"auto\"");
     assert_eq!(load(&src).unwrap().mpc.iterations, Iterations::Auto);

@@ -145,8 +145,11 @@ pub struct Certificate {
     /// solve of `iterations` that runs out, then a cold restart of `cold_iterations`.
     pub cold_iterations: Option<usize>,
     /// The dual active set's budgets of work, warm solve then cold (`WARM_WORK`, `COLD_WORK`;
-    /// [`crate::certify::evidence::Evidence::cold_work_cap`]).
+    /// [`crate::certify::evidence::Evidence::cold_work_cap`]; with `restart = "continue"` a cold solve
+    /// has the warm budget).
     pub work_budgets: Option<(usize, Option<usize>)>,
+    /// The dual active set's `[mpc] restart`: what a warm solve that runs out does.
+    pub restart: Option<mpc_spec::Restart>,
     /// The multiply-adds the cost model prices for a cold solve alone, where a step may hold two
     /// ([`crate::plan::Solver::macs_per_cold_solve`]): the figure a board's worst cold case is held to.
     pub cold_solve_macs: Option<usize>,
@@ -376,7 +379,7 @@ impl Certificate {
                 field("exact.seconds", "", "", EXACT, "time the partition took", Seconds, MaybeReal(x.map(|x| x.seconds))),
                 field("cold_iterations", "COLD_ITERATIONS", "A cold solve's cap: the exact count, or ITERATIONS if larger (the sampled count where the certificate is not exact).", EXACT, "cap of a cold solve (first, or after a warm one)", IfPresent, count(self.cold_iterations)),
                 field("warm_work", "WARM_WORK", "A warm solve's budget of work: the most a warm-started step of the sample spent plus its margin. Work is the kernel's multiply-adds and scanned rows weighed by their cost on the boards, in tenths of a multiply-add of the factor's loops.", EXACT, "budget of work of a warm solve (tenths of a multiply-add)", IfPresent, count(self.work_budgets.map(|w| w.0))),
-                field("cold_work", "COLD_WORK", "A cold solve's budget of work: the most a cold case of the sample spent, or where the exact count completed the larger of that and EXACT_COLD_WORK, plus its margin.", EXACT, "budget of work of a cold solve (tenths of a multiply-add)", IfPresent, count(self.work_budgets.and_then(|w| w.1))),
+                field("cold_work", "COLD_WORK", "A cold solve's budget of work: the most a cold case of the sample spent, or where the exact count completed the larger of that and EXACT_COLD_WORK, plus its margin (WARM_WORK with `restart = \"continue\"`).", EXACT, "budget of work of a cold solve (tenths of a multiply-add)", IfPresent, count(self.work_budgets.and_then(|w| w.1))),
                 field("cold_solve_macs", "", "", EXACT, "multiply-adds priced for a cold solve (of the factor's loops)", IfPresent, count(self.cold_solve_macs)),
                 field("warm_iterations", "WARM_ITERATIONS", "A warm solve's cap: the most a warm-started step of the sample needed plus its margin, at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.", EXACT, "cap of a warm solve (then a cold restart)", IfPresent, count(self.cold_iterations.map(|_| e.warm_cap()))),
             ];
@@ -719,7 +722,13 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
             .evidence
             .as_ref()
             .filter(|_| qp.method == mpc_spec::Method::ActiveSet)
-            .map(|e| (e.warm_work_cap(), e.cold_work_cap())),
+            .map(|_| {
+                let caps = crate::solver::active_set::mpc::Caps::of(qp);
+                let (_, cold) = caps.of_solve(false);
+                let limited = cold != crate::solver::active_set::UNLIMITED_WORK;
+                (caps.warm_work, limited.then_some(cold))
+            }),
+        restart: (qp.method == mpc_spec::Method::ActiveSet).then_some(qp.restart),
         cold_solve_macs: plan.solver.macs_per_cold_solve(p, plan),
         accuracy: qp.accuracy,
         normal_form: plan.solver.normal_form(qp),

@@ -210,6 +210,7 @@ pub fn uncertified(spec: &Spec) -> Result<Problem, Diagnostics> {
         iterations,
         tolerance: m.tolerance,
         method: m.method,
+        restart: m.restart,
         nz: Qr.ncols(),
         Cz,
         Q,

@@ -41,6 +41,9 @@ pub struct Qp {
     pub tolerance: Option<f64>,
     /// The solver algorithm ([`crate::solver`]).
     pub method: Method,
+    /// What the dual active-set method does when a warm solve runs out (`[mpc] restart`): restart cold
+    /// in the same step, or fall back and resume from its working set at the next.
+    pub restart: mpc_spec::Restart,
     /// Tracked outputs nz: the rows of `[mpc] outputs`, else nx.
     pub nz: usize,
     /// The output map C_z (nz × nx) of `[mpc] outputs`; `None`: the state is tracked (C_z = I).

@@ -232,11 +232,19 @@ fn constants(m: &Method) -> TokenStream {
     let caps = super::mpc::Caps::of(qp);
     let cold = lit(caps.cold);
     let warm = lit(caps.warm);
-    let warm_doc = format!(
-        " Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed ({}) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = {} changes (and spends at most what [`WARM_WORK`] and [`COLD_WORK`] allow).",
-        qp.evidence.as_ref().map_or(0, |e| e.warm_started_worst),
-        caps.per_step()
-    );
+    let continues = caps.restart == mpc_spec::Restart::Continue;
+    let warm_started_worst = qp.evidence.as_ref().map_or(0, |e| e.warm_started_worst);
+    let warm_doc = if continues {
+        format!(
+            " The most a warm-started step of the sample needed ({warm_started_worst}) plus its margin, at most [`ITERATIONS`]. With `restart = \"continue\"` a solve, warm or cold, makes at most [`COLD_ITERATIONS`] changes and spends at most [`WARM_WORK`]: a step makes at most {} changes; one that runs out falls back and the next step resumes from its working set.",
+            caps.per_step()
+        )
+    } else {
+        format!(
+            " Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed ({warm_started_worst}) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = {} changes (and spends at most what [`WARM_WORK`] and [`COLD_WORK`] allow).",
+            caps.per_step()
+        )
+    };
     let budget = |work: usize| {
         if work == super::UNLIMITED_WORK {
             quote!(usize::MAX)
@@ -245,7 +253,7 @@ fn constants(m: &Method) -> TokenStream {
             quote!(#work)
         }
     };
-    let (warm_work, cold_work) = (budget(caps.warm_work), budget(caps.cold_work));
+    let (warm_work, cold_work) = (budget(caps.warm_work), budget(caps.of_solve(false).1));
     let evidence = qp.evidence.as_ref();
     let warm_work_doc = match evidence {
         Some(e) => format!(
@@ -259,6 +267,7 @@ fn constants(m: &Method) -> TokenStream {
         .filter(|x| x.complete)
         .and_then(|x| x.cold_work);
     let cold_work_doc = match evidence {
+        Some(_) if continues => " The work a cold solve may spend before it stops changing the working set and falls back: [`WARM_WORK`], as `restart = \"continue\"` asks (the next step resumes from its working set).".to_string(),
         Some(e) if caps.cold_work != super::UNLIMITED_WORK => match exact_work {
             Some(w) => format!(
                 " The work a cold solve may spend before it stops changing the working set and falls back: the heaviest execution path of the exact partition ({w}; the sample's heaviest cold case {}), the larger plus its margin (see [`WARM_WORK`]).",
@@ -321,18 +330,31 @@ fn constants(m: &Method) -> TokenStream {
 
 /// The api section: `SolverStatus`, `Fallback`, the kernel's storage and the `Mpc` struct.
 fn api(m: &Method, reach_code: &TokenStream, coordinate_code: &TokenStream) -> TokenStream {
+    let continues = m.p.qp.restart == mpc_spec::Restart::Continue;
     let status_types = status_types(
         "dual active-set method",
-        &[
-            " Changes of the working set (sides added or removed) over all blocks, of the warm solve and",
-            " of its cold restart: at most [`WARM_ITERATIONS`] + [`COLD_ITERATIONS`]. A solve that needs more falls back.",
-        ],
+        if continues {
+            &[
+                " Changes of the working set (sides added or removed) over all blocks: at most [`COLD_ITERATIONS`]",
+                " within [`WARM_WORK`]. A solve that needs more falls back and the next step resumes.",
+            ]
+        } else {
+            &[
+                " Changes of the working set (sides added or removed) over all blocks, of the warm solve and",
+                " of its cold restart: at most [`WARM_ITERATIONS`] + [`COLD_ITERATIONS`]. A solve that needs more falls back.",
+            ]
+        },
     );
     let evidence_doc = evidence_doc(m.p.qp.evidence.as_ref(), "");
     let blocks = m.prepared.blocks.len();
     let real_name = m.num.numeric().name();
+    let stops = if continues {
+        "stops at the optimum or after [`COLD_ITERATIONS`] changes or [`WARM_WORK`] work;\n where it stops short the next step resumes from its working set (`restart = \"continue\"`)"
+    } else {
+        "stops at the optimum or after [`WARM_ITERATIONS`] changes\n or [`WARM_WORK`] work, then restarts cold with at most [`COLD_ITERATIONS`] and [`COLD_WORK`]"
+    };
     let doc = format!(
-        " Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and\n Idnani's, as DAQP) on the condensed QP in {real_name}, in {blocks} independent block(s), with the Cholesky\n factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve\n starts from the previous working set and stops at the optimum or after [`WARM_ITERATIONS`] changes\n or [`WARM_WORK`] work, then restarts cold with at most [`COLD_ITERATIONS`] and [`COLD_WORK`]; a solve that does not reach the optimum\n falls back to the held plan ([`Fallback::WarmStart`])."
+        " Warm-started MPC with state, output and rate constraints: a dual active-set method (Goldfarb and\n Idnani's, as DAQP) on the condensed QP in {real_name}, in {blocks} independent block(s), with the Cholesky\n factor, the normalised rows' Gram matrix and the parameter maps computed at build time. Each solve\n starts from the previous working set and {stops}; a solve that does not reach the optimum\n falls back to the held plan ([`Fallback::WarmStart`])."
     );
     let doc: Vec<&str> = doc.split('\n').collect();
     let entry = entry(m.p);
@@ -520,6 +542,38 @@ fn checked(
             }
         }
     });
+    let (caps, restart, next_warm) = match p.qp.restart {
+        mpc_spec::Restart::Cold => (
+            quote! {
+                let (cap, budget) =
+                    if warm { (WARM_ITERATIONS, WARM_WORK) } else { (COLD_ITERATIONS, COLD_WORK) };
+            },
+            quote! {
+                // A warm solve that ran out (or cycled) restarts cold: its count is certified.
+                if warm & ((ended == Ended::IterationLimit) | (ended == Ended::Cycling)) {
+                    self.warm_len = [0; NBLOCKS];
+                    let (ended, cold) = solve(
+                        &BLOCKS, f, lower, upper, &mut work, &mut self.warm_set, &mut self.warm_len,
+                        COLD_ITERATIONS, &TOLERANCES, &mut Tally::new(COLD_WORK), z, |_, _, _, _| {},
+                    );
+                    (ended, iterations + cold)
+                } else {
+                    (ended, iterations)
+                }
+            },
+            quote!(self.warm = trusted & !relax;),
+        ),
+        mpc_spec::Restart::Continue => (
+            // One solve a step, warm or cold, at one price.
+            quote!(let (cap, budget) = (COLD_ITERATIONS, WARM_WORK);),
+            quote!((ended, iterations)),
+            quote! {
+                // `restart = "continue"`: a solve that ran out of changes or work leaves a dual feasible
+                // working set, where the next step resumes.
+                self.warm = (trusted | (ended == Ended::IterationLimit)) & !relax;
+            },
+        ),
+    };
     let (empty_check, empty_end) = if zero_rows.is_some() {
         (
             quote!(let (ended, iterations) = if empty { (Ended::Infeasible, 0) } else),
@@ -597,23 +651,12 @@ fn checked(
             #zero_rows
             let mut work = self.work.work();
             #empty_check {
-                let (cap, budget) =
-                    if warm { (WARM_ITERATIONS, WARM_WORK) } else { (COLD_ITERATIONS, COLD_WORK) };
+                #caps
                 let (ended, iterations) = solve(
                     &BLOCKS, f, lower, upper, &mut work, &mut self.warm_set, &mut self.warm_len, cap,
                     &TOLERANCES, &mut Tally::new(budget), z, |_, _, _, _| {},
                 );
-                // A warm solve that ran out (or cycled) restarts cold: its count is certified.
-                if warm & ((ended == Ended::IterationLimit) | (ended == Ended::Cycling)) {
-                    self.warm_len = [0; NBLOCKS];
-                    let (ended, cold) = solve(
-                        &BLOCKS, f, lower, upper, &mut work, &mut self.warm_set, &mut self.warm_len,
-                        COLD_ITERATIONS, &TOLERANCES, &mut Tally::new(COLD_WORK), z, |_, _, _, _| {},
-                    );
-                    (ended, iterations + cold)
-                } else {
-                    (ended, iterations)
-                }
+                #restart
             } #empty_end
             let trusted = ended == Ended::Solved;
             if trusted {
@@ -623,7 +666,7 @@ fn checked(
             } else {
                 self.plan = *held;
             }
-            self.warm = trusted & !relax;
+            #next_warm
             let (violation, softened) = violations(&self.plan, offset);
             let infeasible = ended == Ended::Infeasible;
             // Recovering after a solve found the hard rows infeasible, or made a relaxed plan.

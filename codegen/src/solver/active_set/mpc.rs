@@ -14,7 +14,11 @@
 //! would price every change at a full working set. A solve that still ends anywhere but at the optimum
 //! falls back: a truncated dual iterate is not primal feasible, so its plan is not used; the plan is the
 //! previous one shifted by one step with the rest input appended, projected onto the box
-//! ([`held_plan`]), and the next solve starts cold. The warm start is the previous working set as it was, not shifted in time: on the shipped
+//! ([`held_plan`]), and the next solve starts cold. With `[mpc] restart = "continue"`
+//! ([`mpc_spec::Restart::Continue`]) a solve never restarts cold: every solve, cold or warm, spends at
+//! most [`Caps::warm_work`], one that runs out falls back, and the next step resumes from the working
+//! set where it stopped (the method keeps its iterate dual feasible, so that set is a valid start); a
+//! step is priced at one such solve, of at most [`Caps::cold`] changes. The warm start is the previous working set as it was, not shifted in time: on the shipped
 //! specs it needs fewer changes at the median than the shifted set (`codegen/tests/active_set.rs`
 //! prints both).
 #![allow(non_snake_case)]
@@ -25,7 +29,7 @@ use super::{
 use crate::lower::problem::Qp;
 use crate::solver::constrained::Fallback;
 use crate::solver::ipm::{held_plan, mpc_qp, relaxed, violations};
-use mpc_spec::Scalar;
+use mpc_spec::{Restart, Scalar};
 use nalgebra::DVector;
 
 /// The method's build-time data of `qp`: the QP's constant structure prepared (its f and sides do not
@@ -68,6 +72,9 @@ pub struct Caps {
     /// where the exact count completed the larger of that and its heaviest path's, plus the margin
     /// (`Evidence::cold_work_cap`); [`UNLIMITED_WORK`] without a sample.
     pub cold_work: usize,
+    /// What a warm solve that runs out does (`[mpc] restart`): restart cold in the step, or fall back
+    /// and resume at the next, every solve then within [`Caps::warm_work`].
+    pub restart: Restart,
 }
 
 impl Caps {
@@ -83,6 +90,7 @@ impl Caps {
             cold,
             warm_work: e.map_or(UNLIMITED_WORK, |e| e.warm_work_cap()),
             cold_work: e.and_then(|e| e.cold_work_cap()).unwrap_or(UNLIMITED_WORK),
+            restart: qp.restart,
         }
     }
 
@@ -95,25 +103,47 @@ impl Caps {
             cold: warm.max(exact),
             warm_work: UNLIMITED_WORK,
             cold_work: UNLIMITED_WORK,
+            restart: Restart::Cold,
+        }
+    }
+
+    /// The changes and the budget of work of a solve from `warm` (else cold). With
+    /// [`Restart::Continue`] every solve has the cold cap of changes and the warm budget of work: a
+    /// step then holds one solve, priced at that pair either way, and a solve that resumes from where
+    /// the last ran out goes as far as the budget lets it.
+    pub fn of_solve(&self, warm: bool) -> (usize, usize) {
+        match (warm, self.restart) {
+            (true, Restart::Cold) => (self.warm, self.warm_work),
+            (false, Restart::Cold) => (self.cold, self.cold_work),
+            (_, Restart::Continue) => (self.cold, self.warm_work),
         }
     }
 
     /// The most changes of the working set one control step makes: a warm solve that runs out, then
-    /// the cold restart.
+    /// the cold restart; with [`Restart::Continue`] one solve of the cold cap.
     pub fn per_step(&self) -> usize {
-        self.warm + self.cold
+        match self.restart {
+            Restart::Cold => self.warm + self.cold,
+            Restart::Continue => self.warm.max(self.cold),
+        }
     }
 
     /// The most work one control step spends ([`super::Macs::work`]): a warm solve, then the cold
-    /// restart, each [`SolveWork::at_most`] its caps.
+    /// restart, each [`SolveWork::at_most`] its caps; with [`Restart::Continue`] one solve
+    /// ([`Caps::of_solve`]).
     pub fn work_per_step(&self, solve: SolveWork) -> usize {
-        let warm = solve.at_most(self.warm, self.warm_work);
-        warm.saturating_add(self.work_per_cold_solve(solve))
+        let (changes, budget) = self.of_solve(true);
+        let warm = solve.at_most(changes, budget);
+        match self.restart {
+            Restart::Cold => warm.saturating_add(self.work_per_cold_solve(solve)),
+            Restart::Continue => warm.max(self.work_per_cold_solve(solve)),
+        }
     }
 
     /// The most work a cold solve spends: [`Caps::work_per_step`]'s cold part.
     pub fn work_per_cold_solve(&self, solve: SolveWork) -> usize {
-        solve.at_most(self.cold, self.cold_work)
+        let (changes, budget) = self.of_solve(false);
+        solve.at_most(changes, budget)
     }
 }
 
@@ -163,13 +193,20 @@ pub struct Step {
     pub outcome: Outcome,
     /// Whether the plan is the solve's.
     pub fallback: Fallback,
+    /// Whether the next step resumes from this one's working set where its solve ran out
+    /// ([`Restart::Continue`]).
+    pub resumes: bool,
 }
 
 impl Step {
     /// The next step's warm start: this step's working set where its plan is the optimum of the QP the
-    /// certificate covers (not a relaxed one); a cold start otherwise.
+    /// certificate covers (not a relaxed one), or where its solve ran out of changes or work and the
+    /// controller resumes ([`Restart::Continue`]); a cold start otherwise.
     pub fn next_start(&self) -> Option<WorkingSet> {
-        (self.fallback == Fallback::Solved).then(|| self.outcome.working_set.clone())
+        let resume = self.resumes
+            && self.fallback == Fallback::WarmStart
+            && self.outcome.status == Ended::IterationLimit;
+        (self.fallback == Fallback::Solved || resume).then(|| self.outcome.working_set.clone())
     }
 
     /// Whether the controller is recovering after this step: the hard rows admitted no plan, or the
@@ -181,7 +218,7 @@ impl Step {
 
 /// One control step: at most `caps.warm` changes of the working set from `start`, then, where that
 /// ran out or cycled, a cold restart with at most `caps.cold` (cold from the first where `start` is
-/// `None` or the step relaxes), by the kernel in `scalar` (f32 as an f32 module runs it); then the
+/// `None` or the step relaxes; no restart with [`Restart::Continue`], [`Caps::of_solve`]), by the kernel in `scalar` (f32 as an f32 module runs it); then the
 /// plan, or the held plan where the solve did not end at the optimum. The outcome's iterations count
 /// both solves.
 #[allow(clippy::too_many_arguments)]
@@ -208,15 +245,10 @@ pub fn control_step(
         Ok(offsets) => {
             let run =
                 |start, cap| solve_within(prepared, &offsets, start, cap, &tolerances, scalar);
-            let cap = if start.is_some() {
-                (caps.warm, caps.warm_work)
-            } else {
-                (caps.cold, caps.cold_work)
-            };
-            let first = run(start, cap);
+            let first = run(start, caps.of_solve(start.is_some()));
             let ran_out = matches!(first.status, Ended::IterationLimit | Ended::Cycling);
-            if start.is_some() && ran_out {
-                let mut restart = run(None, (caps.cold, caps.cold_work));
+            if start.is_some() && ran_out && caps.restart == Restart::Cold {
+                let mut restart = run(None, caps.of_solve(false));
                 restart.iterations += first.iterations;
                 for (b, k) in restart
                     .block_iterations
@@ -246,12 +278,14 @@ pub fn control_step(
             } else {
                 Fallback::Solved
             },
+            resumes: false,
         };
     }
     Step {
         plan: held,
         outcome,
         fallback: Fallback::WarmStart,
+        resumes: caps.restart == Restart::Continue && !relax,
     }
 }
 
