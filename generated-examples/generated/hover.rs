@@ -30764,7 +30764,7 @@ pub mod hover {
         pub const COLD_ITERATIONS: Option<usize> = Some(47);
         /// A warm solve's budget of work: the most a warm-started step of the sample spent plus its margin. Work is the kernel's multiply-adds and scanned rows weighed by their cost on the boards, in tenths of a multiply-add of the factor's loops.
         pub const WARM_WORK: Option<usize> = Some(203907);
-        /// A cold solve's budget of work: the most a cold case of the sample spent, or where the exact count completed the larger of that and EXACT_COLD_WORK, plus its margin.
+        /// A cold solve's budget of work: the most a cold case of the sample spent, or where the exact count completed the larger of that and EXACT_COLD_WORK, plus its margin (WARM_WORK with `restart = "continue"`).
         pub const COLD_WORK: Option<usize> = Some(547237);
         /// A warm solve's cap: the most a warm-started step of the sample needed plus its margin, at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.
         pub const WARM_ITERATIONS: Option<usize> = Some(13);
