@@ -14,6 +14,7 @@ use mpc_spec::{Diagnostic, Method};
 
 const HOVER: &str = include_str!("../../specs/hover.toml");
 const PAPER_LIMITS: &str = include_str!("../../specs/paper-limits.toml");
+const PAPER_LIMITS_M4F: &str = include_str!("../../firmware-template/specs/paper-limits-m4f.toml");
 const QUADCOPTER: &str = include_str!("../../specs/quadcopter.toml");
 const QUADCOPTER_M4F: &str = include_str!("../../firmware-template/specs/quadcopter-m4f.toml");
 
@@ -205,14 +206,22 @@ fn paper_limits_on_the_m4f_reaches_its_accuracy_in_f32_and_is_refused_over_its_p
 /// one such solve, priced so, and fits the 12.8 ms period that the cold restart does not; the board's
 /// heaviest cold case (3,120,411 instructions) is then more than a step allows: from that corner the
 /// controller holds its plan for a few steps while the solve resumes (`tests/tests/active_set.rs`
-/// flies it).
+/// resumes it on the host). `firmware-template/specs/paper-limits-m4f.toml` is this variant.
 #[test]
 fn paper_limits_on_the_m4f_fits_its_period_when_a_solve_resumes_instead_of_restarting_cold() {
-    let src = on_m4f(PAPER_LIMITS).replacen(
-        "\n[mpc]\n",
-        "\n[mpc]\nmethod = \"active_set\"\nrestart = \"continue\"\n",
+    let src = on_m4f(&PAPER_LIMITS.replacen(
+        "\nmethod = \"ipm\"\n",
+        "\nmethod = \"active_set\"\nrestart = \"continue\"\n",
         1,
-    );
+    ));
+    // The firmware's spec is this very variant, comments aside.
+    let body = |s: &str| -> Vec<String> {
+        s.lines()
+            .filter(|l| !l.trim_start().starts_with('#') && !l.trim().is_empty())
+            .map(str::to_owned)
+            .collect()
+    };
+    assert_eq!(body(PAPER_LIMITS_M4F), body(&src));
     let spec = mpc_spec::load(&src).unwrap();
     assert_eq!(spec.mpc.restart, mpc_spec::Restart::Continue);
     let (resolved, p) = codegen::choice::resolve(&spec).unwrap();
