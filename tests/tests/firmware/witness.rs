@@ -11,6 +11,9 @@
 //! whose partition completes in the build, flown from the witness of its heaviest execution path
 //! (`Exact::work_witness`), in f32 on the M4F and f64 on the A9, and on the M4F also from the witness of
 //! its most changes (`Exact::witness`), another path: each at or below the bound.
+//!
+//! `restart = "continue"` (paper-limits on the M4F): from the heaviest cold case, several cycles, each
+//! within the build's step, the first ones held while the solve resumes.
 
 use super::*;
 
@@ -64,13 +67,38 @@ fn cold_case(
                 .all(|(name, _)| name.starts_with("x0[") || name.starts_with("r[")),
         "θ is (x0, r): {theta:?}"
     );
-    let (start, reference) = (listed(&theta, "x0["), listed(&theta, "r["));
+    let r = fly_from(board, spec, name, &theta, 1);
+    let measured = (uint(&r, "ticks_max") * board.instructions_per_tick) as f64;
+    let step = &g.step;
+    let solve_macs = match priced {
+        Priced::ColdSolve => g.certificate.cold_solve_macs.expect("a step of two solves"),
+        Priced::HeaviestPath => {
+            let x = g.certificate.exact.as_ref().expect("an exact count");
+            x.cold_work.expect("the heaviest path's work").div_ceil(10)
+        }
+    };
+    (
+        measured,
+        step.cycles_with_solver(solve_macs) / step.machine.cycles_per_instruction,
+    )
+}
+
+/// Flies `spec` on `board` in the linear mode for `cycles` cycles from the parameter `theta` (x0 and
+/// a constant reference) and returns the RESULT line.
+fn fly_from(
+    board: Board,
+    spec: &Path,
+    name: &str,
+    theta: &[(String, f64)],
+    cycles: usize,
+) -> Value {
+    let (start, reference) = (listed(theta, "x0["), listed(theta, "r["));
     let spec = spec.to_str().expect("a UTF-8 path");
     let elf = build_with(
         board,
         Some(spec),
         name,
-        Some(1),
+        Some(cycles),
         &[
             "--linear",
             &format!("--start={start}"),
@@ -85,20 +113,8 @@ fn cold_case(
     );
     let r = result_line(&uart).unwrap_or_else(|| panic!("no RESULT line:\n{uart}"));
     assert_calibrated(&r, board);
-    assert_eq!(uint(&r, "cycles"), 1);
-    let measured = (uint(&r, "ticks_max") * board.instructions_per_tick) as f64;
-    let step = &g.step;
-    let solve_macs = match priced {
-        Priced::ColdSolve => g.certificate.cold_solve_macs.expect("a step of two solves"),
-        Priced::HeaviestPath => {
-            let x = g.certificate.exact.as_ref().expect("an exact count");
-            x.cold_work.expect("the heaviest path's work").div_ceil(10)
-        }
-    };
-    (
-        measured,
-        step.cycles_with_solver(solve_macs) / step.machine.cycles_per_instruction,
-    )
+    assert_eq!(uint(&r, "cycles"), cycles as u64);
+    r
 }
 
 /// What bounds the flown solve: the step's price of a cold solve (its budget of work), or the exact
@@ -232,5 +248,42 @@ fn the_exact_partitions_heaviest_path_on_the_a9_takes_at_most_the_bound() {
         bound,
         "exact-small on the A9, the heaviest path",
         true,
+    );
+}
+
+/// `firmware-template/specs/paper-limits-m4f.toml` (`restart = "continue"`) flown in the linear mode from
+/// its sample's heaviest cold case, whose cold solve (3.1 M instructions) is more than a step may spend:
+/// the first solves run out of the warm budget and hold the plan, the next ones resume from where they
+/// stopped and reach the optimum, and no cycle takes more instructions than the build's step.
+#[test]
+fn paper_limits_on_the_m4f_resumes_from_its_heaviest_cold_case_within_its_step() {
+    const CYCLES: usize = 60;
+    let spec = Path::new("firmware-template/specs/paper-limits-m4f.toml");
+    let src = std::fs::read_to_string(root().join(spec)).expect("the spec");
+    let g = codegen::generate_from_source(&src, &Default::default()).expect("it builds");
+    assert_eq!(g.problem.qp.restart, mpc_spec::Restart::Continue);
+    let theta = g
+        .certificate
+        .sampled
+        .as_ref()
+        .expect("a sampled certificate")
+        .cold_witness
+        .clone();
+    let r = fly_from(M4, spec, "paper-limits-m4f-witness", &theta, CYCLES);
+    let measured = (uint(&r, "ticks_max") * M4.instructions_per_tick) as f64;
+    let bound = g.step.cycles / g.step.machine.cycles_per_instruction;
+    let fallbacks = uint(&r, "fallback_cycles");
+    println!(
+        "paper-limits on the M4F from its heaviest cold case: {fallbacks} of {CYCLES} cycles held, the most \
+         {measured} instructions, the step's bound {bound:.0} ({:.2}×), the period {:.0}",
+        bound / measured,
+        g.step.period_cycles.expect("a clock")
+    );
+    assert!(measured <= bound, "{measured} against the step's {bound}");
+    assert!(bound <= g.step.period_cycles.expect("a clock"));
+    assert_eq!(uint(&r, "unsolved_cycles"), 0, "{r}");
+    assert!(
+        fallbacks >= 1 && fallbacks < CYCLES as u64 / 2,
+        "{fallbacks} cycles held: it should run out first, then resume to the optimum"
     );
 }
