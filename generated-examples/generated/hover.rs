@@ -30766,7 +30766,7 @@ pub mod hover {
         pub const WARM_WORK: Option<usize> = Some(203907);
         /// A cold solve's budget of work: the most a cold case of the sample spent, or where the exact count completed the larger of that and EXACT_COLD_WORK, plus its margin (WARM_WORK with `restart = "continue"`).
         pub const COLD_WORK: Option<usize> = Some(547237);
-        /// A warm solve's cap: the most a warm-started step of the sample needed plus its margin, at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices.
+        /// A warm solve's cap: the most a warm-started step of the sample needed plus its margin, at most ITERATIONS; a step makes at most WARM_ITERATIONS + COLD_ITERATIONS changes, which the cost model prices (with `restart = "continue"` every solve has COLD_ITERATIONS and WARM_WORK, and a step holds one).
         pub const WARM_ITERATIONS: Option<usize> = Some(13);
         /// ρ(F − G·K_LQR).
         pub const LQR_SPECTRAL_RADIUS: f64 = 0.8827387020097792f64;
