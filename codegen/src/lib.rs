@@ -109,7 +109,8 @@ pub fn lower(spec: &Spec) -> Result<Problem, Diagnostics> {
 }
 
 /// The changes to a spec refused for its period that the compiler prices by building them, each with its
-/// estimated cycles a step: every other method that takes the spec (written explicitly: `auto` does not
+/// estimated cycles a step: for the dual active set restarting cold, `restart = "continue"` (one solve a
+/// step within the warm budget, the same QP); every other method that takes the spec (written explicitly: `auto` does not
 /// weigh the active set in f64 without f64 hardware), a control horizon of half the horizon, and half the
 /// horizon (both with the resolved method, the move blocks cut as MATLAB cuts them). A change whose
 /// lowering fails, or that the build's budget refuses, is listed with the reason instead; so is one with ADMM, whose certificate (ρ tuned over its sample, thousands of
@@ -121,6 +122,12 @@ fn alternatives(resolved: &Spec, candidates: &[choice::Candidate]) -> Vec<target
     let mpc = &resolved.mpc;
     let (horizon, held) = (mpc.horizon, mpc.control_horizon());
     let mut variants: Vec<(String, Spec)> = Vec::new();
+    // The same QP and method, one solve a step: where the cold restart is what does not fit.
+    if mpc.method == mpc_spec::Method::ActiveSet && mpc.restart == mpc_spec::Restart::Cold {
+        let mut s = resolved.clone();
+        s.mpc.restart = mpc_spec::Restart::Continue;
+        variants.push(("`restart = \"continue\"`".to_string(), s));
+    }
     for &method in choice::CANDIDATES {
         if method == resolved.mpc.method || (method.box_only() && !mpc.constraints.is_empty()) {
             continue;

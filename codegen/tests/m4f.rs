@@ -206,7 +206,8 @@ fn paper_limits_on_the_m4f_reaches_its_accuracy_in_f32_and_is_refused_over_its_p
 /// one such solve, priced so, and fits the 12.8 ms period that the cold restart does not; the board's
 /// heaviest cold case (3,120,411 instructions) is then more than a step allows: from that corner the
 /// controller holds its plan for a few steps while the solve resumes (`tests/tests/active_set.rs`
-/// resumes it on the host). `firmware-template/specs/paper-limits-m4f.toml` is this variant.
+/// resumes it on the host). `firmware-template/specs/paper-limits-m4f.toml` is this variant. Restarting
+/// cold, the refusal's hint prices this change first.
 #[test]
 fn paper_limits_on_the_m4f_fits_its_period_when_a_solve_resumes_instead_of_restarting_cold() {
     let src = on_m4f(&PAPER_LIMITS.replacen(
@@ -240,12 +241,27 @@ fn paper_limits_on_the_m4f_fits_its_period_when_a_solve_resumes_instead_of_resta
     // The board's heaviest cold case would not fit one step: it resumes.
     let measured = 3_120_411.0;
     assert!(step.cycles < measured, "{} against {measured}", step.cycles);
-    // The same spec restarting cold is priced above its period (the test above).
-    let cold =
-        mpc_spec::load(&src.replace("restart = \"continue\"", "restart = \"cold\"")).unwrap();
-    let (cold_resolved, cold_p) = codegen::choice::resolve(&cold).unwrap();
-    let (_, cold_step) = step_of(&cold_resolved, &cold_p);
-    assert!(cold_step.load().unwrap() > 1.0);
+    // Restarting cold, the same spec is refused over its period, and the refusal's hint names this
+    // change first, at this step's price.
+    let d = refusal(&src.replace("restart = \"continue\"", "restart = \"cold\""));
+    assert!(d.message.contains("of its 12.8 ms period"), "{}", d.message);
+    let hint = d.note.as_deref().expect("a hint");
+    let rest = hint
+        .strip_prefix("hint: `restart = \"continue\"` (about ")
+        .unwrap_or_else(|| panic!("{hint}"));
+    let cycles: f64 = rest.split(' ').next().unwrap().parse().unwrap();
+    assert!(
+        rest.split(';')
+            .next()
+            .unwrap()
+            .ends_with("of the period: fits)"),
+        "{rest}"
+    );
+    assert!(
+        (step.cycles - cycles).abs() <= 5e-3 * step.cycles,
+        "{cycles} against {}",
+        step.cycles
+    );
 }
 
 /// The quadcopter on the M4F: `auto` takes the dual active set in f32, within its period, and ADMM in f32,
