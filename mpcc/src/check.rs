@@ -343,11 +343,14 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
         .flat_map(|(_, lines)| lines.iter().map(|(what, _)| what.chars().count()))
         .max()
         .unwrap_or(0);
-    let method = if p.requested == mpc_spec::Method::Auto {
+    let mut method = if p.requested == mpc_spec::Method::Auto {
         format!("{} (auto)", p.qp.method.name())
     } else {
         p.qp.method.name().to_string()
     };
+    if p.qp.method == mpc_spec::Method::ActiveSet && p.qp.restart == mpc_spec::Restart::Continue {
+        method += " resuming where a solve runs out (restart = \"continue\")";
+    }
     let mut out = format!(
         "{shown}: {method}, horizon {}, {} iterations, nx = {}, nu = {}, ny = {}",
         p.qp.N, c.iterations, p.nx, p.nu, p.ny
