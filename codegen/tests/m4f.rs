@@ -54,6 +54,23 @@ fn step_of(
     (plan, step)
 }
 
+/// Where a refusal's `hint` prices `change` and its cycles, which must fit the period.
+fn fitting_price(hint: &str, change: &str) -> (usize, f64) {
+    let at = hint
+        .find(&format!("{change} (about "))
+        .unwrap_or_else(|| panic!("no price for {change} in: {hint}"));
+    let rest = &hint[at + change.len() + " (about ".len()..];
+    let cycles: f64 = rest.split(' ').next().unwrap().parse().unwrap();
+    assert!(
+        rest.split(';')
+            .next()
+            .unwrap()
+            .ends_with("of the period: fits)"),
+        "{change}: {rest}"
+    );
+    (at, cycles)
+}
+
 /// The one error the compiler gives for `src`.
 fn refusal(src: &str) -> Diagnostic {
     let Err(diags) = generate_from_source(src, &Opt::default()) else {
@@ -246,17 +263,8 @@ fn paper_limits_on_the_m4f_fits_its_period_when_a_solve_resumes_instead_of_resta
     let d = refusal(&src.replace("restart = \"continue\"", "restart = \"cold\""));
     assert!(d.message.contains("of its 12.8 ms period"), "{}", d.message);
     let hint = d.note.as_deref().expect("a hint");
-    let rest = hint
-        .strip_prefix("hint: `restart = \"continue\"` (about ")
-        .unwrap_or_else(|| panic!("{hint}"));
-    let cycles: f64 = rest.split(' ').next().unwrap().parse().unwrap();
-    assert!(
-        rest.split(';')
-            .next()
-            .unwrap()
-            .ends_with("of the period: fits)"),
-        "{rest}"
-    );
+    let (at, cycles) = fitting_price(hint, "`restart = \"continue\"`");
+    assert_eq!(at, "hint: ".len(), "{hint}");
     assert!(
         (step.cycles - cycles).abs() <= 5e-3 * step.cycles,
         "{cycles} against {}",
@@ -318,21 +326,7 @@ fn a_refusal_prices_the_cheaper_changes() {
         "{:?}",
         d.related
     );
-    let priced = |change: &str| -> f64 {
-        let at = hint
-            .find(&format!("{change} (about "))
-            .unwrap_or_else(|| panic!("no price for {change} in: {hint}"));
-        let rest = &hint[at + change.len() + " (about ".len()..];
-        let cycles: f64 = rest.split(' ').next().unwrap().parse().unwrap();
-        assert!(
-            rest.split(';')
-                .next()
-                .unwrap()
-                .ends_with("of the period: fits)"),
-            "{change}: {rest}"
-        );
-        cycles
-    };
+    let priced = |change: &str| fitting_price(hint, change).1;
     let f32_cycles = priced("`scalar = \"f32\"` in `[codegen]`");
     let active_set = priced("`method = \"active_set\"`");
     assert!(f32_cycles < active_set, "{hint}");
