@@ -722,11 +722,14 @@ pub fn certify(p: &Problem, plan: &Plan) -> Certificate {
             .evidence
             .as_ref()
             .filter(|_| qp.method == mpc_spec::Method::ActiveSet)
-            .map(|_| {
-                let caps = crate::solver::active_set::mpc::Caps::of(qp);
-                let (_, cold) = caps.of_solve(false);
-                let limited = cold != crate::solver::active_set::UNLIMITED_WORK;
-                (caps.warm_work, limited.then_some(cold))
+            // `Caps::of(qp)`'s budgets, formed here from the evidence alone: with `restart = "continue"`
+            // a cold solve has the warm budget.
+            .map(|e| {
+                let cold = match qp.restart {
+                    mpc_spec::Restart::Cold => e.cold_work_cap(),
+                    mpc_spec::Restart::Continue => Some(e.warm_work_cap()),
+                };
+                (e.warm_work_cap(), cold)
             }),
         restart: (qp.method == mpc_spec::Method::ActiveSet).then_some(qp.restart),
         cold_solve_macs: plan.solver.macs_per_cold_solve(p, plan),
