@@ -322,7 +322,7 @@ fn a_continuing_controller_resumes_where_its_solve_ran_out() {
     let p = problem(PAPER_LIMITS_CONTINUE);
     // A cold solve has the warm budget, and the report says so.
     assert_eq!(m::COLD_WORK, m::WARM_WORK);
-    assert!(m::WARM_WORK < paper_limits::COLD_WORK);
+    const { assert!(m::WARM_WORK < paper_limits::COLD_WORK) };
     assert_eq!(m::report::COLD_WORK, Some(m::COLD_WORK));
     let e = p.qp.evidence.as_ref().expect("sampled");
     let entry = |name: &str| {
