@@ -321,11 +321,12 @@ pub(crate) fn text(shown: &str, g: &Generated) -> String {
         ));
     }
     let mut target = target_lines(&g.step);
-    // The exact partition's heaviest path, priced alone: the bound over the region's paths.
+    // The exact partition's heaviest path, priced alone: the bound over the region's paths. Not where
+    // a solve resumes at the next step (`restart = "continue"`): there a step stops at the warm budget.
     let heaviest_path = c
         .exact
         .as_ref()
-        .filter(|x| x.complete)
+        .filter(|x| x.complete && c.restart != Some(mpc_spec::Restart::Continue))
         .and_then(|x| x.cold_work);
     if let (Some(work), Some(_)) = (heaviest_path, g.step.period_cycles) {
         let cycles = g.step.cycles_with_solver(work.div_ceil(10));
