@@ -345,6 +345,11 @@ fn api(m: &Method, reach_code: &TokenStream, coordinate_code: &TokenStream) -> T
             ]
         },
     );
+    let warm_doc = if continues {
+        " Whether the working sets are a warm start (false after `new`, `reset` or a fallback, but true\n after a solve that ran out, which the next resumes: `restart = \"continue\"`)."
+    } else {
+        " Whether the working sets are a warm start (false after `new`, `reset` or a fallback)."
+    };
     let evidence_doc = evidence_doc(m.p.qp.evidence.as_ref(), "");
     let blocks = m.prepared.blocks.len();
     let real_name = m.num.numeric().name();
@@ -370,7 +375,7 @@ fn api(m: &Method, reach_code: &TokenStream, coordinate_code: &TokenStream) -> T
             warm_set: [u32; NWARM],
             /// The used entries of each block's working set.
             warm_len: [u32; NBLOCKS],
-            /// Whether the working sets are a warm start (false after `new`, `reset` or a fallback).
+            #[doc = #warm_doc]
             warm: bool,
             /// The kernel's storage, kept here rather than on the stack.
             work: Storage,
