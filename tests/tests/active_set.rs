@@ -158,6 +158,12 @@ fn generated_matches_the_oracle() {
             "paper-geofence",
             run!(paper_geofence, PAPER_GEOFENCE, 4, 3, 20, 1.5, false),
         ),
+        // In f64 (the module and the oracle form the same data): with `restart = "continue"` most cold
+        // starts end at the warm budget. Not in f32, where the module forms its data in f32 and the
+        // oracle in f64 then rounds: at a budget's edge the last pass starts under it in one and not in
+        // the other (a solve of paper-limits' M4F variant: 122,801 work in the oracle against the budget
+        // 122,386, solved there and held in the module). The board flies that variant
+        // (`tests/tests/firmware/witness.rs`).
         (
             "paper-limits, restart = \"continue\"",
             run!(
