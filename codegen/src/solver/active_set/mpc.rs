@@ -124,7 +124,7 @@ impl Caps {
     pub fn per_step(&self) -> usize {
         match self.restart {
             Restart::Cold => self.warm + self.cold,
-            Restart::Continue => self.warm.max(self.cold),
+            Restart::Continue => self.of_solve(false).0,
         }
     }
 
@@ -132,11 +132,13 @@ impl Caps {
     /// restart, each [`SolveWork::at_most`] its caps; with [`Restart::Continue`] one solve
     /// ([`Caps::of_solve`]).
     pub fn work_per_step(&self, solve: SolveWork) -> usize {
-        let (changes, budget) = self.of_solve(true);
-        let warm = solve.at_most(changes, budget);
+        let cold = self.work_per_cold_solve(solve);
         match self.restart {
-            Restart::Cold => warm.saturating_add(self.work_per_cold_solve(solve)),
-            Restart::Continue => warm.max(self.work_per_cold_solve(solve)),
+            Restart::Cold => solve
+                .at_most(self.warm, self.warm_work)
+                .saturating_add(cold),
+            // A warm solve has the same caps as a cold one.
+            Restart::Continue => cold,
         }
     }
 
