@@ -11,11 +11,26 @@ fn main() {
     let p = codegen::lower(&spec).expect("lowers");
     let region = codegen::sampling::resolve_region(&spec, &p, "probe").expect("a region");
     let prepared = prepare(&p.qp).expect("prepared");
-    let count = exact_count(&p, &prepared, &region, Limits { lps, dimension: 64 });
+    let count = exact_count(
+        &p,
+        &prepared,
+        &region,
+        Limits {
+            lps,
+            dimension: 64,
+            combine: std::env::var("SEPARATE").is_err(),
+        },
+    );
     for (b, c) in count.blocks.iter().enumerate() {
         println!(
-            "block {b}: {} parameters, {} regions ({} cycling, radius ≤ {:.1e}), worst {}, {} LPs ({} left to Clarabel), {:.2} s, complete {}",
+            "block {b}: {} parameters in {} coordinates ({}), {} regions ({} cycling, radius ≤ {:.1e}), worst {}, {} LPs ({} left to Clarabel), {:.2} s, complete {}",
             c.parameters.len(),
+            c.coordinates.len(),
+            c.coordinates
+                .iter()
+                .map(|k| k.name(&count.parameters.names))
+                .collect::<Vec<_>>()
+                .join(", "),
             c.pieces.len(),
             c.cycling,
             c.cycling_radius,
@@ -33,7 +48,7 @@ fn main() {
                 .iter()
                 .filter(|q| q.end == codegen::solver::active_set::exact::End::Cycles)
             {
-                let theta = count.parameters.theta(&c.parameters, &q.centre);
+                let theta = count.parameters.theta(&c.coordinates, &q.centre);
                 let qp = count.parameters.qp(&p, &theta);
                 let o = codegen::solver::active_set::solve(
                     &prepared,

@@ -16,6 +16,11 @@ use rand_chacha::ChaCha8Rng;
 const SMALL: &str = include_str!("../../tests/specs/active-set/exact-small.toml");
 
 fn setup(src: &str) -> (codegen::Problem, Prepared, ExactCount) {
+    setup_with(src, true)
+}
+
+/// [`setup`], the parameters moving the sides in parallel combined into one coordinate or not.
+fn setup_with(src: &str, combine: bool) -> (codegen::Problem, Prepared, ExactCount) {
     let spec = mpc_spec::load(src).unwrap();
     let p = codegen::lower(&spec).unwrap();
     let region = codegen::sampling::resolve_region(&spec, &p, "test").unwrap();
@@ -27,6 +32,7 @@ fn setup(src: &str) -> (codegen::Problem, Prepared, ExactCount) {
         Limits {
             lps: 2_000_000,
             dimension: 64,
+            combine,
         },
     );
     (p, prepared, count)
@@ -98,7 +104,7 @@ fn small_problem_regions_agree_with_the_kernel() {
             );
         }
         for xi in points {
-            let theta = count.parameters.theta(&c.parameters, &xi);
+            let theta = count.parameters.theta(&c.coordinates, &xi);
             let k = kernel(&p, &prepared, &count, &theta)[0];
             if k != q.iterations {
                 mismatches.push((q.iterations, k, xi, q.radius));
@@ -139,7 +145,7 @@ fn cross_check(name: &str, src: &str, per_axis: usize, draws: usize) -> ExactCou
     for (b, c) in count.blocks.iter().enumerate() {
         assert_eq!(c.lp_failures, 0, "{name} block {b}");
         assert_eq!(at_witness[b], c.worst, "{name} block {b}: the witness");
-        let dims = c.parameters.len();
+        let dims = c.coordinates.len();
         let points = per_axis.pow(dims as u32);
         let mut seen = 0;
         for g in 0..points {
@@ -151,7 +157,7 @@ fn cross_check(name: &str, src: &str, per_axis: usize, draws: usize) -> ExactCou
                     -1.0 + 2.0 * i as f64 / (per_axis - 1) as f64
                 })
                 .collect();
-            let theta = count.parameters.theta(&c.parameters, &xi);
+            let theta = count.parameters.theta(&c.coordinates, &xi);
             let k = kernel(&p, &prepared, &count, &theta)[b];
             heaviest = heaviest.max(within_heaviest_path(&theta));
             seen = seen.max(k);
@@ -200,6 +206,40 @@ fn small_problem_grid_and_draws_stay_within_the_count() {
     cross_check("small", SMALL, 41, 2000);
 }
 
+/// With the position's reference over [−1, 1] the block depends on three parameters, but x₀'s position
+/// and the reference enter its sides only through their difference (no row bounds the position): the
+/// partition is over two coordinates, and the kernel run on draws over the whole three-dimensional box
+/// (not along the coordinates) stays within its count.
+#[test]
+fn a_position_and_its_reference_are_partitioned_as_their_difference() {
+    let src = SMALL
+        .replace("reference_min = [0, 0]", "reference_min = [-1, 0]")
+        .replace("reference_max = [0, 0]", "reference_max = [1, 0]");
+    let count = cross_check("small with a reference", &src, 21, 2000);
+    let c = &count.blocks[0];
+    let names = &count.parameters.names;
+    assert_eq!(c.parameters.len(), 3);
+    let coordinates: Vec<String> = c.coordinates.iter().map(|k| k.name(names)).collect();
+    assert_eq!(coordinates, ["x0[0] - r[0]", "x0[1]"]);
+    // The partition over the three parameters apart is the same one lifted: the same count and the same
+    // number of regions for each count.
+    let (_, _, apart) = setup_with(&src, false);
+    let a = &apart.blocks[0];
+    assert!(a.complete);
+    assert_eq!(a.coordinates.len(), 3);
+    let by_count = |c: &codegen::solver::active_set::exact::BlockCount| {
+        let mut h = std::collections::BTreeMap::new();
+        for q in &c.pieces {
+            *h.entry((q.iterations, format!("{:?}", q.end)))
+                .or_insert(0usize) += 1;
+        }
+        h
+    };
+    assert_eq!(a.worst, c.worst);
+    assert_eq!(by_count(a), by_count(c));
+    println!("apart: {} LPs, combined: {} LPs", a.lps, c.lps);
+}
+
 /// Not timed yet within the session that wrote it: run with `--release -- --ignored`.
 #[test]
 #[ignore]
@@ -229,6 +269,7 @@ fn a_cycle_in_exact_arithmetic_ends_its_region_and_the_partition_goes_on() {
     let limits = Limits {
         lps: 8_000,
         dimension: 64,
+        combine: true,
     };
     let count = exact_count(&p, &prepared, &region, limits);
     let c = &count.blocks[2];
@@ -247,7 +288,7 @@ fn a_cycle_in_exact_arithmetic_ends_its_region_and_the_partition_goes_on() {
             q.iterations,
             c.worst
         );
-        let theta = count.parameters.theta(&c.parameters, &q.centre);
+        let theta = count.parameters.theta(&c.coordinates, &q.centre);
         let k = kernel(&p, &prepared, &count, &theta);
         assert!(k[2] < 100, "the kernel at the sliver's centre: {k:?}");
     }

@@ -36,7 +36,7 @@ pub mod paper_geofence {
     pub const U_MAX: [Real; NU] = [10f64, 10f64, 10f64];
     /// The input that cold starts use and warm starts append: zero projected onto the box.
     pub const U_REST: [Real; NU] = [0f64, 0f64, 0f64];
-    /// Changes of the working set a cold solve (the first, or after a warm one ran out) may make: [`ITERATIONS`], the sampled count (block 0 depends on 4 parameters, above the 3 the exact count partitions (codegen::budget::EXACT_DIMENSION)).
+    /// Changes of the working set a cold solve (the first, or after a warm one ran out) may make: [`ITERATIONS`], the sampled count (block 0 ran out of the build's 20000 feasibility LPs (codegen::budget::EXACT_LPS) after 571 regions).
     pub const COLD_ITERATIONS: usize = 255;
     /// Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed (6) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = 263 changes (and spends at most what [`WARM_WORK`] and [`COLD_WORK`] allow).
     pub const WARM_ITERATIONS: usize = 8;
@@ -22028,7 +22028,7 @@ pub mod paper_geofence {
         /// Work a cold solve spends at most over `[mpc.region]`, for a constant reference window: the heaviest execution path of the partition, each region's path run by the kernel at its centre (tenths of a multiply-add of the factor's loops; absent when the partition did not complete).
         pub const EXACT_COLD_WORK: Option<usize> = None;
         /// Regions of the parameter box, each with one sequence of working sets (those done, when the partition did not complete).
-        pub const EXACT_REGIONS: Option<usize> = Some(0);
+        pub const EXACT_REGIONS: Option<usize> = Some(571);
         /// Regions where the hard rows admit no plan.
         pub const EXACT_INFEASIBLE_REGIONS: Option<usize> = Some(0);
         /// Regions where the exact iteration repeats a working set (a degenerate tie), outside the exact count: there the kernel's tolerances break the tie, or its guard ends the solve (Cycling) and the controller falls back.

@@ -38,7 +38,7 @@ pub mod pendulum {
     pub const U_REST: [Real; NU] = [0f64];
     /// Tracked outputs z = C_z·x (`[mpc] outputs`): the reference window has NZ columns.
     pub const NZ: usize = 2;
-    /// Changes of the working set a cold solve (the first, or after a warm one ran out) may make: [`ITERATIONS`], the sampled count (block 0 depends on 6 parameters, above the 3 the exact count partitions (codegen::budget::EXACT_DIMENSION)).
+    /// Changes of the working set a cold solve (the first, or after a warm one ran out) may make: [`ITERATIONS`], the sampled count (block 0 depends on 5 parameters (those acting in parallel combined), above the 3 the exact count partitions (codegen::budget::EXACT_DIMENSION)).
     pub const COLD_ITERATIONS: usize = 9;
     /// Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed (6) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = 17 changes (and spends at most what [`WARM_WORK`] and [`COLD_WORK`] allow).
     pub const WARM_ITERATIONS: usize = 8;

@@ -19,6 +19,7 @@ pub fn setup(path: &str) -> (codegen::Problem, Prepared, ExactCount, Region) {
         Limits {
             lps: 0,
             dimension: 64,
+            combine: true,
         },
     );
     (p, prepared, count, region)

@@ -153,7 +153,8 @@ pub struct Exact {
     pub note: Option<String>,
     /// The dimension of the parameter θ (x₀, the constant reference, u₋₁ where kept, d).
     pub parameters: usize,
-    /// Per block, the names of the parameters its sides depend on: the dimension it is partitioned in.
+    /// Per block, the coordinates it is partitioned over: the parameters its sides depend on, by name,
+    /// those acting in parallel combined (`x0[0] - r[0]`); their count is the partition's dimension.
     pub block_parameters: Vec<Vec<String>>,
     /// Final regions over all blocks.
     pub regions: usize,

@@ -5,7 +5,9 @@
 //! **The parameter.** θ = (x₀, the reference r held constant over the window, u₋₁ where the spec keeps
 //! it, the disturbance d): x₀ and r over the region's box, u₋₁ over the input box, d over the box the
 //! sample draws it from ([`Parameters`]). Each block's scaled sides lo, hi are affine in θ; a block is
-//! partitioned over the parameters its sides depend on, normalised to ξ ∈ [−1, 1]^p.
+//! partitioned over the parameters its sides depend on, normalised to ξ ∈ [−1, 1]^p, those whose
+//! effects on the sides are parallel combined into one coordinate ([`Coordinate`]: x₀'s position and
+//! its reference, where no row bounds the position, act only through their difference).
 //!
 //! **The iteration, run on affine functions.** On a region with a fixed working set W, the multipliers
 //! λ(ξ) and λ*(ξ) = −G_WW⁻¹·d_W(ξ) are affine. After the kernel adds a side p with λ_p = 0, the residual
@@ -49,10 +51,11 @@
 //!
 //! **In the build.** [`certify`] runs it within [`Limits::BUILD`] (`codegen::budget::EXACT_LPS` LPs per
 //! block, `EXACT_DIMENSION` parameters per block); where it does not complete, the certificate says why
-//! and the caps are the sample's. The dimension reached is 2 parameters (complete in 0.03 s, checked
-//! against the kernel on a grid and random draws, `codegen/tests/exact_count.rs`); paper-limits (3
-//! blocks of 4), afti16 (7) and the pendulum (6) do not complete within minutes, so the build does not
-//! try blocks above 3 (BENCHMARKS.md, "The exact count"). The cost is the LPs: 60-100 per region,
+//! and the caps are the sample's. The dimension reached is 2 coordinates (complete in 0.03 s, checked
+//! against the kernel on a grid and random draws, `codegen/tests/exact_count.rs`); paper-limits (blocks
+//! of 3, 3 and 4 coordinates), afti16 (7) and the pendulum (5) do not complete within minutes (the first
+//! block: 725,851 regions after 15,000,000 LPs, 107 s), so the build does not try blocks above 3
+//! (BENCHMARKS.md, "The exact count"). The cost is the LPs: 60-100 per region,
 //! most of them the add rule's candidates and the regions' bounding boxes.
 //!
 //! **The worst case in work.** Each final region is an execution path. Where the partition completes,
@@ -191,14 +194,77 @@ impl Parameters {
         (f, offset)
     }
 
-    /// θ of the normalised ξ of `parameters` (the others at the centre).
-    pub fn theta(&self, parameters: &[usize], xi: &[f64]) -> Vec<f64> {
+    /// θ of the normalised ξ of a block's `coordinates` (the other parameters at the centre).
+    pub fn theta(&self, coordinates: &[Coordinate], xi: &[f64]) -> Vec<f64> {
         let mut t = self.centre();
-        for (k, &j) in parameters.iter().enumerate() {
-            t[j] += 0.5 * (self.hi[j] - self.lo[j]) * xi[k];
+        for (coordinate, x) in coordinates.iter().zip(xi) {
+            for &(j, sign) in &coordinate.members {
+                t[j] += 0.5 * (self.hi[j] - self.lo[j]) * sign * x;
+            }
         }
         t
     }
+}
+
+/// One coordinate ξₖ ∈ [−1, 1] a block is partitioned over: parameters whose effects on the block's
+/// sides are parallel enter them only through one combination (x₀'s position and its reference, through
+/// their difference, where no row bounds the position), so they move together. At ξₖ each member j
+/// sits at sign·ξₖ of its normalised range; the combination's range is the interval the members' box
+/// maps onto, so the partition over ξₖ covers every point of their box.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Coordinate {
+    /// (index into θ, ±1).
+    pub members: Vec<(usize, f64)>,
+}
+
+impl Coordinate {
+    /// One parameter alone.
+    pub fn single(j: usize) -> Coordinate {
+        Coordinate {
+            members: vec![(j, 1.0)],
+        }
+    }
+
+    /// Its name from θ's: `x0[0]`, or a combination such as `x0[0] - r[0]`.
+    pub fn name(&self, names: &[String]) -> String {
+        let mut out = String::new();
+        for (k, &(j, sign)) in self.members.iter().enumerate() {
+            match (k, sign < 0.0) {
+                (0, false) => {}
+                (0, true) => out.push('-'),
+                (_, false) => out.push_str(" + "),
+                (_, true) => out.push_str(" - "),
+            }
+            out.push_str(&names[j]);
+        }
+        out
+    }
+}
+
+/// The coordinates of parameters with the given columns (each parameter's effect on the block's
+/// sides): parallel columns (within round-off, relative `1e-9`) share one, with the sign of their
+/// ratio; the rest are alone.
+fn coordinates(used: &[usize], column: impl Fn(usize) -> Vec<f64>) -> Vec<Coordinate> {
+    let mut groups: Vec<(Vec<f64>, Coordinate)> = Vec::new();
+    for &j in used {
+        let v = column(j);
+        let vv: f64 = v.iter().map(|a| a * a).sum();
+        // v = α·r with α = (r·v)/(r·r), within 1e-9·‖v‖: the ratio's sign, or none.
+        let ratio = |r: &[f64]| {
+            let rr: f64 = r.iter().map(|a| a * a).sum();
+            let alpha = r.iter().zip(&v).map(|(a, b)| a * b).sum::<f64>() / rr;
+            let residual: f64 = r.iter().zip(&v).map(|(a, b)| (b - alpha * a).powi(2)).sum();
+            (rr > 0.0 && residual <= 1e-18 * vv).then_some(alpha.signum())
+        };
+        match groups
+            .iter_mut()
+            .find_map(|(r, c)| ratio(r).map(|s| (c, s)))
+        {
+            Some((c, sign)) => c.members.push((j, sign)),
+            None => groups.push((v, Coordinate::single(j))),
+        }
+    }
+    groups.into_iter().map(|(_, c)| c).collect()
 }
 
 /// How the exact iteration ends on a region.
@@ -234,6 +300,9 @@ pub struct Piece {
 pub struct BlockCount {
     /// The parameters its sides depend on (indices into θ).
     pub parameters: Vec<usize>,
+    /// The coordinates it is partitioned over: its parameters, those whose effects are parallel
+    /// combined into one ([`Coordinate`]). The pieces' centres are in these.
+    pub coordinates: Vec<Coordinate>,
     /// The final regions (in the order they were found).
     pub pieces: Vec<Piece>,
     /// The most changes of the working set over the region.
@@ -329,6 +398,9 @@ pub struct Limits {
     /// Parameters a block may depend on: a block above it is not partitioned (its regions grow
     /// exponentially with the dimension).
     pub dimension: usize,
+    /// Whether parameters moving the sides in parallel share a [`Coordinate`] (the build's); without,
+    /// each is its own, the same partition lifted to more dimensions (the tests compare the two).
+    pub combine: bool,
 }
 
 impl Limits {
@@ -336,6 +408,7 @@ impl Limits {
     pub const BUILD: Limits = Limits {
         lps: crate::certify::budget::EXACT_LPS,
         dimension: crate::certify::budget::EXACT_DIMENSION,
+        combine: true,
     };
 }
 
@@ -351,10 +424,10 @@ pub fn certify(p: &Problem, prepared: &Prepared, region: &Region, limits: Limits
     let note = count.blocks.iter().enumerate().find_map(|(b, c)| {
         if c.complete {
             None
-        } else if c.parameters.len() > limits.dimension {
+        } else if c.coordinates.len() > limits.dimension {
             Some(format!(
-                "block {b} depends on {} parameters, above the {} the exact count partitions (codegen::budget::EXACT_DIMENSION)",
-                c.parameters.len(),
+                "block {b} depends on {} parameters (those acting in parallel combined), above the {} the exact count partitions (codegen::budget::EXACT_DIMENSION)",
+                c.coordinates.len(),
                 limits.dimension
             ))
         } else if c.lps > limits.lps {
@@ -378,7 +451,7 @@ pub fn certify(p: &Problem, prepared: &Prepared, region: &Region, limits: Limits
         block_parameters: count
             .blocks
             .iter()
-            .map(|c| c.parameters.iter().map(|&j| names[j].clone()).collect())
+            .map(|c| c.coordinates.iter().map(|k| k.name(names)).collect())
             .collect(),
         regions: count.regions,
         infeasible_regions: count.blocks.iter().map(|c| c.infeasible).sum(),
@@ -419,8 +492,9 @@ pub fn exact_count(
             offsets_at(&t)
         })
         .collect();
-    let not_done = |parameters: Vec<usize>| BlockCount {
+    let not_done = |parameters: Vec<usize>, coordinates: Vec<Coordinate>| BlockCount {
         parameters,
+        coordinates,
         pieces: Vec::new(),
         worst: 0,
         witness: centre.clone(),
@@ -436,7 +510,7 @@ pub fn exact_count(
     // The blocks are independent problems: partitioned in parallel (rayon), in order.
     let count_block = |b: usize| {
         let (Some(base), true) = (&base, unit.iter().all(Option::is_some)) else {
-            return not_done(Vec::new());
+            return not_done(Vec::new(), Vec::new());
         };
         let (lo0, hi0) = scaled_sides(prepared, base, b);
         let columns: Vec<(Vec<f64>, Vec<f64>)> = unit
@@ -466,20 +540,45 @@ pub fn exact_count(
                     .any(|(d, c)| c.is_finite() && d.abs() > 1e-12 * scale)
             })
             .collect();
+        // Its coordinates: parameters moving the scanned sides in parallel combined.
+        let coordinates = if !limits.combine {
+            used.iter().map(|&j| Coordinate::single(j)).collect()
+        } else {
+            coordinates(&used, |j| {
+                let (dl, dh) = &columns[j];
+                let finite = |d: &[f64], v: &[f64]| -> Vec<f64> {
+                    d.iter()
+                        .zip(v)
+                        .take(core)
+                        .filter(|(_, c)| c.is_finite())
+                        .map(|(d, _)| *d)
+                        .collect()
+                };
+                [finite(dl, &lo0), finite(dh, &hi0)].concat()
+            })
+        };
         let aff = |base: &[f64], which: ColumnPick| {
             base.iter()
                 .enumerate()
                 .map(|(c, v0)| {
                     v0.is_finite().then(|| {
-                        let mut a: Aff = used.iter().map(|&j| which(&columns[j])[c]).collect();
+                        let mut a: Aff = coordinates
+                            .iter()
+                            .map(|k| {
+                                k.members
+                                    .iter()
+                                    .map(|&(j, sign)| sign * which(&columns[j])[c])
+                                    .sum()
+                            })
+                            .collect();
                         a.push(*v0);
                         a
                     })
                 })
                 .collect::<Vec<Option<Aff>>>()
         };
-        if used.len() > limits.dimension {
-            return not_done(used);
+        if coordinates.len() > limits.dimension {
+            return not_done(used, coordinates);
         }
         // Over the region the slack rows (from `core` on) cannot bind, and the kernel does not scan
         // them: as if they had no side.
@@ -491,9 +590,10 @@ pub fn exact_count(
         };
         let lo = scanned(aff(&lo0, |c| &c.0));
         let hi = scanned(aff(&hi0, |c| &c.1));
-        let mut count = partition(prepared, b, lo, hi, used.len(), limits);
-        count.witness = parameters.theta(&used, &count.witness);
+        let mut count = partition(prepared, b, lo, hi, coordinates.len(), limits);
+        count.witness = parameters.theta(&coordinates, &count.witness);
         count.parameters = used;
+        count.coordinates = coordinates;
         count
     };
     let blocks: Vec<BlockCount> = (0..prepared.blocks.len())
@@ -556,7 +656,7 @@ pub fn path_work(
             .par_iter()
             .filter(|q| q.end == End::Solved)
             .map(|q| {
-                let theta = parameters.theta(&block.parameters, &q.centre);
+                let theta = parameters.theta(&block.coordinates, &q.centre);
                 let (work, changes) = work_at(&theta)?;
                 Some((work, changes[b] == q.iterations, theta))
             })
@@ -1171,6 +1271,7 @@ fn partition(
     let cycling = pieces.iter().filter(|q| q.end == End::Cycles);
     BlockCount {
         parameters: Vec::new(),
+        coordinates: Vec::new(),
         worst: worst.map_or(0, |q| q.iterations),
         witness: worst.map_or(vec![0.0; p], |q| q.centre.clone()),
         infeasible: pieces.iter().filter(|q| q.end == End::Infeasible).count(),
