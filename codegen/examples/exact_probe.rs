@@ -1,5 +1,7 @@
 //! `cargo run --release -p codegen --example exact_probe -- SPEC LPS`: the exact count's partition of
 //! SPEC per block within LPS feasibility LPs per block, with its time (BENCHMARKS.md, "The exact count").
+//! `DIMENSION=d` skips blocks of more than d coordinates; `SEPARATE=1` partitions over the parameters
+//! apart, without combining those that act in parallel.
 use codegen::solver::active_set::exact::{exact_count, Limits};
 use codegen::solver::active_set::mpc::prepare;
 
@@ -17,7 +19,7 @@ fn main() {
         &region,
         Limits {
             lps,
-            dimension: 64,
+            dimension: std::env::var("DIMENSION").map_or(64, |d| d.parse().expect("DIMENSION")),
             combine: std::env::var("SEPARATE").is_err(),
         },
     );

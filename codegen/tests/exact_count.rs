@@ -206,27 +206,27 @@ fn small_problem_grid_and_draws_stay_within_the_count() {
     cross_check("small", SMALL, 41, 2000);
 }
 
-/// With the position's reference over [−1, 1] the block depends on three parameters, but x₀'s position
-/// and the reference enter its sides only through their difference (no row bounds the position): the
-/// partition is over two coordinates, and the kernel run on draws over the whole three-dimensional box
-/// (not along the coordinates) stays within its count.
+/// With the position's reference over [−1, 1] and the speed's over [−0.5, 0.5] the block depends on four
+/// parameters, but x₀'s position and its reference enter its sides only through their difference (no
+/// row bounds the position): the partition is over three coordinates, and the kernel run on a grid and
+/// on draws over the whole four-dimensional box (not along the coordinates) stays within its count.
 #[test]
 fn a_position_and_its_reference_are_partitioned_as_their_difference() {
     let src = SMALL
-        .replace("reference_min = [0, 0]", "reference_min = [-1, 0]")
-        .replace("reference_max = [0, 0]", "reference_max = [1, 0]");
-    let count = cross_check("small with a reference", &src, 21, 2000);
+        .replace("reference_min = [0, 0]", "reference_min = [-1, -0.5]")
+        .replace("reference_max = [0, 0]", "reference_max = [1, 0.5]");
+    let count = cross_check("small with a reference", &src, 11, 2000);
     let c = &count.blocks[0];
     let names = &count.parameters.names;
-    assert_eq!(c.parameters.len(), 3);
+    assert_eq!(c.parameters.len(), 4);
     let coordinates: Vec<String> = c.coordinates.iter().map(|k| k.name(names)).collect();
-    assert_eq!(coordinates, ["x0[0] - r[0]", "x0[1]"]);
-    // The partition over the three parameters apart is the same one lifted: the same count and the same
+    assert_eq!(coordinates, ["x0[0] - r[0]", "x0[1]", "r[1]"]);
+    // The partition over the four parameters apart is the same one lifted: the same count and the same
     // number of regions for each count.
     let (_, _, apart) = setup_with(&src, false);
     let a = &apart.blocks[0];
     assert!(a.complete);
-    assert_eq!(a.coordinates.len(), 3);
+    assert_eq!(a.coordinates.len(), 4);
     let by_count = |c: &codegen::solver::active_set::exact::BlockCount| {
         let mut h = std::collections::BTreeMap::new();
         for q in &c.pieces {

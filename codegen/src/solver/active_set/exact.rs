@@ -51,8 +51,9 @@
 //!
 //! **In the build.** [`certify`] runs it within [`Limits::BUILD`] (`codegen::budget::EXACT_LPS` LPs per
 //! block, `EXACT_DIMENSION` parameters per block); where it does not complete, the certificate says why
-//! and the caps are the sample's. The dimension reached is 2 coordinates (complete in 0.03 s, checked
-//! against the kernel on a grid and random draws, `codegen/tests/exact_count.rs`); paper-limits (blocks
+//! and the caps are the sample's. The dimension reached is 3 coordinates (one axis of the paper's
+//! plant with both references: complete in 0.1 s at N = 6, checked against the kernel on a grid and
+//! random draws, `codegen/tests/exact_count.rs`; 40 s at N = 15); paper-limits (blocks
 //! of 3, 3 and 4 coordinates), afti16 (7) and the pendulum (5) do not complete within minutes (the first
 //! block: 725,851 regions after 15,000,000 LPs, 107 s), so the build does not try blocks above 3
 //! (BENCHMARKS.md, "The exact count"). The cost is the LPs: 60-100 per region,
