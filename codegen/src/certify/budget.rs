@@ -125,8 +125,9 @@ pub const EXACT_LPS: usize = 20_000;
 
 /// Parameters (those acting in parallel combined into one coordinate) a block of the dual active-set
 /// method's QP may depend on for the exact count to partition it within the build: the regions, and the
-/// LPs per region, grow with the dimension. At 3 (paper-limits' x and y blocks) 15,000,000 LPs gave
-/// 725,851 regions in 107 s without completing, at 4 (its height) 457,985 in 456 s, at 5-7 (the pendulum,
+/// LPs per region, grow with the dimension. At 3 (paper-limits' x and y blocks) the partition completes
+/// in 28,500,000 LPs, 1,349,309 regions, 389 s; at 4 (its height) 15,000,000 LPs gave 457,985 regions
+/// in 456 s without completing; at 5-7 (the pendulum,
 /// afti16) 5,000 LPs gave 69-101 regions (BENCHMARKS.md, "The exact count"): a block above this is not
 /// partitioned, and the sample certifies it.
 pub const EXACT_DIMENSION: usize = 3;

@@ -53,10 +53,10 @@
 //! block, `EXACT_DIMENSION` parameters per block); where it does not complete, the certificate says why
 //! and the caps are the sample's. The dimension reached is 3 coordinates (one axis of the paper's
 //! plant with both references: complete in 0.1 s at N = 6, checked against the kernel on a grid and
-//! random draws, `codegen/tests/exact_count.rs`; 40 s at N = 15); paper-limits (blocks
-//! of 3, 3 and 4 coordinates), afti16 (7) and the pendulum (5) do not complete within minutes (the first
-//! block: 725,851 regions after 15,000,000 LPs, 107 s), so the build does not try blocks above 3
-//! (BENCHMARKS.md, "The exact count"). The cost is the LPs: 60-100 per region,
+//! random draws, `codegen/tests/exact_count.rs`; 40 s at N = 15). Paper-limits' x and y blocks (3
+//! coordinates) complete in 389 s each without a cap (1,349,309 regions, worst 78), beyond the build's
+//! budget; its height (4 coordinates), afti16 (7) and the pendulum (5) do not complete within minutes,
+//! so the build does not try blocks above 3 (BENCHMARKS.md, "The exact count"). The cost is the LPs: 60-100 per region,
 //! most of them the add rule's candidates and the regions' bounding boxes.
 //!
 //! **The worst case in work.** Each final region is an execution path. Where the partition completes,
