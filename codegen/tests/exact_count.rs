@@ -240,6 +240,39 @@ fn a_position_and_its_reference_are_partitioned_as_their_difference() {
     println!("apart: {} LPs, combined: {} LPs", a.lps, c.lps);
 }
 
+/// `[mpc.region] exact_lps` sets the build's budget of LPs per block: SMALL with both references needs
+/// 20,873, above the default 20,000, so by default the count is the sample's and the note says where the
+/// budget ran out; with `exact_lps = 100_000` the build carries the complete partition's count.
+#[test]
+fn exact_lps_lets_the_build_finish_a_larger_partition() {
+    let src = SMALL
+        .replace("reference_min = [0, 0]", "reference_min = [-1, -0.5]")
+        .replace("reference_max = [0, 0]", "reference_max = [1, 0.5]");
+    let exact_of = |src: &str| {
+        let p = codegen::lower(&mpc_spec::load(src).unwrap()).unwrap();
+        p.qp.evidence
+            .and_then(|e| e.exact)
+            .expect("the exact count")
+    };
+    let default = exact_of(&src);
+    assert!(!default.complete);
+    let note = default.note.expect("why it fell back");
+    assert!(
+        note.contains("ran out of the build's 20000 feasibility LPs") && note.contains("exact_lps"),
+        "{note}"
+    );
+    let raised = exact_of(&src.replace("[mpc.region]\n", "[mpc.region]\nexact_lps = 100_000\n"));
+    assert!(raised.complete, "{:?}", raised.note);
+    let (_, _, count) = setup(&src);
+    assert_eq!(raised.cold_worst, count.worst);
+    assert_eq!(raised.regions, count.regions);
+    assert!(
+        raised.lps > 20_000 && raised.lps <= 100_000,
+        "{}",
+        raised.lps
+    );
+}
+
 /// Not timed yet within the session that wrote it: run with `--release -- --ignored`.
 #[test]
 #[ignore]

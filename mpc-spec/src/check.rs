@@ -676,6 +676,31 @@ impl Ordered<'_> {
 /// turn take no gradient `step` nor `tolerance`, their accuracy being `accuracy`.
 fn check_method_keys(raw: &Raw, method: Method, requested: Method, diags: &mut Diagnostics) {
     let name = method.name();
+    if let Some(lps) = raw.exact_lps.as_ref() {
+        let sampled = raw
+            .certificate
+            .as_ref()
+            .is_some_and(|c| c.value == Certificate::Sampled.name());
+        if sampled {
+            diags.push(
+                Diagnostic::new(
+                    "`exact_lps` is the exact count's budget, and `certificate = \"sampled\"` runs no exact count",
+                    lps.span.clone(),
+                )
+                .label("the exact count's budget of feasibility LPs per block")
+                .note("hint: remove `exact_lps`, or `certificate = \"sampled\"` (the default is \"exact\")"),
+            );
+        } else if method != Method::ActiveSet && method != Method::Auto {
+            diags.push(
+                Diagnostic::new(
+                    format!("`exact_lps` is a setting of `method = \"active_set\"`'s exact count, not of `method = \"{name}\"`"),
+                    lps.span.clone(),
+                )
+                .label("the exact count's budget of feasibility LPs per block")
+                .note("hint: remove `exact_lps`, or write `method = \"active_set\"` (or `\"auto\"`, which weighs the active set with it)"),
+            );
+        }
+    }
     if method == Method::Auto {
         return;
     }
@@ -1251,6 +1276,7 @@ fn check_region(
             .as_ref()
             .and_then(|c| Certificate::from_name(&c.value))
             .unwrap_or_default(),
+        exact_lps: count(&raw.exact_lps),
     })
 }
 

@@ -61,6 +61,7 @@ pub const REGION_KEYS: &[&str] = &[
     "sequences",
     "steps",
     "certificate",
+    "exact_lps",
 ];
 /// Keys of `[kalman]`.
 pub const KALMAN_KEYS: &[&str] = &[

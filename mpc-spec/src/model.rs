@@ -364,6 +364,9 @@ pub struct Region {
     pub steps: Option<usize>,
     /// `certificate`: exact (the default, where the method has an exact count) or sampled.
     pub certificate: Certificate,
+    /// `exact_lps`: the feasibility LPs the exact count may solve per block before it falls back to
+    /// the sample; `None`: the compiler's default (`codegen::budget::EXACT_LPS`).
+    pub exact_lps: Option<usize>,
 }
 
 /// The solver's step size, `[mpc] step`.

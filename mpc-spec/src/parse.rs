@@ -106,6 +106,7 @@ pub struct Raw {
     pub sequences: Option<Located<usize>>,
     pub steps: Option<Located<usize>>,
     pub certificate: Option<Located<String>>,
+    pub exact_lps: Option<Located<usize>>,
 
     pub kalman_span: Span,
     pub sigma_a: Option<Located<f64>>,
@@ -343,6 +344,15 @@ pub fn parse(source: &str, diags: &mut Diagnostics) -> Raw {
             raw.certificate = r
                 .get("certificate")
                 .and_then(|v| p.choice(v, "mpc.region.certificate", keys::CERTIFICATES));
+            raw.exact_lps = r.get("exact_lps").and_then(|v| {
+                p.count_at_most(
+                    v,
+                    "mpc.region.exact_lps",
+                    1,
+                    EXACT_LPS_MAX as i64,
+                    EXACT_LPS_LIMIT,
+                )
+            });
         }
     }
     // `[kalman]` is optional: without it the controller takes the measured state.
@@ -1208,6 +1218,9 @@ const AXES_LIMIT: &str = "hint: each axis adds two states, and every weight and 
 /// Why the region's sample counts are bounded: the compiler runs them all at build time.
 const SAMPLES_LIMIT: &str = "hint: the compiler solves every sampled QP at build time to certify the interior-point method, in the macro's compilation; 10000 draws (besides the corners) already take seconds";
 const SEQUENCES_LIMIT: &str = "hint: the compiler runs every closed-loop sequence at build time to certify the interior-point method warm-started, in the macro's compilation; keep it to a few dozen";
+/// The most feasibility LPs `[mpc.region] exact_lps` may give each block's partition.
+pub const EXACT_LPS_MAX: usize = 10_000_000;
+const EXACT_LPS_LIMIT: &str = "hint: the exact count solves up to this many small LPs per block in the macro's compilation, about 10 µs each: 10000000 is a couple of minutes a block; a partition that needs more has more regions than a build can enumerate";
 const STEPS_LIMIT: &str = "hint: each step of a closed-loop sequence is one QP the compiler solves at build time; 1000 steps per sequence are far past any transient";
 
 /// Why the horizon is bounded.

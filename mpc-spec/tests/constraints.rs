@@ -465,6 +465,38 @@ fn restart_is_the_active_set_s_and_spelled() {
 }
 
 #[test]
+fn exact_lps_is_the_active_set_s_exact_count_budget() {
+    let active_set = |extra: &str| with_method("method = \"active_set\"\n", extra);
+    let region = |keys: &str| format!("x_min = [-1, -1]\n\n[mpc.region]\n{keys}");
+    assert_eq!(load(&active_set("")).unwrap().mpc.region.exact_lps, None);
+    let written = load(&active_set(&region("exact_lps = 500_000\n"))).unwrap();
+    assert_eq!(written.mpc.region.exact_lps, Some(500_000));
+    // `auto` may pick the active set.
+    let auto = with_method("", &region("exact_lps = 500_000\n"));
+    assert_eq!(load(&auto).unwrap().mpc.region.exact_lps, Some(500_000));
+    // Another method: located at the value, with the way out.
+    let (msg, at, note) = only_error(&ipm(&region("exact_lps = 500_000\n")));
+    assert_eq!(
+        msg,
+        "`exact_lps` is a setting of `method = \"active_set\"`'s exact count, not of `method = \"ipm\"`"
+    );
+    assert_eq!(at, "500_000");
+    assert!(note.unwrap().contains("remove `exact_lps`"));
+    // With the sampled certificate it has nothing to limit.
+    let (msg, at, _) = only_error(&active_set(&region(
+        "certificate = \"sampled\"\nexact_lps = 500_000\n",
+    )));
+    assert!(msg.contains("runs no exact count"), "{msg}");
+    assert_eq!(at, "500_000");
+    // Past the most a build may spend, and zero: errors naming the range.
+    for bad in ["exact_lps = 10_000_001\n", "exact_lps = 0\n"] {
+        let (msg, at, _) = only_error(&active_set(&region(bad)));
+        assert!(msg.contains("10000000"), "{msg}");
+        assert!(at.starts_with(bad[12..].trim()), "{at}");
+    }
+}
+
+#[test]
 fn auto_iterations_need_tolerance_or_a_region_for_first_order_methods() {
     let src = ipm("").replace("iterations = 20", "iterations = \"auto\"");
     assert_eq!(load(&src).unwrap().mpc.iterations, Iterations::Auto);
@@ -521,6 +553,7 @@ fn the_region_is_read() {
             sequences: Some(4),
             steps: Some(50),
             certificate: Certificate::Exact,
+            exact_lps: None,
         }
     );
     let spec = load(&ipm("\n[mpc.region]\nsamples = 0\n")).unwrap();

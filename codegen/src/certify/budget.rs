@@ -119,8 +119,8 @@ pub fn solver_analysis_macs(nx: usize, nz: usize, iterations: usize) -> f64 {
 pub const CASE_OVERHEAD_MACS: f64 = 1e6;
 
 /// Feasibility LPs the exact count of the dual active-set method ([`crate::solver::active_set::exact`])
-/// may solve per block before it falls back to the sampled count: the 2-parameter problem of
-/// `codegen/tests/exact_count.rs` needs 3,569 (0.03 s).
+/// may solve per block before it falls back to the sampled count, unless `[mpc.region] exact_lps` says
+/// otherwise: the 2-parameter problem of `codegen/tests/exact_count.rs` needs 3,569 (0.03 s).
 pub const EXACT_LPS: usize = 20_000;
 
 /// Parameters (those acting in parallel combined into one coordinate) a block of the dual active-set

@@ -411,6 +411,14 @@ impl Limits {
         dimension: crate::certify::budget::EXACT_DIMENSION,
         combine: true,
     };
+
+    /// The build's, with the region's `exact_lps` where written.
+    pub fn of(region: &mpc_spec::Region) -> Limits {
+        Limits {
+            lps: region.exact_lps.unwrap_or(Limits::BUILD.lps),
+            ..Limits::BUILD
+        }
+    }
 }
 
 /// The exact count of `p`'s QP over `region` within `limits`, as the certificate carries it: the
@@ -433,7 +441,7 @@ pub fn certify(p: &Problem, prepared: &Prepared, region: &Region, limits: Limits
             ))
         } else if c.lps > limits.lps {
             Some(format!(
-                "block {b} ran out of the build's {} feasibility LPs (codegen::budget::EXACT_LPS) after {} regions",
+                "block {b} ran out of the build's {} feasibility LPs (`[mpc.region] exact_lps`, by default codegen::budget::EXACT_LPS) after {} regions",
                 limits.lps,
                 c.pieces.len()
             ))

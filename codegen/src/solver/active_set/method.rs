@@ -140,7 +140,7 @@ impl Solver for ActiveSet {
                 problem,
                 &prepared,
                 &region,
-                super::exact::Limits::BUILD,
+                super::exact::Limits::of(&spec.mpc.region),
             )),
             Certificate::Sampled => None,
         };
