@@ -36,7 +36,7 @@ pub mod paper_geofence {
     pub const U_MAX: [Real; NU] = [10f64, 10f64, 10f64];
     /// The input that cold starts use and warm starts append: zero projected onto the box.
     pub const U_REST: [Real; NU] = [0f64, 0f64, 0f64];
-    /// Changes of the working set a cold solve (the first, or after a warm one ran out) may make: [`ITERATIONS`], the sampled count (block 0 ran out of the build's 20000 feasibility LPs (codegen::budget::EXACT_LPS) after 571 regions).
+    /// Changes of the working set a cold solve (the first, or after a warm one ran out) may make: [`ITERATIONS`], the sampled count (block 0 ran out of the build's 20000 feasibility LPs (`[mpc.region] exact_lps`, by default codegen::budget::EXACT_LPS) after 571 regions).
     pub const COLD_ITERATIONS: usize = 255;
     /// Changes of the working set a warm solve (from the previous working set) may make: the most a warm-started step of the sample needed (6) plus its margin, at most [`ITERATIONS`]. A warm solve needs a change or two at the median; one that runs out restarts cold, so a step makes at most WARM_ITERATIONS + COLD_ITERATIONS = 263 changes (and spends at most what [`WARM_WORK`] and [`COLD_WORK`] allow).
     pub const WARM_ITERATIONS: usize = 8;
