@@ -430,9 +430,18 @@ fn admm_form_is_admm_s_and_spelled() {
     );
 }
 
+/// The spec with `method = "active_set"` and `extra` in `[mpc]`.
+fn active_set(extra: &str) -> String {
+    with_method("method = \"active_set\"\n", extra)
+}
+
+/// `[mpc]` keys giving the active set a bounded row, then `[mpc.region]` with `keys`.
+fn region(keys: &str) -> String {
+    format!("x_min = [-1, -1]\n\n[mpc.region]\n{keys}")
+}
+
 #[test]
 fn restart_is_the_active_set_s_and_spelled() {
-    let active_set = |extra: &str| with_method("method = \"active_set\"\n", extra);
     assert_eq!(load(&active_set("")).unwrap().mpc.restart, Restart::Cold);
     assert_eq!(
         load(&active_set("restart = \"continue\"\n"))
@@ -466,8 +475,6 @@ fn restart_is_the_active_set_s_and_spelled() {
 
 #[test]
 fn exact_lps_is_the_active_set_s_exact_count_budget() {
-    let active_set = |extra: &str| with_method("method = \"active_set\"\n", extra);
-    let region = |keys: &str| format!("x_min = [-1, -1]\n\n[mpc.region]\n{keys}");
     assert_eq!(load(&active_set("")).unwrap().mpc.region.exact_lps, None);
     let written = load(&active_set(&region("exact_lps = 500_000\n"))).unwrap();
     assert_eq!(written.mpc.region.exact_lps, Some(500_000));
@@ -563,8 +570,6 @@ fn the_region_is_read() {
 
 #[test]
 fn the_certificate_is_exact_by_default_and_only_the_active_set_s() {
-    let active_set = |extra: &str| with_method("method = \"active_set\"\n", extra);
-    let region = |line: &str| format!("x_min = [-1, -1]\n\n[mpc.region]\n{line}");
     let certificate = |src: &str| load(src).unwrap().mpc.region.certificate;
     assert_eq!(certificate(&active_set(&region(""))), Certificate::Exact);
     assert_eq!(

@@ -49,15 +49,17 @@
 //! solve that runs out restarts cold with `COLD_ITERATIONS` ≥ this count ([`super::mpc::Caps`]): so a
 //! step within the region ends at the optimum after at most `ITERATIONS + COLD_ITERATIONS` changes.
 //!
-//! **In the build.** [`certify`] runs it within [`Limits::BUILD`] (`codegen::budget::EXACT_LPS` LPs per
-//! block, `EXACT_DIMENSION` parameters per block); where it does not complete, the certificate says why
+//! **In the build.** [`certify`] runs it within [`Limits::of`] the region (`[mpc.region] exact_lps`, by
+//! default `codegen::budget::EXACT_LPS`, LPs per block; `EXACT_DIMENSION` coordinates per block); where
+//! it does not complete, the certificate says why
 //! and the caps are the sample's. The dimension reached is 3 coordinates (one axis of the paper's
 //! plant with both references: complete in 0.1 s at N = 6, checked against the kernel on a grid and
 //! random draws, `codegen/tests/exact_count.rs`; 40 s at N = 15). Paper-limits' x and y blocks (3
 //! coordinates) complete in 389 s each without a cap (1,349,309 regions, worst 78), beyond the build's
 //! budget; its height (4 coordinates), afti16 (7) and the pendulum (5) do not complete within minutes,
-//! so the build does not try blocks above 3 (BENCHMARKS.md, "The exact count"). The cost is the LPs: 60-100 per region,
-//! most of them the add rule's candidates and the regions' bounding boxes.
+//! so the build does not try blocks above 3 (BENCHMARKS.md, "The exact count"). The cost is the LPs:
+//! about 20 per region at 3 coordinates, 60-100 at 4, most of them the add rule's candidates and the
+//! regions' bounding boxes.
 //!
 //! **The worst case in work.** Each final region is an execution path. Where the partition completes,
 //! [`path_work`] runs the kernel in the target's scalar cold at every solved region's centre and takes
@@ -396,8 +398,8 @@ fn scaled_sides(prepared: &Prepared, offsets: &Offsets, b: usize) -> (Vec<f64>, 
 pub struct Limits {
     /// LPs per block at most.
     pub lps: usize,
-    /// Parameters a block may depend on: a block above it is not partitioned (its regions grow
-    /// exponentially with the dimension).
+    /// Coordinates ([`Coordinate`]) a block may depend on: a block above it is not partitioned (its
+    /// regions grow exponentially with the dimension).
     pub dimension: usize,
     /// Whether parameters moving the sides in parallel share a [`Coordinate`] (the build's); without,
     /// each is its own, the same partition lifted to more dimensions (the tests compare the two).
